@@ -1,0 +1,60 @@
+"""Every named error musclecell raises, in one place.
+
+All derive from :class:`MusclecellError`, so a caller can catch the family.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class MusclecellError(Exception):
+    """Base class of every error raised by musclecell."""
+
+
+class InputError(MusclecellError):
+    """Bad user input: names the file and the field (key, line, column) at fault.
+
+    Example:
+        >>> raise InputError("scenarios/x.toml", "tissue.young_pa", "must be > 0, got -3")
+    """
+
+    def __init__(self, file: str | Path | None, field: str | None, message: str) -> None:
+        self.file = None if file is None else str(file)
+        self.field = field
+        where = ", ".join(p for p in (self.file, field) if p)
+        super().__init__(f"{where}: {message}" if where else message)
+
+
+class ScenarioError(InputError):
+    """A scenario TOML file with a wrong key, type or value."""
+
+
+class MaterialError(InputError):
+    """A material definition with a missing, negative or inconsistent parameter."""
+
+
+class MeshError(InputError):
+    """A mesh that cannot be simulated: not a volume, inverted or degenerate elements."""
+
+
+class DivergenceError(MusclecellError):
+    """The simulation blew up (NaN, MuJoCo warning, energy explosion); its state is not data.
+
+    Attributes:
+        time_s: simulated time at which the divergence was detected, in s.
+        reason: what check fired.
+    """
+
+    def __init__(self, time_s: float, reason: str) -> None:
+        self.time_s = time_s
+        self.reason = reason
+        super().__init__(f"simulation diverged at t = {time_s:.4f} s: {reason}")
+
+
+class PerceptionError(MusclecellError):
+    """The camera or the point cloud cannot give what was asked (no meat in view, empty cloud)."""
+
+
+class ControlError(MusclecellError):
+    """An IK target that cannot be reached or a controller used out of order."""
