@@ -22,6 +22,7 @@ class InputError(MusclecellError):
     def __init__(self, file: str | Path | None, field: str | None, message: str) -> None:
         self.file = None if file is None else str(file)
         self.field = field
+        self.message = message
         where = ", ".join(p for p in (self.file, field) if p)
         super().__init__(f"{where}: {message}" if where else message)
 

@@ -1,0 +1,165 @@
+"""The aponeurosis: one ``connect`` equality per facing vertex pair, and the rules that release it.
+
+A binding is released by the knife (its segment crosses the blade box), by tearing (stretched
+past a length threshold), or by any other rule the runtime applies; every release is recorded
+with its time and rule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+
+import mujoco
+import numpy as np
+
+
+class ReleaseRule(StrEnum):
+    """Why a binding let go."""
+
+    KNIFE = "knife"
+    TEARING = "tearing"
+
+
+@dataclass(frozen=True)
+class BindingRecord:
+    """One binding's story: its vertex pair, rest length (m) and release (time s, rule)."""
+
+    index: int
+    round_vertex: int
+    shank_vertex: int
+    rest_length_m: float
+    released_at_s: float | None
+    released_by: ReleaseRule | None
+
+
+class Aponeurosis:
+    """The bindings between the round and the shank, and their release.
+
+    Args:
+        model: the compiled scene.
+        equality_ids: (P,) ids of the binding ``connect`` equalities.
+        round_bodies, shank_bodies: (P,) body ids of the two vertices of each binding.
+        pairs: (P, 2) vertex indices (round, shank) in the muscle meshes.
+
+    Example:
+        >>> apo = scene.aponeurosis
+        >>> apo.release_by_tearing(data, time_s=1.0, stretch_m=0.01)
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        equality_ids: np.ndarray,
+        round_bodies: np.ndarray,
+        shank_bodies: np.ndarray,
+        pairs: np.ndarray,
+    ) -> None:
+        self.equality_ids = np.asarray(equality_ids, dtype=int)
+        self.round_bodies = np.asarray(round_bodies, dtype=int)
+        self.shank_bodies = np.asarray(shank_bodies, dtype=int)
+        self.pairs = np.asarray(pairs, dtype=int)
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        self.rest_length_m = self.lengths(data)
+        self.released_at_s = np.full(len(self.equality_ids), np.nan)
+        self.released_by: list[ReleaseRule | None] = [None] * len(self.equality_ids)
+
+    def __len__(self) -> int:
+        return len(self.equality_ids)
+
+    def reset(self, data: mujoco.MjData) -> None:
+        """Bind every pair again (state and record)."""
+        data.eq_active[self.equality_ids] = 1
+        self.released_at_s[:] = np.nan
+        self.released_by = [None] * len(self)
+
+    @property
+    def bound(self) -> np.ndarray:
+        """(P,) bool: which bindings still hold."""
+        return np.isnan(self.released_at_s)
+
+    def endpoints(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """World positions (P, 3) of the round and shank vertex of every binding, m."""
+        return data.xpos[self.round_bodies], data.xpos[self.shank_bodies]
+
+    def lengths(self, data: mujoco.MjData) -> np.ndarray:
+        """(P,) current distance between the two vertices of every binding, m."""
+        a, b = self.endpoints(data)
+        return np.linalg.norm(b - a, axis=1)
+
+    def forces(self, data: mujoco.MjData) -> np.ndarray:
+        """(P,) force carried by every binding, N (0 once released): the norm of its
+        three constraint rows."""
+        rows = data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+        squared = np.zeros(data.eq_active.shape[0])
+        np.add.at(squared, data.efc_id[: data.nefc][rows], data.efc_force[: data.nefc][rows] ** 2)
+        return np.sqrt(squared[self.equality_ids])
+
+    def release(self, data: mujoco.MjData, which: np.ndarray, time_s: float,
+                rule: ReleaseRule) -> np.ndarray:
+        """Release the still-bound bindings selected by ``which`` (bool mask or indices);
+        returns the indices released now."""
+        mask = np.zeros(len(self), dtype=bool)
+        mask[which] = True
+        newly = np.flatnonzero(mask & self.bound)
+        data.eq_active[self.equality_ids[newly]] = 0
+        self.released_at_s[newly] = time_s
+        for i in newly:
+            self.released_by[i] = rule
+        return newly
+
+    def release_by_knife(self, data: mujoco.MjData, time_s: float, blade_pos: np.ndarray,
+                         blade_mat: np.ndarray, blade_half_size_m: np.ndarray,
+                         margin_m: float) -> np.ndarray:
+        """Release the bindings whose segment crosses the blade box grown by ``margin_m``.
+
+        A segment test (not a plane-crossing test) also catches bindings the blade pushed to
+        one side before it reached them.
+        """
+        a, b = self.endpoints(data)
+        rot = np.asarray(blade_mat).reshape(3, 3)
+        half = np.asarray(blade_half_size_m) + margin_m
+        crossing = segments_cross_box((a - blade_pos) @ rot, (b - blade_pos) @ rot, half)
+        return self.release(data, crossing, time_s, ReleaseRule.KNIFE)
+
+    def release_by_tearing(self, data: mujoco.MjData, time_s: float,
+                           stretch_m: float) -> np.ndarray:
+        """Release the bindings stretched more than ``stretch_m`` beyond their rest length."""
+        torn = self.lengths(data) - self.rest_length_m > stretch_m
+        return self.release(data, torn, time_s, ReleaseRule.TEARING)
+
+    def records(self) -> list[BindingRecord]:
+        """One :class:`BindingRecord` per binding."""
+        return [
+            BindingRecord(
+                index=i,
+                round_vertex=int(self.pairs[i, 0]),
+                shank_vertex=int(self.pairs[i, 1]),
+                rest_length_m=float(self.rest_length_m[i]),
+                released_at_s=None if np.isnan(self.released_at_s[i])
+                else float(self.released_at_s[i]),
+                released_by=self.released_by[i],
+            )
+            for i in range(len(self))
+        ]
+
+    def released_counts(self) -> dict[str, int]:
+        """Number of bindings released by each rule."""
+        return {rule.value: sum(r is rule for r in self.released_by) for rule in ReleaseRule}
+
+
+def segments_cross_box(start: np.ndarray, end: np.ndarray, half_size: np.ndarray) -> np.ndarray:
+    """(N,) bool: does segment ``start[i] -> end[i]`` meet the axis-aligned box
+    ``|x| <= half_size``? Points are in the box frame (slab test)."""
+    direction = end - start
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = (-half_size - start) / direction
+        t2 = (half_size - start) / direction
+    parallel = direction == 0
+    inside_slab = np.abs(start) <= half_size
+    t_low = np.where(parallel, np.where(inside_slab, -np.inf, np.inf), np.minimum(t1, t2))
+    t_high = np.where(parallel, np.where(inside_slab, np.inf, -np.inf), np.maximum(t1, t2))
+    enter = np.max(t_low, axis=1)
+    leave = np.min(t_high, axis=1)
+    return (enter <= leave) & (leave >= 0.0) & (enter <= 1.0)

@@ -1,0 +1,68 @@
+"""Headless images from the cell's camera: RGB, metric depth, segmentation."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+
+class CameraRig:
+    """Renders one MuJoCo camera offscreen (EGL or OSMesa, see ``MUJOCO_GL``).
+
+    Example:
+        >>> rig = CameraRig(model, "camera/camera", 320, 240)
+        >>> depth_m = rig.depth(data)
+    """
+
+    def __init__(self, model: mujoco.MjModel, camera: str, width_px: int,
+                 height_px: int) -> None:
+        self.model = model
+        self.camera_id = model.camera(camera).id
+        self.width_px = width_px
+        self.height_px = height_px
+        self.renderer = mujoco.Renderer(model, height_px, width_px)
+
+    @property
+    def focal_px(self) -> float:
+        """Focal length in pixels: f = H / (2 tan(fovy / 2))."""
+        fovy = math.radians(float(self.model.cam_fovy[self.camera_id]))
+        return self.height_px / (2.0 * math.tan(fovy / 2.0))
+
+    def pose(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """World position (3,) m and rotation (3, 3) of the camera (MuJoCo: looks along -z)."""
+        return (data.cam_xpos[self.camera_id].copy(),
+                data.cam_xmat[self.camera_id].reshape(3, 3).copy())
+
+    def rgb(self, data: mujoco.MjData) -> np.ndarray:
+        """(H, W, 3) uint8 colour image."""
+        self.renderer.update_scene(data, self.camera_id)
+        return self.renderer.render()
+
+    def depth(self, data: mujoco.MjData) -> np.ndarray:
+        """(H, W) float32 depth along the optical axis, m."""
+        self.renderer.enable_depth_rendering()
+        try:
+            self.renderer.update_scene(data, self.camera_id)
+            return self.renderer.render()
+        finally:
+            self.renderer.disable_depth_rendering()
+
+    def segmentation(self, data: mujoco.MjData) -> np.ndarray:
+        """(H, W, 2) int32 object id and :class:`mujoco.mjtObj` type per pixel (-1: none)."""
+        self.renderer.enable_segmentation_rendering()
+        try:
+            self.renderer.update_scene(data, self.camera_id)
+            return self.renderer.render()
+        finally:
+            self.renderer.disable_segmentation_rendering()
+
+    def tissue_mask(self, data: mujoco.MjData) -> np.ndarray:
+        """(H, W) bool: pixels that see one of the muscles (a flex)."""
+        seg = self.segmentation(data)
+        return seg[..., 1] == int(mujoco.mjtObj.mjOBJ_FLEX)
+
+    def close(self) -> None:
+        """Free the GL context."""
+        self.renderer.close()

@@ -1,0 +1,112 @@
+"""Typed loading of TOML tables into parameter dataclasses, with errors that name file and key.
+
+One loader serves scenarios and material files: every table maps onto a frozen dataclass,
+unknown keys and wrong types are refused, and value checks in the dataclass's
+``__post_init__`` (raising :class:`~cell.errors.InputError`) are re-raised with the file and
+the dotted key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+import types
+import typing
+from pathlib import Path
+from typing import Any, TypeVar
+
+from cell.errors import InputError, ScenarioError
+
+T = TypeVar("T")
+
+
+def read_toml(path: str | Path, error: type[InputError] = ScenarioError) -> dict[str, Any]:
+    """Parse a TOML file, turning a syntax error or a missing file into ``error``."""
+    path = Path(path)
+    try:
+        with path.open("rb") as handle:
+            return tomllib.load(handle)
+    except FileNotFoundError:
+        raise error(path, None, "file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise error(path, None, f"not valid TOML: {exc}") from None
+
+
+def _check_type(value: Any, annotation: Any, where: str, file: Path | None, error: type) -> Any:
+    """Return ``value`` converted to ``annotation`` (int to float, list to tuple) or raise."""
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        options = typing.get_args(annotation)
+        if value is None and type(None) in options:
+            return None
+        for option in options:
+            if option is type(None):
+                continue
+            try:
+                return _check_type(value, option, where, file, error)
+            except InputError:
+                continue
+        raise error(file, where, f"expected {annotation}, got {type(value).__name__} {value!r}")
+    if origin is tuple:
+        args = typing.get_args(annotation)
+        if not isinstance(value, list | tuple):
+            raise error(file, where, f"expected a list, got {type(value).__name__}")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_check_type(v, args[0], where, file, error) for v in value)
+        if len(value) != len(args):
+            raise error(file, where, f"expected {len(args)} values, got {len(value)}")
+        return tuple(_check_type(v, a, where, file, error) for v, a in zip(value, args, strict=True))
+    if origin is typing.Literal:
+        if value not in typing.get_args(annotation):
+            choices = ", ".join(repr(a) for a in typing.get_args(annotation))
+            raise error(file, where, f"must be one of {choices}, got {value!r}")
+        return value
+    if annotation is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise error(file, where, f"expected a number, got {type(value).__name__} {value!r}")
+        return float(value)
+    if annotation is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise error(file, where, f"expected an integer, got {type(value).__name__} {value!r}")
+        return value
+    if annotation is bool or annotation is str:
+        if not isinstance(value, annotation):
+            raise error(file, where, f"expected {annotation.__name__}, got {value!r}")
+        return value
+    if dataclasses.is_dataclass(annotation):
+        if not isinstance(value, dict):
+            raise error(file, where, f"expected a table, got {type(value).__name__}")
+        return from_table(annotation, value, file=file, section=where, error=error)
+    raise TypeError(f"unsupported annotation {annotation!r} for {where}")
+
+
+def from_table(
+    cls: type[T],
+    table: dict[str, Any],
+    *,
+    file: str | Path | None = None,
+    section: str = "",
+    error: type[InputError] = ScenarioError,
+) -> T:
+    """Build dataclass ``cls`` from a TOML table; missing keys take the dataclass defaults.
+
+    Example:
+        >>> from_table(MuscleShape, {"length_m": 0.4}, file="s.toml", section="tissue")
+    """
+    file = None if file is None else Path(file)
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    kwargs: dict[str, Any] = {}
+    for key, value in table.items():
+        where = f"{section}.{key}" if section else key
+        if key not in fields:
+            known = ", ".join(sorted(fields))
+            raise error(file, where, f"unknown key (known keys: {known})")
+        kwargs[key] = _check_type(value, hints[key], where, file, error)
+    try:
+        return cls(**kwargs)
+    except InputError as exc:
+        where = f"{section}.{exc.field}" if section and exc.field else (exc.field or section)
+        raise error(file, where, exc.message) from None
+    except TypeError as exc:  # a required field without default
+        raise error(file, section or None, str(exc)) from None

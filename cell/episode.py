@@ -1,0 +1,252 @@
+"""A scripted cutting episode: the camera arm frames the meat, the gripper grasps the shank,
+the knife cuts along the interface's top line while the gripper pulls the shank away.
+
+The summary splits into ``result`` (a function of the scenario and its seed alone) and
+``timing`` (wall-clock figures of this run).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from tqdm import tqdm
+
+from cell.camera import CameraRig
+from cell.errors import MusclecellError
+from cell.recording import EpisodeRecorder
+from cell.runtime import Simulation
+from cell.scenario import Scenario
+from cell.scene import (ARMS, CAMERA, GRASP_SITE, KNIFE_TIP, Scene, build_robot_spec,
+                        build_scene, grasp_point)
+from controllers.camera import view_pose
+from controllers import gripper, knife
+from controllers.ik import CellIK, arm_joint_names, pose
+
+#: IK iterations that bring the arms from home to their ready poses before the episode starts.
+_READY_ITERATIONS = 200
+#: The site whose drift shows whether an arm that should hold still does.
+_HELD_SITES = {"camera": "camera/optical", "gripper": GRASP_SITE, "knife": KNIFE_TIP}
+#: Median gap (m) between facing vertices above which the muscles count as apart.
+APART_GAP_M = 0.02
+
+
+@dataclass
+class _Trace:
+    """What the loop measures while it runs."""
+
+    tracking_error_m: list[float] = field(default_factory=list)
+    knife_force_n: list[float] = field(default_factory=list)
+    knife_torque_nm: list[float] = field(default_factory=list)
+    pull_force_n: list[float] = field(default_factory=list)
+    fixture_force_n: list[float] = field(default_factory=list)
+    held_drift_m: dict[str, float] = field(default_factory=dict)
+
+
+class Episode:
+    """One scripted episode over a freshly built scene.
+
+    Example:
+        >>> episode = Episode(load_scenario("scenarios/default.toml"))
+        >>> summary = episode.run(rerun_path="out/default.rrd")
+        >>> summary["result"]["released_fraction"]
+    """
+
+    def __init__(self, scenario: Scenario, scene: Scene | None = None) -> None:
+        self.scenario = scenario
+        self.scene = build_scene(scenario) if scene is None else scene
+        self.robot_model = build_robot_spec(scenario).compile()
+        self.sim = Simulation(self.scene, scenario)
+        model = self.scene.model
+        names = [n for prefix, arm in ARMS.items() for n in arm_joint_names(prefix, arm)]
+        self.scene_qpos = np.array([model.joint(n).qposadr[0] for n in names])
+        self.ik_qpos = np.array([self.robot_model.joint(n).qposadr[0] for n in names])
+        self.actuators = np.array([model.actuator(n).id for n in names])
+        self.fingers = np.array([model.actuator(f"gripper/finger_{s}").id
+                                 for s in ("left", "right")])
+        self.control_dt_s = 1.0 / scenario.simulation.control_rate_hz
+        self.substeps = max(1, round(self.control_dt_s / scenario.simulation.timestep_s))
+        self.ik = CellIK(self.robot_model, self._home_configuration())
+        self._solve_ready_poses()
+        self._place_arms()
+
+    def _home_configuration(self) -> np.ndarray:
+        q = self.robot_model.qpos0.copy()
+        for prefix, arm in ARMS.items():
+            for name, angle in zip(arm_joint_names(prefix, arm), arm.home_q_rad, strict=True):
+                q[self.robot_model.joint(name).qposadr[0]] = angle
+        return q
+
+    def _solve_ready_poses(self) -> None:
+        """Solve IK (kinematics only) for the poses the arms start from: knife above the cut's
+        entry, gripper above the grasp point, camera framing the meat."""
+        scenario, mesh = self.scenario, self.scene.mesh
+        eye, look = view_pose(mesh)
+        self.ik.camera.set_target(pose(eye, np.eye(3)))
+        self.ik.gaze.set_target(look)
+        self.ik.knife.set_target(pose(*knife.ready_pose(mesh.top_line, scenario.cut)))
+        self.ik.grasp.set_target(pose(*gripper.ready_pose(grasp_point(scenario, mesh),
+                                                          scenario.pull)))
+        for _ in range(_READY_ITERATIONS):
+            self.ik.solve(self.control_dt_s)
+
+    def _place_arms(self) -> None:
+        data = self.sim.data
+        q = self.ik.configuration.q[self.ik_qpos]
+        data.qpos[self.scene_qpos] = q
+        data.ctrl[self.actuators] = q
+        data.ctrl[self.fingers] = self.scenario.gripper.max_opening_m / 2
+        mujoco.mj_forward(self.scene.model, data)
+
+    def run(self, rerun_path: str | Path | None = None, progress: bool = False
+            ) -> dict[str, Any]:
+        """Run the episode; returns the summary. Writes the Rerun file if a path is given.
+
+        Raises:
+            DivergenceError: the physics blew up (nothing is written then).
+        """
+        scenario, sim, ik = self.scenario, self.sim, self.ik
+        data, model, scene = sim.data, sim.model, self.scene
+        tip_pos, tip_rot = ik.site_pose(KNIFE_TIP)
+        knife_traj, cut_path, (cut_start, cut_end) = knife.plan_cut(
+            scene.mesh.top_line, scenario.cut, scenario.layout.table_height_m,
+            scenario.cut.start_s, tip_pos, tip_rot)
+        grasp_pos, grasp_rot = ik.site_pose(GRASP_SITE)
+        pull_traj, schedule = gripper.plan_pull(
+            grasp_point(scenario, scene.mesh), scenario.pull, scenario.settle_s,
+            (cut_start, cut_end), grasp_pos, grasp_rot)
+        end_s = scenario.end_s or max(knife_traj.end_s, schedule.pull_end_s) + 0.5
+        steps = int(np.ceil(end_s / self.control_dt_s))
+        held = {"camera": ik.site_pose("camera/optical")[0]}
+        if not scenario.pull.enabled:
+            held["gripper"] = grasp_pos
+        if not scenario.cut.enabled:
+            held["knife"] = tip_pos
+        recorder = None
+        rig = None
+        if rerun_path is not None:
+            recorder = EpisodeRecorder(rerun_path, scene, f"{scenario.name}-{scenario.seed}")
+            recorder.log_planned_path(cut_path)
+            rig = CameraRig(model, CAMERA, scenario.camera.width_px, scenario.camera.height_px)
+        frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
+        camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
+                                           * self.control_dt_s)))
+        trace = _Trace()
+        tip_site = model.site(KNIFE_TIP).id
+        knife_tared = gripper_tared = grasped = False
+        jaw_half = np.array([scenario.gripper.finger_width_m / 2,
+                             scenario.gripper.max_opening_m / 2,
+                             scenario.gripper.finger_length_m / 2])
+        ctrl_prev = data.ctrl[self.actuators].copy()
+        wall_start = time.perf_counter()
+        try:
+            for k in tqdm(range(steps), disable=not progress, unit="ctrl", desc=scenario.name):
+                t_next = (k + 1) * self.control_dt_s
+                if scenario.cut.enabled:
+                    knife_p, knife_r = knife_traj.sample(t_next)
+                    ik.knife.set_target(pose(knife_p, knife_r))
+                if scenario.pull.enabled:
+                    grasp_p, grasp_r = pull_traj.sample(t_next)
+                    ik.grasp.set_target(pose(grasp_p, grasp_r))
+                ctrl_next = ik.solve(self.control_dt_s)[self.ik_qpos]
+                if scenario.pull.enabled and t_next >= schedule.close_s:
+                    data.ctrl[self.fingers] = 0.0
+                for i in range(1, self.substeps + 1):
+                    data.ctrl[self.actuators] = ctrl_prev + (ctrl_next - ctrl_prev) * (
+                        i / self.substeps)
+                    mujoco.mj_step(model, data)
+                sim.check_divergence()
+                ctrl_prev = ctrl_next
+                t = sim.time_s
+                if not knife_tared and t >= cut_start - 0.1:
+                    sim.tare("knife/force", "knife/torque")
+                    knife_tared = True
+                if scenario.pull.enabled and not gripper_tared and t >= schedule.close_s:
+                    sim.tare("gripper/force", "gripper/torque", "fixture_force")
+                    gripper_tared = True
+                if scenario.pull.enabled and not grasped and t >= schedule.grasp_s:
+                    sim.grasp(jaw_half)
+                    grasped = True
+                sim.apply_release_rules()
+                tip = data.site_xpos[tip_site]
+                if scenario.cut.enabled and cut_start <= t <= cut_end:
+                    trace.tracking_error_m.append(float(np.linalg.norm(tip - knife_p)))
+                self._measure(trace, knife_tared, gripper_tared)
+                for name, start in held.items():
+                    site = _HELD_SITES[name]
+                    drift = float(np.linalg.norm(data.site_xpos[model.site(site).id] - start))
+                    trace.held_drift_m[name] = max(trace.held_drift_m.get(name, 0.0), drift)
+                if recorder is not None and k % frame_every == 0:
+                    recorder.log_frame(data, tip, self._scalars(trace))
+                if recorder is not None and rig is not None and k % camera_every == 0:
+                    recorder.log_camera(data, rig)
+        except MusclecellError:
+            if recorder is not None:
+                recorder.abort()
+            raise
+        wall_s = time.perf_counter() - wall_start
+        if recorder is not None:
+            recorder.close()
+        if rig is not None:
+            rig.close()
+        return self._summary(trace, wall_s)
+
+    def _measure(self, trace: _Trace, knife_tared: bool, gripper_tared: bool) -> None:
+        sim = self.sim
+        if knife_tared:
+            trace.knife_force_n.append(float(np.linalg.norm(sim.read("knife/force"))))
+            trace.knife_torque_nm.append(float(np.linalg.norm(sim.read("knife/torque"))))
+        if gripper_tared:
+            trace.pull_force_n.append(float(np.linalg.norm(sim.read("gripper/force"))))
+            trace.fixture_force_n.append(float(np.linalg.norm(sim.read("fixture_force"))))
+
+    def _scalars(self, trace: _Trace) -> dict[str, float]:
+        apo = self.scene.aponeurosis
+        values = {"progress/released_fraction": float(1.0 - apo.bound.mean())}
+        for name, series in (("forces/knife_n", trace.knife_force_n),
+                             ("forces/knife_torque_nm", trace.knife_torque_nm),
+                             ("forces/pull_n", trace.pull_force_n),
+                             ("forces/fixture_n", trace.fixture_force_n),
+                             ("tracking/knife_error_m", trace.tracking_error_m)):
+            if series:
+                values[name] = series[-1]
+        return values
+
+    def _summary(self, trace: _Trace, wall_s: float) -> dict[str, Any]:
+        scene, sim = self.scene, self.sim
+        apo = scene.aponeurosis
+        gap = apo.lengths(sim.data) - apo.rest_length_m
+        released_fraction = float(1.0 - apo.bound.mean())
+        errors = np.array(trace.tracking_error_m) if trace.tracking_error_m else np.zeros(1)
+
+        def peak(series: list[float]) -> float:
+            return float(max(series)) if series else 0.0
+
+        result = {
+            "scenario": self.scenario.name,
+            "seed": self.scenario.seed,
+            "tissue_nodes": scene.node_count,
+            "bindings": len(apo),
+            "released_by_rule": apo.released_counts(),
+            "released_fraction": released_fraction,
+            "gap_m": {"median": float(np.median(gap)), "mean": float(gap.mean()),
+                      "min": float(gap.min())},
+            "muscles_apart": bool(released_fraction >= 0.95
+                                  and float(np.median(gap)) >= APART_GAP_M),
+            "grasped_vertices": len(sim.grasped),
+            "knife_force_peak_n": peak(trace.knife_force_n),
+            "knife_torque_peak_nm": peak(trace.knife_torque_nm),
+            "pull_force_peak_n": peak(trace.pull_force_n),
+            "fixture_force_peak_n": peak(trace.fixture_force_n),
+            "knife_tracking_error_m": {"median": float(np.median(errors)),
+                                       "p95": float(np.percentile(errors, 95)),
+                                       "max": float(errors.max())},
+            "held_arm_drift_m": trace.held_drift_m,
+            "sim_time_s": sim.time_s,
+        }
+        timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s}
+        return {"result": result, "timing": timing}

@@ -1,0 +1,134 @@
+"""Stepping the cell: physics, binding release rules, the grasp, sensors, divergence checks."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from cell.aponeurosis import ReleaseRule
+from cell.errors import DivergenceError
+from cell.scenario import Scenario
+from cell.scene import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM, Scene
+
+# Warnings after which MuJoCo's state is no longer a solution of the model.
+_FATAL_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+)
+
+
+class Simulation:
+    """The scene's physics with the episode's rules applied between control steps.
+
+    Sensor readings are tared at :meth:`tare` (the tool's own weight) and carry the noise of
+    ``scenario.sensors``, drawn from the scenario's seed.
+
+    Example:
+        >>> sim = Simulation(build_scene(scenario), scenario)
+        >>> sim.step(10)
+        >>> sim.apply_release_rules()
+    """
+
+    def __init__(self, scene: Scene, scenario: Scenario) -> None:
+        self.scene = scene
+        self.scenario = scenario
+        self.model = scene.model
+        self.data = mujoco.MjData(self.model)
+        self.rng = np.random.default_rng(scenario.seed)
+        self._sensor = {name: self._sensor_slice(name) for name in (
+            "knife/force", "knife/torque", "gripper/force", "gripper/torque", "fixture_force")}
+        self._tare = {name: np.zeros(3) for name in self._sensor}
+        tissue = np.concatenate([scene.round_bodies, scene.shank_bodies])
+        tissue = np.unique(tissue[self.model.body_dofnum[tissue] > 0])
+        self._tissue_dofs = np.concatenate([
+            np.arange(self.model.body_dofadr[b], self.model.body_dofadr[b]
+                      + self.model.body_dofnum[b]) for b in tissue])
+        self._blade = self.model.geom(KNIFE_BLADE_GEOM).id
+        self._gripper = self.model.body(GRIPPER_BODY).id
+        self._grasp_site = self.model.site(GRASP_SITE).id
+        self._warnings = np.zeros(len(_FATAL_WARNINGS), dtype=int)
+        self.grasped = np.zeros(0, dtype=int)
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time, s."""
+        return float(self.data.time)
+
+    def _sensor_slice(self, name: str) -> slice:
+        sensor = self.model.sensor(name)
+        start = int(sensor.adr[0])
+        return slice(start, start + int(sensor.dim[0]))
+
+    def step(self, count: int = 1) -> None:
+        """Advance ``count`` physics steps, then check for divergence."""
+        for _ in range(count):
+            mujoco.mj_step(self.model, self.data)
+        self.check_divergence()
+
+    def check_divergence(self) -> None:
+        """Raise :class:`DivergenceError` on NaN, a fatal MuJoCo warning or runaway tissue."""
+        data = self.data
+        counts = np.array([data.warning[w].number for w in _FATAL_WARNINGS])
+        fired = counts > self._warnings
+        if fired.any():
+            names = [w.name for w, f in zip(_FATAL_WARNINGS, fired, strict=True) if f]
+            self._warnings = counts
+            raise DivergenceError(self.time_s, f"MuJoCo warning {', '.join(names)}")
+        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+            raise DivergenceError(self.time_s, "non-finite position or velocity")
+        speed = np.abs(data.qvel[self._tissue_dofs]).max(initial=0.0)
+        limit = self.scenario.simulation.max_tissue_speed_m_s
+        if speed > limit:
+            raise DivergenceError(self.time_s, f"tissue speed {speed:.3g} m/s above {limit} m/s")
+
+    def apply_release_rules(self) -> dict[ReleaseRule, np.ndarray]:
+        """Release bindings by the scenario's rules; returns the indices released per rule."""
+        params = self.scenario.aponeurosis
+        apo = self.scene.aponeurosis
+        released: dict[ReleaseRule, np.ndarray] = {}
+        if ReleaseRule.KNIFE.value in params.release_rules:
+            released[ReleaseRule.KNIFE] = apo.release_by_knife(
+                self.data, self.time_s, self.data.geom_xpos[self._blade],
+                self.data.geom_xmat[self._blade], self.model.geom_size[self._blade],
+                params.knife_margin_m)
+        if ReleaseRule.TEARING.value in params.release_rules:
+            released[ReleaseRule.TEARING] = apo.release_by_tearing(
+                self.data, self.time_s, params.tearing_stretch_m)
+        return released
+
+    def grasp(self, jaw_half_size_m: np.ndarray) -> int:
+        """Bind the shank vertices inside the jaw box (centred on the grasp site, in its frame)
+        to the gripper where they are now; returns how many were bound."""
+        model, data, scene = self.model, self.data, self.scene
+        bodies = scene.shank_bodies[scene.grasp_vertices]
+        site_pos = data.site_xpos[self._grasp_site]
+        site_rot = data.site_xmat[self._grasp_site].reshape(3, 3)
+        local = (data.xpos[bodies] - site_pos) @ site_rot
+        inside = np.all(np.abs(local) <= jaw_half_size_m, axis=1)
+        gripper_pos = data.xpos[self._gripper]
+        gripper_rot = data.xmat[self._gripper].reshape(3, 3)
+        for eq, body in zip(scene.grasp_equalities[inside], bodies[inside], strict=True):
+            model.eq_data[eq, 0:3] = (data.xpos[body] - gripper_pos) @ gripper_rot
+            model.eq_data[eq, 3:6] = 0.0
+            data.eq_active[eq] = 1
+        self.grasped = scene.grasp_equalities[inside]
+        return int(inside.sum())
+
+    def ungrasp(self) -> None:
+        """Let go of everything the gripper holds."""
+        self.data.eq_active[self.grasped] = 0
+        self.grasped = np.zeros(0, dtype=int)
+
+    def tare(self, *names: str) -> None:
+        """Zero sensors (all by default) at the present load, such as a tool's own weight."""
+        for name in names or tuple(self._sensor):
+            self._tare[name] = self.data.sensordata[self._sensor[name]].copy()
+
+    def read(self, name: str) -> np.ndarray:
+        """A tared, noisy 3-vector sensor reading: ``knife/force``, ``knife/torque``,
+        ``gripper/force``, ``gripper/torque`` (N, N m, sensor frame) or ``fixture_force``."""
+        noise = self.scenario.sensors
+        sigma = noise.torque_noise_nm if name.endswith("torque") else noise.force_noise_n
+        value = self.data.sensordata[self._sensor[name]] - self._tare[name]
+        return value + self.rng.normal(0.0, sigma, 3)

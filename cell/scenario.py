@@ -1,0 +1,239 @@
+"""Scenario files: one TOML file describes one scripted cutting episode.
+
+Every table maps onto a parameter dataclass; a wrong key, type or value raises
+:class:`~cell.errors.ScenarioError` naming the file and the dotted key.
+
+Example:
+    >>> scenario = load_scenario("scenarios/default.toml")
+    >>> scenario.knife.speed_m_s
+    0.03
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Literal
+
+from cell.config import from_table, read_toml
+from cell.errors import InputError, ScenarioError
+from cell.geometry import MuscleShape
+from cell.material import ContinuumMaterial
+from cell.tools import CameraParams, GripperParams, KnifeParams
+
+
+def _positive(owner: object, *names: str) -> None:
+    for name in names:
+        value = getattr(owner, name)
+        if not value > 0:
+            raise InputError(None, name, f"must be > 0, got {value}")
+
+
+@dataclass(frozen=True)
+class SimulationParams:
+    """Physics settings. ``timestep_s`` is MuJoCo's step; the controllers run at
+    ``control_rate_hz``; ``max_tissue_speed_m_s`` flags an energy blow-up."""
+
+    timestep_s: float = 0.002
+    control_rate_hz: float = 50.0
+    integrator: Literal["discrete"] = "discrete"
+    solver_iterations: int = 100
+    max_tissue_speed_m_s: float = 20.0
+
+    def __post_init__(self) -> None:
+        _positive(self, "timestep_s", "control_rate_hz", "solver_iterations",
+                  "max_tissue_speed_m_s")
+        if self.control_rate_hz * self.timestep_s > 1.0:
+            raise InputError(None, "control_rate_hz", "faster than the physics step")
+
+
+@dataclass(frozen=True)
+class AponeurosisParams:
+    """Bindings across the interface and how they release.
+
+    ``release_rules``: any of ``"knife"`` and ``"tearing"``; ``tearing_stretch_m``: stretch
+    beyond rest length that tears a binding (paper: 1e-2 m); ``timeconst_s`` and
+    ``dampratio``: MuJoCo ``solref`` of the binding constraints; ``knife_margin_m``: how far
+    beyond the blade box the knife still cuts a binding.
+    """
+
+    release_rules: tuple[str, ...] = ("knife", "tearing")
+    tearing_stretch_m: float = 0.01
+    timeconst_s: float = 0.01
+    dampratio: float = 1.0
+    knife_margin_m: float = 0.003
+
+    def __post_init__(self) -> None:
+        known = {"knife", "tearing"}
+        for rule in self.release_rules:
+            if rule not in known:
+                raise InputError(None, "release_rules", f"unknown rule {rule!r}; known: {known}")
+        _positive(self, "tearing_stretch_m", "timeconst_s", "dampratio")
+        if self.knife_margin_m < 0:
+            raise InputError(None, "knife_margin_m", "must be >= 0")
+
+
+@dataclass(frozen=True)
+class CutPlan:
+    """Where and how the knife cuts: along the interface's top line at ``depth_m`` below it
+    (tip), never closer than ``table_clearance_m`` to the table, at ``speed_m_s``, entering
+    ``lead_in_m`` before the meat's end and leaving ``lead_out_m`` after ``cut_fraction`` of
+    the line (1 = the whole interface). ``enabled = false`` keeps the knife waiting above the
+    entry point."""
+
+    enabled: bool = True
+    speed_m_s: float = 0.03
+    depth_m: float = 0.065
+    table_clearance_m: float = 0.015
+    approach_height_m: float = 0.06
+    lead_in_m: float = 0.04
+    lead_out_m: float = 0.04
+    cut_fraction: float = 1.0
+    start_s: float = 0.4
+
+    def __post_init__(self) -> None:
+        _positive(self, "speed_m_s", "depth_m", "approach_height_m", "cut_fraction",
+                  "table_clearance_m")
+        if self.cut_fraction > 1:
+            raise InputError(None, "cut_fraction", f"must be <= 1, got {self.cut_fraction}")
+
+
+@dataclass(frozen=True)
+class PullPlan:
+    """How the gripper grasps the shank and pulls it away from the round.
+
+    The grasp is at ``grasp_x_fraction`` of the length, ``grasp_inset_m`` in from the
+    shank's outer side, jaws ``grasp_depth_m`` below its top. From ``start_delay_s`` after
+    the cut starts until it ends, the gripper pulls ``tension_m`` along ``direction`` (world
+    frame, normalised) to open the cut, as a butcher does; once the knife is out it pulls on to
+    ``distance_m`` at ``speed_m_s``. The jaws lean ``tilt_deg`` toward the interface, which
+    keeps the gripper's wrist clear of the knife. ``enabled = false`` keeps the gripper still.
+    """
+
+    enabled: bool = True
+    tilt_deg: float = 40.0
+    grasp_x_fraction: float = 0.5
+    grasp_inset_m: float = 0.035
+    grasp_depth_m: float = 0.03
+    grasp_radius_m: float = 0.03
+    direction: tuple[float, float, float] = (0.0, 1.0, 0.6)
+    tension_m: float = 0.006
+    distance_m: float = 0.16
+    speed_m_s: float = 0.02
+    start_delay_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        _positive(self, "speed_m_s", "distance_m", "grasp_radius_m", "grasp_depth_m")
+        if not 0 <= self.grasp_x_fraction <= 1:
+            raise InputError(None, "grasp_x_fraction", "must be in [0, 1]")
+        if sum(c * c for c in self.direction) == 0:
+            raise InputError(None, "direction", "must not be the zero vector")
+        if not 0 <= self.tilt_deg <= 80:
+            raise InputError(None, "tilt_deg", f"must be in [0, 80], got {self.tilt_deg}")
+        if not 0 <= self.tension_m < self.distance_m:
+            raise InputError(None, "tension_m", "must be in [0, distance_m)")
+
+
+@dataclass(frozen=True)
+class LayoutParams:
+    """Where things stand in the cell (world frame, m; yaw about z in degrees)."""
+
+    table_height_m: float = 0.6
+    meat_x_m: float = 0.0
+    knife_arm_base: tuple[float, float, float, float] = (0.0, -0.85, 0.0, 90.0)
+    pull_arm_base: tuple[float, float, float, float] = (0.0, 0.95, 0.0, -90.0)
+    camera_arm_base: tuple[float, float, float, float] = (0.55, 0.30, 0.6, 180.0)
+
+    def __post_init__(self) -> None:
+        _positive(self, "table_height_m")
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """Sensor noise (standard deviations), drawn from the scenario's seed."""
+
+    force_noise_n: float = 0.05
+    torque_noise_nm: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.force_noise_n < 0 or self.torque_noise_nm < 0:
+            raise InputError(None, "force_noise_n", "noise must be >= 0")
+
+
+@dataclass(frozen=True)
+class RecordingParams:
+    """What the Rerun recording keeps: scene frames at ``rate_hz``, camera images at
+    ``camera_rate_hz``."""
+
+    rate_hz: float = 20.0
+    camera_rate_hz: float = 2.0
+
+    def __post_init__(self) -> None:
+        _positive(self, "rate_hz", "camera_rate_hz")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One scripted episode: the cell, the meat, and the plan.
+
+    Example:
+        >>> Scenario(name="quick", tissue=MuscleShape(cell_size_m=0.05))
+    """
+
+    name: str = "default"
+    seed: int = 0
+    settle_s: float = 0.3
+    end_s: float | None = None
+    simulation: SimulationParams = field(default_factory=SimulationParams)
+    tissue: MuscleShape = field(default_factory=MuscleShape)
+    material: ContinuumMaterial = field(default_factory=ContinuumMaterial)
+    aponeurosis: AponeurosisParams = field(default_factory=AponeurosisParams)
+    knife: KnifeParams = field(default_factory=KnifeParams)
+    gripper: GripperParams = field(default_factory=GripperParams)
+    camera: CameraParams = field(default_factory=CameraParams)
+    cut: CutPlan = field(default_factory=CutPlan)
+    pull: PullPlan = field(default_factory=PullPlan)
+    layout: LayoutParams = field(default_factory=LayoutParams)
+    sensors: SensorParams = field(default_factory=SensorParams)
+    recording: RecordingParams = field(default_factory=RecordingParams)
+
+
+@dataclass(frozen=True)
+class _Head:
+    name: str = "default"
+    seed: int = 0
+    settle_s: float = 0.3
+    end_s: float | None = None
+
+    def __post_init__(self) -> None:
+        _positive(self, "settle_s")
+        if self.end_s is not None:
+            _positive(self, "end_s")
+
+
+_TABLES = ("simulation", "tissue", "material", "aponeurosis", "knife", "gripper", "camera",
+           "cut", "pull", "layout", "sensors", "recording")
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario TOML file.
+
+    The file has a ``[scenario]`` table (name, seed, settle_s, end_s) and one table per
+    :class:`Scenario` field; every table and key is optional and takes the defaults.
+    """
+    path = Path(path)
+    raw = read_toml(path)
+    unknown = set(raw) - {"scenario", *_TABLES}
+    if unknown:
+        raise ScenarioError(path, sorted(unknown)[0],
+                            f"unknown table (known: scenario, {', '.join(_TABLES)})")
+    head = raw.get("scenario", {})
+    if not isinstance(head, dict):
+        raise ScenarioError(path, "scenario", "expected a table")
+    # Checked on its own so that its keys are reported as ``scenario.<key>``.
+    checked = from_table(_Head, head, file=path, section="scenario")
+    table = {f.name: getattr(checked, f.name) for f in fields(_Head)}
+    for name in _TABLES:
+        if name in raw:
+            table[name] = raw[name]
+    return from_table(Scenario, table, file=path, section="")

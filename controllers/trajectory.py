@@ -1,0 +1,71 @@
+"""Timed Cartesian trajectories: straight segments between waypoints at set speeds."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from cell.errors import ControlError
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """A pose to reach, at ``speed_m_s`` along the straight segment leading to it.
+
+    ``dwell_s`` holds the pose after arrival. Position in m (world), rotation as a 3x3 matrix.
+    """
+
+    position_m: np.ndarray
+    rotation: np.ndarray
+    speed_m_s: float
+    dwell_s: float = 0.0
+
+
+class CartesianTrajectory:
+    """Piecewise-linear positions and slerped rotations through waypoints, timed by speed.
+
+    Rotation-only segments take ``min_segment_s`` or the time set by ``max_turn_rad_s``.
+
+    Example:
+        >>> traj = CartesianTrajectory(start_s=0.0, start_pos=p0, start_rot=R0,
+        ...                            waypoints=[Waypoint(p1, R1, speed_m_s=0.05)])
+        >>> position, rotation = traj.sample(1.0)
+    """
+
+    def __init__(self, start_s: float, start_pos: np.ndarray, start_rot: np.ndarray,
+                 waypoints: Sequence[Waypoint], max_turn_rad_s: float = 1.0,
+                 min_segment_s: float = 0.05) -> None:
+        times = [start_s]
+        positions = [np.asarray(start_pos, float)]
+        rotations = [np.asarray(start_rot, float)]
+        for wp in waypoints:
+            if not wp.speed_m_s > 0:
+                raise ControlError(f"waypoint speed must be > 0, got {wp.speed_m_s}")
+            distance = float(np.linalg.norm(wp.position_m - positions[-1]))
+            turn = (Rotation.from_matrix(rotations[-1]).inv()
+                    * Rotation.from_matrix(wp.rotation)).magnitude()
+            duration = max(distance / wp.speed_m_s, turn / max_turn_rad_s, min_segment_s)
+            times.append(times[-1] + duration)
+            positions.append(np.asarray(wp.position_m, float))
+            rotations.append(np.asarray(wp.rotation, float))
+            if wp.dwell_s > 0:
+                times.append(times[-1] + wp.dwell_s)
+                positions.append(positions[-1])
+                rotations.append(rotations[-1])
+        self.times_s = np.array(times)
+        self.positions_m = np.array(positions)
+        self._slerp = Slerp(self.times_s, Rotation.from_matrix(np.array(rotations)))
+
+    @property
+    def end_s(self) -> float:
+        """Time at which the last waypoint is reached, s."""
+        return float(self.times_s[-1])
+
+    def sample(self, time_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Position (3,) m and rotation (3, 3) at ``time_s`` (held before start, after end)."""
+        t = float(np.clip(time_s, self.times_s[0], self.times_s[-1]))
+        position = np.array([np.interp(t, self.times_s, self.positions_m[:, k]) for k in range(3)])
+        return position, self._slerp([t]).as_matrix()[0]
