@@ -1,0 +1,276 @@
+"""The aponeurosis: the segment-box test, and on a coarse scene the bindings' rest lengths, their
+release by the knife and by tearing, the forces they carry and the release record."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import mujoco
+import numpy as np
+import pytest
+
+from cell.aponeurosis import Aponeurosis, ReleaseRule, segments_cross_box
+from cell.geometry import MuscleShape
+from cell.scenario import Scenario
+from cell.scene import Scene, build_scene
+from cell.tools import KnifeParams
+
+UNIT_BOX = np.array([1.0, 1.0, 1.0])
+SCENARIO = Scenario(tissue=MuscleShape(cell_size_m=0.05))
+
+
+def _crosses(start: list[float], end: list[float], half: np.ndarray = UNIT_BOX) -> bool:
+    result = segments_cross_box(np.array([start], float), np.array([end], float), half)
+    assert result.shape == (1,)
+    return bool(result[0])
+
+
+# --- segments_cross_box ------------------------------------------------------------------------
+
+
+def test_segment_through_the_box_crosses() -> None:
+    assert _crosses([-2.0, 0.0, 0.0], [2.0, 0.0, 0.0])
+    assert _crosses([-2.0, -2.0, -2.0], [2.0, 2.0, 2.0])  # through the centre, diagonally
+    assert _crosses([2.0, 0.3, -0.2], [-2.0, 0.1, 0.4])  # direction does not matter
+
+
+def test_segment_beside_the_box_misses() -> None:
+    assert not _crosses([-2.0, 1.5, 0.0], [2.0, 1.5, 0.0])
+    assert not _crosses([-2.0, 0.0, -3.0], [2.0, 0.5, -1.2])
+    # Its line clips a corner region but the segment passes outside it.
+    assert not _crosses([-2.0, 0.0, 0.0], [0.0, 2.5, 0.0])
+
+
+def test_segment_ending_just_short_misses() -> None:
+    assert not _crosses([-2.0, 0.0, 0.0], [-1.001, 0.0, 0.0])
+    assert not _crosses([1.001, 0.2, 0.2], [3.0, 0.2, 0.2])  # starting just past it
+    assert _crosses([-2.0, 0.0, 0.0], [-0.999, 0.0, 0.0])
+    assert _crosses([-2.0, 0.0, 0.0], [-1.0, 0.0, 0.0])  # touching the face counts
+
+
+def test_segment_parallel_to_a_face() -> None:
+    assert _crosses([-2.0, 0.5, 0.5], [2.0, 0.5, 0.5])  # inside the slab
+    assert _crosses([-2.0, 1.0, 0.0], [2.0, 1.0, 0.0])  # in the face's plane
+    assert not _crosses([-2.0, 1.001, 0.0], [2.0, 1.001, 0.0])  # just outside
+    assert not _crosses([-2.0, 0.0, -1.5], [2.0, 0.0, -1.5])
+
+
+def test_segment_fully_inside_crosses() -> None:
+    assert _crosses([-0.1, 0.0, 0.0], [0.1, 0.2, -0.3])
+    assert _crosses([0.5, 0.5, 0.5], [0.5, 0.5, 0.5])  # a point inside
+    assert not _crosses([1.5, 0.5, 0.5], [1.5, 0.5, 0.5])  # a point outside
+
+
+def test_segment_across_a_thin_blade_box() -> None:
+    # A binding 3 mm long across a 1 mm thick blade, and one beside the blade's edge.
+    blade = KnifeParams().blade_half_size_m
+    assert _crosses([0.0, -0.0015, 0.0], [0.0, 0.0015, 0.0], blade)
+    assert not _crosses([blade[0] + 1e-4, -0.0015, 0.0], [blade[0] + 1e-4, 0.0015, 0.0], blade)
+    assert not _crosses([0.0, 0.001, 0.0], [0.0, 0.004, 0.0], blade)  # wholly on one side
+
+
+def test_segments_cross_box_agrees_with_dense_sampling() -> None:
+    rng = np.random.default_rng(3)
+    half = np.array([0.5, 0.2, 1.0])
+    start = rng.uniform(-2.0, 2.0, (2000, 3))
+    end = rng.uniform(-2.0, 2.0, (2000, 3))
+    result = segments_cross_box(start, end, half)
+    t = np.linspace(0.0, 1.0, 2001)[None, :, None]
+    samples = start[:, None, :] + t * (end - start)[:, None, :]
+    outside = (np.abs(samples) - half).max(axis=2).min(axis=1)  # <= 0: a sample is inside
+    step = np.linalg.norm(end - start, axis=1) / 2000
+    assert result[outside <= 0].all()
+    assert not result[outside > step].any()
+    assert 0.1 < result.mean() < 0.9  # both outcomes are exercised
+
+
+# --- bindings on a coarse scene ----------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def scene() -> Scene:
+    return build_scene(SCENARIO)
+
+
+@pytest.fixture
+def data(scene: Scene) -> mujoco.MjData:
+    """Fresh state at the model's rest pose, every binding bound and its record cleared."""
+    data = mujoco.MjData(scene.model)
+    scene.aponeurosis.reset(data)
+    mujoco.mj_forward(scene.model, data)
+    return data
+
+
+def _blade_across_interface(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Blade centre, rotation (flattened, columns = blade axes in world) and the x of the
+    interface column it is put on: the column of facing pairs nearest the middle of the length.
+
+    The blade's thin y axis is the interface normal (the interface leans by ``interface_lean``),
+    its centre the middle of that column, so every binding of the column crosses it."""
+    mesh = scene.mesh
+    mid = (mesh.round.points[mesh.pairs[:, 0]] + mesh.shank.points[mesh.pairs[:, 1]]) / 2
+    column_x = mid[np.argmin(np.abs(mid[:, 0] - mesh.origin_m[0])), 0]
+    column = mid[np.isclose(mid[:, 0], column_x)]
+    normal = np.array([0.0, 1.0, -SCENARIO.tissue.interface_lean])
+    normal /= np.linalg.norm(normal)
+    x_axis = np.array([1.0, 0.0, 0.0])
+    rot = np.column_stack([x_axis, normal, np.cross(x_axis, normal)])
+    return column.mean(axis=0), rot.ravel(), column_x
+
+
+def test_all_bindings_bound_at_start(scene: Scene, data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    assert len(apo) == len(scene.mesh.pairs) > 0
+    assert apo.bound.all()
+    assert scene.model.eq_active0[apo.equality_ids].all()
+    assert data.eq_active[apo.equality_ids].all()
+    assert apo.released_counts() == {"knife": 0, "tearing": 0}
+
+
+def test_rest_lengths_are_the_gap(scene: Scene, data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    gap = SCENARIO.tissue.gap_m
+    np.testing.assert_allclose(apo.rest_length_m, gap, atol=1e-6)
+    np.testing.assert_allclose(apo.lengths(data), gap, atol=1e-6)
+    np.testing.assert_allclose(apo.rest_length_m, scene.mesh.pair_rest_lengths_m, atol=1e-6)
+
+
+def test_bindings_join_the_facing_vertices(scene: Scene, data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    a, b = apo.endpoints(data)
+    np.testing.assert_allclose(a, scene.mesh.round.points[apo.pairs[:, 0]], atol=1e-6)
+    np.testing.assert_allclose(b, scene.mesh.shank.points[apo.pairs[:, 1]], atol=1e-6)
+
+
+def test_knife_releases_only_bindings_under_the_blade(scene: Scene, data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    margin = SCENARIO.aponeurosis.knife_margin_m
+    half = KnifeParams().blade_half_size_m
+    pos, mat, column_x = _blade_across_interface(scene)
+    a, b = apo.endpoints(data)
+    x = (a[:, 0] + b[:, 0]) / 2
+    expected = np.flatnonzero(np.abs(x - pos[0]) <= half[0] + margin)
+    assert len(expected) > 0
+    assert len(expected) < len(apo)  # other columns lie beyond the blade's width
+    np.testing.assert_allclose(x[expected], column_x)
+
+    released = apo.release_by_knife(data, 1.25, pos, mat, half, margin)
+
+    np.testing.assert_array_equal(np.sort(released), expected)
+    assert data.eq_active[apo.equality_ids[expected]].sum() == 0
+    assert np.delete(data.eq_active[apo.equality_ids], expected).all()
+    for record in apo.records():
+        if record.index in expected:
+            assert record.released_by is ReleaseRule.KNIFE
+            assert record.released_at_s == 1.25
+        else:
+            assert record.released_by is None
+            assert record.released_at_s is None
+    assert apo.released_counts() == {"knife": len(expected), "tearing": 0}
+
+
+def test_knife_releases_a_binding_once(scene: Scene, data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    half = KnifeParams().blade_half_size_m
+    pos, mat, _ = _blade_across_interface(scene)
+    first = apo.release_by_knife(data, 1.0, pos, mat, half, 0.003)
+    again = apo.release_by_knife(data, 2.0, pos, mat, half, 0.003)
+    assert len(first) > 0
+    assert len(again) == 0
+    assert set(apo.released_at_s[first]) == {1.0}  # the first release time is kept
+
+
+def test_knife_beside_the_meat_releases_nothing(scene: Scene, data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    pos, mat, _ = _blade_across_interface(scene)
+    pos = pos + [SCENARIO.tissue.length_m, 0.0, 0.0]  # past the end of the meat
+    released = apo.release_by_knife(data, 1.0, pos, mat, KnifeParams().blade_half_size_m, 0.003)
+    assert len(released) == 0
+    assert apo.bound.all()
+
+
+def _move_vertex_body(model: mujoco.MjModel, data: mujoco.MjData, body: int,
+                      offset_m: np.ndarray) -> None:
+    """Shift a flex vertex body (three slide joints) by ``offset_m`` in world axes."""
+    for j in range(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body]):
+        assert model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE
+        data.qpos[model.jnt_qposadr[j]] += float(model.jnt_axis[j] @ offset_m)
+    mujoco.mj_forward(model, data)
+
+
+def test_tearing_releases_exactly_the_stretched_binding(scene: Scene,
+                                                        data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    index = len(apo) // 2
+    body = apo.shank_bodies[index]
+    expected = np.flatnonzero(apo.shank_bodies == body)
+    start = data.xpos[body].copy()
+    _move_vertex_body(scene.model, data, body, np.array([0.0, 0.02, 0.0]))
+    np.testing.assert_allclose(data.xpos[body] - start, [0.0, 0.02, 0.0], atol=1e-9)
+
+    released = apo.release_by_tearing(data, 0.5, SCENARIO.aponeurosis.tearing_stretch_m)
+
+    np.testing.assert_array_equal(np.sort(released), expected)
+    assert apo.released_by[index] is ReleaseRule.TEARING
+    assert apo.released_at_s[index] == 0.5
+    assert data.eq_active[apo.equality_ids[index]] == 0
+    assert apo.released_counts() == {"knife": 0, "tearing": len(expected)}
+
+
+def test_tearing_spares_a_binding_stretched_less_than_the_threshold(
+    scene: Scene, data: mujoco.MjData
+) -> None:
+    apo = scene.aponeurosis
+    body = apo.shank_bodies[len(apo) // 2]
+    _move_vertex_body(scene.model, data, body, np.array([0.0, 0.005, 0.0]))
+    assert len(apo.release_by_tearing(data, 0.5, 0.01)) == 0
+    assert apo.bound.all()
+
+
+def test_forces_zero_when_released_positive_when_loaded(scene: Scene,
+                                                        data: mujoco.MjData) -> None:
+    model, apo = scene.model, scene.aponeurosis
+    released = np.arange(0, len(apo), 3)
+    apo.release(data, released, 0.0, ReleaseRule.KNIFE)
+    for _ in range(10):
+        mujoco.mj_step(model, data)
+    forces = apo.forces(data)
+    assert forces.shape == (len(apo),)
+    assert np.isfinite(forces).all()
+    np.testing.assert_array_equal(forces[released], 0.0)
+    loaded = np.delete(forces, released)
+    assert (loaded > 0).all()  # gravity and the pinned round load every bound one
+
+
+def test_records_agree_with_released_counts(scene: Scene, data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    pos, mat, _ = _blade_across_interface(scene)
+    knifed = apo.release_by_knife(data, 1.0, pos, mat, KnifeParams().blade_half_size_m, 0.003)
+    torn = apo.release(data, [0, 1], 2.0, ReleaseRule.TEARING)
+    records = apo.records()
+    counts = Counter(r.released_by.value for r in records if r.released_by is not None)
+    assert apo.released_counts() == {"knife": len(knifed), "tearing": len(torn)}
+    assert apo.released_counts() == {rule.value: counts[rule.value] for rule in ReleaseRule}
+    assert sum(r.released_at_s is not None for r in records) == (~apo.bound).sum()
+    assert [r.index for r in records] == list(range(len(apo)))
+    for r in records:
+        assert (r.round_vertex, r.shank_vertex) == tuple(apo.pairs[r.index])
+        assert (r.released_by is None) == (r.released_at_s is None)
+
+
+def test_reset_binds_everything_again(scene: Scene, data: mujoco.MjData) -> None:
+    apo = scene.aponeurosis
+    apo.release(data, np.arange(len(apo)), 1.0, ReleaseRule.TEARING)
+    assert not data.eq_active[apo.equality_ids].any()
+    apo.reset(data)
+    assert apo.bound.all()
+    assert data.eq_active[apo.equality_ids].all()
+    assert all(r.released_by is None for r in apo.records())
+
+
+def test_release_accepts_a_mask(scene: Scene, data: mujoco.MjData) -> None:
+    apo: Aponeurosis = scene.aponeurosis
+    mask = np.zeros(len(apo), dtype=bool)
+    mask[[2, 5]] = True
+    np.testing.assert_array_equal(apo.release(data, mask, 0.1, ReleaseRule.KNIFE), [2, 5])
+    assert (~apo.bound).sum() == 2
