@@ -79,7 +79,7 @@ def bench_ik(scenario: Scenario, solves: int) -> dict[str, Any]:
     position, rotation = ik.site_pose("knife/tip")
     start = time.perf_counter()
     for k in range(solves):
-        target = position + [0.0005 * k, 0.0, 0.0]
+        target = position + np.array([0.0005 * k, 0.0, 0.0])
         ik.knife.set_target(mink.SE3.from_rotation_and_translation(
             mink.SO3.from_matrix(rotation), target))
         ik.solve(dt)
@@ -94,7 +94,7 @@ def bench_ik(scenario: Scenario, solves: int) -> dict[str, Any]:
     start = time.perf_counter()
     for k in range(solves):
         task.set_target(mink.SE3.from_rotation_and_translation(
-            goal.rotation(), goal.translation() + [0.0005 * k, 0.0, 0.0]))
+            goal.rotation(), goal.translation() + np.array([0.0005 * k, 0.0, 0.0])))
         velocity = mink.solve_ik(configuration, [task], dt, "daqp", limits=limits)
         configuration.integrate_inplace(velocity, dt)
     peer = (time.perf_counter() - start) / solves * 1e3

@@ -7,6 +7,8 @@ import math
 import mujoco
 import numpy as np
 
+from cell.errors import PerceptionError
+
 
 class CameraRig:
     """Renders one MuJoCo camera offscreen (EGL or OSMesa, see ``MUJOCO_GL``).
@@ -22,7 +24,12 @@ class CameraRig:
         self.camera_id = model.camera(camera).id
         self.width_px = width_px
         self.height_px = height_px
-        self.renderer = mujoco.Renderer(model, height_px, width_px)
+        try:
+            self.renderer = mujoco.Renderer(model, height_px, width_px)
+        except Exception as exc:  # MuJoCo raises plain errors for a missing GL platform
+            raise PerceptionError(
+                f"cannot render headless ({exc}); set MUJOCO_GL=egl (or osmesa) before "
+                "mujoco is imported, or import cell first") from exc
 
     @property
     def focal_px(self) -> float:

@@ -7,7 +7,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from cell.errors import DivergenceError, MusclecellError
+from cell.errors import DivergenceError, MusclecellError, ScenarioError
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -17,6 +17,8 @@ def _run(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
+        if args.seed < 0:
+            raise ScenarioError(None, "--seed", f"must be >= 0, got {args.seed}")
         scenario = replace(scenario, seed=args.seed)
     summary = Episode(scenario).run(rerun_path=args.rerun, progress=not args.quiet)
     if args.summary:

@@ -9,6 +9,7 @@ the dotted key.
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 import types
 import typing
@@ -55,7 +56,8 @@ def _check_type(value: Any, annotation: Any, where: str, file: Path | None, erro
             return tuple(_check_type(v, args[0], where, file, error) for v in value)
         if len(value) != len(args):
             raise error(file, where, f"expected {len(args)} values, got {len(value)}")
-        return tuple(_check_type(v, a, where, file, error) for v, a in zip(value, args, strict=True))
+        pairs = zip(value, args, strict=True)
+        return tuple(_check_type(v, a, where, file, error) for v, a in pairs)
     if origin is typing.Literal:
         if value not in typing.get_args(annotation):
             choices = ", ".join(repr(a) for a in typing.get_args(annotation))
@@ -64,6 +66,8 @@ def _check_type(value: Any, annotation: Any, where: str, file: Path | None, erro
     if annotation is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise error(file, where, f"expected a number, got {type(value).__name__} {value!r}")
+        if not math.isfinite(value):
+            raise error(file, where, f"must be finite, got {value!r}")
         return float(value)
     if annotation is int:
         if isinstance(value, bool) or not isinstance(value, int):

@@ -21,10 +21,18 @@ from cell.errors import MusclecellError
 from cell.recording import EpisodeRecorder
 from cell.runtime import Simulation
 from cell.scenario import Scenario
-from cell.scene import (ARMS, CAMERA, GRASP_SITE, KNIFE_TIP, Scene, build_robot_spec,
-                        build_scene, grasp_point)
-from controllers.camera import view_pose
+from cell.scene import (
+    ARMS,
+    CAMERA,
+    GRASP_SITE,
+    KNIFE_TIP,
+    Scene,
+    build_robot_spec,
+    build_scene,
+    grasp_point,
+)
 from controllers import gripper, knife
+from controllers.camera import view_pose
 from controllers.ik import CellIK, arm_joint_names, pose
 
 #: IK iterations that bring the arms from home to their ready poses before the episode starts.
@@ -159,7 +167,7 @@ class Episode:
                     data.ctrl[self.actuators] = ctrl_prev + (ctrl_next - ctrl_prev) * (
                         i / self.substeps)
                     mujoco.mj_step(model, data)
-                sim.check_divergence()
+                sim.check_divergence(t_next)
                 ctrl_prev = ctrl_next
                 t = sim.time_s
                 if not knife_tared and t >= cut_start - 0.1:

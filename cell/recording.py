@@ -29,7 +29,7 @@ def _xyzw(wxyz: np.ndarray) -> np.ndarray:
 
 
 def _rgba8(rgba: np.ndarray) -> list[int]:
-    return [int(round(255 * c)) for c in np.clip(rgba, 0, 1)]
+    return [round(255 * float(c)) for c in np.clip(rgba, 0, 1)]
 
 
 def _entity(body_name: str) -> str:

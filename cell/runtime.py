@@ -61,20 +61,26 @@ class Simulation:
         return slice(start, start + int(sensor.dim[0]))
 
     def step(self, count: int = 1) -> None:
-        """Advance ``count`` physics steps, then check for divergence."""
+        """Advance ``count`` physics steps, checking each for divergence."""
         for _ in range(count):
+            before = self.time_s
             mujoco.mj_step(self.model, self.data)
-        self.check_divergence()
+            self.check_divergence(before + self.model.opt.timestep)
 
-    def check_divergence(self) -> None:
-        """Raise :class:`DivergenceError` on NaN, a fatal MuJoCo warning or runaway tissue."""
+    def check_divergence(self, time_s: float | None = None) -> None:
+        """Raise :class:`DivergenceError` on NaN, a fatal MuJoCo warning or runaway tissue.
+
+        ``time_s`` is the time the step should have reached: after a fatal warning MuJoCo
+        resets the state, time included, so ``data.time`` no longer tells.
+        """
         data = self.data
         counts = np.array([data.warning[w].number for w in _FATAL_WARNINGS])
         fired = counts > self._warnings
         if fired.any():
             names = [w.name for w, f in zip(_FATAL_WARNINGS, fired, strict=True) if f]
             self._warnings = counts
-            raise DivergenceError(self.time_s, f"MuJoCo warning {', '.join(names)}")
+            when = self.time_s if time_s is None else time_s
+            raise DivergenceError(when, f"MuJoCo warning {', '.join(names)}")
         if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
             raise DivergenceError(self.time_s, "non-finite position or velocity")
         speed = np.abs(data.qvel[self._tissue_dofs]).max(initial=0.0)

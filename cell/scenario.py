@@ -5,7 +5,7 @@ Every table maps onto a parameter dataclass; a wrong key, type or value raises
 
 Example:
     >>> scenario = load_scenario("scenarios/default.toml")
-    >>> scenario.knife.speed_m_s
+    >>> scenario.cut.speed_m_s
     0.03
 """
 
@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Literal
 
+from cell.aponeurosis import ReleaseRule
 from cell.config import from_table, read_toml
 from cell.errors import InputError, ScenarioError
 from cell.geometry import MuscleShape
@@ -27,6 +28,13 @@ def _positive(owner: object, *names: str) -> None:
         value = getattr(owner, name)
         if not value > 0:
             raise InputError(None, name, f"must be > 0, got {value}")
+
+
+def _non_negative(owner: object, *names: str) -> None:
+    for name in names:
+        value = getattr(owner, name)
+        if not value >= 0:
+            raise InputError(None, name, f"must be >= 0, got {value}")
 
 
 @dataclass(frozen=True)
@@ -64,7 +72,7 @@ class AponeurosisParams:
     knife_margin_m: float = 0.003
 
     def __post_init__(self) -> None:
-        known = {"knife", "tearing"}
+        known = sorted(rule.value for rule in ReleaseRule)
         for rule in self.release_rules:
             if rule not in known:
                 raise InputError(None, "release_rules", f"unknown rule {rule!r}; known: {known}")
@@ -94,6 +102,7 @@ class CutPlan:
     def __post_init__(self) -> None:
         _positive(self, "speed_m_s", "depth_m", "approach_height_m", "cut_fraction",
                   "table_clearance_m")
+        _non_negative(self, "lead_in_m", "lead_out_m", "start_s")
         if self.cut_fraction > 1:
             raise InputError(None, "cut_fraction", f"must be <= 1, got {self.cut_fraction}")
 
@@ -124,6 +133,7 @@ class PullPlan:
 
     def __post_init__(self) -> None:
         _positive(self, "speed_m_s", "distance_m", "grasp_radius_m", "grasp_depth_m")
+        _non_negative(self, "start_delay_s", "grasp_inset_m")
         if not 0 <= self.grasp_x_fraction <= 1:
             raise InputError(None, "grasp_x_fraction", "must be in [0, 1]")
         if sum(c * c for c in self.direction) == 0:
@@ -156,8 +166,7 @@ class SensorParams:
     torque_noise_nm: float = 0.005
 
     def __post_init__(self) -> None:
-        if self.force_noise_n < 0 or self.torque_noise_nm < 0:
-            raise InputError(None, "force_noise_n", "noise must be >= 0")
+        _non_negative(self, "force_noise_n", "torque_noise_nm")
 
 
 @dataclass(frozen=True)
@@ -207,6 +216,7 @@ class _Head:
 
     def __post_init__(self) -> None:
         _positive(self, "settle_s")
+        _non_negative(self, "seed")
         if self.end_s is not None:
             _positive(self, "end_s")
 

@@ -72,13 +72,13 @@ def test_segment_across_a_thin_blade_box() -> None:
 def test_segments_cross_box_agrees_with_dense_sampling() -> None:
     rng = np.random.default_rng(3)
     half = np.array([0.5, 0.2, 1.0])
-    start = rng.uniform(-2.0, 2.0, (2000, 3))
-    end = rng.uniform(-2.0, 2.0, (2000, 3))
+    start = rng.uniform(-2.0, 2.0, (1000, 3))
+    end = rng.uniform(-2.0, 2.0, (1000, 3))
     result = segments_cross_box(start, end, half)
-    t = np.linspace(0.0, 1.0, 2001)[None, :, None]
+    t = np.linspace(0.0, 1.0, 1001)[None, :, None]
     samples = start[:, None, :] + t * (end - start)[:, None, :]
     outside = (np.abs(samples) - half).max(axis=2).min(axis=1)  # <= 0: a sample is inside
-    step = np.linalg.norm(end - start, axis=1) / 2000
+    step = np.linalg.norm(end - start, axis=1) / 1000
     assert result[outside <= 0].all()
     assert not result[outside > step].any()
     assert 0.1 < result.mean() < 0.9  # both outcomes are exercised
@@ -180,17 +180,36 @@ def test_knife_releases_a_binding_once(scene: Scene, data: mujoco.MjData) -> Non
     assert set(apo.released_at_s[first]) == {1.0}  # the first release time is kept
 
 
+@pytest.mark.parametrize(("margin_m", "releases"), [(0.003, True), (0.0, False)])
+def test_knife_margin_reaches_beyond_the_blade_edge(
+    scene: Scene, data: mujoco.MjData, margin_m: float, releases: bool
+) -> None:
+    apo = scene.aponeurosis
+    half = KnifeParams().blade_half_size_m
+    pos, mat, column_x = _blade_across_interface(scene)
+    # The column lies 1.5 mm beyond the blade's edge: within a 3 mm margin, outside none.
+    pos = pos + np.array([half[0] + 0.0015, 0.0, 0.0])
+    released = apo.release_by_knife(data, 1.0, pos, mat, half, margin_m)
+    a, b = apo.endpoints(data)
+    column = np.flatnonzero(np.isclose((a[:, 0] + b[:, 0]) / 2, column_x))
+    if releases:
+        np.testing.assert_array_equal(np.sort(released), column)
+    else:
+        assert len(released) == 0
+
+
 def test_knife_beside_the_meat_releases_nothing(scene: Scene, data: mujoco.MjData) -> None:
     apo = scene.aponeurosis
     pos, mat, _ = _blade_across_interface(scene)
-    pos = pos + [SCENARIO.tissue.length_m, 0.0, 0.0]  # past the end of the meat
+    pos = pos + np.array([SCENARIO.tissue.length_m, 0.0, 0.0])  # past the end of the meat
     released = apo.release_by_knife(data, 1.0, pos, mat, KnifeParams().blade_half_size_m, 0.003)
     assert len(released) == 0
     assert apo.bound.all()
 
 
-def _move_vertex_body(model: mujoco.MjModel, data: mujoco.MjData, body: int,
-                      offset_m: np.ndarray) -> None:
+def _move_vertex_body(
+    model: mujoco.MjModel, data: mujoco.MjData, body: int, offset_m: np.ndarray
+) -> None:
     """Shift a flex vertex body (three slide joints) by ``offset_m`` in world axes."""
     for j in range(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body]):
         assert model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE
@@ -198,8 +217,7 @@ def _move_vertex_body(model: mujoco.MjModel, data: mujoco.MjData, body: int,
     mujoco.mj_forward(model, data)
 
 
-def test_tearing_releases_exactly_the_stretched_binding(scene: Scene,
-                                                        data: mujoco.MjData) -> None:
+def test_tearing_releases_exactly_the_stretched_binding(scene: Scene, data: mujoco.MjData) -> None:
     apo = scene.aponeurosis
     index = len(apo) // 2
     body = apo.shank_bodies[index]
@@ -227,8 +245,7 @@ def test_tearing_spares_a_binding_stretched_less_than_the_threshold(
     assert apo.bound.all()
 
 
-def test_forces_zero_when_released_positive_when_loaded(scene: Scene,
-                                                        data: mujoco.MjData) -> None:
+def test_forces_zero_when_released_positive_when_loaded(scene: Scene, data: mujoco.MjData) -> None:
     model, apo = scene.model, scene.aponeurosis
     released = np.arange(0, len(apo), 3)
     apo.release(data, released, 0.0, ReleaseRule.KNIFE)

@@ -15,31 +15,50 @@ DEFAULT = Path(__file__).resolve().parents[1] / "scenarios" / "default.toml"
 
 #: A file text and the dotted key its error must name.
 BAD_SCENARIOS = [
-    pytest.param("[cut]\nspeed_m_s = 0.03\nsped_m_s = 0.03\n", "cut.sped_m_s",
-                 id="unknown-key-in-known-table"),
+    pytest.param(
+        "[cut]\nspeed_m_s = 0.03\nsped_m_s = 0.03\n",
+        "cut.sped_m_s",
+        id="unknown-key-in-known-table",
+    ),
     pytest.param("[cutting]\nspeed_m_s = 0.03\n", "cutting", id="unknown-table"),
     pytest.param('[cut]\nspeed_m_s = "fast"\n', "cut.speed_m_s", id="string-for-number"),
     pytest.param("[tissue]\nlength_m = true\n", "tissue.length_m", id="bool-for-number"),
-    pytest.param("[simulation]\nsolver_iterations = 1.5\n", "simulation.solver_iterations",
-                 id="float-for-integer"),
-    pytest.param('[aponeurosis]\nrelease_rules = "knife"\n', "aponeurosis.release_rules",
-                 id="string-for-list"),
+    pytest.param(
+        "[simulation]\nsolver_iterations = 1.5\n",
+        "simulation.solver_iterations",
+        id="float-for-integer",
+    ),
+    pytest.param(
+        '[aponeurosis]\nrelease_rules = "knife"\n',
+        "aponeurosis.release_rules",
+        id="string-for-list",
+    ),
     pytest.param("[pull]\ndirection = [0.0, 1.0]\n", "pull.direction", id="short-vector"),
     pytest.param("[cut]\nspeed_m_s = -0.03\n", "cut.speed_m_s", id="negative-speed"),
-    pytest.param('[aponeurosis]\nrelease_rules = ["knife", "laser"]\n',
-                 "aponeurosis.release_rules", id="unknown-release-rule"),
+    pytest.param(
+        '[aponeurosis]\nrelease_rules = ["knife", "laser"]\n',
+        "aponeurosis.release_rules",
+        id="unknown-release-rule",
+    ),
     pytest.param("[cut]\ncut_fraction = 1.5\n", "cut.cut_fraction", id="cut-fraction-above-one"),
     pytest.param("[cut]\nspeed_m_s = nan\n", "cut.speed_m_s", id="nan-speed"),
-    pytest.param("[tissue]\nvalley_depth_m = 0.5\n", "tissue.valley_depth_m",
-                 id="tissue-cross-field-check"),
-    pytest.param("[material]\npoisson = 0.5\n", "material.poisson",
-                 id="material-error-becomes-scenario-error"),
-    pytest.param('[scenario]\nnmae = "typo"\n', "scenario.nmae",
-                 id="unknown-key-in-scenario-table"),
-    pytest.param('[scenario]\nend_s = "soon"\n', "scenario.end_s",
-                 id="wrong-type-in-scenario-table"),
-    pytest.param("[scenario]\nsettle_s = 0.0\n", "scenario.settle_s",
-                 id="bad-value-in-scenario-table"),
+    pytest.param(
+        "[tissue]\nvalley_depth_m = 0.5\n", "tissue.valley_depth_m", id="tissue-cross-field-check"
+    ),
+    pytest.param(
+        "[material]\npoisson = 0.5\n",
+        "material.poisson",
+        id="material-error-becomes-scenario-error",
+    ),
+    pytest.param(
+        '[scenario]\nnmae = "typo"\n', "scenario.nmae", id="unknown-key-in-scenario-table"
+    ),
+    pytest.param(
+        '[scenario]\nend_s = "soon"\n', "scenario.end_s", id="wrong-type-in-scenario-table"
+    ),
+    pytest.param(
+        "[scenario]\nsettle_s = 0.0\n", "scenario.settle_s", id="bad-value-in-scenario-table"
+    ),
     pytest.param("cut = 3\n", "cut", id="table-given-as-value"),
 ]
 
@@ -87,8 +106,7 @@ def test_scenario_table_sets_name_seed_and_end(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("text", "key"), BAD_SCENARIOS)
-def test_bad_scenario_error_names_file_and_dotted_key(tmp_path: Path, text: str,
-                                                      key: str) -> None:
+def test_bad_scenario_error_names_file_and_dotted_key(tmp_path: Path, text: str, key: str) -> None:
     path = _write(tmp_path, text)
     with pytest.raises(ScenarioError) as caught:
         load_scenario(path)
