@@ -1,14 +1,41 @@
-"""Tissue materials: parameters of the muscles' constitutive model, in SI units.
+"""Tissue materials: parameters of the muscles' constitutive models, in SI units.
 
-The continuum material drives MuJoCo's own flex elasticity (linear or Saint Venant-Kirchhoff
-stretching of the tetrahedra, with optional von Mises plasticity).
+Two models:
+
+- :class:`ContinuumMaterial` drives MuJoCo's own flex elasticity (isotropic linear or Saint
+  Venant-Kirchhoff stretching of the tetrahedra, with optional von Mises plasticity).
+- :class:`MassSpringMaterial` drives the paper's anisotropic non-linear mass-spring model
+  (:mod:`cell.massspring`): a modulus along the fibres and one across them, each a polynomial
+  of the stretch r (current over rest length of a spring).
+
+The paper's values (Nabil et al. 2015): E = 0.03 MPa isotropic with D = 0.1 N s/m per spring and
+rho = 1500 kg/m^3 for the round of beef (Fig. 8); El = 0.25 MPa along the fibres and
+Et = Er = 0.6 MPa across them for the transversely isotropic test cuboid (Fig. 10); Et = Er =
+0.003 MPa for the bending cylinder (Fig. 11). The defaults here keep the Fig. 8 modulus (stable
+at a 2 ms step) and a beef density of 1060 kg/m^3.
+
+A material file is TOML with ``model = "continuum"`` or ``model = "mass_spring"`` and the keys of
+the matching dataclass; see :func:`load_material`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
+import numpy as np
+from numpy.polynomial import polynomial as P
+
+from cell.config import from_table, read_toml
 from cell.errors import MaterialError
+
+_DEGREE = 5
+# The positivity check evaluates the modulus here and at its critical points in the range.
+_POSITIVITY_SAMPLES = 2049
+_DEFAULT_R_MIN = 0.5
+_DEFAULT_R_MAX = 1.5
 
 
 @dataclass(frozen=True)
@@ -43,3 +70,314 @@ class ContinuumMaterial:
             raise MaterialError(None, "damping_s", f"must be >= 0, got {self.damping_s}")
         if not self.yield_strain >= 0:
             raise MaterialError(None, "yield_strain", f"must be >= 0, got {self.yield_strain}")
+
+
+@dataclass(frozen=True)
+class ModulusCurve:
+    """Tangent modulus as a 5th-degree polynomial of the stretch r, clamped outside its range.
+
+    The modulus is ``E(r) = sum_k coefficients[k] * (r - 1)**k`` Pa inside ``[r_min, r_max]`` and
+    its value at the nearer bound outside. The nominal stress is its integral from the rest
+    state, ``sigma(r) = int_1^r E`` Pa, so the curve of a measured stress-stretch test is
+    recovered by :meth:`fit` and reproduced by :meth:`stress_pa`.
+
+    Attributes:
+        coefficients: six polynomial coefficients in Pa; ``coefficients[0]`` is the small-strain
+            modulus.
+        r_min: lowest stretch of the fitted range, in (0, 1].
+        r_max: highest stretch of the fitted range, >= 1.
+
+    Raises:
+        MaterialError: ``coefficients`` (not six finite numbers, or the modulus is not > 0
+            everywhere in the range), ``r_min`` or ``r_max`` (range not around 1).
+
+    Example:
+        >>> curve = ModulusCurve((3e4, 1e5, 0, 0, 0, 0), r_min=0.8, r_max=1.3)
+        >>> round(float(curve.modulus_pa(1.1)), 6), float(curve.modulus_pa(2.0))
+        (40000.0, 60000.0)
+        >>> round(float(curve.stress_pa(1.1)), 6)
+        3500.0
+    """
+
+    coefficients: tuple[float, float, float, float, float, float]
+    r_min: float = _DEFAULT_R_MIN
+    r_max: float = _DEFAULT_R_MAX
+
+    def __post_init__(self) -> None:
+        coefficients = np.asarray(self.coefficients, dtype=float)
+        if coefficients.shape != (_DEGREE + 1,) or not np.isfinite(coefficients).all():
+            raise MaterialError(
+                None, "coefficients", f"must be six finite numbers, got {self.coefficients!r}"
+            )
+        object.__setattr__(self, "coefficients", tuple(coefficients.tolist()))
+        if not (0.0 < self.r_min <= 1.0):
+            raise MaterialError(None, "r_min", f"must be in (0, 1], got {self.r_min}")
+        if not (1.0 <= self.r_max < math.inf and self.r_max > self.r_min):
+            raise MaterialError(None, "r_max", f"must be >= 1 and > r_min, got {self.r_max}")
+        lowest, where = self._minimum()
+        if not lowest > 0.0:
+            raise MaterialError(
+                None,
+                "coefficients",
+                f"modulus must be > 0 over [{self.r_min}, {self.r_max}], "
+                f"got {lowest:.4g} Pa at r = {where:.4g}",
+            )
+
+    def _candidates(self, samples: int) -> np.ndarray:
+        """``samples`` points spanning the range and the modulus's critical points in it, in
+        x = r - 1: the modulus's extremes over the range are among them."""
+        lo, hi = self.r_min - 1.0, self.r_max - 1.0
+        critical = P.polyroots(P.polyder(self.coefficients)) if any(self.coefficients[1:]) else []
+        # The real part of a nearly real pair (a nearly double root) still finds the extreme.
+        return np.concatenate([np.linspace(lo, hi, samples), np.clip(np.real(critical), lo, hi)])
+
+    def _minimum(self) -> tuple[float, float]:
+        """Lowest modulus in the range (Pa) and the stretch where it is."""
+        x = self._candidates(_POSITIVITY_SAMPLES)
+        values = P.polyval(x, self.coefficients)
+        i = int(np.argmin(values))
+        return float(values[i]), float(x[i] + 1.0)
+
+    @classmethod
+    def constant(
+        cls, modulus_pa: float, r_min: float = _DEFAULT_R_MIN, r_max: float = _DEFAULT_R_MAX
+    ) -> ModulusCurve:
+        """A linear material: the same modulus (Pa) at every stretch.
+
+        Example:
+            >>> ModulusCurve.constant(3e4).coefficients
+            (30000.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        """
+        return cls((modulus_pa, 0.0, 0.0, 0.0, 0.0, 0.0), r_min, r_max)
+
+    @classmethod
+    def fit(cls, stretch: np.ndarray, stress_pa: np.ndarray) -> ModulusCurve:
+        """Least-squares fit to a measured nominal stress-stretch curve.
+
+        The stress is fitted as the integral of the modulus polynomial, which makes it zero at
+        r = 1 (the model is unloaded at rest) and avoids differentiating noisy data. The range
+        is the measured one, widened to contain r = 1.
+
+        Args:
+            stretch: (n,) stretches (current over initial length), n >= 6, at least six distinct.
+            stress_pa: (n,) nominal stresses (force over initial area), Pa.
+
+        Raises:
+            MaterialError: ``stretch`` or ``stress_pa`` unusable, or ``coefficients`` when the
+                fitted modulus is not positive over the range.
+
+        Example:
+            >>> r = np.linspace(0.8, 1.3, 30)
+            >>> curve = ModulusCurve.fit(r, 3e4 * (r - 1) + 5e4 * (r - 1) ** 2)
+            >>> [round(c) for c in curve.coefficients[:3]]
+            [30000, 100000, 0]
+        """
+        r = np.asarray(stretch, dtype=float).ravel()
+        sigma = np.asarray(stress_pa, dtype=float).ravel()
+        if r.shape != sigma.shape:
+            raise MaterialError(
+                None, "stress_pa", f"has {sigma.size} values for {r.size} stretches"
+            )
+        if not (np.isfinite(r).all() and (r > 0).all()):
+            raise MaterialError(None, "stretch", "must be finite and > 0")
+        if not np.isfinite(sigma).all():
+            raise MaterialError(None, "stress_pa", "must be finite")
+        if np.unique(r).size < _DEGREE + 1:
+            raise MaterialError(
+                None, "stretch", f"needs at least {_DEGREE + 1} distinct values, got {r.size}"
+            )
+        x = r - 1.0
+        # Scaling x to [-1, 1] keeps the Vandermonde columns of similar size.
+        scale = float(np.abs(x).max())
+        k = np.arange(_DEGREE + 1)
+        design = P.polyvander(x / scale, _DEGREE + 1)[:, 1:] / (k + 1)
+        scaled, *_ = np.linalg.lstsq(design, sigma / scale, rcond=None)
+        coefficients = scaled / scale**k
+        return cls(tuple(coefficients.tolist()), min(float(r.min()), 1.0), max(float(r.max()), 1.0))
+
+    @property
+    def small_strain_modulus_pa(self) -> float:
+        """Modulus at rest, Pa."""
+        return self.coefficients[0]
+
+    def modulus_pa(self, r: np.ndarray | float) -> np.ndarray:
+        """Tangent modulus d sigma / d r at stretch ``r``, Pa (clamped outside the range)."""
+        x = np.clip(np.asarray(r, dtype=float), self.r_min, self.r_max) - 1.0
+        return P.polyval(x, self.coefficients)
+
+    def stress_pa(self, r: np.ndarray | float) -> np.ndarray:
+        """Nominal stress at stretch ``r``, Pa: the modulus integrated from r = 1."""
+        r = np.asarray(r, dtype=float)
+        inside = np.clip(r, self.r_min, self.r_max)
+        return P.polyval(inside - 1.0, self.stress_coefficients()) + self.modulus_pa(r) * (
+            r - inside
+        )
+
+    def stress_coefficients(self) -> np.ndarray:
+        """(7,) polynomial coefficients of the stress in (r - 1) inside the range, Pa."""
+        return np.concatenate([[0.0], np.asarray(self.coefficients) / np.arange(1, _DEGREE + 2)])
+
+    def max_modulus_pa(self) -> float:
+        """Largest modulus at any stretch, Pa (it is reached inside the range)."""
+        return float(P.polyval(self._candidates(2), self.coefficients).max())
+
+
+def _meat_modulus() -> ModulusCurve:
+    return ModulusCurve.constant(3.0e4)
+
+
+@dataclass(frozen=True)
+class MassSpringMaterial:
+    """Transversely isotropic, non-linear material of the paper's mass-spring model.
+
+    Attributes:
+        longitudinal: modulus El along the fibres, Pa, as a function of the spring stretch.
+        transverse: modulus Et = Er across the fibres, Pa.
+        density_kg_m3: mass density, kg/m^3.
+        damping_s: stiffness-proportional damping time, s: each spring's dashpot is this times
+            its current stiffness (a Kelvin-Voigt viscosity of about ``damping_s * E`` Pa s).
+            The paper's D = 0.1 N s/m per spring is the same damping for one mesh and one
+            modulus only (about 2e-4 s on the default 1235-node muscles at 30 kPa); scaling with
+            the stiffness keeps it independent of the mesh size and keeps every mode's damping
+            ratio as the non-linear modulus grows.
+        fibre_direction: unit vector along the fibres in the world frame (normalised on
+            construction); the muscles' length runs along x.
+
+    Raises:
+        MaterialError: ``density_kg_m3`` or ``damping_s`` out of range, ``fibre_direction``
+            zero or not finite; curve errors name the curve's own fields.
+
+    Example:
+        >>> paper = MassSpringMaterial.transversely_isotropic(0.25e6, 0.6e6)
+        >>> paper.transverse.small_strain_modulus_pa
+        600000.0
+        >>> MassSpringMaterial(fibre_direction=(0.0, 0.0, 2.0)).fibre_direction
+        (0.0, 0.0, 1.0)
+    """
+
+    longitudinal: ModulusCurve = field(default_factory=_meat_modulus)
+    transverse: ModulusCurve = field(default_factory=_meat_modulus)
+    density_kg_m3: float = 1060.0
+    damping_s: float = 2.0e-4
+    fibre_direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if not self.density_kg_m3 > 0:
+            raise MaterialError(None, "density_kg_m3", f"must be > 0, got {self.density_kg_m3}")
+        if not self.damping_s >= 0:
+            raise MaterialError(None, "damping_s", f"must be >= 0, got {self.damping_s}")
+        fibre = np.asarray(self.fibre_direction, dtype=float)
+        norm = float(np.linalg.norm(fibre)) if fibre.shape == (3,) else math.nan
+        if not (math.isfinite(norm) and norm > 1e-12):
+            raise MaterialError(
+                None,
+                "fibre_direction",
+                f"must be a finite non-zero 3-vector, got {self.fibre_direction!r}",
+            )
+        object.__setattr__(self, "fibre_direction", tuple((fibre / norm).tolist()))
+
+    @classmethod
+    def isotropic(cls, young_pa: float, **fields: Any) -> MassSpringMaterial:
+        """Linear isotropic springs: El = Et = ``young_pa`` (Pa); other fields as keywords.
+
+        Example:
+            >>> MassSpringMaterial.isotropic(3e4, damping_s=0.0).damping_s
+            0.0
+        """
+        curve = ModulusCurve.constant(young_pa)
+        return cls(longitudinal=curve, transverse=curve, **fields)
+
+    @classmethod
+    def transversely_isotropic(
+        cls, el_pa: float, et_pa: float, **fields: Any
+    ) -> MassSpringMaterial:
+        """Linear springs with El = ``el_pa`` along the fibres and Et = Er = ``et_pa`` across.
+
+        Example:
+            >>> MassSpringMaterial.transversely_isotropic(2.5e5, 6e5).longitudinal.coefficients[0]
+            250000.0
+        """
+        return cls(
+            longitudinal=ModulusCurve.constant(el_pa),
+            transverse=ModulusCurve.constant(et_pa),
+            **fields,
+        )
+
+
+@dataclass(frozen=True)
+class _CurveTable:
+    """A modulus curve as written in a material file: a constant or polynomial coefficients."""
+
+    modulus_pa: float | None = None
+    coefficients: tuple[float, float, float, float, float, float] | None = None
+    r_min: float = _DEFAULT_R_MIN
+    r_max: float = _DEFAULT_R_MAX
+
+    def __post_init__(self) -> None:
+        if (self.modulus_pa is None) == (self.coefficients is None):
+            raise MaterialError(
+                None, "modulus_pa", "give either modulus_pa = <Pa> or coefficients = [6 values]"
+            )
+        if self.modulus_pa is not None and not self.modulus_pa > 0:
+            raise MaterialError(None, "modulus_pa", f"must be > 0, got {self.modulus_pa}")
+        # Built here so that from_table names the file and key of a bad polynomial.
+        self.curve()
+
+    def curve(self) -> ModulusCurve:
+        if self.coefficients is None:
+            return ModulusCurve.constant(float(self.modulus_pa), self.r_min, self.r_max)
+        return ModulusCurve(self.coefficients, self.r_min, self.r_max)
+
+
+_CURVES = ("longitudinal", "transverse")
+
+
+def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
+    """Read a material TOML file.
+
+    The file names its ``model`` and gives the fields of :class:`ContinuumMaterial` or
+    :class:`MassSpringMaterial`; missing fields take the defaults, except that a mass-spring
+    file must give both curves, each as a table with ``modulus_pa`` (a constant) or
+    ``coefficients`` (six, Pa) and optionally ``r_min`` and ``r_max``::
+
+        model = "mass_spring"
+        damping_s = 2e-4
+        fibre_direction = [1.0, 0.0, 0.0]
+        [longitudinal]
+        coefficients = [2.5e5, 1e6, 0, 0, 0, 0]
+        r_min = 0.8
+        r_max = 1.3
+        [transverse]
+        modulus_pa = 6e5
+
+    Raises:
+        MaterialError: naming the file and the dotted key at fault (unknown key, wrong type,
+            missing or non-positive modulus, modulus not positive over its range, zero fibre).
+
+    Example:
+        >>> load_material("beef.toml").transverse.small_strain_modulus_pa  # doctest: +SKIP
+        600000.0
+    """
+    path = Path(path)
+    raw = read_toml(path, MaterialError)
+    model = raw.pop("model", None)
+    if model == "continuum":
+        return from_table(ContinuumMaterial, raw, file=path, error=MaterialError)
+    if model != "mass_spring":
+        raise MaterialError(path, "model", f"must be 'continuum' or 'mass_spring', got {model!r}")
+    for key in _CURVES:
+        if key not in raw:
+            raise MaterialError(
+                path, key, "missing table: give modulus_pa = <Pa> or coefficients = [6 values]"
+            )
+        if not isinstance(raw[key], dict):
+            raise MaterialError(path, key, f"expected a table, got {type(raw[key]).__name__}")
+        curve = from_table(
+            _CurveTable, raw[key], file=path, section=key, error=MaterialError
+        ).curve()
+        raw[key] = {
+            "coefficients": list(curve.coefficients),
+            "r_min": curve.r_min,
+            "r_max": curve.r_max,
+        }
+    return from_table(MassSpringMaterial, raw, file=path, error=MaterialError)
