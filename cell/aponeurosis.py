@@ -1,8 +1,11 @@
-"""The aponeurosis: one ``connect`` equality per facing vertex pair, and the rules that release it.
+"""The aponeurosis: one binding per facing vertex pair, and the rules that release it.
 
-A binding is released by the knife (its segment crosses the blade box), by tearing (stretched
-past a length threshold), or by any other rule the runtime applies; every release is recorded
-with its time and rule.
+A binding is either a spring of the paper's law (stiffness in N/m and a dashpot, applied as
+forces on the two vertices) or a soft MuJoCo ``connect`` equality (its stiffness then scales
+with the vertex masses, so it has no law in N/m). It is released by the knife (its segment
+crosses the blade box), by tearing (stretched past a length, or loaded past a pull-off force),
+or by force (in contact with the knife and loaded past the measured cutting force, paper
+Sec. 4.3); every release is recorded with its time and rule.
 """
 
 from __future__ import annotations
@@ -19,6 +22,14 @@ class ReleaseRule(StrEnum):
 
     KNIFE = "knife"
     TEARING = "tearing"
+    FORCE = "force"
+
+
+class BindingLaw(StrEnum):
+    """How a binding pulls its two vertices together."""
+
+    SPRING = "spring"
+    CONSTRAINT = "constraint"
 
 
 @dataclass(frozen=True)
@@ -38,9 +49,11 @@ class Aponeurosis:
 
     Args:
         model: the compiled scene.
-        equality_ids: (P,) ids of the binding ``connect`` equalities.
-        round_bodies, shank_bodies: (P,) body ids of the two vertices of each binding.
+        round_bodies, shank_bodies: (P,) body ids of the two vertices of each binding; each
+            has three world-aligned slide joints (flex vertex bodies).
         pairs: (P, 2) vertex indices (round, shank) in the muscle meshes.
+        law: spring (``stiffness_n_m``, ``damping_n_s_m``) or constraint.
+        equality_ids: (P,) ids of the binding ``connect`` equalities (constraint law only).
 
     Example:
         >>> apo = scene.aponeurosis
@@ -50,23 +63,33 @@ class Aponeurosis:
     def __init__(
         self,
         model: mujoco.MjModel,
-        equality_ids: np.ndarray,
         round_bodies: np.ndarray,
         shank_bodies: np.ndarray,
         pairs: np.ndarray,
+        law: BindingLaw = BindingLaw.SPRING,
+        stiffness_n_m: float = 50.0,
+        damping_n_s_m: float = 0.0,
+        equality_ids: np.ndarray | None = None,
     ) -> None:
-        self.equality_ids = np.asarray(equality_ids, dtype=int)
+        self.law = BindingLaw(law)
+        if self.law is BindingLaw.CONSTRAINT and equality_ids is None:
+            raise ValueError("the constraint law needs the bindings' equality ids")
+        self.equality_ids = np.asarray([] if equality_ids is None else equality_ids, dtype=int)
         self.round_bodies = np.asarray(round_bodies, dtype=int)
         self.shank_bodies = np.asarray(shank_bodies, dtype=int)
+        self.round_dofs = model.body_dofadr[self.round_bodies][:, None] + np.arange(3)
+        self.shank_dofs = model.body_dofadr[self.shank_bodies][:, None] + np.arange(3)
         self.pairs = np.asarray(pairs, dtype=int)
+        self.stiffness_n_m = stiffness_n_m
+        self.damping_n_s_m = damping_n_s_m
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
         self.rest_length_m = self.lengths(data)
-        self.released_at_s = np.full(len(self.equality_ids), np.nan)
-        self.released_by: list[ReleaseRule | None] = [None] * len(self.equality_ids)
+        self.released_at_s = np.full(len(self.pairs), np.nan)
+        self.released_by: list[ReleaseRule | None] = [None] * len(self.pairs)
 
     def __len__(self) -> int:
-        return len(self.equality_ids)
+        return len(self.pairs)
 
     def reset(self, data: mujoco.MjData) -> None:
         """Bind every pair again (state and record)."""
@@ -88,9 +111,30 @@ class Aponeurosis:
         a, b = self.endpoints(data)
         return np.linalg.norm(b - a, axis=1)
 
+    def _spring_forces(self, data: mujoco.MjData) -> np.ndarray:
+        """(P, 3) force of every binding spring on its shank vertex, N (zero once released)."""
+        a, b = self.endpoints(data)
+        delta = b - a
+        length = np.linalg.norm(delta, axis=1)
+        unit = delta / np.maximum(length, 1e-12)[:, None]
+        rate = np.einsum("ij,ij->i", data.qvel[self.shank_dofs] - data.qvel[self.round_dofs],
+                         unit)
+        magnitude = (self.stiffness_n_m * (length - self.rest_length_m)
+                     + self.damping_n_s_m * rate) * self.bound
+        return -magnitude[:, None] * unit
+
+    def apply_forces(self, data: mujoco.MjData) -> None:
+        """Add the spring law's forces to ``data.qfrc_applied`` (nothing for constraints)."""
+        if self.law is BindingLaw.SPRING:
+            force = self._spring_forces(data)
+            np.add.at(data.qfrc_applied, self.shank_dofs, force)
+            np.add.at(data.qfrc_applied, self.round_dofs, -force)
+
     def forces(self, data: mujoco.MjData) -> np.ndarray:
-        """(P,) force carried by every binding, N (0 once released): the norm of its
-        three constraint rows."""
+        """(P,) force carried by every binding, N (0 once released): the spring's force, or
+        the norm of the connect constraint's three rows."""
+        if self.law is BindingLaw.SPRING:
+            return np.linalg.norm(self._spring_forces(data), axis=1)
         rows = data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
         squared = np.zeros(data.eq_active.shape[0])
         np.add.at(squared, data.efc_id[: data.nefc][rows], data.efc_force[: data.nefc][rows] ** 2)
@@ -103,16 +147,16 @@ class Aponeurosis:
         mask = np.zeros(len(self), dtype=bool)
         mask[which] = True
         newly = np.flatnonzero(mask & self.bound)
-        data.eq_active[self.equality_ids[newly]] = 0
+        if self.law is BindingLaw.CONSTRAINT:
+            data.eq_active[self.equality_ids[newly]] = 0
         self.released_at_s[newly] = time_s
         for i in newly:
             self.released_by[i] = rule
         return newly
 
-    def release_by_knife(self, data: mujoco.MjData, time_s: float, blade_pos: np.ndarray,
-                         blade_mat: np.ndarray, blade_half_size_m: np.ndarray,
-                         margin_m: float) -> np.ndarray:
-        """Release the bindings whose segment crosses the blade box grown by ``margin_m``.
+    def under_blade(self, data: mujoco.MjData, blade_pos: np.ndarray, blade_mat: np.ndarray,
+                    blade_half_size_m: np.ndarray, margin_m: float) -> np.ndarray:
+        """(P,) bool: bindings whose segment crosses the blade box grown by ``margin_m``.
 
         A segment test (not a plane-crossing test) also catches bindings the blade pushed to
         one side before it reached them.
@@ -120,14 +164,28 @@ class Aponeurosis:
         a, b = self.endpoints(data)
         rot = np.asarray(blade_mat).reshape(3, 3)
         half = np.asarray(blade_half_size_m) + margin_m
-        crossing = segments_cross_box((a - blade_pos) @ rot, (b - blade_pos) @ rot, half)
-        return self.release(data, crossing, time_s, ReleaseRule.KNIFE)
+        return segments_cross_box((a - blade_pos) @ rot, (b - blade_pos) @ rot, half)
 
-    def release_by_tearing(self, data: mujoco.MjData, time_s: float,
-                           stretch_m: float) -> np.ndarray:
-        """Release the bindings stretched more than ``stretch_m`` beyond their rest length."""
+    def release_by_knife(self, data: mujoco.MjData, time_s: float,
+                         under_blade: np.ndarray) -> np.ndarray:
+        """Release the bindings under the blade (paper Sec. 4.2)."""
+        return self.release(data, under_blade, time_s, ReleaseRule.KNIFE)
+
+    def release_by_tearing(self, data: mujoco.MjData, time_s: float, stretch_m: float,
+                           force_n: float | None = None) -> np.ndarray:
+        """Release the bindings stretched more than ``stretch_m`` beyond their rest length, or
+        loaded above the pull-off strength ``force_n`` when given (paper Sec. 4.1)."""
         torn = self.lengths(data) - self.rest_length_m > stretch_m
+        if force_n is not None:
+            torn |= self.forces(data) > force_n
         return self.release(data, torn, time_s, ReleaseRule.TEARING)
+
+    def release_by_force(self, data: mujoco.MjData, time_s: float, under_blade: np.ndarray,
+                         threshold_n: float) -> np.ndarray:
+        """Release the bindings under the blade whose force exceeds the measured cutting
+        force ``threshold_n`` at this moment (paper Sec. 4.3)."""
+        cut = under_blade & (self.forces(data) > threshold_n)
+        return self.release(data, cut, time_s, ReleaseRule.FORCE)
 
     def records(self) -> list[BindingRecord]:
         """One :class:`BindingRecord` per binding."""

@@ -122,7 +122,7 @@ class Episode:
         tip_pos, tip_rot = ik.site_pose(KNIFE_TIP)
         knife_traj, cut_path, (cut_start, cut_end) = knife.plan_cut(
             scene.mesh.top_line, scenario.cut, scenario.layout.table_height_m,
-            scenario.cut.start_s, tip_pos, tip_rot)
+            scenario.cut.start_s, tip_pos, tip_rot, interface_y=scene.mesh.interface_y)
         grasp_pos, grasp_rot = ik.site_pose(GRASP_SITE)
         pull_traj, schedule = gripper.plan_pull(
             grasp_point(scenario, scene.mesh), scenario.pull, scenario.settle_s,
@@ -166,8 +166,7 @@ class Episode:
                 for i in range(1, self.substeps + 1):
                     data.ctrl[self.actuators] = ctrl_prev + (ctrl_next - ctrl_prev) * (
                         i / self.substeps)
-                    mujoco.mj_step(model, data)
-                sim.check_divergence(t_next)
+                    sim.step()
                 ctrl_prev = ctrl_next
                 t = sim.time_s
                 if not knife_tared and t >= cut_start - 0.1:
@@ -179,7 +178,8 @@ class Episode:
                 if scenario.pull.enabled and not grasped and t >= schedule.grasp_s:
                     sim.grasp(jaw_half)
                     grasped = True
-                sim.apply_release_rules()
+                cutting = scenario.cut.enabled and cut_start <= t <= cut_end
+                sim.apply_release_rules(t - cut_start if cutting else None)
                 tip = data.site_xpos[tip_site]
                 if scenario.cut.enabled and cut_start <= t <= cut_end:
                     trace.tracking_error_m.append(float(np.linalg.norm(tip - knife_p)))

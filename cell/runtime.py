@@ -7,6 +7,7 @@ import numpy as np
 
 from cell.aponeurosis import ReleaseRule
 from cell.errors import DivergenceError
+from cell.forcecurve import ForceCurve
 from cell.scenario import Scenario
 from cell.scene import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM, Scene
 
@@ -49,6 +50,9 @@ class Simulation:
         self._grasp_site = self.model.site(GRASP_SITE).id
         self._warnings = np.zeros(len(_FATAL_WARNINGS), dtype=int)
         self.grasped = np.zeros(0, dtype=int)
+        rules = scenario.aponeurosis.release_rules
+        self.force_curve = (ForceCurve.from_csv(scenario.aponeurosis.force_curve)
+                            if ReleaseRule.FORCE.value in rules else None)
 
     @property
     def time_s(self) -> float:
@@ -61,9 +65,16 @@ class Simulation:
         return slice(start, start + int(sensor.dim[0]))
 
     def step(self, count: int = 1) -> None:
-        """Advance ``count`` physics steps, checking each for divergence."""
+        """Advance ``count`` physics steps, checking each for divergence.
+
+        Before each step the forces that MuJoCo does not compute itself (binding springs)
+        are written into ``qfrc_applied`` from the present state.
+        """
+        apo = self.scene.aponeurosis
         for _ in range(count):
             before = self.time_s
+            self.data.qfrc_applied[self._tissue_dofs] = 0.0
+            apo.apply_forces(self.data)
             mujoco.mj_step(self.model, self.data)
             self.check_divergence(before + self.model.opt.timestep)
 
@@ -88,19 +99,31 @@ class Simulation:
         if speed > limit:
             raise DivergenceError(self.time_s, f"tissue speed {speed:.3g} m/s above {limit} m/s")
 
-    def apply_release_rules(self) -> dict[ReleaseRule, np.ndarray]:
-        """Release bindings by the scenario's rules; returns the indices released per rule."""
+    def apply_release_rules(self, knife_time_s: float | None = None
+                            ) -> dict[ReleaseRule, np.ndarray]:
+        """Release bindings by the scenario's rules; returns the indices released per rule.
+
+        ``knife_time_s`` is the time since the knife began cutting (None before): the force
+        rule reads the measured cutting force at that time.
+        """
         params = self.scenario.aponeurosis
         apo = self.scene.aponeurosis
+        rules = params.release_rules
         released: dict[ReleaseRule, np.ndarray] = {}
-        if ReleaseRule.KNIFE.value in params.release_rules:
-            released[ReleaseRule.KNIFE] = apo.release_by_knife(
-                self.data, self.time_s, self.data.geom_xpos[self._blade],
-                self.data.geom_xmat[self._blade], self.model.geom_size[self._blade],
-                params.knife_margin_m)
-        if ReleaseRule.TEARING.value in params.release_rules:
+        under_blade = apo.under_blade(
+            self.data, self.data.geom_xpos[self._blade], self.data.geom_xmat[self._blade],
+            self.model.geom_size[self._blade], params.knife_margin_m)
+        if ReleaseRule.KNIFE.value in rules:
+            released[ReleaseRule.KNIFE] = apo.release_by_knife(self.data, self.time_s,
+                                                               under_blade)
+        if self.force_curve is not None and knife_time_s is not None:
+            threshold = params.force_share * self.force_curve.at(knife_time_s)
+            released[ReleaseRule.FORCE] = apo.release_by_force(self.data, self.time_s,
+                                                               under_blade, threshold)
+        if ReleaseRule.TEARING.value in rules:
             released[ReleaseRule.TEARING] = apo.release_by_tearing(
-                self.data, self.time_s, params.tearing_stretch_m)
+                self.data, self.time_s, params.tearing_stretch_m,
+                params.tearing_force_n or None)
         return released
 
     def grasp(self, jaw_half_size_m: np.ndarray) -> int:

@@ -11,7 +11,7 @@ Example:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Literal
 
@@ -21,6 +21,9 @@ from cell.errors import InputError, ScenarioError
 from cell.geometry import MuscleShape
 from cell.material import ContinuumMaterial
 from cell.tools import CameraParams, GripperParams, KnifeParams
+
+#: The project's root: ``assets/...`` paths in scenario files are read from here.
+PROJECT_ROOT = Path(__file__).resolve().parent.parent
 
 
 def _positive(owner: object, *names: str) -> None:
@@ -59,26 +62,39 @@ class SimulationParams:
 class AponeurosisParams:
     """Bindings across the interface and how they release.
 
-    ``release_rules``: any of ``"knife"`` and ``"tearing"``; ``tearing_stretch_m``: stretch
-    beyond rest length that tears a binding (paper: 1e-2 m); ``timeconst_s`` and
-    ``dampratio``: MuJoCo ``solref`` of the binding constraints; ``knife_margin_m``: how far
-    beyond the blade box the knife still cuts a binding.
+    ``law``: ``"spring"`` (the paper's binding springs: ``stiffness_n_m``, paper 50 N/m, and a
+    dashpot ``damping_n_s_m``) or ``"constraint"`` (soft MuJoCo ``connect`` equalities with
+    ``timeconst_s`` and ``dampratio``, whose stiffness scales with the vertex masses).
+    ``release_rules``: any of ``"knife"``, ``"tearing"`` and ``"force"``.
+    ``tearing_stretch_m``: stretch beyond rest length that tears a binding (paper: 1e-2 m);
+    ``tearing_force_n``: a pull-off strength that tears it too (0: none).
+    ``knife_margin_m``: how far beyond the blade box a binding counts as under the blade.
+    ``force_curve``: the measured knife cutting force against time since the cut began (CSV,
+    path relative to the scenario file, or to the project root for ``assets/...``);
+    ``force_share``: the fraction of that force one binding under the blade must carry to be
+    cut (the knife force also shears muscle and overcomes friction).
     """
 
+    law: Literal["spring", "constraint"] = "spring"
+    stiffness_n_m: float = 50.0
+    damping_n_s_m: float = 0.5
     release_rules: tuple[str, ...] = ("knife", "tearing")
     tearing_stretch_m: float = 0.01
+    tearing_force_n: float = 0.0
     timeconst_s: float = 0.01
     dampratio: float = 1.0
     knife_margin_m: float = 0.003
+    force_curve: str = str(PROJECT_ROOT / "assets/cutting_force/boning_knife_synthetic.csv")
+    force_share: float = 0.02
 
     def __post_init__(self) -> None:
         known = sorted(rule.value for rule in ReleaseRule)
         for rule in self.release_rules:
             if rule not in known:
                 raise InputError(None, "release_rules", f"unknown rule {rule!r}; known: {known}")
-        _positive(self, "tearing_stretch_m", "timeconst_s", "dampratio")
-        if self.knife_margin_m < 0:
-            raise InputError(None, "knife_margin_m", "must be >= 0")
+        _positive(self, "stiffness_n_m", "tearing_stretch_m", "timeconst_s", "dampratio",
+                  "force_share")
+        _non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m")
 
 
 @dataclass(frozen=True)
@@ -246,4 +262,17 @@ def load_scenario(path: str | Path) -> Scenario:
     for name in _TABLES:
         if name in raw:
             table[name] = raw[name]
-    return from_table(Scenario, table, file=path, section="")
+    scenario = from_table(Scenario, table, file=path, section="")
+    curve = _resolve(path, scenario.aponeurosis.force_curve, "aponeurosis.force_curve")
+    return replace(scenario, aponeurosis=replace(scenario.aponeurosis, force_curve=curve))
+
+
+def _resolve(scenario_file: Path, name: str, key: str) -> str:
+    """A data file named in a scenario: absolute, relative to the scenario file, or relative
+    to the project root; it must exist."""
+    candidates = [Path(name)] if Path(name).is_absolute() else [
+        scenario_file.parent / name, PROJECT_ROOT / name]
+    for candidate in candidates:
+        if candidate.is_file():
+            return str(candidate)
+    raise ScenarioError(scenario_file, key, f"file not found: {name}")

@@ -16,7 +16,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from cell.aponeurosis import Aponeurosis
+from cell.aponeurosis import Aponeurosis, BindingLaw
 from cell.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription
 from cell.geometry import TetMesh, TwoMuscleMesh, build_two_muscles
 from cell.io import write_atomic
@@ -181,11 +181,12 @@ def build_scene(scenario: Scenario) -> Scene:
     build_robot_spec(scenario, spec)
 
     apo = scenario.aponeurosis
-    solref = [apo.timeconst_s, apo.dampratio]
-    for k, (r, s) in enumerate(mesh.pairs):
-        spec.add_equality(name=f"binding_{k}", type=mujoco.mjtEq.mjEQ_CONNECT,
-                          objtype=mujoco.mjtObj.mjOBJ_BODY, name1=f"round_{r}",
-                          name2=f"shank_{s}", solref=solref)
+    law = BindingLaw(apo.law)
+    if law is BindingLaw.CONSTRAINT:
+        for k, (r, s) in enumerate(mesh.pairs):
+            spec.add_equality(name=f"binding_{k}", type=mujoco.mjtEq.mjEQ_CONNECT,
+                              objtype=mujoco.mjtObj.mjOBJ_BODY, name1=f"round_{r}",
+                              name2=f"shank_{s}", solref=[apo.timeconst_s, apo.dampratio])
     grasp_vertices = _grasp_candidates(scenario, mesh)
     for v in grasp_vertices:
         spec.add_equality(name=f"grasp_{v}", type=mujoco.mjtEq.mjEQ_CONNECT,
@@ -194,10 +195,13 @@ def build_scene(scenario: Scenario) -> Scene:
     model = spec.compile()
     round_bodies = _vertex_bodies(model, "round", len(mesh.round.points), "fixture")
     shank_bodies = _vertex_bodies(model, "shank", len(mesh.shank.points), None)
-    binding_ids = np.array([model.equality(f"binding_{k}").id for k in range(len(mesh.pairs))])
+    binding_ids = (np.array([model.equality(f"binding_{k}").id for k in range(len(mesh.pairs))])
+                   if law is BindingLaw.CONSTRAINT else None)
     grasp_ids = np.array([model.equality(f"grasp_{v}").id for v in grasp_vertices], dtype=int)
-    aponeurosis = Aponeurosis(model, binding_ids, round_bodies[mesh.pairs[:, 0]],
-                              shank_bodies[mesh.pairs[:, 1]], mesh.pairs)
+    aponeurosis = Aponeurosis(model, round_bodies[mesh.pairs[:, 0]],
+                              shank_bodies[mesh.pairs[:, 1]], mesh.pairs, law=law,
+                              stiffness_n_m=apo.stiffness_n_m,
+                              damping_n_s_m=apo.damping_n_s_m, equality_ids=binding_ids)
     return Scene(spec, model, mesh, round_bodies, shank_bodies, aponeurosis, grasp_ids,
                  grasp_vertices)
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from cell.scenario import CutPlan
@@ -12,12 +14,16 @@ TRANSIT_SPEED_M_S = 0.25
 APPROACH_SPEED_M_S = 0.06
 
 
-def blade_rotation(tangent: np.ndarray) -> np.ndarray:
-    """Tool rotation with the tool axis (z) pointing down and the cutting edge (x) along the
-    horizontal projection of ``tangent``, so that the blade plane contains the path."""
-    x = np.array([tangent[0], tangent[1], 0.0])
+#: A surface y(x, z) in world coordinates (m), such as the interface between the muscles.
+SurfaceY = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def blade_rotation(tangent: np.ndarray, down: np.ndarray = (0.0, 0.0, -1.0)) -> np.ndarray:
+    """Tool rotation with the tool axis (z) along ``down`` and the cutting edge (x) along
+    ``tangent`` made orthogonal to it, so that the blade plane contains both."""
+    z = np.asarray(down, float) / np.linalg.norm(down)
+    x = np.asarray(tangent, float) - np.dot(tangent, z) * z
     x /= np.linalg.norm(x)
-    z = np.array([0.0, 0.0, -1.0])
     return np.column_stack([x, np.cross(z, x), z])
 
 
@@ -45,13 +51,16 @@ def ready_pose(path_m: np.ndarray, plan: CutPlan) -> tuple[np.ndarray, np.ndarra
 
 
 def plan_cut(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float,
-             start_pos: np.ndarray, start_rot: np.ndarray
+             start_pos: np.ndarray, start_rot: np.ndarray,
+             interface_y: SurfaceY | None = None,
              ) -> tuple[CartesianTrajectory, np.ndarray, tuple[float, float]]:
     """Knife tip trajectory for one cut along ``path_m`` (K, 3), the top line of the interface.
 
     The tip goes above the entry point (``lead_in_m`` before the path's start), down to
     ``depth_m`` below the path (but ``table_clearance_m`` above ``table_z_m``), along it at
-    ``speed_m_s``, ``lead_out_m`` past its end when the whole path is cut, then up.
+    ``speed_m_s``, ``lead_out_m`` past its end when the whole path is cut, then up. Given the
+    interface surface ``interface_y``, the tip follows it at depth and the blade leans with
+    it, so that the blade slides along the aponeurosis instead of pushing into the muscles.
 
     Returns:
         The trajectory, the planned tip path while cutting (N, 3) m, and the cutting window
@@ -63,19 +72,26 @@ def plan_cut(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float
     cut = [above_entry - [0.0, 0.0, plan.approach_height_m], *path]
     if plan.cut_fraction >= 1.0:
         cut.append(path[-1] + plan.lead_out_m * tangents[-1])
-    cut = np.array(cut)
+    top = np.array(cut)
+    cut = top.copy()
     cut[:, 2] = np.maximum(cut[:, 2] - plan.depth_m, table_z_m + plan.table_clearance_m)
+    if interface_y is not None:
+        cut[:, 1] = interface_y(cut[:, 0], cut[:, 2])
+        top[:, 1] = interface_y(top[:, 0], top[:, 2])
     entry = cut[0]
-    cut_rotations = [blade_rotation(tangents[0]), *(blade_rotation(t) for t in tangents)]
+    cut_tangents = [tangents[0], *tangents]
     if plan.cut_fraction >= 1.0:
-        cut_rotations.append(blade_rotation(tangents[-1]))
+        cut_tangents.append(tangents[-1])
+    cut_rotations = [blade_rotation(t, c - p) for t, c, p in zip(cut_tangents, cut, top,
+                                                                    strict=True)]
+    above_entry = entry + (plan.depth_m + plan.approach_height_m) * -cut_rotations[0][:, 2]
     waypoints = [
         Waypoint(above_entry, cut_rotations[0], TRANSIT_SPEED_M_S, dwell_s=0.2),
         Waypoint(entry, cut_rotations[0], APPROACH_SPEED_M_S, dwell_s=0.2),
     ]
     waypoints += [Waypoint(p, r, plan.speed_m_s) for p, r in zip(cut[1:], cut_rotations[1:],
                                                                   strict=True)]
-    exit_up = np.array([*cut[-1, :2], above_entry[2]])
+    exit_up = cut[-1] - (plan.depth_m + plan.approach_height_m) * cut_rotations[-1][:, 2]
     waypoints.append(Waypoint(exit_up, cut_rotations[-1], APPROACH_SPEED_M_S))
     trajectory = CartesianTrajectory(start_s, start_pos, start_rot, waypoints)
     cut_start = float(trajectory.times_s[4])

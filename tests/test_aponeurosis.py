@@ -4,18 +4,20 @@ release by the knife and by tearing, the forces they carry and the release recor
 from __future__ import annotations
 
 from collections import Counter
+from dataclasses import replace
 
 import mujoco
 import numpy as np
 import pytest
 
-from cell.aponeurosis import Aponeurosis, ReleaseRule, segments_cross_box
+from cell.aponeurosis import Aponeurosis, BindingLaw, ReleaseRule, segments_cross_box
 from cell.geometry import MuscleShape
-from cell.scenario import Scenario
+from cell.scenario import AponeurosisParams, Scenario
 from cell.scene import Scene, build_scene
 from cell.tools import KnifeParams
 
 UNIT_BOX = np.array([1.0, 1.0, 1.0])
+BLADE = KnifeParams().blade_half_size_m
 SCENARIO = Scenario(tissue=MuscleShape(cell_size_m=0.05))
 
 
@@ -87,9 +89,19 @@ def test_segments_cross_box_agrees_with_dense_sampling() -> None:
 # --- bindings on a coarse scene ----------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def scene() -> Scene:
-    return build_scene(SCENARIO)
+@pytest.fixture(scope="module", params=[BindingLaw.SPRING, BindingLaw.CONSTRAINT])
+def scene(request: pytest.FixtureRequest) -> Scene:
+    """The coarse scene, once with binding springs and once with connect constraints."""
+    law = AponeurosisParams(law=request.param.value)
+    return build_scene(replace(SCENARIO, aponeurosis=law))
+
+
+def _assert_active(apo: Aponeurosis, data: mujoco.MjData) -> None:
+    """The constraint law's equalities are switched on exactly for the bound bindings."""
+    if apo.law is BindingLaw.CONSTRAINT:
+        np.testing.assert_array_equal(data.eq_active[apo.equality_ids].astype(bool), apo.bound)
+    else:
+        assert len(apo.equality_ids) == 0
 
 
 @pytest.fixture
@@ -123,8 +135,8 @@ def test_all_bindings_bound_at_start(scene: Scene, data: mujoco.MjData) -> None:
     assert len(apo) == len(scene.mesh.pairs) > 0
     assert apo.bound.all()
     assert scene.model.eq_active0[apo.equality_ids].all()
-    assert data.eq_active[apo.equality_ids].all()
-    assert apo.released_counts() == {"knife": 0, "tearing": 0}
+    _assert_active(apo, data)
+    assert apo.released_counts() == {"knife": 0, "tearing": 0, "force": 0}
 
 
 def test_rest_lengths_are_the_gap(scene: Scene, data: mujoco.MjData) -> None:
@@ -154,11 +166,10 @@ def test_knife_releases_only_bindings_under_the_blade(scene: Scene, data: mujoco
     assert len(expected) < len(apo)  # other columns lie beyond the blade's width
     np.testing.assert_allclose(x[expected], column_x)
 
-    released = apo.release_by_knife(data, 1.25, pos, mat, half, margin)
+    released = apo.release_by_knife(data, 1.25, apo.under_blade(data, pos, mat, half, margin))
 
     np.testing.assert_array_equal(np.sort(released), expected)
-    assert data.eq_active[apo.equality_ids[expected]].sum() == 0
-    assert np.delete(data.eq_active[apo.equality_ids], expected).all()
+    _assert_active(apo, data)
     for record in apo.records():
         if record.index in expected:
             assert record.released_by is ReleaseRule.KNIFE
@@ -166,15 +177,15 @@ def test_knife_releases_only_bindings_under_the_blade(scene: Scene, data: mujoco
         else:
             assert record.released_by is None
             assert record.released_at_s is None
-    assert apo.released_counts() == {"knife": len(expected), "tearing": 0}
+    assert apo.released_counts() == {"knife": len(expected), "tearing": 0, "force": 0}
 
 
 def test_knife_releases_a_binding_once(scene: Scene, data: mujoco.MjData) -> None:
     apo = scene.aponeurosis
     half = KnifeParams().blade_half_size_m
     pos, mat, _ = _blade_across_interface(scene)
-    first = apo.release_by_knife(data, 1.0, pos, mat, half, 0.003)
-    again = apo.release_by_knife(data, 2.0, pos, mat, half, 0.003)
+    first = apo.release_by_knife(data, 1.0, apo.under_blade(data, pos, mat, half, 0.003))
+    again = apo.release_by_knife(data, 2.0, apo.under_blade(data, pos, mat, half, 0.003))
     assert len(first) > 0
     assert len(again) == 0
     assert set(apo.released_at_s[first]) == {1.0}  # the first release time is kept
@@ -189,7 +200,7 @@ def test_knife_margin_reaches_beyond_the_blade_edge(
     pos, mat, column_x = _blade_across_interface(scene)
     # The column lies 1.5 mm beyond the blade's edge: within a 3 mm margin, outside none.
     pos = pos + np.array([half[0] + 0.0015, 0.0, 0.0])
-    released = apo.release_by_knife(data, 1.0, pos, mat, half, margin_m)
+    released = apo.release_by_knife(data, 1.0, apo.under_blade(data, pos, mat, half, margin_m))
     a, b = apo.endpoints(data)
     column = np.flatnonzero(np.isclose((a[:, 0] + b[:, 0]) / 2, column_x))
     if releases:
@@ -202,7 +213,7 @@ def test_knife_beside_the_meat_releases_nothing(scene: Scene, data: mujoco.MjDat
     apo = scene.aponeurosis
     pos, mat, _ = _blade_across_interface(scene)
     pos = pos + np.array([SCENARIO.tissue.length_m, 0.0, 0.0])  # past the end of the meat
-    released = apo.release_by_knife(data, 1.0, pos, mat, KnifeParams().blade_half_size_m, 0.003)
+    released = apo.release_by_knife(data, 1.0, apo.under_blade(data, pos, mat, BLADE, 0.003))
     assert len(released) == 0
     assert apo.bound.all()
 
@@ -231,8 +242,8 @@ def test_tearing_releases_exactly_the_stretched_binding(scene: Scene, data: mujo
     np.testing.assert_array_equal(np.sort(released), expected)
     assert apo.released_by[index] is ReleaseRule.TEARING
     assert apo.released_at_s[index] == 0.5
-    assert data.eq_active[apo.equality_ids[index]] == 0
-    assert apo.released_counts() == {"knife": 0, "tearing": len(expected)}
+    _assert_active(apo, data)
+    assert apo.released_counts() == {"knife": 0, "tearing": len(expected), "force": 0}
 
 
 def test_tearing_spares_a_binding_stretched_less_than_the_threshold(
@@ -262,11 +273,11 @@ def test_forces_zero_when_released_positive_when_loaded(scene: Scene, data: mujo
 def test_records_agree_with_released_counts(scene: Scene, data: mujoco.MjData) -> None:
     apo = scene.aponeurosis
     pos, mat, _ = _blade_across_interface(scene)
-    knifed = apo.release_by_knife(data, 1.0, pos, mat, KnifeParams().blade_half_size_m, 0.003)
+    knifed = apo.release_by_knife(data, 1.0, apo.under_blade(data, pos, mat, BLADE, 0.003))
     torn = apo.release(data, [0, 1], 2.0, ReleaseRule.TEARING)
     records = apo.records()
     counts = Counter(r.released_by.value for r in records if r.released_by is not None)
-    assert apo.released_counts() == {"knife": len(knifed), "tearing": len(torn)}
+    assert apo.released_counts() == {"knife": len(knifed), "tearing": len(torn), "force": 0}
     assert apo.released_counts() == {rule.value: counts[rule.value] for rule in ReleaseRule}
     assert sum(r.released_at_s is not None for r in records) == (~apo.bound).sum()
     assert [r.index for r in records] == list(range(len(apo)))

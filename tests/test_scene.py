@@ -3,18 +3,20 @@ export round trip, the camera's view of the meat at the episode's start, and div
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
+from cell.aponeurosis import BindingLaw
 from cell.camera import CameraRig
 from cell.episode import Episode
 from cell.errors import DivergenceError
 from cell.geometry import MuscleShape
 from cell.runtime import Simulation
-from cell.scenario import Scenario
+from cell.scenario import AponeurosisParams, Scenario
 from cell.scene import CAMERA, Scene, build_scene, export_mjcf
 
 SCENARIO = Scenario(tissue=MuscleShape(cell_size_m=0.05))
@@ -60,7 +62,14 @@ def test_force_torque_sensors_are_present(scene: Scene) -> None:
         assert model.sensor(name).dim[0] == 3
 
 
-def test_one_binding_per_pair_and_inactive_grasp_equalities(scene: Scene) -> None:
+def test_spring_bindings_need_no_equalities(scene: Scene) -> None:
+    assert scene.aponeurosis.law is BindingLaw.SPRING
+    assert scene.model.neq == len(scene.grasp_equalities)
+    assert len(scene.aponeurosis) == len(scene.mesh.pairs)
+
+
+def test_one_binding_per_pair_and_inactive_grasp_equalities() -> None:
+    scene = build_scene(replace(SCENARIO, aponeurosis=AponeurosisParams(law="constraint")))
     model, apo = scene.model, scene.aponeurosis
     pairs = scene.mesh.pairs
     assert len(scene.grasp_equalities) > 0
