@@ -87,6 +87,10 @@ class Aponeurosis:
         self.rest_length_m = self.lengths(data)
         self.released_at_s = np.full(len(self.pairs), np.nan)
         self.released_by: list[ReleaseRule | None] = [None] * len(self.pairs)
+        self.hooked = np.zeros(len(self.pairs), dtype=bool)
+        self.hook_local = np.zeros((len(self.pairs), 3))
+        self._last_hook = np.zeros((len(self.pairs), 3))
+        self.track_blade(np.zeros(3), np.eye(3))
 
     def __len__(self) -> int:
         return len(self.pairs)
@@ -94,6 +98,7 @@ class Aponeurosis:
     def reset(self, data: mujoco.MjData) -> None:
         """Bind every pair again (state and record)."""
         data.eq_active[self.equality_ids] = 1
+        self.hooked[:] = False
         self.released_at_s[:] = np.nan
         self.released_by = [None] * len(self)
 
@@ -111,30 +116,66 @@ class Aponeurosis:
         a, b = self.endpoints(data)
         return np.linalg.norm(b - a, axis=1)
 
-    def _spring_forces(self, data: mujoco.MjData) -> np.ndarray:
-        """(P, 3) force of every binding spring on its shank vertex, N (zero once released)."""
+    def track_blade(self, blade_pos: np.ndarray, blade_mat: np.ndarray) -> None:
+        """Where the blade is now (world position, m, and rotation): hooked bindings follow
+        it."""
+        self._blade_pos = np.asarray(blade_pos, float).copy()
+        self._blade_rot = np.asarray(blade_mat, float).reshape(3, 3).copy()
+
+    def hook(self, data: mujoco.MjData, under_blade: np.ndarray) -> None:
+        """Hook the bound bindings newly under the blade on its edge: from now on their
+        middle moves with the blade, so the blade stretches them until they are cut."""
+        new = under_blade & self.bound & ~self.hooked
+        if new.any():
+            a, b = self.endpoints(data)
+            middle = 0.5 * (a[new] + b[new])
+            self.hook_local[new] = (middle - self._blade_pos) @ self._blade_rot
+            self.hooked |= new
+
+    def _spring_state(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Forces (P, 3) of every binding spring on its round and shank vertex, N, and its
+        tension, N. A hooked binding runs from its vertices to its hook point on the blade."""
         a, b = self.endpoints(data)
-        delta = b - a
-        length = np.linalg.norm(delta, axis=1)
-        unit = delta / np.maximum(length, 1e-12)[:, None]
+        hook = 0.5 * (a + b)
+        if self.hooked.any():
+            hook[self.hooked] = self._blade_pos + self.hook_local[self.hooked] @ self._blade_rot.T
+        to_a, to_b = hook - a, hook - b
+        len_a = np.linalg.norm(to_a, axis=1)
+        len_b = np.linalg.norm(to_b, axis=1)
+        direction = b - a
+        unit = direction / np.maximum(np.linalg.norm(direction, axis=1), 1e-12)[:, None]
         rate = np.einsum("ij,ij->i", data.qvel[self.shank_dofs] - data.qvel[self.round_dofs],
                          unit)
-        magnitude = (self.stiffness_n_m * (length - self.rest_length_m)
-                     + self.damping_n_s_m * rate) * self.bound
-        return -magnitude[:, None] * unit
+        tension = (self.stiffness_n_m * (len_a + len_b - self.rest_length_m)
+                   + self.damping_n_s_m * rate) * self.bound
+        on_round = tension[:, None] * to_a / np.maximum(len_a, 1e-12)[:, None]
+        on_shank = tension[:, None] * to_b / np.maximum(len_b, 1e-12)[:, None]
+        self._last_hook = hook
+        return on_round, on_shank, tension
 
-    def apply_forces(self, data: mujoco.MjData) -> None:
-        """Add the spring law's forces to ``data.qfrc_applied`` (nothing for constraints)."""
-        if self.law is BindingLaw.SPRING:
-            force = self._spring_forces(data)
-            np.add.at(data.qfrc_applied, self.shank_dofs, force)
-            np.add.at(data.qfrc_applied, self.round_dofs, -force)
+    def apply_forces(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """Add the spring law's forces to ``data.qfrc_applied`` (nothing for constraints).
+
+        Returns the force (N) the hooked bindings put on the blade and its moment (N m)
+        about the blade centre, for the caller to apply to the knife.
+        """
+        if self.law is not BindingLaw.SPRING:
+            return np.zeros(3), np.zeros(3)
+        on_round, on_shank, _ = self._spring_state(data)
+        np.add.at(data.qfrc_applied, self.round_dofs, on_round)
+        np.add.at(data.qfrc_applied, self.shank_dofs, on_shank)
+        hooked = self.hooked & self.bound
+        if not hooked.any():
+            return np.zeros(3), np.zeros(3)
+        on_blade = -(on_round[hooked] + on_shank[hooked])
+        arm = self._last_hook[hooked] - self._blade_pos
+        return on_blade.sum(axis=0), np.cross(arm, on_blade).sum(axis=0)
 
     def forces(self, data: mujoco.MjData) -> np.ndarray:
         """(P,) force carried by every binding, N (0 once released): the spring's force, or
         the norm of the connect constraint's three rows."""
         if self.law is BindingLaw.SPRING:
-            return np.linalg.norm(self._spring_forces(data), axis=1)
+            return np.abs(self._spring_state(data)[2])
         rows = data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
         squared = np.zeros(data.eq_active.shape[0])
         np.add.at(squared, data.efc_id[: data.nefc][rows], data.efc_force[: data.nefc][rows] ** 2)
@@ -149,6 +190,7 @@ class Aponeurosis:
         newly = np.flatnonzero(mask & self.bound)
         if self.law is BindingLaw.CONSTRAINT:
             data.eq_active[self.equality_ids[newly]] = 0
+        self.hooked[newly] = False
         self.released_at_s[newly] = time_s
         for i in newly:
             self.released_by[i] = rule
@@ -182,9 +224,10 @@ class Aponeurosis:
 
     def release_by_force(self, data: mujoco.MjData, time_s: float, under_blade: np.ndarray,
                          threshold_n: float) -> np.ndarray:
-        """Release the bindings under the blade whose force exceeds the measured cutting
-        force ``threshold_n`` at this moment (paper Sec. 4.3)."""
-        cut = under_blade & (self.forces(data) > threshold_n)
+        """Paper Sec. 4.3: release the bindings in contact with the blade (under it now, or
+        hooked on its edge) whose force exceeds the measured cutting force ``threshold_n``
+        at this moment."""
+        cut = (under_blade | self.hooked) & (self.forces(data) > threshold_n)
         return self.release(data, cut, time_s, ReleaseRule.FORCE)
 
     def records(self) -> list[BindingRecord]:

@@ -46,6 +46,7 @@ class Simulation:
             np.arange(self.model.body_dofadr[b], self.model.body_dofadr[b]
                       + self.model.body_dofnum[b]) for b in tissue])
         self._blade = self.model.geom(KNIFE_BLADE_GEOM).id
+        self._knife = self.model.geom_bodyid[self._blade]
         self._gripper = self.model.body(GRIPPER_BODY).id
         self._grasp_site = self.model.site(GRASP_SITE).id
         self._warnings = np.zeros(len(_FATAL_WARNINGS), dtype=int)
@@ -70,12 +71,19 @@ class Simulation:
         Before each step the forces that MuJoCo does not compute itself (binding springs)
         are written into ``qfrc_applied`` from the present state.
         """
-        apo = self.scene.aponeurosis
+        apo, data = self.scene.aponeurosis, self.data
         for _ in range(count):
             before = self.time_s
-            self.data.qfrc_applied[self._tissue_dofs] = 0.0
-            apo.apply_forces(self.data)
-            mujoco.mj_step(self.model, self.data)
+            data.qfrc_applied[self._tissue_dofs] = 0.0
+            blade_pos = data.geom_xpos[self._blade]
+            apo.track_blade(blade_pos, data.geom_xmat[self._blade])
+            force, moment = apo.apply_forces(data)
+            # xfrc_applied acts at the knife's centre of mass, the hooks' moment is about the
+            # blade centre.
+            lever = blade_pos - data.xipos[self._knife]
+            data.xfrc_applied[self._knife] = np.concatenate([force,
+                                                             moment + np.cross(lever, force)])
+            mujoco.mj_step(self.model, data)
             self.check_divergence(before + self.model.opt.timestep)
 
     def check_divergence(self, time_s: float | None = None) -> None:
@@ -117,6 +125,7 @@ class Simulation:
             released[ReleaseRule.KNIFE] = apo.release_by_knife(self.data, self.time_s,
                                                                under_blade)
         if self.force_curve is not None and knife_time_s is not None:
+            apo.hook(self.data, under_blade)
             threshold = params.force_share * self.force_curve.at(knife_time_s)
             released[ReleaseRule.FORCE] = apo.release_by_force(self.data, self.time_s,
                                                                under_blade, threshold)

@@ -85,7 +85,7 @@ class AponeurosisParams:
     dampratio: float = 1.0
     knife_margin_m: float = 0.003
     force_curve: str = str(PROJECT_ROOT / "assets/cutting_force/boning_knife_synthetic.csv")
-    force_share: float = 0.02
+    force_share: float = 0.1
 
     def __post_init__(self) -> None:
         known = sorted(rule.value for rule in ReleaseRule)
@@ -95,6 +95,9 @@ class AponeurosisParams:
         _positive(self, "stiffness_n_m", "tearing_stretch_m", "timeconst_s", "dampratio",
                   "force_share")
         _non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m")
+        if "force" in self.release_rules and self.law != "spring":
+            raise InputError(None, "release_rules",
+                             "the force rule needs law = \"spring\" (a binding force in N)")
 
 
 @dataclass(frozen=True)

@@ -302,3 +302,50 @@ def test_release_accepts_a_mask(scene: Scene, data: mujoco.MjData) -> None:
     mask[[2, 5]] = True
     np.testing.assert_array_equal(apo.release(data, mask, 0.1, ReleaseRule.KNIFE), [2, 5])
     assert (~apo.bound).sum() == 2
+
+
+# --- the binding law and the force rule ---------------------------------------------------------
+
+_TWO_VERTICES = """
+<mujoco><option gravity="0 0 0" timestep="0.002" integrator="implicitfast"/>
+<worldbody>
+  <body name="a" pos="0 -0.0015 0"><joint type="slide" axis="1 0 0"/>
+    <joint type="slide" axis="0 1 0"/><joint type="slide" axis="0 0 1"/>
+    <geom type="sphere" size="0.001" mass="0.005" contype="0" conaffinity="0"/></body>
+  <body name="b" pos="0 0.0015 0"><joint type="slide" axis="1 0 0"/>
+    <joint type="slide" axis="0 1 0"/><joint type="slide" axis="0 0 1"/>
+    <geom type="sphere" size="0.001" mass="0.005" contype="0" conaffinity="0"/></body>
+</worldbody></mujoco>"""
+
+
+def test_a_binding_spring_honours_its_stiffness_in_newtons_per_metre() -> None:
+    model = mujoco.MjModel.from_xml_string(_TWO_VERTICES)
+    data = mujoco.MjData(model)
+    apo = Aponeurosis(model, [model.body("a").id], [model.body("b").id], np.array([[0, 0]]),
+                      law=BindingLaw.SPRING, stiffness_n_m=50.0, damping_n_s_m=0.5)
+    pull_n = 0.25
+    for _ in range(3000):  # 6 s: the dashpot settles the two masses
+        data.qfrc_applied[:] = 0.0
+        apo.apply_forces(data)
+        data.qfrc_applied[4] += pull_n  # b along +y
+        data.qfrc_applied[1] -= pull_n  # a along -y
+        mujoco.mj_step(model, data)
+    stretch = apo.lengths(data)[0] - apo.rest_length_m[0]
+    assert pull_n / stretch == pytest.approx(50.0, rel=0.01)
+    assert apo.forces(data)[0] == pytest.approx(pull_n, rel=0.01)
+
+
+def test_force_rule_cuts_only_loaded_bindings_under_the_blade() -> None:
+    scene = build_scene(SCENARIO)  # spring law: a binding's force is k times its stretch
+    apo = scene.aponeurosis
+    data = mujoco.MjData(scene.model)
+    mujoco.mj_forward(scene.model, data)
+    pos, mat, _ = _blade_across_interface(scene)
+    under = apo.under_blade(data, pos, mat, BLADE, SCENARIO.aponeurosis.knife_margin_m)
+    stretched = [np.flatnonzero(under)[0], np.flatnonzero(~under)[0]]
+    for index in stretched:  # 2 cm: 1 N at 50 N/m
+        _move_vertex_body(scene.model, data, apo.shank_bodies[index], np.array([0, 0.02, 0]))
+    released = apo.release_by_force(data, 1.0, under, threshold_n=0.5)
+    np.testing.assert_array_equal(released, [stretched[0]])
+    assert apo.released_by[stretched[0]] is ReleaseRule.FORCE
+    assert apo.released_counts() == {"knife": 0, "tearing": 0, "force": 1}

@@ -110,3 +110,13 @@ def test_tracking_errors_are_measured_during_the_cut_only(full_episode: dict) ->
     errors = full_episode["knife_tracking_error_m"]
     assert 0.0 < errors["median"] <= errors["p95"] <= errors["max"] < 0.01
     assert np.isfinite(full_episode["knife_force_peak_n"])
+
+
+def test_force_rule_cuts_with_the_measured_force_and_the_knife_feels_it() -> None:
+    scenario = coarse(aponeurosis=AponeurosisParams(release_rules=("force",)),
+                      pull=PullPlan(enabled=False))
+    summary = Episode(scenario).run()["result"]
+    assert summary["released_by_rule"]["force"] > 0
+    assert summary["released_by_rule"]["knife"] == summary["released_by_rule"]["tearing"] == 0
+    # Hooked bindings resist the blade until they fail: the F/T sensor reads the cutting force.
+    assert summary["knife_force_peak_n"] > 1.0
