@@ -49,8 +49,10 @@ class Aponeurosis:
 
     Args:
         model: the compiled scene.
-        round_bodies, shank_bodies: (P,) body ids of the two vertices of each binding; each
-            has three world-aligned slide joints (flex vertex bodies).
+        round_vertices, shank_vertices: (P,) flex vertex ids (into ``flexvert_xpos``) of the
+            two vertices of each binding.
+        round_bodies, shank_bodies: (P,) their body ids: a vertex body with three
+            world-aligned slide joints, or the static body a pinned vertex belongs to.
         pairs: (P, 2) vertex indices (round, shank) in the muscle meshes.
         law: spring (``stiffness_n_m``, ``damping_n_s_m``) or constraint.
         equality_ids: (P,) ids of the binding ``connect`` equalities (constraint law only).
@@ -63,6 +65,8 @@ class Aponeurosis:
     def __init__(
         self,
         model: mujoco.MjModel,
+        round_vertices: np.ndarray,
+        shank_vertices: np.ndarray,
         round_bodies: np.ndarray,
         shank_bodies: np.ndarray,
         pairs: np.ndarray,
@@ -75,8 +79,13 @@ class Aponeurosis:
         if self.law is BindingLaw.CONSTRAINT and equality_ids is None:
             raise ValueError("the constraint law needs the bindings' equality ids")
         self.equality_ids = np.asarray([] if equality_ids is None else equality_ids, dtype=int)
+        self.round_vertices = np.asarray(round_vertices, dtype=int)
+        self.shank_vertices = np.asarray(shank_vertices, dtype=int)
         self.round_bodies = np.asarray(round_bodies, dtype=int)
         self.shank_bodies = np.asarray(shank_bodies, dtype=int)
+        # Pinned vertices have no dofs: their rows stay zero (velocity) and unused (force).
+        self._round_free = model.body_dofnum[self.round_bodies] == 3
+        self._shank_free = model.body_dofnum[self.shank_bodies] == 3
         self.round_dofs = model.body_dofadr[self.round_bodies][:, None] + np.arange(3)
         self.shank_dofs = model.body_dofadr[self.shank_bodies][:, None] + np.arange(3)
         self.pairs = np.asarray(pairs, dtype=int)
@@ -84,6 +93,7 @@ class Aponeurosis:
         self.damping_n_s_m = damping_n_s_m
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
+        mujoco.mj_flex(model, data)
         self.rest_length_m = self.lengths(data)
         self.released_at_s = np.full(len(self.pairs), np.nan)
         self.released_by: list[ReleaseRule | None] = [None] * len(self.pairs)
@@ -109,7 +119,12 @@ class Aponeurosis:
 
     def endpoints(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """World positions (P, 3) of the round and shank vertex of every binding, m."""
-        return data.xpos[self.round_bodies], data.xpos[self.shank_bodies]
+        return data.flexvert_xpos[self.round_vertices], data.flexvert_xpos[self.shank_vertices]
+
+    def _velocity(self, data: mujoco.MjData, dofs: np.ndarray, free: np.ndarray) -> np.ndarray:
+        velocity = np.zeros((len(dofs), 3))
+        velocity[free] = data.qvel[dofs[free]]
+        return velocity
 
     def lengths(self, data: mujoco.MjData) -> np.ndarray:
         """(P,) current distance between the two vertices of every binding, m."""
@@ -144,8 +159,9 @@ class Aponeurosis:
         len_b = np.linalg.norm(to_b, axis=1)
         direction = b - a
         unit = direction / np.maximum(np.linalg.norm(direction, axis=1), 1e-12)[:, None]
-        rate = np.einsum("ij,ij->i", data.qvel[self.shank_dofs] - data.qvel[self.round_dofs],
-                         unit)
+        relative = (self._velocity(data, self.shank_dofs, self._shank_free)
+                    - self._velocity(data, self.round_dofs, self._round_free))
+        rate = np.einsum("ij,ij->i", relative, unit)
         tension = (self.stiffness_n_m * (len_a + len_b - self.rest_length_m)
                    + self.damping_n_s_m * rate) * self.bound
         on_round = tension[:, None] * to_a / np.maximum(len_a, 1e-12)[:, None]
@@ -162,8 +178,10 @@ class Aponeurosis:
         if self.law is not BindingLaw.SPRING:
             return np.zeros(3), np.zeros(3)
         on_round, on_shank, _ = self._spring_state(data)
-        np.add.at(data.qfrc_applied, self.round_dofs, on_round)
-        np.add.at(data.qfrc_applied, self.shank_dofs, on_shank)
+        np.add.at(data.qfrc_applied, self.round_dofs[self._round_free],
+                  on_round[self._round_free])
+        np.add.at(data.qfrc_applied, self.shank_dofs[self._shank_free],
+                  on_shank[self._shank_free])
         hooked = self.hooked & self.bound
         if not hooked.any():
             return np.zeros(3), np.zeros(3)

@@ -11,8 +11,10 @@ Two models:
 The paper's values (Nabil et al. 2015): E = 0.03 MPa isotropic with D = 0.1 N s/m per spring and
 rho = 1500 kg/m^3 for the round of beef (Fig. 8); El = 0.25 MPa along the fibres and
 Et = Er = 0.6 MPa across them for the transversely isotropic test cuboid (Fig. 10); Et = Er =
-0.003 MPa for the bending cylinder (Fig. 11). The defaults here keep the Fig. 8 modulus (stable
-at a 2 ms step) and a beef density of 1060 kg/m^3.
+0.003 MPa for the bending cylinder (Fig. 11). The defaults here keep the Fig. 8 modulus, isotropic
+30 kPa, which is stable at a 2 ms step on the default 1235-node muscles (measured limit 2.3 ms;
+the Fig. 10 moduli need 0.38 ms there, and 4712 nodes at 30 kPa need 1.2 ms), with a beef
+density of 1060 kg/m^3.
 
 A material file is TOML with ``model = "continuum"`` or ``model = "mass_spring"`` and the keys of
 the matching dataclass; see :func:`load_material`.
@@ -23,7 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.polynomial import polynomial as P
@@ -40,9 +42,13 @@ _DEFAULT_R_MAX = 1.5
 
 @dataclass(frozen=True)
 class ContinuumMaterial:
-    """Isotropic elastic (optionally elasto-plastic) continuum for MuJoCo flex tetrahedra.
+    """Isotropic elastic (optionally elasto-plastic) continuum for MuJoCo flex tetrahedra: the
+    paper's tensor-mass family, computed by MuJoCo itself.
 
     Attributes:
+        law: ``"stvk"`` (Saint Venant-Kirchhoff: Green strain, linear stress) or
+            ``"neo_hookean"`` (MuJoCo's stable neo-Hookean, non-linear stress; it cannot be
+            exported as MJCF).
         young_pa: Young's modulus, Pa. The paper's meat: 0.03 MPa.
         poisson: Poisson's ratio, in [0, 0.5).
         density_kg_m3: mass density, kg/m^3.
@@ -53,6 +59,7 @@ class ContinuumMaterial:
         >>> meat = ContinuumMaterial(young_pa=3e4, poisson=0.4)
     """
 
+    law: Literal["stvk", "neo_hookean"] = "stvk"
     young_pa: float = 3.0e4
     poisson: float = 0.4
     density_kg_m3: float = 1060.0
@@ -236,10 +243,13 @@ class MassSpringMaterial:
         density_kg_m3: mass density, kg/m^3.
         damping_s: stiffness-proportional damping time, s: each spring's dashpot is this times
             its current stiffness (a Kelvin-Voigt viscosity of about ``damping_s * E`` Pa s).
-            The paper's D = 0.1 N s/m per spring is the same damping for one mesh and one
-            modulus only (about 2e-4 s on the default 1235-node muscles at 30 kPa); scaling with
-            the stiffness keeps it independent of the mesh size and keeps every mode's damping
-            ratio as the non-linear modulus grows.
+            The paper's D = 0.1 N s/m per spring is ``D / K``: 6e-4 s for the median spring
+            of the default 1235-node muscles at 30 kPa, 7e-5 s at 250 kPa, 9e-4 s with 4712
+            nodes at 30 kPa. Scaling with the stiffness keeps the damping a material property,
+            the same on any mesh, and keeps every mode's damping ratio as the non-linear modulus
+            grows. The dashpots are explicit and shorten the stable step to about
+            ``sqrt(tau**2 + h0**2) - tau`` (h0 the undamped one); the default 2e-4 s leaves the
+            default muscles stable up to 2.3 ms at 30 kPa.
         fibre_direction: unit vector along the fibres in the world frame (normalised on
             construction); the muscles' length runs along x.
 
@@ -304,6 +314,28 @@ class MassSpringMaterial:
         )
 
 
+def default_meat() -> MassSpringMaterial:
+    """The muscles' default material: non-linear, transversely isotropic beef.
+
+    Small-strain moduli El = 24 kPa along the fibres and Et = 16 kPa across: the order of the
+    paper's isotropic E = 0.03 MPa, stiffer along the fibres as muscle is in tension (Morrow et
+    al. 2010), mildly so as it is in compression (1.84 vs 1.42 kPa at stretch 0.7, JMBBM 2023).
+    Both stiffen with strain, E(r) = E0 (1 + 3 (r - 1)^2) over r in [0.6, 1.4] (collagen
+    recruitment: 1.48 E0 at 40% strain). Fibres along the muscles' length (x). Stable at the
+    default 2 ms step on the default mesh. The paper's own anisotropic test values (Fig. 10)
+    are El = 0.25 MPa, Et = Er = 0.6 MPa: ``MassSpringMaterial.transversely_isotropic``.
+
+    Example:
+        >>> default_meat().longitudinal.small_strain_modulus_pa
+        24000.0
+    """
+
+    def stiffening(modulus_pa: float) -> ModulusCurve:
+        return ModulusCurve((modulus_pa, 0.0, 3.0 * modulus_pa, 0.0, 0.0, 0.0), 0.6, 1.4)
+
+    return MassSpringMaterial(longitudinal=stiffening(2.4e4), transverse=stiffening(1.6e4))
+
+
 @dataclass(frozen=True)
 class _CurveTable:
     """A modulus curve as written in a material file: a constant or polynomial coefficients."""
@@ -359,25 +391,37 @@ def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
         600000.0
     """
     path = Path(path)
-    raw = read_toml(path, MaterialError)
+    return material_from_table(read_toml(path, MaterialError), file=path)
+
+
+def material_from_table(table: dict[str, Any], *, file: str | Path | None = None,
+                        section: str = "") -> ContinuumMaterial | MassSpringMaterial:
+    """A material from a parsed TOML table (a material file's body, or a scenario's
+    ``[material]`` table named ``section``), as :func:`load_material` describes."""
+
+    def key(name: str) -> str:
+        return f"{section}.{name}" if section else name
+
+    raw = dict(table)
     model = raw.pop("model", None)
     if model == "continuum":
-        return from_table(ContinuumMaterial, raw, file=path, error=MaterialError)
+        return from_table(ContinuumMaterial, raw, file=file, section=section, error=MaterialError)
     if model != "mass_spring":
-        raise MaterialError(path, "model", f"must be 'continuum' or 'mass_spring', got {model!r}")
-    for key in _CURVES:
-        if key not in raw:
-            raise MaterialError(
-                path, key, "missing table: give modulus_pa = <Pa> or coefficients = [6 values]"
-            )
-        if not isinstance(raw[key], dict):
-            raise MaterialError(path, key, f"expected a table, got {type(raw[key]).__name__}")
+        raise MaterialError(file, key("model"),
+                            f"must be 'continuum' or 'mass_spring', got {model!r}")
+    for name in _CURVES:
+        if name not in raw:
+            raise MaterialError(file, key(name), "missing table: give modulus_pa = <Pa> or "
+                                "coefficients = [6 values]")
+        if not isinstance(raw[name], dict):
+            raise MaterialError(file, key(name),
+                                f"expected a table, got {type(raw[name]).__name__}")
         curve = from_table(
-            _CurveTable, raw[key], file=path, section=key, error=MaterialError
+            _CurveTable, raw[name], file=file, section=key(name), error=MaterialError
         ).curve()
-        raw[key] = {
+        raw[name] = {
             "coefficients": list(curve.coefficients),
             "r_min": curve.r_min,
             "r_max": curve.r_max,
         }
-    return from_table(MassSpringMaterial, raw, file=path, error=MaterialError)
+    return from_table(MassSpringMaterial, raw, file=file, section=section, error=MaterialError)

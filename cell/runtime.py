@@ -6,8 +6,10 @@ import mujoco
 import numpy as np
 
 from cell.aponeurosis import ReleaseRule
-from cell.errors import DivergenceError
+from cell.errors import DivergenceError, ScenarioError
 from cell.forcecurve import ForceCurve
+from cell.massspring import MassSpringModel
+from cell.material import MassSpringMaterial
 from cell.scenario import Scenario
 from cell.scene import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM, Scene
 
@@ -51,6 +53,14 @@ class Simulation:
         self._grasp_site = self.model.site(GRASP_SITE).id
         self._warnings = np.zeros(len(_FATAL_WARNINGS), dtype=int)
         self.grasped = np.zeros(0, dtype=int)
+        self.tissue = (MassSpringModel(self.model, ("round", "shank"), scenario.material)
+                       if isinstance(scenario.material, MassSpringMaterial) else None)
+        if self.tissue is not None:
+            stable = self.tissue.stable_timestep_s()
+            if self.model.opt.timestep > stable:
+                raise ScenarioError(None, "simulation.timestep_s",
+                                    f"{self.model.opt.timestep} s is above the stable step "
+                                    f"{stable:.3g} s of this mass-spring material and mesh")
         rules = scenario.aponeurosis.release_rules
         self.force_curve = (ForceCurve.from_csv(scenario.aponeurosis.force_curve)
                             if ReleaseRule.FORCE.value in rules else None)
@@ -74,7 +84,10 @@ class Simulation:
         apo, data = self.scene.aponeurosis, self.data
         for _ in range(count):
             before = self.time_s
-            data.qfrc_applied[self._tissue_dofs] = 0.0
+            if self.tissue is None:
+                data.qfrc_applied[self._tissue_dofs] = 0.0
+            else:
+                self.tissue.apply(data)  # rewrites the tissue dofs' entries
             blade_pos = data.geom_xpos[self._blade]
             apo.track_blade(blade_pos, data.geom_xmat[self._blade])
             force, moment = apo.apply_forces(data)

@@ -17,9 +17,15 @@ from typing import Literal
 
 from cell.aponeurosis import ReleaseRule
 from cell.config import from_table, read_toml
-from cell.errors import InputError, ScenarioError
+from cell.errors import InputError, MaterialError, ScenarioError
 from cell.geometry import MuscleShape
-from cell.material import ContinuumMaterial
+from cell.material import (
+    ContinuumMaterial,
+    MassSpringMaterial,
+    default_meat,
+    load_material,
+    material_from_table,
+)
 from cell.tools import CameraParams, GripperParams, KnifeParams
 
 #: The project's root: ``assets/...`` paths in scenario files are read from here.
@@ -43,11 +49,13 @@ def _non_negative(owner: object, *names: str) -> None:
 @dataclass(frozen=True)
 class SimulationParams:
     """Physics settings. ``timestep_s`` is MuJoCo's step; the controllers run at
-    ``control_rate_hz``; ``max_tissue_speed_m_s`` flags an energy blow-up."""
+    ``control_rate_hz``; ``max_tissue_speed_m_s`` flags an energy blow-up. ``integrator``
+    ``"auto"`` picks ``discrete`` for continuum materials (the only one MuJoCo runs them
+    with) and ``implicitfast`` for the mass-spring model."""
 
     timestep_s: float = 0.002
     control_rate_hz: float = 50.0
-    integrator: Literal["discrete"] = "discrete"
+    integrator: Literal["auto", "discrete", "implicitfast", "euler"] = "auto"
     solver_iterations: int = 100
     max_tissue_speed_m_s: float = 20.0
 
@@ -214,7 +222,7 @@ class Scenario:
     end_s: float | None = None
     simulation: SimulationParams = field(default_factory=SimulationParams)
     tissue: MuscleShape = field(default_factory=MuscleShape)
-    material: ContinuumMaterial = field(default_factory=ContinuumMaterial)
+    material: ContinuumMaterial | MassSpringMaterial = field(default_factory=default_meat)
     aponeurosis: AponeurosisParams = field(default_factory=AponeurosisParams)
     knife: KnifeParams = field(default_factory=KnifeParams)
     gripper: GripperParams = field(default_factory=GripperParams)
@@ -263,11 +271,44 @@ def load_scenario(path: str | Path) -> Scenario:
     checked = from_table(_Head, head, file=path, section="scenario")
     table = {f.name: getattr(checked, f.name) for f in fields(_Head)}
     for name in _TABLES:
-        if name in raw:
+        if name in raw and name != "material":
             table[name] = raw[name]
     scenario = from_table(Scenario, table, file=path, section="")
+    if "material" in raw:
+        scenario = replace(scenario, material=_material(path, raw["material"]))
+    if (isinstance(scenario.material, ContinuumMaterial)
+            and scenario.simulation.integrator not in ("auto", "discrete")):
+        raise ScenarioError(path, "simulation.integrator",
+                            "MuJoCo runs flex continuum elasticity only with 'discrete'")
     curve = _resolve(path, scenario.aponeurosis.force_curve, "aponeurosis.force_curve")
     return replace(scenario, aponeurosis=replace(scenario.aponeurosis, force_curve=curve))
+
+
+def _material(scenario_file: Path, table: object) -> ContinuumMaterial | MassSpringMaterial:
+    """The ``[material]`` table: ``file = "<material TOML>"`` alone, or the material inline.
+
+    Errors come as :class:`ScenarioError` naming the file at fault (the scenario, or the
+    material file it names) and the key.
+    """
+    try:
+        return _read_material(scenario_file, table)
+    except MaterialError as exc:
+        raise ScenarioError(exc.file, exc.field, exc.message) from None
+
+
+def _read_material(scenario_file: Path, table: object
+                   ) -> ContinuumMaterial | MassSpringMaterial:
+    if not isinstance(table, dict):
+        raise ScenarioError(scenario_file, "material", "expected a table")
+    if "file" in table:
+        if len(table) > 1:
+            extra = sorted(set(table) - {"file"})[0]
+            raise ScenarioError(scenario_file, f"material.{extra}",
+                                "give either file = ... or the material's keys, not both")
+        if not isinstance(table["file"], str):
+            raise ScenarioError(scenario_file, "material.file", "expected a path string")
+        return load_material(_resolve(scenario_file, table["file"], "material.file"))
+    return material_from_table(table, file=scenario_file, section="material")
 
 
 def _resolve(scenario_file: Path, name: str, key: str) -> str:

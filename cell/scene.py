@@ -17,12 +17,15 @@ import mujoco
 import numpy as np
 
 from cell.aponeurosis import Aponeurosis, BindingLaw
+from cell.collision import ROUND, SHANK, TABLE_TOP
 from cell.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription
+from cell.errors import MaterialError
 from cell.geometry import TetMesh, TwoMuscleMesh, build_two_muscles
 from cell.io import write_atomic
+from cell.material import ContinuumMaterial
 from cell.robots import build_arm
 from cell.scenario import Scenario
-from cell.tools import CONTACT_MAIN, build_camera, build_gripper, build_knife
+from cell.tools import build_camera, build_gripper, build_knife
 
 #: Arm prefix, description and tool of each robot of the cell.
 ARMS: dict[str, ArmDescription] = {
@@ -44,6 +47,7 @@ class Scene:
     """A compiled cell and the indices the runtime needs.
 
     Attributes:
+        scenario: what it was built from.
         spec: the composed :class:`mujoco.MjSpec` (kept for export).
         model: the compiled model.
         mesh: the two muscles' tetrahedral meshes in world coordinates, m.
@@ -58,6 +62,7 @@ class Scene:
         >>> scene.model.nflexvert
     """
 
+    scenario: Scenario
     spec: mujoco.MjSpec
     model: mujoco.MjModel
     mesh: TwoMuscleMesh
@@ -78,6 +83,18 @@ def _yaw_quat(yaw_deg: float) -> list[float]:
     return [float(np.cos(half)), 0.0, 0.0, float(np.sin(half))]
 
 
+def integrator(scenario: Scenario) -> mujoco.mjtIntegrator:
+    """MuJoCo's integrator for the scenario: ``discrete`` for flex continuum elasticity (the
+    only one that runs it), ``implicitfast`` for the mass-spring model (its springs come in as
+    applied forces; joints, actuators and contacts stay implicit), or the one asked for."""
+    choice = scenario.simulation.integrator
+    if choice == "auto":
+        choice = "discrete" if isinstance(scenario.material, ContinuumMaterial) else "implicitfast"
+    return {"discrete": mujoco.mjtIntegrator.mjINT_DISCRETE,
+            "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+            "euler": mujoco.mjtIntegrator.mjINT_EULER}[choice]
+
+
 def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None) -> mujoco.MjSpec:
     """World, floor, table and the three arms with their tools, added to ``spec`` (a new one
     by default, which then holds no tissue).
@@ -88,7 +105,7 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None) -> m
     spec.modelname = "musclecell"
     sim = scenario.simulation
     spec.option.timestep = sim.timestep_s
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
+    spec.option.integrator = integrator(scenario)
     spec.option.iterations = sim.solver_iterations
     # Measured on the default cell: CG with elliptic cones solves the flex-table contacts
     # 3 to 4 times faster than Newton with pyramids, to the same resting state.
@@ -107,8 +124,8 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None) -> m
     table_half = [0.45, 0.40, layout.table_height_m / 2]
     world.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=table_half,
                    pos=[layout.meat_x_m, 0.0, layout.table_height_m / 2],
-                   rgba=[0.75, 0.76, 0.78, 1], contype=CONTACT_MAIN, conaffinity=CONTACT_MAIN,
-                   friction=[0.6, 0.005, 0.0001])
+                   rgba=[0.75, 0.76, 0.78, 1], contype=TABLE_TOP.contype,
+                   conaffinity=TABLE_TOP.conaffinity, friction=[0.6, 0.005, 0.0001])
     tools = {
         "knife_arm": ("knife/", build_knife(scenario.knife)),
         "pull_arm": ("gripper/", build_gripper(scenario.gripper)),
@@ -130,20 +147,29 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None) -> m
 
 def _flexcomp_xml(name: str, mesh: TetMesh, scenario: Scenario, pins: np.ndarray,
                   offset_m: np.ndarray) -> str:
-    """A flexcomp for one muscle, points shifted by ``offset_m`` into the parent body's frame."""
+    """A flexcomp for one muscle, points shifted by ``offset_m`` into the parent body's frame.
+
+    A continuum material is MuJoCo's own elasticity; a mass-spring material leaves the flex
+    without it (the springs are applied by :class:`cell.massspring.MassSpringModel`), and a
+    vanishing edge damping tells MuJoCo the flex is meant to be soft.
+    """
     material = scenario.material
     points = " ".join(f"{v:.7g}" for v in (mesh.points + offset_m).ravel())
     elements = " ".join(str(i) for i in mesh.tets.ravel())
     pin = f'<pin id="{" ".join(str(i) for i in pins)}"/>' if len(pins) else ""
     rgba = "0.72 0.20 0.22 1" if name == "round" else "0.80 0.36 0.30 1"
+    bits = ROUND if name == "round" else SHANK
     mass = material.density_kg_m3 * mesh.volume_m3
-    plastic = f' yield="{material.yield_strain}"' if material.yield_strain > 0 else ""
+    if isinstance(material, ContinuumMaterial):
+        plastic = f' yield="{material.yield_strain}"' if material.yield_strain > 0 else ""
+        elastic = (f'<elasticity young="{material.young_pa}" poisson="{material.poisson}" '
+                   f'damping="{material.damping_s}"{plastic}/>')
+    else:
+        elastic = '<edge damping="1e-9"/>'
     return (
         f'<flexcomp name="{name}" type="direct" dim="3" point="{points}" element="{elements}" '
-        f'mass="{mass:.6g}" radius="0.0005" rgba="{rgba}">'
-        f'<elasticity young="{material.young_pa}" poisson="{material.poisson}" '
-        f'damping="{material.damping_s}"{plastic}/>'
-        f'<contact contype="{CONTACT_MAIN}" conaffinity="{CONTACT_MAIN}" selfcollide="none" '
+        f'mass="{mass:.6g}" radius="0.0005" rgba="{rgba}">{elastic}'
+        f'<contact contype="{bits.contype}" conaffinity="{bits.conaffinity}" selfcollide="none" '
         f'condim="3" friction="0.5 0.005 0.0001" solref="0.005 1"/>'
         f"{pin}</flexcomp>"
     )
@@ -173,20 +199,27 @@ def build_scene(scenario: Scenario) -> Scene:
     layout = scenario.layout
     origin = np.array([layout.meat_x_m, 0.0, layout.table_height_m])
     mesh = build_two_muscles(scenario.tissue, origin_m=tuple(origin))
-    pair_round = set(mesh.pairs[:, 0].tolist())
-    low = mesh.round.points[:, 2] <= origin[2] + _PIN_TOLERANCE_M
-    round_pins = np.array([i for i in np.flatnonzero(low) if i not in pair_round], dtype=int)
+    round_pins = np.flatnonzero(mesh.round.points[:, 2] <= origin[2] + _PIN_TOLERANCE_M)
     # flexcomp is the one element MjSpec cannot build from arrays: start from its MJCF.
     spec = mujoco.MjSpec.from_string(_tissue_spec(scenario, mesh, round_pins))
+    material = scenario.material
+    if isinstance(material, ContinuumMaterial) and material.law == "neo_hookean":
+        for flex in spec.flexes:
+            flex.elastic3d = 1  # MuJoCo's stable neo-Hookean; spec only, no MJCF attribute
     build_robot_spec(scenario, spec)
 
     apo = scenario.aponeurosis
     law = BindingLaw(apo.law)
     if law is BindingLaw.CONSTRAINT:
+        pinned = set(round_pins.tolist())
         for k, (r, s) in enumerate(mesh.pairs):
+            # A pinned round vertex is a point of the fixture: anchor the binding there.
+            body, anchor = (("fixture", mesh.round.points[r] - origin) if r in pinned
+                            else (f"round_{r}", np.zeros(3)))
             spec.add_equality(name=f"binding_{k}", type=mujoco.mjtEq.mjEQ_CONNECT,
-                              objtype=mujoco.mjtObj.mjOBJ_BODY, name1=f"round_{r}",
-                              name2=f"shank_{s}", solref=[apo.timeconst_s, apo.dampratio])
+                              objtype=mujoco.mjtObj.mjOBJ_BODY, name1=body,
+                              name2=f"shank_{s}", data=[*anchor, *np.zeros(9)],
+                              solref=[apo.timeconst_s, apo.dampratio])
     grasp_vertices = _grasp_candidates(scenario, mesh)
     for v in grasp_vertices:
         spec.add_equality(name=f"grasp_{v}", type=mujoco.mjtEq.mjEQ_CONNECT,
@@ -198,12 +231,17 @@ def build_scene(scenario: Scenario) -> Scene:
     binding_ids = (np.array([model.equality(f"binding_{k}").id for k in range(len(mesh.pairs))])
                    if law is BindingLaw.CONSTRAINT else None)
     grasp_ids = np.array([model.equality(f"grasp_{v}").id for v in grasp_vertices], dtype=int)
-    aponeurosis = Aponeurosis(model, round_bodies[mesh.pairs[:, 0]],
+    round_vertex0 = model.flex_vertadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_FLEX,
+                                                         "round")]
+    shank_vertex0 = model.flex_vertadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_FLEX,
+                                                         "shank")]
+    aponeurosis = Aponeurosis(model, round_vertex0 + mesh.pairs[:, 0],
+                              shank_vertex0 + mesh.pairs[:, 1], round_bodies[mesh.pairs[:, 0]],
                               shank_bodies[mesh.pairs[:, 1]], mesh.pairs, law=law,
                               stiffness_n_m=apo.stiffness_n_m,
                               damping_n_s_m=apo.damping_n_s_m, equality_ids=binding_ids)
-    return Scene(spec, model, mesh, round_bodies, shank_bodies, aponeurosis, grasp_ids,
-                 grasp_vertices)
+    return Scene(scenario, spec, model, mesh, round_bodies, shank_bodies, aponeurosis,
+                 grasp_ids, grasp_vertices)
 
 
 def _vertex_bodies(model: mujoco.MjModel, flex: str, count: int, pin_body: str | None
@@ -240,6 +278,17 @@ def grasp_point(scenario: Scenario, mesh: TwoMuscleMesh) -> np.ndarray:
 
 
 def export_mjcf(scene: Scene, path: str | Path) -> Path:
-    """Write the scene as MJCF for MuJoCo's own viewer (atomically)."""
+    """Write the scene as MJCF for MuJoCo's own viewer (atomically).
+
+    The mass-spring forces and the binding springs are computed by musclecell, not MuJoCo:
+    the file holds the geometry, masses, contacts and constraints only.
+
+    Raises:
+        MaterialError: the neo-Hookean continuum, which MJCF cannot express.
+    """
+    material = scene.scenario.material
+    if isinstance(material, ContinuumMaterial) and material.law == "neo_hookean":
+        raise MaterialError(None, "material.law",
+                            "MuJoCo cannot save its neo-Hookean flexes as MJCF; use 'stvk'")
     xml = scene.spec.to_xml()
     return write_atomic(path, xml)

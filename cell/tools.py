@@ -12,13 +12,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from cell.collision import JAWS, ROBOTS
 from cell.errors import InputError
-
-# Collision bits. Tissue, table, arms and knife share bit 0 so they touch for real; the
-# gripper jaws live on bit 1 only, since the pinch is modelled by grasp bindings and a
-# penetration fight between jaws and soft tissue would only add stiff, useless contacts.
-CONTACT_MAIN = 1
-CONTACT_JAWS = 2
 
 
 def _check_positive(**values: float) -> None:
@@ -144,20 +139,20 @@ def build_knife(params: KnifeParams = KnifeParams()) -> mujoco.MjSpec:
         name="sensor", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
         size=[params.sensor_radius_m, h / 2, 0], pos=[0, 0, h / 2],
         mass=params.sensor_mass_kg, rgba=[0.2, 0.2, 0.22, 1],
-        contype=CONTACT_MAIN, conaffinity=CONTACT_MAIN,
+        contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity,
     )
     knife.add_geom(
         name="handle", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
         size=[params.handle_radius_m, params.handle_length_m / 2 - params.handle_radius_m, 0],
         pos=[0, 0, h + params.handle_length_m / 2],
         mass=params.handle_mass_kg, rgba=[0.1, 0.1, 0.1, 1],
-        contype=CONTACT_MAIN, conaffinity=CONTACT_MAIN,
+        contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity,
     )
     blade_centre = h + params.handle_length_m + params.blade_length_m / 2
     knife.add_geom(
         name="blade", type=mujoco.mjtGeom.mjGEOM_BOX, size=params.blade_half_size_m,
         pos=[0, 0, blade_centre], mass=params.blade_mass_kg, rgba=[0.85, 0.87, 0.9, 1],
-        contype=CONTACT_MAIN, conaffinity=CONTACT_MAIN, friction=[0.3, 0.005, 0.0001],
+        contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity, friction=[0.3, 0.005, 0.0001],
     )
     knife.add_site(name="blade", pos=[0, 0, blade_centre], size=[0.002, 0, 0])
     knife.add_site(name="tip", pos=[0, 0, params.tip_offset_m], size=[0.003, 0, 0],
@@ -178,12 +173,12 @@ def build_gripper(params: GripperParams = GripperParams()) -> mujoco.MjSpec:
     palm.add_geom(
         name="sensor", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
         size=[0.04, params.sensor_height_m / 2, 0], pos=[0, 0, params.sensor_height_m / 2],
-        mass=0.25, rgba=[0.2, 0.2, 0.22, 1], contype=CONTACT_MAIN, conaffinity=CONTACT_MAIN,
+        mass=0.25, rgba=[0.2, 0.2, 0.22, 1], contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity,
     )
     palm.add_geom(
         name="palm", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx / 2, sy / 2, sz / 2],
         pos=[0, 0, z_palm], mass=params.palm_mass_kg, rgba=[0.3, 0.32, 0.35, 1],
-        contype=CONTACT_MAIN, conaffinity=CONTACT_MAIN,
+        contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity,
     )
     finger_z = params.sensor_height_m + sz + params.finger_length_m / 2
     half_open = params.max_opening_m / 2
@@ -199,7 +194,7 @@ def build_gripper(params: GripperParams = GripperParams()) -> mujoco.MjSpec:
                   params.finger_length_m / 2],
             pos=[0, sign * params.finger_thickness_m / 2, finger_z],
             mass=params.finger_mass_kg, rgba=[0.55, 0.57, 0.6, 1],
-            contype=CONTACT_JAWS, conaffinity=CONTACT_JAWS,
+            contype=JAWS.contype, conaffinity=JAWS.conaffinity,
         )
         spec.add_actuator(
             name=f"finger_{side}", target=f"finger_{side}",
@@ -224,7 +219,7 @@ def build_camera(params: CameraParams = CameraParams()) -> mujoco.MjSpec:
     body.add_geom(
         name="housing", type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx / 2, sy / 2, sz / 2],
         pos=[0, 0, sz / 2], mass=params.mass_kg, rgba=[0.15, 0.15, 0.15, 1],
-        contype=CONTACT_MAIN, conaffinity=CONTACT_MAIN,
+        contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity,
     )
     body.add_camera(name="camera", pos=[0, 0, sz + 0.002], quat=[0, 1, 0, 0],
                     fovy=params.fovy_deg, resolution=[params.width_px, params.height_px])

@@ -315,14 +315,18 @@ _TWO_VERTICES = """
   <body name="b" pos="0 0.0015 0"><joint type="slide" axis="1 0 0"/>
     <joint type="slide" axis="0 1 0"/><joint type="slide" axis="0 0 1"/>
     <geom type="sphere" size="0.001" mass="0.005" contype="0" conaffinity="0"/></body>
-</worldbody></mujoco>"""
+</worldbody>
+<deformable><flex name="pair" dim="1" body="a b" vertex="0 0 0 0 0 0" element="0 1">
+  <contact contype="0" conaffinity="0"/></flex></deformable>
+</mujoco>"""
 
 
 def test_a_binding_spring_honours_its_stiffness_in_newtons_per_metre() -> None:
     model = mujoco.MjModel.from_xml_string(_TWO_VERTICES)
     data = mujoco.MjData(model)
-    apo = Aponeurosis(model, [model.body("a").id], [model.body("b").id], np.array([[0, 0]]),
-                      law=BindingLaw.SPRING, stiffness_n_m=50.0, damping_n_s_m=0.5)
+    apo = Aponeurosis(model, [0], [1], [model.body("a").id], [model.body("b").id],
+                      np.array([[0, 0]]), law=BindingLaw.SPRING, stiffness_n_m=50.0,
+                      damping_n_s_m=0.5)
     pull_n = 0.25
     for _ in range(3000):  # 6 s: the dashpot settles the two masses
         data.qfrc_applied[:] = 0.0

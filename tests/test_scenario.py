@@ -46,7 +46,7 @@ BAD_SCENARIOS = [
         "[tissue]\nvalley_depth_m = 0.5\n", "tissue.valley_depth_m", id="tissue-cross-field-check"
     ),
     pytest.param(
-        "[material]\npoisson = 0.5\n",
+        '[material]\nmodel = "continuum"\npoisson = 0.5\n',
         "material.poisson",
         id="material-error-becomes-scenario-error",
     ),
