@@ -51,11 +51,14 @@ class SimulationParams:
     """Physics settings. ``timestep_s`` is MuJoCo's step; the controllers run at
     ``control_rate_hz``; ``max_tissue_speed_m_s`` flags an energy blow-up. ``integrator``
     ``"auto"`` picks ``discrete`` for continuum materials (the only one MuJoCo runs them
-    with) and ``implicitfast`` for the mass-spring model."""
+    with) and ``implicitfast`` for the mass-spring model. ``muscle_contact`` lets the two
+    muscles collide with each other (off by default: it more than doubles a step's cost, and
+    the bindings and the pull keep them apart)."""
 
     timestep_s: float = 0.002
     control_rate_hz: float = 50.0
     integrator: Literal["auto", "discrete", "implicitfast", "euler"] = "auto"
+    muscle_contact: bool = False
     solver_iterations: int = 100
     max_tissue_speed_m_s: float = 20.0
 

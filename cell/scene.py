@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from cell.aponeurosis import Aponeurosis, BindingLaw
-from cell.collision import ROUND, SHANK, TABLE_TOP
+from cell.collision import FEET, TABLE_TOP, muscles
 from cell.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription
 from cell.errors import MaterialError
 from cell.geometry import TetMesh, TwoMuscleMesh, build_two_muscles
@@ -38,8 +38,10 @@ KNIFE_BLADE_GEOM = "knife/blade"
 GRASP_SITE = "gripper/grasp"
 GRIPPER_BODY = "gripper/gripper"
 CAMERA = "camera/camera"
-#: Rest height of the pinned layer: bottom vertices within this of the table are held.
+#: Rest height of the bottom layer: vertices within this of the table are pinned (round) or
+#: stand on feet (shank).
 _PIN_TOLERANCE_M = 1e-6
+_FOOT_RADIUS_M = 0.002
 
 
 @dataclass
@@ -158,7 +160,8 @@ def _flexcomp_xml(name: str, mesh: TetMesh, scenario: Scenario, pins: np.ndarray
     elements = " ".join(str(i) for i in mesh.tets.ravel())
     pin = f'<pin id="{" ".join(str(i) for i in pins)}"/>' if len(pins) else ""
     rgba = "0.72 0.20 0.22 1" if name == "round" else "0.80 0.36 0.30 1"
-    bits = ROUND if name == "round" else SHANK
+    round_bits, shank_bits = muscles(scenario.simulation.muscle_contact)
+    bits = round_bits if name == "round" else shank_bits
     mass = material.density_kg_m3 * mesh.volume_m3
     if isinstance(material, ContinuumMaterial):
         plastic = f' yield="{material.yield_strain}"' if material.yield_strain > 0 else ""
@@ -206,6 +209,7 @@ def build_scene(scenario: Scenario) -> Scene:
     if isinstance(material, ContinuumMaterial) and material.law == "neo_hookean":
         for flex in spec.flexes:
             flex.elastic3d = 1  # MuJoCo's stable neo-Hookean; spec only, no MJCF attribute
+    _add_feet(spec, mesh, origin[2])
     build_robot_spec(scenario, spec)
 
     apo = scenario.aponeurosis
@@ -242,6 +246,17 @@ def build_scene(scenario: Scenario) -> Scene:
                               damping_n_s_m=apo.damping_n_s_m, equality_ids=binding_ids)
     return Scene(scenario, spec, model, mesh, round_bodies, shank_bodies, aponeurosis,
                  grasp_ids, grasp_vertices)
+
+
+def _add_feet(spec: mujoco.MjSpec, mesh: TwoMuscleMesh, table_z_m: float) -> None:
+    """A small sphere under every bottom vertex of the shank, resting on the table (see
+    :data:`cell.collision.FEET`). Its bottom touches the vertex, so the rest pose is kept."""
+    bottom = np.flatnonzero(mesh.shank.points[:, 2] <= table_z_m + _PIN_TOLERANCE_M)
+    for i in bottom:
+        spec.body(f"shank_{i}").add_geom(
+            name=f"shank_foot_{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[_FOOT_RADIUS_M, 0, 0],
+            pos=[0, 0, _FOOT_RADIUS_M], mass=1e-9, contype=FEET.contype,
+            conaffinity=FEET.conaffinity, friction=[0.6, 0.005, 0.0001], group=3)
 
 
 def _vertex_bodies(model: mujoco.MjModel, flex: str, count: int, pin_body: str | None
