@@ -25,7 +25,7 @@ along the direction of least curvature are where the normals turn most.
 
 Example:
     >>> curv = surface_curvature(mesh, radius_m=0.015)
-    >>> valley = curv.mean_1_m < -5.0
+    >>> valley = curv.mean_1_m < -7.0
 """
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ class Curvature:
         return self.min_1_m * self.max_1_m
 
 
-def ball_adjacency(points_m: np.ndarray, radius_m: float) -> sp.csr_matrix:
+def _ball_adjacency(points_m: np.ndarray, radius_m: float) -> sp.csr_matrix:
     """(N, N) sparse 0/1 matrix: entry (i, j) is 1 where |p_i - p_j| <= ``radius_m`` (i == j
     included)."""
     n = len(points_m)
@@ -161,7 +161,7 @@ def surface_curvature(mesh: SurfaceMesh, radius_m: float) -> Curvature:
         # A third of each triangle's area to each corner: |B| is the area of the ball's vertices.
         + [np.bincount(corners, np.linalg.norm(corner_normals, axis=1) / 6.0, minlength=n)]
     )
-    in_ball = ball_adjacency(mesh.vertices_m, radius_m) @ per_vertex
+    in_ball = _ball_adjacency(mesh.vertices_m, radius_m) @ per_vertex
     area = in_ball[:, 9]
     flat = in_ball[:, :6] / np.where(area > 0.0, area, np.inf)[:, None]
     normal_sum = in_ball[:, 6:9]

@@ -167,7 +167,8 @@ def fit_generic_model(
     ``initial``) and converges from rotations of several degrees and offsets of centimetres.
 
     Raises:
-        PerceptionError: fewer than twelve cloud points (too few for twelve parameters).
+        PerceptionError: fewer than twelve cloud points (too few for twelve parameters), or a
+            fit that mirrors the model.
     """
     params = FitParams() if params is None else params
     cloud = np.asarray(cloud_m, dtype=float).reshape(-1, 3)
@@ -209,6 +210,11 @@ def fit_generic_model(
         matrix, translation = solution[:9].reshape(3, 3), solution[9:]
         if np.max(np.linalg.norm(moved, axis=1)) < params.tolerance_m:
             break
+    if not np.linalg.det(matrix) > 0.0:
+        raise PerceptionError(
+            "the fit turned the generic model inside out (det A <= 0): the cloud does not "
+            "constrain it; place the model closer to the meat or give a fuller view"
+        )
     return AffineFit(matrix, translation, pivot, float(np.sqrt(np.mean(residual**2))))
 
 

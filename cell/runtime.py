@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 
 from cell.aponeurosis import ReleaseRule
-from cell.errors import DivergenceError, ScenarioError
+from cell.errors import DivergenceError, MaterialError, ScenarioError
 from cell.forcecurve import ForceCurve
 from cell.massspring import MassSpringModel
 from cell.material import MassSpringMaterial
@@ -53,10 +53,13 @@ class Simulation:
         self._grasp_site = self.model.site(GRASP_SITE).id
         self._warnings = np.zeros(len(_FATAL_WARNINGS), dtype=int)
         self.grasped = np.zeros(0, dtype=int)
-        self.tissue = (MassSpringModel(self.model, ("round", "shank"), scenario.material)
-                       if isinstance(scenario.material, MassSpringMaterial) else None)
-        if self.tissue is not None:
-            stable = self.tissue.stable_timestep_s()
+        # One spring model per muscle, so that each has its own fibre field.
+        self.springs: dict[str, MassSpringModel] = (
+            {muscle: MassSpringModel(self.model, (muscle,), scenario.material)
+             for muscle in ("round", "shank")}
+            if isinstance(scenario.material, MassSpringMaterial) else {})
+        if self.springs:
+            stable = min(model.stable_timestep_s() for model in self.springs.values())
             if self.model.opt.timestep > stable:
                 raise ScenarioError(None, "simulation.timestep_s",
                                     f"{self.model.opt.timestep} s is above the stable step "
@@ -84,10 +87,10 @@ class Simulation:
         apo, data = self.scene.aponeurosis, self.data
         for _ in range(count):
             before = self.time_s
-            if self.tissue is None:
+            if not self.springs:
                 data.qfrc_applied[self._tissue_dofs] = 0.0
-            else:
-                self.tissue.apply(data)  # rewrites the tissue dofs' entries
+            for springs in self.springs.values():
+                springs.apply(data)  # rewrites its muscle's dofs' entries
             blade_pos = data.geom_xpos[self._blade]
             apo.track_blade(blade_pos, data.geom_xmat[self._blade])
             force, moment = apo.apply_forces(data)
@@ -98,6 +101,19 @@ class Simulation:
                                                              moment + np.cross(lever, force)])
             mujoco.mj_step(self.model, data)
             self.check_divergence(before + self.model.opt.timestep)
+
+    def set_fibre_direction(self, muscle: str, direction: np.ndarray) -> None:
+        """Turn the fibres of ``muscle`` (``"round"`` or ``"shank"``) to ``direction`` (world
+        frame), as the vision module would after looking at the meat.
+
+        Raises:
+            MaterialError: a zero direction, or a continuum material (it has no fibres).
+        """
+        if muscle not in self.springs:
+            raise MaterialError(None, "fibre_direction",
+                                f"no mass-spring muscle named {muscle!r} (the continuum "
+                                "materials are isotropic)")
+        self.springs[muscle].set_fibre_direction(direction)
 
     def check_divergence(self, time_s: float | None = None) -> None:
         """Raise :class:`DivergenceError` on NaN, a fatal MuJoCo warning or runaway tissue.

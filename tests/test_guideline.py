@@ -1,0 +1,156 @@
+"""The cut guideline: the valley walk on a synthetic valley, the start points it refuses, and
+the guideline on the rendered default cell against the true top line of the interface."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cell.camera import CameraRig
+from cell.curvature import Curvature, surface_curvature
+from cell.episode import Episode
+from cell.errors import InputError, PerceptionError
+from cell.guideline import GuidelineParams, find_cut_path
+from cell.pointcloud import SensorNoise, SurfaceMesh, capture, depth_mesh
+from cell.scenario import Scenario
+from cell.scene import CAMERA
+
+CURVATURE_RADIUS_M = 0.015
+LENGTH_M = 0.4
+
+
+def _valley_y(x: np.ndarray) -> np.ndarray:
+    """The synthetic valley's bottom line: a gentle bow."""
+    return 0.01 * np.cos(np.pi * x / LENGTH_M)
+
+
+def _distance_xy(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    """Distance in the xy-plane from each point to the polyline ``line``."""
+    a, chord = line[:-1, :2], np.diff(line[:, :2], axis=0)
+    t = np.clip(np.einsum("kij,ij->ki", points[:, None, :2] - a, chord)
+                / np.sum(chord**2, axis=1), 0.0, 1.0)
+    return np.linalg.norm(points[:, None, :2] - (a + t[..., None] * chord), axis=2).min(axis=1)
+
+
+@pytest.fixture(scope="module")
+def valley() -> SurfaceMesh:
+    """Two rounded muscles 0.4 m long meeting in a valley 15 mm deep that bows in plan view
+    and rises 10 mm from the ends to the middle, sampled every 6 mm (jittered) with 0.3 mm of
+    noise, normals up."""
+    rng = np.random.default_rng(0)
+    step = 0.006
+    x, y = np.meshgrid(np.arange(-LENGTH_M / 2, LENGTH_M / 2 + 1e-9, step),
+                       np.arange(-0.08, 0.08 + 1e-9, step), indexing="ij")
+    x = x + rng.uniform(-0.3, 0.3, x.shape) * step
+    y = y + rng.uniform(-0.3, 0.3, y.shape) * step
+    d = y - _valley_y(x)
+    z = 0.09 - 0.015 * np.exp(-((d / 0.03) ** 2)) - 0.01 * (2 * x / LENGTH_M) ** 2
+    z = z + rng.normal(0.0, 3e-4, z.shape)
+    ids = np.arange(x.size).reshape(x.shape)
+    a, b, c, e = ids[:-1, :-1], ids[1:, :-1], ids[:-1, 1:], ids[1:, 1:]
+    triangles = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
+                                np.stack([b, e, c], -1).reshape(-1, 3)])
+    return SurfaceMesh(np.stack([x, y, z], axis=-1).reshape(-1, 3), triangles)
+
+
+@pytest.fixture(scope="module")
+def valley_curvature(valley: SurfaceMesh) -> Curvature:
+    return surface_curvature(valley, CURVATURE_RADIUS_M)
+
+
+def _on_valley(x: float) -> np.ndarray:
+    z = 0.075 - 0.01 * (2 * x / LENGTH_M) ** 2
+    return np.array([x, float(_valley_y(np.array(x))), z])
+
+
+def test_path_follows_a_bowed_valley_that_rises_and_falls(
+    valley: SurfaceMesh, valley_curvature: Curvature
+) -> None:
+    path = find_cut_path(valley, valley_curvature, _on_valley(-0.19))
+    offset = np.abs(path.points_m[:, 1] - _valley_y(path.points_m[:, 0]))
+    # The rounded bottom is only 0.4 mm lower 5 mm to the side, about the noise: the lowest
+    # nodes zigzag by that much, and the spline averages them.
+    assert offset.mean() < 2.5e-3
+    assert offset.max() < 5e-3
+    assert path.points_m[:, 0].min() < -0.18
+    assert path.points_m[:, 0].max() > 0.18
+    # Samples evenly spaced along the path, tangents along it, normals up and across it.
+    gaps = np.linalg.norm(np.diff(path.points_m, axis=0), axis=1)
+    np.testing.assert_allclose(gaps, GuidelineParams().spacing_m, rtol=0.05)
+    np.testing.assert_allclose(np.linalg.norm(path.tangents, axis=1), 1.0)
+    assert np.all(np.abs(path.tangents[:, 0]) > 0.9)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", path.normals, path.tangents), 0.0,
+                               atol=1e-12)
+    assert np.all(path.normals[:, 2] > 0.95)
+
+
+def test_a_start_in_the_middle_gives_the_whole_valley(
+    valley: SurfaceMesh, valley_curvature: Curvature
+) -> None:
+    from_end = find_cut_path(valley, valley_curvature, _on_valley(-0.19))
+    from_middle = find_cut_path(valley, valley_curvature, _on_valley(0.0))
+    assert from_middle.length_m == pytest.approx(from_end.length_m, rel=0.05)
+    assert from_middle.points_m[:, 0].min() < -0.18
+    assert from_middle.points_m[:, 0].max() > 0.18
+
+
+def test_a_start_off_the_meat_is_refused(valley: SurfaceMesh,
+                                         valley_curvature: Curvature) -> None:
+    with pytest.raises(PerceptionError, match="off the meat"):
+        find_cut_path(valley, valley_curvature, _on_valley(0.0) + np.array([0.0, 0.0, 0.05]))
+
+
+def test_a_start_on_a_crest_is_refused(valley: SurfaceMesh,
+                                       valley_curvature: Curvature) -> None:
+    crest = np.array([0.0, 0.07, 0.09])
+    with pytest.raises(PerceptionError, match="not in the valley"):
+        find_cut_path(valley, valley_curvature, crest)
+
+
+def test_a_one_point_surface_is_refused() -> None:
+    point = SurfaceMesh(np.zeros((1, 3)), np.zeros((0, 3), dtype=np.int64))
+    flat = Curvature(np.array([[0.0, 0.0, 1.0]]), np.zeros(1), np.zeros(1),
+                     np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    with pytest.raises(PerceptionError, match="1 vertices"):
+        find_cut_path(point, flat, np.zeros(3))
+
+
+def test_curvature_of_another_mesh_is_refused(valley: SurfaceMesh) -> None:
+    other = surface_curvature(SurfaceMesh(valley.vertices_m[:4], np.array([[0, 1, 2]])), 0.01)
+    with pytest.raises(InputError, match="curvature"):
+        find_cut_path(valley, other, _on_valley(0.0))
+
+
+@pytest.mark.parametrize("field", ["search_radius_m", "spacing_m", "max_start_offset_m"])
+def test_parameters_must_be_positive(field: str) -> None:
+    with pytest.raises(InputError, match=field):
+        GuidelineParams(**{field: 0.0})
+
+
+# --- the default cell, seen by its camera with sensor noise -------------------------------------
+
+
+@pytest.fixture(scope="module")
+def episode() -> Episode:
+    return Episode(Scenario())
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_guideline_on_the_default_cell_follows_the_interface(episode: Episode, seed: int) -> None:
+    rig = CameraRig(episode.scene.model, CAMERA, 320, 240)
+    try:
+        view = capture(rig, episode.sim.data, SensorNoise(), np.random.default_rng(seed))
+    finally:
+        rig.close()
+    # 4 x 4 bins: about the paper's mesh (1376 nodes, 2662 triangles).
+    mesh = depth_mesh(view, bin_px=4)
+    assert 1200 < len(mesh.vertices_m) < 1600
+    top_line = episode.scene.mesh.top_line
+    # A marker in the valley 1 cm in from the meat's end, placed 3 mm off the line.
+    start = top_line[0] + np.array([0.01, 0.003, 0.0])
+    path = find_cut_path(mesh, surface_curvature(mesh, CURVATURE_RADIUS_M), start)
+    distance = _distance_xy(path.points_m, top_line)
+    assert distance.mean() <= 5e-3
+    assert distance.max() <= 15e-3
+    line_length = np.linalg.norm(np.diff(top_line, axis=0), axis=1).sum()
+    assert path.length_m >= 0.9 * line_length

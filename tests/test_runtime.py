@@ -1,0 +1,54 @@
+"""The runtime with each tissue model: it steps, it keeps the tissue on the table, and the
+mass-spring fibres can be turned while it runs."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from cell.errors import MaterialError, ScenarioError
+from cell.geometry import MuscleShape
+from cell.material import ContinuumMaterial, MassSpringMaterial
+from cell.runtime import Simulation
+from cell.scenario import Scenario, SimulationParams
+from cell.scene import build_scene
+
+COARSE = Scenario(tissue=MuscleShape(cell_size_m=0.05))
+
+
+@pytest.mark.parametrize("material", [
+    ContinuumMaterial(law="stvk"),
+    ContinuumMaterial(law="neo_hookean"),
+    ContinuumMaterial(yield_strain=0.05),
+    MassSpringMaterial.isotropic(3e4),
+    MassSpringMaterial.transversely_isotropic(2.5e4, 1.5e4),
+], ids=["stvk", "neo-hookean", "plastic", "mass-spring-iso", "mass-spring-aniso"])
+def test_every_tissue_model_rests_on_the_table(material: object) -> None:
+    scenario = replace(COARSE, material=material)
+    sim = Simulation(build_scene(scenario), scenario)
+    sim.step(150)
+    tissue = sim.data.flexvert_xpos
+    assert np.isfinite(tissue).all()
+    table = scenario.layout.table_height_m
+    assert tissue[:, 2].min() > table - 0.005  # nothing sinks into the table
+    assert tissue[:, 2].max() < table + scenario.tissue.round_height_m + 0.005
+
+
+def test_turning_the_fibres_changes_the_springs_of_that_muscle_only() -> None:
+    sim = Simulation(build_scene(COARSE), COARSE)
+    round_before = sim.springs["round"].stiffness_n_m.copy()
+    shank_before = sim.springs["shank"].stiffness_n_m.copy()
+    sim.set_fibre_direction("round", np.array([0.0, 0.0, 1.0]))
+    assert not np.allclose(sim.springs["round"].stiffness_n_m, round_before)
+    np.testing.assert_array_equal(sim.springs["shank"].stiffness_n_m, shank_before)
+    sim.step(20)
+    with pytest.raises(MaterialError, match="fibre_direction"):
+        sim.set_fibre_direction("round", np.zeros(3))
+
+
+def test_a_timestep_above_the_springs_stable_step_is_refused() -> None:
+    scenario = replace(COARSE, simulation=SimulationParams(timestep_s=0.02, control_rate_hz=25))
+    with pytest.raises(ScenarioError, match=r"simulation\.timestep_s"):
+        Simulation(build_scene(scenario), scenario)
