@@ -6,13 +6,16 @@ import argparse
 import sys
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from cell.errors import DivergenceError, MusclecellError, ScenarioError
+from cell.errors import DivergenceError, InputError, MusclecellError, ScenarioError
+
+if TYPE_CHECKING:
+    from cell.scenario import Scenario
 
 
-def _run(args: argparse.Namespace) -> int:
-    from cell.episode import Episode
-    from cell.io import write_json
+def _load(args: argparse.Namespace) -> Scenario:
+    """The scenario named on the command line, with ``--seed`` applied."""
     from cell.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
@@ -20,6 +23,14 @@ def _run(args: argparse.Namespace) -> int:
         if args.seed < 0:
             raise ScenarioError(None, "--seed", f"must be >= 0, got {args.seed}")
         scenario = replace(scenario, seed=args.seed)
+    return scenario
+
+
+def _run(args: argparse.Namespace) -> int:
+    from cell.episode import Episode
+    from cell.io import write_json
+
+    scenario = _load(args)
     summary = Episode(scenario).run(rerun_path=args.rerun, progress=not args.quiet)
     if args.summary:
         write_json(args.summary, summary)
@@ -28,6 +39,48 @@ def _run(args: argparse.Namespace) -> int:
           f"{result['released_by_rule']}, median gap {result['gap_m']['median'] * 1e3:.1f} mm, "
           f"knife tracking median {result['knife_tracking_error_m']['median'] * 1e3:.2f} mm, "
           f"real-time factor {summary['timing']['real_time_factor']:.3f}")
+    return 0
+
+
+def _plan(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from cell.camera import CameraRig
+    from cell.episode import Episode
+    from cell.io import write_json
+    from cell.perception import PerceptionParams, generic_model, perceive
+    from cell.scene import CAMERA, KNIFE_TIP
+    from controllers.knife import plan_cut
+
+    scenario = _load(args)
+    episode = Episode(scenario)
+    truth = episode.scene.mesh
+    rig = CameraRig(episode.scene.model, CAMERA, scenario.camera.width_px,
+                    scenario.camera.height_px)
+    try:
+        plan = perceive(rig, episode.sim.data, truth, generic_model(scenario.layout),
+                        PerceptionParams(), np.random.default_rng(scenario.seed))
+    finally:
+        rig.close()
+    tip_m, tip_rotation = episode.ik.site_pose(KNIFE_TIP)
+    _, tip_path, window_s = plan_cut(
+        plan.guideline.points_m, scenario.cut, scenario.layout.table_height_m,
+        scenario.cut.start_s, tip_m, tip_rotation, interface_y=plan.interface_y)
+    # How far the planned blade tip is from the true interface: what the cut would part.
+    offset = np.abs(tip_path[:, 1] - truth.interface_y(tip_path[:, 0], tip_path[:, 2]))
+    summary = {"scenario": scenario.name, "seed": scenario.seed, **plan.summary(),
+               "knife": {"cut_window_s": list(window_s), "tip_points": len(tip_path),
+                         "tip_offset_from_true_interface_m": {"mean": float(offset.mean()),
+                                                              "max": float(offset.max())}}}
+    write_json(args.json, summary)
+    distance = plan.guideline_distance_m
+    depth = plan.cut_depth_m
+    print(f"guideline {plan.guideline.length_m:.3f} m, {len(plan.guideline.nodes)} nodes, "
+          f"{distance.mean_m * 1e3:.1f} mm mean / {distance.max_m * 1e3:.1f} mm max from the "
+          f"true top line; fit rms {plan.fit.rms_m * 1e3:.2f} mm; cut depth "
+          f"{depth.min() * 1e3:.0f}-{depth.max() * 1e3:.0f} mm; knife tip "
+          f"{offset.mean() * 1e3:.1f} mm mean from the true interface; perception "
+          f"{plan.timings_s['total']:.2f} s; wrote {args.json}")
     return 0
 
 
@@ -44,11 +97,56 @@ def _bench(args: argparse.Namespace) -> int:
     from cell.bench import run_bench
     from cell.io import write_json
 
+    if args.suite == "tissue":
+        return _bench_tissue(args)
+    if args.markdown is not None:
+        raise InputError(None, "--markdown", "only `musclecell bench tissue` writes Markdown")
+    if args.suite == "perception":
+        return _bench_perception(args)
+    json_path = args.json or Path("out/bench.json")
     report = run_bench(args.scenario, quick=args.quick)
-    write_json(args.json, report)
+    write_json(json_path, report)
     for name, entry in report["entries"].items():
         print(f"{name}: {entry['value']:.4g} {entry['unit']}")
-    print(f"wrote {args.json}")
+    print(f"wrote {json_path}")
+    return 0
+
+
+def _bench_tissue(args: argparse.Namespace) -> int:
+    from cell.bench_tissue import TissueBenchParams, markdown_report, run_tissue_bench
+    from cell.io import write_atomic, write_json
+
+    params = TissueBenchParams.quick() if args.quick else TissueBenchParams()
+    report = run_tissue_bench(params, progress=print)
+    json_path = args.json or Path("out/bench_tissue.json")
+    write_json(json_path, report)
+    print(f"wrote {json_path}")
+    if args.markdown is not None:
+        write_atomic(args.markdown, markdown_report(report))
+        print(f"wrote {args.markdown}")
+    for name, target in report["targets"].items():
+        verdict = "not run" if target["pass"] is None else ("pass" if target["pass"] else "FAIL")
+        print(f"{name}: {verdict}")
+    return 0
+
+
+def _bench_perception(args: argparse.Namespace) -> int:
+    from cell.bench_perception import run_perception_bench
+    from cell.io import write_json
+
+    report = run_perception_bench(args.scenario, quick=args.quick)
+    json_path = args.json or Path("out/bench_perception.json")
+    write_json(json_path, report)
+    for name, entry in report["entries"].items():
+        line = f"{name}: {entry['value']:.4g} {entry['unit']}"
+        if entry.get("ratio") is not None:
+            line += f" (peer {entry['peer']:.4g}, ratio {entry['ratio']:.3g})"
+        elif "skipped" in entry:
+            line += f" (peer skipped: {entry['skipped']})"
+        if "pass" in entry:
+            line += f" target {entry['target']:.4g}: {'pass' if entry['pass'] else 'FAIL'}"
+        print(line)
+    print(f"wrote {json_path}")
     return 0
 
 
@@ -65,16 +163,33 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(handler=_run)
 
+    plan = commands.add_parser(
+        "plan", help="perceive the cut and plan the knife at the ready poses (no physics)")
+    plan.add_argument("scenario", type=Path, help="scenario TOML file")
+    plan.add_argument("--json", type=Path, required=True, help="write the plan's figures here")
+    plan.add_argument("--seed", type=int, help="override the scenario's seed (sensor noise)")
+    plan.set_defaults(handler=_plan)
+
     export = commands.add_parser("export-mjcf", help="write the scene as MJCF")
     export.add_argument("scenario", type=Path)
     export.add_argument("output", type=Path)
     export.set_defaults(handler=_export)
 
-    bench = commands.add_parser("bench", help="benchmark the cell, JSON out")
-    bench.add_argument("--scenario", type=Path, default=Path("scenarios/default.toml"))
-    bench.add_argument("--json", type=Path, default=Path("out/bench.json"))
+    bench = commands.add_parser(
+        "bench", help="benchmark the cell, the tissue models or the perception")
+    bench.add_argument("suite", nargs="?", choices=("cell", "tissue", "perception"), default="cell",
+                       help="cell: the whole cell (default); tissue: every tissue model on "
+                       "the two muscles, with peers; perception: curvature, guideline and fit, "
+                       "with peers")
+    bench.add_argument("--scenario", type=Path, default=Path("scenarios/default.toml"),
+                       help="scenario of the cell and perception suites")
+    bench.add_argument("--json", type=Path,
+                       help="JSON out (default out/bench.json, tissue: out/bench_tissue.json, "
+                       "perception: out/bench_perception.json)")
+    bench.add_argument("--markdown", type=Path, help="tissue suite: Markdown tables out")
     bench.add_argument("--quick", action="store_true",
-                       help="fewer repetitions and a short episode (for smoke tests)")
+                       help="fewer repetitions and a short episode; tissue: the smallest "
+                       "mesh only (for smoke tests)")
     bench.set_defaults(handler=_bench)
     return parser
 

@@ -18,6 +18,7 @@ from tqdm import tqdm
 
 from cell.camera import CameraRig
 from cell.errors import MusclecellError
+from cell.perception import PerceivedPlan, generic_model, perceive
 from cell.recording import EpisodeRecorder
 from cell.runtime import Simulation
 from cell.scenario import Scenario
@@ -39,6 +40,8 @@ from controllers.ik import CellIK, arm_joint_names, pose
 _READY_ITERATIONS = 200
 #: The site whose drift shows whether an arm that should hold still does.
 _HELD_SITES = {"camera": "camera/optical", "gripper": GRASP_SITE, "knife": KNIFE_TIP}
+#: Which random stream of the seed the camera's noise draws from (the sensors use stream 0).
+_PERCEPTION_STREAM = 1
 #: Median gap (m) between facing vertices above which the muscles count as apart.
 APART_GAP_M = 0.02
 
@@ -78,6 +81,7 @@ class Episode:
                                  for s in ("left", "right")])
         self.control_dt_s = 1.0 / scenario.simulation.control_rate_hz
         self.substeps = max(1, round(self.control_dt_s / scenario.simulation.timestep_s))
+        self.generic = generic_model(scenario.layout)
         self.ik = CellIK(self.robot_model, self._home_configuration())
         self._solve_ready_poses()
         self._place_arms()
@@ -96,7 +100,10 @@ class Episode:
         eye, look = view_pose(mesh)
         self.ik.camera.set_target(pose(eye, np.eye(3)))
         self.ik.gaze.set_target(look)
-        self.ik.knife.set_target(pose(*knife.ready_pose(mesh.top_line, scenario.cut)))
+        # Before the camera has looked, the knife can only wait where the generic model
+        # puts the valley's end.
+        expected = self.generic.top_line if scenario.perception.enabled else mesh.top_line
+        self.ik.knife.set_target(pose(*knife.ready_pose(expected, scenario.cut)))
         self.ik.grasp.set_target(pose(*gripper.ready_pose(grasp_point(scenario, mesh),
                                                           scenario.pull)))
         for _ in range(_READY_ITERATIONS):
@@ -117,12 +124,31 @@ class Episode:
         Raises:
             DivergenceError: the physics blew up (nothing is written then).
         """
+        scenario, model = self.scenario, self.sim.model
+        rig = (CameraRig(model, CAMERA, scenario.camera.width_px, scenario.camera.height_px)
+               if scenario.perception.enabled or rerun_path is not None else None)
+        try:
+            return self._run(rig, rerun_path, progress)
+        finally:
+            if rig is not None:
+                rig.close()
+
+    def _run(self, rig: CameraRig | None, rerun_path: str | Path | None,
+             progress: bool) -> dict[str, Any]:
         scenario, sim, ik = self.scenario, self.sim, self.ik
         data, model, scene = sim.data, sim.model, self.scene
+        perceived = self.perceive(rig) if rig is not None and scenario.perception.enabled \
+            else None
+        if perceived is None:
+            top, interface_y = scene.mesh.top_line, scene.mesh.interface_y
+        else:
+            top, interface_y = perceived.guideline.points_m, perceived.interface_y
+            if top[0, 0] > top[-1, 0]:  # enter from the end the knife waits at (-x)
+                top = top[::-1]
         tip_pos, tip_rot = ik.site_pose(KNIFE_TIP)
         knife_traj, cut_path, (cut_start, cut_end) = knife.plan_cut(
-            scene.mesh.top_line, scenario.cut, scenario.layout.table_height_m,
-            scenario.cut.start_s, tip_pos, tip_rot, interface_y=scene.mesh.interface_y)
+            top, scenario.cut, scenario.layout.table_height_m,
+            scenario.cut.start_s, tip_pos, tip_rot, interface_y=interface_y)
         grasp_pos, grasp_rot = ik.site_pose(GRASP_SITE)
         pull_traj, schedule = gripper.plan_pull(
             grasp_point(scenario, scene.mesh), scenario.pull, scenario.settle_s,
@@ -135,11 +161,11 @@ class Episode:
         if not scenario.cut.enabled:
             held["knife"] = tip_pos
         recorder = None
-        rig = None
         if rerun_path is not None:
             recorder = EpisodeRecorder(rerun_path, scene, f"{scenario.name}-{scenario.seed}")
             recorder.log_planned_path(cut_path)
-            rig = CameraRig(model, CAMERA, scenario.camera.width_px, scenario.camera.height_px)
+            if perceived is not None:
+                recorder.log_perception(perceived)
         frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
         camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
                                            * self.control_dt_s)))
@@ -199,9 +225,19 @@ class Episode:
         wall_s = time.perf_counter() - wall_start
         if recorder is not None:
             recorder.close()
-        if rig is not None:
-            rig.close()
-        return self._summary(trace, wall_s)
+        return self._summary(trace, wall_s, perceived)
+
+    def perceive(self, rig: CameraRig) -> PerceivedPlan:
+        """Look at the meat from the camera arm's pose and plan the cut (paper Sec. 5); the
+        sensor noise follows the scenario's seed.
+
+        Raises:
+            PerceptionError: no meat in view, no valley at the start marker, a bad fit.
+        """
+        mujoco.mj_forward(self.scene.model, self.sim.data)
+        rng = np.random.default_rng([self.scenario.seed, _PERCEPTION_STREAM])
+        return perceive(rig, self.sim.data, self.scene.mesh, self.generic,
+                        self.scenario.perception, rng)
 
     def _measure(self, trace: _Trace, knife_tared: bool, gripper_tared: bool) -> None:
         sim = self.sim
@@ -224,7 +260,8 @@ class Episode:
                 values[name] = series[-1]
         return values
 
-    def _summary(self, trace: _Trace, wall_s: float) -> dict[str, Any]:
+    def _summary(self, trace: _Trace, wall_s: float,
+                 perceived: PerceivedPlan | None) -> dict[str, Any]:
         scene, sim = self.scene, self.sim
         apo = scene.aponeurosis
         gap = apo.lengths(sim.data) - apo.rest_length_m
@@ -256,5 +293,15 @@ class Episode:
             "held_arm_drift_m": trace.held_drift_m,
             "sim_time_s": sim.time_s,
         }
+        if perceived is not None:
+            distance = perceived.guideline_distance_m
+            result["perception"] = {
+                "guideline_to_true_top_line_xy_m": {"mean": distance.mean_m,
+                                                    "max": distance.max_m},
+                "coverage_of_true_top_line": perceived.coverage,
+                "fit_rms_m": perceived.fit.rms_m,
+                "cut_depth_m": {"min": float(perceived.cut_depth_m.min()),
+                                "max": float(perceived.cut_depth_m.max())},
+            }
         timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s}
         return {"result": result, "timing": timing}

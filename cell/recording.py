@@ -18,9 +18,13 @@ import numpy as np
 import rerun as rr
 
 from cell.camera import CameraRig
+from cell.perception import PerceivedPlan
 from cell.scene import Scene
 
-_RELEASE_COLOURS = {"knife": [255, 200, 0], "tearing": [255, 60, 200]}
+_RELEASE_COLOURS = {"knife": [255, 200, 0], "tearing": [255, 60, 200],
+                    "force": [60, 200, 255]}
+#: Mean curvature (1/m) shown at full colour in the perception mesh.
+_CURVATURE_SCALE_1_M = 30.0
 
 
 def _xyzw(wxyz: np.ndarray) -> np.ndarray:
@@ -113,6 +117,23 @@ class EpisodeRecorder:
         self.stream.log("world/knife_path/planned",
                         rr.LineStrips3D([path_m], colors=[[0, 160, 255]], radii=0.0015),
                         static=True)
+
+    def log_perception(self, plan: PerceivedPlan) -> None:
+        """What the camera gave, at the current time: the cloud, the surface mesh coloured by
+        mean curvature (blue: valley, red: ridge), the guideline's nodes and its spline."""
+        s = self.stream
+        s.log("world/perception/cloud", rr.Points3D(plan.cloud_m, colors=[[200, 200, 200]],
+                                                   radii=0.001))
+        mean = np.clip(plan.curvature.mean_1_m / _CURVATURE_SCALE_1_M, -1.0, 1.0)
+        colours = np.stack([np.clip(mean, 0, 1), np.zeros_like(mean), np.clip(-mean, 0, 1)], 1)
+        s.log("world/perception/mesh", rr.Mesh3D(
+            vertex_positions=plan.mesh.vertices_m, triangle_indices=plan.mesh.triangles,
+            vertex_colors=(0.3 + 0.7 * colours) * 255))
+        path = plan.guideline
+        s.log("world/perception/guideline_nodes",
+              rr.Points3D(plan.mesh.vertices_m[path.nodes], colors=[[0, 255, 120]], radii=0.003))
+        s.log("world/perception/guideline",
+              rr.LineStrips3D([path.points_m], colors=[[0, 255, 120]], radii=0.0015))
 
     def log_frame(self, data: mujoco.MjData, knife_tip_m: np.ndarray,
                   scalars: dict[str, float]) -> None:

@@ -26,6 +26,7 @@ from cell.material import (
     load_material,
     material_from_table,
 )
+from cell.perception import PerceptionParams
 from cell.tools import CameraParams, GripperParams, KnifeParams
 
 #: The project's root: ``assets/...`` paths in scenario files are read from here.
@@ -234,6 +235,7 @@ class Scenario:
     pull: PullPlan = field(default_factory=PullPlan)
     layout: LayoutParams = field(default_factory=LayoutParams)
     sensors: SensorParams = field(default_factory=SensorParams)
+    perception: PerceptionParams = field(default_factory=PerceptionParams)
     recording: RecordingParams = field(default_factory=RecordingParams)
 
 
@@ -252,7 +254,7 @@ class _Head:
 
 
 _TABLES = ("simulation", "tissue", "material", "aponeurosis", "knife", "gripper", "camera",
-           "cut", "pull", "layout", "sensors", "recording")
+           "cut", "pull", "layout", "sensors", "perception", "recording")
 
 
 def load_scenario(path: str | Path) -> Scenario:
