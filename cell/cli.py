@@ -48,7 +48,6 @@ def _plan(args: argparse.Namespace) -> int:
     from cell.camera import CameraRig
     from cell.episode import Episode
     from cell.io import write_json
-    from cell.perception import PerceptionParams, generic_model, perceive
     from cell.scene import CAMERA, KNIFE_TIP
     from controllers.knife import plan_cut
 
@@ -58,8 +57,7 @@ def _plan(args: argparse.Namespace) -> int:
     rig = CameraRig(episode.scene.model, CAMERA, scenario.camera.width_px,
                     scenario.camera.height_px)
     try:
-        plan = perceive(rig, episode.sim.data, truth, generic_model(scenario.layout),
-                        PerceptionParams(), np.random.default_rng(scenario.seed))
+        plan = episode.perceive(rig)  # what the episode would see with this seed
     finally:
         rig.close()
     tip_m, tip_rotation = episode.ik.site_pose(KNIFE_TIP)
