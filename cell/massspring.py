@@ -58,6 +58,7 @@ from numba import njit
 from scipy.optimize import brentq
 
 from cell.errors import MaterialError
+from cell.flexcomp import flexcomp_xml
 from cell.geometry import MuscleShape, build_two_muscles
 from cell.material import MassSpringMaterial, ModulusCurve
 from cell.tetmesh import _TET_EDGES, TetMesh, signed_volumes_m3
@@ -549,23 +550,18 @@ def two_muscle_model(
     model = mujoco.MjModel.from_xml_string(
         f"""<mujoco><option timestep="{timestep_s}" solver="CG" cone="elliptic"/>
         <worldbody><geom name="floor" type="plane" size="1 1 0.1"/>
-        <body name="fixture">{_flexcomp_xml("round", mesh.round, material, pins)}</body>
-        {_flexcomp_xml("shank", mesh.shank, material, np.zeros(0, dtype=int))}
+        <body name="fixture">{_muscle("round", mesh.round, material, pins)}</body>
+        {_muscle("shank", mesh.shank, material, ())}
         </worldbody><equality>{connects}</equality></mujoco>"""
     )
     model.opt.integrator = _INTEGRATORS[integrator]
     return model
 
 
-def _flexcomp_xml(name: str, mesh: TetMesh, material: MassSpringMaterial, pins: np.ndarray) -> str:
-    points = " ".join(f"{v:.9g}" for v in mesh.points.ravel())
-    pin = f'<pin id="{" ".join(str(i) for i in pins)}"/>' if len(pins) else ""
-    return (
-        f'<flexcomp name="{name}" type="direct" dim="3" point="{points}" '
-        f'element="{" ".join(str(i) for i in mesh.tets.ravel())}" '
-        f'mass="{material.density_kg_m3 * mesh.volume_m3:.9g}" radius="0.0005">'
-        f'<contact selfcollide="none" condim="3" solref="0.005 1"/>{pin}</flexcomp>'
-    )
+def _muscle(name: str, mesh: TetMesh, material: MassSpringMaterial, pins: Sequence[int]) -> str:
+    return flexcomp_xml(name, mesh.points, mesh.tets, material,
+                        material.density_kg_m3 * mesh.volume_m3, radius_m=0.0005,
+                        contact='selfcollide="none" condim="3" solref="0.005 1"', pins=pins)
 
 
 def bench_coupling(

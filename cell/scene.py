@@ -20,6 +20,7 @@ from cell.aponeurosis import Aponeurosis, BindingLaw
 from cell.collision import FEET, TABLE_TOP, muscles
 from cell.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription
 from cell.errors import MaterialError
+from cell.flexcomp import flexcomp_xml
 from cell.geometry import TetMesh, TwoMuscleMesh, build_two_muscles
 from cell.io import write_atomic
 from cell.material import ContinuumMaterial
@@ -147,35 +148,18 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None) -> m
     return spec
 
 
-def _flexcomp_xml(name: str, mesh: TetMesh, scenario: Scenario, pins: np.ndarray,
-                  offset_m: np.ndarray) -> str:
-    """A flexcomp for one muscle, points shifted by ``offset_m`` into the parent body's frame.
-
-    A continuum material is MuJoCo's own elasticity; a mass-spring material leaves the flex
-    without it (the springs are applied by :class:`cell.massspring.MassSpringModel`), and a
-    vanishing edge damping tells MuJoCo the flex is meant to be soft.
-    """
+def _muscle_xml(name: str, mesh: TetMesh, scenario: Scenario, pins: np.ndarray,
+                offset_m: np.ndarray) -> str:
+    """A flexcomp for one muscle, points shifted by ``offset_m`` into the parent body's frame."""
     material = scenario.material
-    points = " ".join(f"{v:.7g}" for v in (mesh.points + offset_m).ravel())
-    elements = " ".join(str(i) for i in mesh.tets.ravel())
-    pin = f'<pin id="{" ".join(str(i) for i in pins)}"/>' if len(pins) else ""
-    rgba = "0.72 0.20 0.22 1" if name == "round" else "0.80 0.36 0.30 1"
     round_bits, shank_bits = muscles(scenario.simulation.muscle_contact)
     bits = round_bits if name == "round" else shank_bits
-    mass = material.density_kg_m3 * mesh.volume_m3
-    if isinstance(material, ContinuumMaterial):
-        plastic = f' yield="{material.yield_strain}"' if material.yield_strain > 0 else ""
-        elastic = (f'<elasticity young="{material.young_pa}" poisson="{material.poisson}" '
-                   f'damping="{material.damping_s}"{plastic}/>')
-    else:
-        elastic = '<edge damping="1e-9"/>'
-    return (
-        f'<flexcomp name="{name}" type="direct" dim="3" point="{points}" element="{elements}" '
-        f'mass="{mass:.6g}" radius="0.0005" rgba="{rgba}">{elastic}'
-        f'<contact contype="{bits.contype}" conaffinity="{bits.conaffinity}" selfcollide="none" '
-        f'condim="3" friction="0.5 0.005 0.0001" solref="0.005 1"/>'
-        f"{pin}</flexcomp>"
-    )
+    contact = (f'contype="{bits.contype}" conaffinity="{bits.conaffinity}" selfcollide="none" '
+               'condim="3" friction="0.5 0.005 0.0001" solref="0.005 1"')
+    return flexcomp_xml(name, mesh.points + offset_m, mesh.tets, material,
+                        material.density_kg_m3 * mesh.volume_m3, radius_m=0.0005,
+                        contact=contact, pins=pins.tolist(),
+                        rgba="0.72 0.20 0.22 1" if name == "round" else "0.80 0.36 0.30 1")
 
 
 def _tissue_spec(scenario: Scenario, mesh: TwoMuscleMesh, round_pins: np.ndarray) -> str:
@@ -189,9 +173,9 @@ def _tissue_spec(scenario: Scenario, mesh: TwoMuscleMesh, round_pins: np.ndarray
     <site name="dynamometer" size="0.01"/>
     <geom name="plate" type="box" size="{plate_half[0]} {plate_half[1]} {plate_half[2]}"
       pos="0 {plate_y} {-plate_half[2]}" rgba="0.6 0.62 0.65 1" contype="0" conaffinity="0"/>
-    {_flexcomp_xml("round", mesh.round, scenario, round_pins, -origin)}
+    {_muscle_xml("round", mesh.round, scenario, round_pins, -origin)}
   </body>
-  {_flexcomp_xml("shank", mesh.shank, scenario, np.zeros(0, dtype=int), np.zeros(3))}
+  {_muscle_xml("shank", mesh.shank, scenario, np.zeros(0, dtype=int), np.zeros(3))}
 </worldbody>
 <sensor><force name="fixture_force" site="dynamometer"/></sensor>
 </mujoco>"""
