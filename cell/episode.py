@@ -192,7 +192,7 @@ class Episode:
                 for i in range(1, self.substeps + 1):
                     data.ctrl[self.actuators] = ctrl_prev + (ctrl_next - ctrl_prev) * (
                         i / self.substeps)
-                    sim.step()
+                    sim.step()  # one step at a time: the controls ramp between them
                 ctrl_prev = ctrl_next
                 t = sim.time_s
                 if not knife_tared and t >= cut_start - 0.1:

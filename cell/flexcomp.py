@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import mujoco
 import numpy as np
 
 from cell.material import ContinuumMaterial, MassSpringMaterial
@@ -39,3 +40,12 @@ def flexcomp_xml(name: str, points_m: np.ndarray, tets: np.ndarray,
     return (f'<flexcomp name="{name}" type="direct" dim="3" point="{point}" element="{element}" '
             f'mass="{mass_kg:.9g}" radius="{radius_m}"{colour}>{elasticity_xml(material)}'
             f'<contact {contact}/>{pin}</flexcomp>')
+
+
+def set_continuum_law(spec: mujoco.MjSpec, material: ContinuumMaterial | MassSpringMaterial
+                      ) -> None:
+    """Switch the spec's flexes to MuJoCo's stable neo-Hookean law when the material asks for
+    it: the setting exists in MjSpec only, with no MJCF attribute."""
+    if isinstance(material, ContinuumMaterial) and material.law == "neo_hookean":
+        for flex in spec.flexes:
+            flex.elastic3d = 1

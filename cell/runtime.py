@@ -79,28 +79,35 @@ class Simulation:
         return slice(start, start + int(sensor.dim[0]))
 
     def step(self, count: int = 1) -> None:
-        """Advance ``count`` physics steps, checking each for divergence.
+        """Advance ``count`` physics steps, then check for divergence.
 
-        Before each step the forces that MuJoCo does not compute itself (binding springs)
-        are written into ``qfrc_applied`` from the present state.
+        Before each step the forces that MuJoCo does not compute itself (mass-spring
+        springs, binding springs, hooked bindings on the blade) are written from the present
+        state. A blow-up inside the ``count`` steps is caught after them: MuJoCo's warning
+        counters and the non-finite state persist.
         """
-        apo, data = self.scene.aponeurosis, self.data
+        start = self.time_s
         for _ in range(count):
-            before = self.time_s
-            if not self.springs:
-                data.qfrc_applied[self._tissue_dofs] = 0.0
-            for springs in self.springs.values():
-                springs.apply(data)  # rewrites its muscle's dofs' entries
-            blade_pos = data.geom_xpos[self._blade]
-            apo.track_blade(blade_pos, data.geom_xmat[self._blade])
-            force, moment = apo.apply_forces(data)
-            # xfrc_applied acts at the knife's centre of mass, the hooks' moment is about the
-            # blade centre.
+            self._apply_forces()
+            mujoco.mj_step(self.model, self.data)
+        self.check_divergence(start + count * self.model.opt.timestep)
+
+    def _apply_forces(self) -> None:
+        data = self.data
+        if not self.springs:
+            data.qfrc_applied[self._tissue_dofs] = 0.0
+        for springs in self.springs.values():
+            springs.apply(data)  # rewrites its muscle's dofs' entries
+        apo = self.scene.aponeurosis
+        blade_pos = data.geom_xpos[self._blade]
+        apo.track_blade(blade_pos, data.geom_xmat[self._blade])
+        force, moment = apo.apply_forces(data)
+        if force.any() or data.xfrc_applied[self._knife].any():
+            # xfrc_applied acts at the knife's centre of mass, the hooks' moment is about
+            # the blade centre.
             lever = blade_pos - data.xipos[self._knife]
-            data.xfrc_applied[self._knife] = np.concatenate([force,
-                                                             moment + np.cross(lever, force)])
-            mujoco.mj_step(self.model, data)
-            self.check_divergence(before + self.model.opt.timestep)
+            data.xfrc_applied[self._knife, :3] = force
+            data.xfrc_applied[self._knife, 3:] = moment + np.cross(lever, force)
 
     def set_fibre_direction(self, muscle: str, direction: np.ndarray) -> None:
         """Turn the fibres of ``muscle`` (``"round"`` or ``"shank"``) to ``direction`` (world

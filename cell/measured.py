@@ -1,0 +1,317 @@
+"""Measurement sets: rheological tests on a tissue specimen, read and validated.
+
+A set is a folder with ``specimen.toml`` (the specimen's name, edge lengths and density, an
+optional free ``[rig]`` table) and ``tests.csv`` (long format, one row per sample, SI units),
+as the project's measured-data spec (``measured-data.md``) defines them. Every fault of the
+input is an :class:`~cell.errors.InputError` naming the file and the key, or the line and
+column, at fault. Reading writes nothing.
+
+Example:
+    >>> data = load_measurement_set("assets/measured/beef_round_example")
+    >>> test = data.test("c00")
+    >>> test.mode, test.angle_deg, round(float(test.strain(data.specimen)[-1]), 3)
+    ('compression', 0.0, -0.3)
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, cast, get_args
+
+import numpy as np
+
+from cell.config import from_table, read_toml
+from cell.errors import InputError
+
+Mode = Literal["tension", "compression", "relaxation", "cyclic"]
+MODES: tuple[str, ...] = get_args(Mode)
+"""Test modes of ``tests.csv``: monotonic ramps, ramp then hold, load/unload cycles."""
+
+SPECIMEN_FILE = "specimen.toml"
+TESTS_FILE = "tests.csv"
+_NUMBERS = ("angle_deg", "time_s", "displacement_m", "force_N")
+_COLUMNS = ("test_id", "mode", *_NUMBERS)
+_MIN_SAMPLES = 3
+
+
+@dataclass(frozen=True)
+class Specimen:
+    """A tissue sample: a box loaded along its z axis, fibres in its x-z plane.
+
+    Attributes:
+        name: free text.
+        size_m: (3,) edge lengths along the specimen's x, y and z, m; z is the load axis.
+        density_kg_m3: mass density, kg/m^3.
+        rig: the ``[rig]`` table of ``specimen.toml`` as read (free text), empty if none.
+
+    Raises:
+        InputError: ``size_m`` or ``density_kg_m3`` not finite and > 0.
+
+    Example:
+        >>> cube = Specimen("round-07", (0.01, 0.01, 0.01), 1060.0)
+        >>> round(cube.area_m2, 9)
+        0.0001
+    """
+
+    name: str
+    size_m: tuple[float, float, float]
+    density_kg_m3: float = 1060.0
+    rig: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if len(self.size_m) != 3 or not all(
+            math.isfinite(s) and s > 0 for s in self.size_m
+        ):
+            raise InputError(None, "size_m", f"must be three lengths > 0, got {self.size_m!r}")
+        if not (math.isfinite(self.density_kg_m3) and self.density_kg_m3 > 0):
+            raise InputError(None, "density_kg_m3", f"must be > 0, got {self.density_kg_m3}")
+        object.__setattr__(self, "size_m", tuple(float(s) for s in self.size_m))
+
+    @property
+    def area_m2(self) -> float:
+        """Initial cross-section across the load axis, m^2."""
+        return self.size_m[0] * self.size_m[1]
+
+
+@dataclass(frozen=True, eq=False)
+class MechanicalTest:
+    """One test: the displacement history put on the top face and the force measured there.
+
+    Arrays are read-only, one value per sample, in time order (samples need not be evenly
+    spaced). Positive displacement is extension, positive force is tension.
+
+    Attributes:
+        test_id: the test's name, unique in its set.
+        mode: ``tension``, ``compression``, ``relaxation`` (ramp, then hold) or ``cyclic``.
+        angle_deg: angle between the fibres and the load axis, degrees (0 along, 90 across).
+        time_s: (n,) time since the start of the test, s, non-decreasing.
+        displacement_m: (n,) displacement of the top face along the load axis, m.
+        force_N: (n,) axial force on the top face, N.
+
+    Example:
+        >>> t = np.array([0.0, 1.0, 2.0])
+        >>> test = MechanicalTest("t0", "tension", 0.0, t, 1e-4 * t, 0.05 * t)
+        >>> test.duration_s, float(test.strain(Specimen("cube", (0.01, 0.01, 0.01)))[-1])
+        (2.0, 0.02)
+    """
+
+    test_id: str
+    mode: Mode
+    angle_deg: float
+    time_s: np.ndarray
+    displacement_m: np.ndarray
+    force_N: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name in ("time_s", "displacement_m", "force_N"):
+            array = np.array(getattr(self, name), dtype=float)
+            array.setflags(write=False)
+            object.__setattr__(self, name, array)
+
+    @property
+    def duration_s(self) -> float:
+        """Time from the first to the last sample, s."""
+        return float(self.time_s[-1] - self.time_s[0])
+
+    def strain(self, specimen: Specimen) -> np.ndarray:
+        """Nominal strain at the samples: displacement over the specimen's initial height."""
+        return self.displacement_m / specimen.size_m[2]
+
+    def stress_pa(self, specimen: Specimen) -> np.ndarray:
+        """Nominal stress at the samples, Pa: force over the specimen's initial area."""
+        return self.force_N / specimen.area_m2
+
+
+@dataclass(frozen=True)
+class MeasurementSet:
+    """A specimen and the tests run on it, as read from a folder.
+
+    Attributes:
+        folder: where the set was read from.
+        specimen: the specimen.
+        tests: the tests, in the order of their first row in ``tests.csv``.
+
+    Example:
+        >>> data = load_measurement_set("assets/measured/beef_round_example")
+        >>> [t.test_id for t in data.tests][:3]
+        ['t00', 't45', 't90']
+    """
+
+    folder: Path
+    specimen: Specimen
+    tests: tuple[MechanicalTest, ...]
+
+    def test(self, test_id: str) -> MechanicalTest:
+        """The test named ``test_id``.
+
+        Raises:
+            KeyError: no such test.
+        """
+        for test in self.tests:
+            if test.test_id == test_id:
+                return test
+        raise KeyError(f"no test {test_id!r} in {self.folder}")
+
+
+@dataclass(frozen=True)
+class _SpecimenTable:
+    """The ``[specimen]`` table as written in ``specimen.toml``."""
+
+    name: str
+    size_m: tuple[float, float, float]
+    density_kg_m3: float = 1060.0
+
+    def __post_init__(self) -> None:
+        # Checked here so that from_table names the file and the dotted key.
+        Specimen(self.name, self.size_m, self.density_kg_m3)
+
+
+def load_specimen(path: str | Path) -> Specimen:
+    """Read ``specimen.toml``: a ``[specimen]`` table and an optional free ``[rig]`` table.
+
+    Raises:
+        InputError: naming the file and the key: missing file, bad TOML, missing or unknown
+            table or key, wrong type, a size or density that is not > 0.
+    """
+    path = Path(path)
+    raw = read_toml(path, InputError)
+    for key, value in raw.items():
+        if key not in ("specimen", "rig"):
+            raise InputError(path, key, "unknown table (known tables: rig, specimen)")
+        if not isinstance(value, dict):
+            raise InputError(path, key, f"expected a table, got {type(value).__name__}")
+    if "specimen" not in raw:
+        raise InputError(path, "specimen", "missing table")
+    table = from_table(_SpecimenTable, raw["specimen"], file=path, section="specimen",
+                       error=InputError)
+    return Specimen(table.name, table.size_m, table.density_kg_m3, raw.get("rig", {}))
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """The rows of one test as read: line numbers and the raw text of each column."""
+
+    lines: list[int]
+    cells: dict[str, list[str]]
+
+
+def load_tests(path: str | Path) -> tuple[MechanicalTest, ...]:
+    """Read ``tests.csv``: a header line, then one row per sample (see the module docstring).
+
+    Blank lines and lines starting with ``#`` are skipped; extra columns are ignored; the rows
+    of a test need not be contiguous but must be in time order.
+
+    Raises:
+        InputError: naming the file and ``line N, column C``: missing file or column, a
+            non-numeric or non-finite value, an empty test id, an unknown mode, a mode or angle
+            that changes within a test, time going backwards within a test, a test with fewer
+            than 3 samples, no test at all.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise InputError(path, None, "file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(path, None, f"cannot read: {exc}") from None
+    numbered = [
+        (n, line)
+        for n, line in enumerate(text.splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not numbered:
+        raise InputError(path, None, "no header line")
+    header_line, header = numbered[0]
+    columns = [c.strip() for c in next(csv.reader([header]))]
+    for name in _COLUMNS:
+        if name not in columns:
+            raise InputError(path, f"line {header_line}, column {name}", "missing column")
+    index = {name: columns.index(name) for name in _COLUMNS}
+    groups: dict[str, _Rows] = {}
+    rows = csv.reader(line for _, line in numbered[1:])
+    for (number, _), row in zip(numbered[1:], rows, strict=True):
+        short = [name for name in _COLUMNS if index[name] >= len(row)]
+        if short:
+            raise InputError(path, f"line {number}, column {short[0]}",
+                             f"missing value: the row has {len(row)} fields")
+        test_id = row[index["test_id"]].strip()
+        if not test_id:
+            raise InputError(path, f"line {number}, column test_id", "empty test id")
+        group = groups.setdefault(test_id, _Rows([], {name: [] for name in _COLUMNS}))
+        group.lines.append(number)
+        for name, col in index.items():
+            group.cells[name].append(row[col].strip())
+    if not groups:
+        raise InputError(path, None, "no tests: the set needs at least one")
+    return tuple(_test(path, test_id, group) for test_id, group in groups.items())
+
+
+def _test(path: Path, test_id: str, rows: _Rows) -> MechanicalTest:
+    """Validate and convert the rows of one test."""
+
+    def where(row: int, column: str) -> str:
+        return f"line {rows.lines[row]}, column {column}"
+
+    modes = rows.cells["mode"]
+    for row, mode in enumerate(modes):
+        if mode not in MODES:
+            raise InputError(path, where(row, "mode"),
+                             f"unknown mode {mode!r} (known modes: {', '.join(MODES)})")
+        if mode != modes[0]:
+            raise InputError(path, where(row, "mode"),
+                             f"test {test_id!r} changes mode from {modes[0]!r} to {mode!r}")
+    values = {name: _numbers(path, rows, name) for name in _NUMBERS}
+    angle = values["angle_deg"]
+    changed = np.flatnonzero(angle != angle[0])
+    if changed.size:
+        raise InputError(path, where(changed[0], "angle_deg"),
+                         f"test {test_id!r} changes angle from {angle[0]:g} to "
+                         f"{angle[changed[0]]:g}")
+    if len(angle) < _MIN_SAMPLES:
+        raise InputError(path, where(0, "test_id"),
+                         f"test {test_id!r} has {len(angle)} samples, needs at least "
+                         f"{_MIN_SAMPLES}")
+    time = values["time_s"]
+    back = np.flatnonzero(np.diff(time) < 0)
+    if back.size:
+        row = back[0] + 1
+        raise InputError(path, where(row, "time_s"),
+                         f"time goes backwards in test {test_id!r}: {time[row]:g} s after "
+                         f"{time[row - 1]:g} s")
+    return MechanicalTest(test_id, cast(Mode, modes[0]), float(angle[0]), time,
+                          values["displacement_m"], values["force_N"])
+
+
+def _numbers(path: Path, rows: _Rows, name: str) -> np.ndarray:
+    """Column ``name`` of a test's rows as finite floats; errors name the first bad cell."""
+    values = np.empty(len(rows.lines))
+    for row, cell in enumerate(rows.cells[name]):
+        try:
+            values[row] = float(cell)
+        except ValueError:
+            raise InputError(path, f"line {rows.lines[row]}, column {name}",
+                             f"not a number: {cell!r}") from None
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise InputError(path, f"line {rows.lines[bad[0]]}, column {name}",
+                         f"not finite: {rows.cells[name][bad[0]]!r}")
+    return values
+
+
+def load_measurement_set(folder: str | Path) -> MeasurementSet:
+    """Read and validate the measurement set in ``folder`` (module docstring).
+
+    Raises:
+        InputError: naming the file and the key, or the line and column, at fault (see
+            :func:`load_specimen` and :func:`load_tests`); a missing folder is a missing file.
+
+    Example:
+        >>> len(load_measurement_set("assets/measured/beef_round_example").tests)
+        10
+    """
+    folder = Path(folder)
+    specimen = load_specimen(folder / SPECIMEN_FILE)
+    return MeasurementSet(folder, specimen, load_tests(folder / TESTS_FILE))

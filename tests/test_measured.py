@@ -1,0 +1,207 @@
+"""Measurement sets: the example set, and every bad input of the format's error contract."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cell.errors import InputError
+from cell.measured import (
+    MODES,
+    SPECIMEN_FILE,
+    TESTS_FILE,
+    MechanicalTest,
+    Specimen,
+    load_measurement_set,
+)
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "assets" / "measured" / "beef_round_example"
+SPECIMEN = """[specimen]
+name = "cube"
+size_m = [0.010, 0.010, 0.010]
+density_kg_m3 = 1060.0
+"""
+HEADER = "test_id,mode,angle_deg,time_s,displacement_m,force_N"
+ROWS = [
+    "a,tension,0,0.0,0.0,0.0",
+    "a,tension,0,0.5,0.00005,0.01",
+    "a,tension,0,1.0,0.0001,0.02",
+]
+
+
+def _write_set(folder: Path, specimen: str | None = SPECIMEN,
+               tests: str | None = "\n".join([HEADER, *ROWS])) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    if specimen is not None:
+        (folder / SPECIMEN_FILE).write_text(specimen)
+    if tests is not None:
+        (folder / TESTS_FILE).write_text(tests + "\n")
+    return folder
+
+
+def test_example_set_loads_with_its_published_magnitudes() -> None:
+    data = load_measurement_set(EXAMPLE)
+    assert data.specimen.size_m == (0.01, 0.01, 0.01)
+    assert data.specimen.density_kg_m3 == 1060.0
+    assert "machine" in data.specimen.rig
+    assert len(data.tests) == 10
+    assert {t.mode for t in data.tests} == set(MODES)
+    assert {t.angle_deg for t in data.tests} == {0.0, 45.0, 90.0}
+    for test in data.tests:
+        assert 200 <= len(test.time_s) <= 400
+        assert (np.diff(test.time_s) >= 0).all()
+        assert not test.time_s.flags.writeable
+    # Compression to stretch 0.7 at 1 %/s: 1.84 kPa along the fibres, 1.42 kPa across.
+    for test_id, peak_pa in (("c00", 1.84e3), ("c90", 1.42e3)):
+        stress = data.test(test_id).stress_pa(data.specimen)
+        assert -stress.min() == pytest.approx(peak_pa, rel=0.03)
+        assert data.test(test_id).strain(data.specimen).min() == pytest.approx(-0.3, abs=1e-3)
+    fast = -data.test("c00-fast").stress_pa(data.specimen).min()
+    assert fast / -data.test("c00").stress_pa(data.specimen).min() == pytest.approx(1.6, rel=0.05)
+    relaxation = data.test("r00").stress_pa(data.specimen)
+    assert 0.53 <= 1.0 - relaxation[-1] / relaxation.min() <= 0.73
+    sizes = sum(f.stat().st_size for f in EXAMPLE.iterdir())
+    assert sizes < 200_000
+
+
+def test_extra_columns_comments_uneven_samples_and_interleaved_tests(tmp_path: Path) -> None:
+    folder = _write_set(tmp_path / "set", tests="\n".join([
+        "# exported by the rig",
+        "note,test_id,mode,angle_deg,time_s,displacement_m,force_N,temperature_C",
+        "x,a,relaxation,45,0.0,0.0,0.0,4.0",
+        "x,b,cyclic,90,0.0,0.0,0.0,4.0",
+        "x,a,relaxation,45,0.1,-0.0001,-0.01,4.0",
+        "",
+        "x,b,cyclic,90,1.0,0.0001,0.01,4.0",
+        "x,a,relaxation,45,5.0,-0.0001,-0.004,4.0",
+        "x,b,cyclic,90,2.0,0.0,0.0,4.0",
+        "x,a,relaxation,45,5.0,-0.0001,-0.004",  # a repeated time is not backwards
+    ]))
+    data = load_measurement_set(folder)
+    a, b = data.tests
+    assert (a.test_id, a.mode, a.angle_deg, b.test_id) == ("a", "relaxation", 45.0, "b")
+    np.testing.assert_array_equal(a.time_s, [0.0, 0.1, 5.0, 5.0])
+    np.testing.assert_array_equal(b.force_N, [0.0, 0.01, 0.0])
+    assert data.specimen.rig == {}
+
+
+def test_helpers_give_nominal_strain_and_stress() -> None:
+    specimen = Specimen("box", (0.02, 0.01, 0.005))
+    t = np.array([0.0, 1.0, 2.0])
+    test = MechanicalTest("t", "tension", 0.0, t, 5e-4 * t, 0.2 * t)
+    np.testing.assert_allclose(test.strain(specimen), [0.0, 0.1, 0.2])
+    np.testing.assert_allclose(test.stress_pa(specimen), [0.0, 1e3, 2e3])
+
+
+def test_reading_writes_nothing(tmp_path: Path) -> None:
+    folder = _write_set(tmp_path / "set")
+    before = sorted(p.name for p in folder.iterdir())
+    load_measurement_set(folder)
+    (folder / TESTS_FILE).write_text(HEADER + "\n")
+    with pytest.raises(InputError):
+        load_measurement_set(folder)
+    assert sorted(p.name for p in folder.iterdir()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["set"]
+
+
+def _rows(*replace: tuple[int, str]) -> str:
+    """The good CSV with rows replaced: (index into ROWS, new row)."""
+    rows = list(ROWS)
+    for index, row in replace:
+        rows[index] = row
+    return "\n".join([HEADER, *rows])
+
+
+# (name, tests.csv, field expected in the error, words expected in the message)
+CSV_CASES = [
+    ("missing column", "\n".join(
+        ["test_id,mode,angle_deg,time_s,displacement_m", *(r.rsplit(",", 1)[0] for r in ROWS)]),
+     "line 1, column force_N", "missing column"),
+    ("non-numeric", _rows((1, "a,tension,0,half,0.00005,0.01")), "line 3, column time_s",
+     "not a number"),
+    ("empty value", _rows((1, "a,tension,0,0.5,,0.01")), "line 3, column displacement_m",
+     "not a number"),
+    ("nan", _rows((2, "a,tension,0,1.0,0.0001,nan")), "line 4, column force_N", "not finite"),
+    ("inf", _rows((2, "a,tension,0,1.0,inf,0.02")), "line 4, column displacement_m",
+     "not finite"),
+    ("non-finite angle", _rows((0, "a,tension,-inf,0.0,0.0,0.0")), "line 2, column angle_deg",
+     "not finite"),
+    ("time backwards", _rows((2, "a,tension,0,0.4,0.0001,0.02")), "line 4, column time_s",
+     "backwards"),
+    ("unknown mode", _rows((1, "a,shear,0,0.5,0.00005,0.01")), "line 3, column mode",
+     "unknown mode 'shear'"),
+    ("mode changes", _rows((2, "a,compression,0,1.0,0.0001,0.02")), "line 4, column mode",
+     "changes mode"),
+    ("angle changes", _rows((2, "a,tension,90,1.0,0.0001,0.02")), "line 4, column angle_deg",
+     "changes angle"),
+    ("too few samples", "\n".join([HEADER, *ROWS, "b,tension,0,0.0,0.0,0.0",
+                                   "b,tension,0,1.0,0.0,0.0"]),
+     "line 5, column test_id", "2 samples, needs at least 3"),
+    ("short row", _rows((1, "a,tension,0,0.5")), "line 3, column displacement_m",
+     "missing value"),
+    ("empty test id", _rows((1, ",tension,0,0.5,0.00005,0.01")), "line 3, column test_id",
+     "empty test id"),
+]
+
+
+@pytest.mark.parametrize(("tests", "field", "words"), [c[1:] for c in CSV_CASES],
+                         ids=[c[0] for c in CSV_CASES])
+def test_bad_tests_csv_names_file_line_and_column(
+    tmp_path: Path, tests: str, field: str, words: str
+) -> None:
+    folder = _write_set(tmp_path / "set", tests=tests)
+    with pytest.raises(InputError) as error:
+        load_measurement_set(folder)
+    assert error.value.file == str(folder / TESTS_FILE)
+    assert error.value.field == field
+    assert words in error.value.message
+    assert str(folder / TESTS_FILE) in str(error.value) and field in str(error.value)
+
+
+SPECIMEN_CASES = [
+    ("zero size", SPECIMEN.replace("[0.010, 0.010, 0.010]", "[0.010, 0.0, 0.010]"),
+     "specimen.size_m", "> 0"),
+    ("negative size", SPECIMEN.replace("[0.010, 0.010, 0.010]", "[0.010, 0.010, -0.01]"),
+     "specimen.size_m", "> 0"),
+    ("two sizes", SPECIMEN.replace("[0.010, 0.010, 0.010]", "[0.010, 0.010]"),
+     "specimen.size_m", "expected 3 values"),
+    ("zero density", SPECIMEN.replace("1060.0", "0.0"), "specimen.density_kg_m3", "> 0"),
+    ("unknown key", SPECIMEN + "colour = 'red'\n", "specimen.colour", "unknown key"),
+    ("unknown table", SPECIMEN + "[notes]\ntext = 'x'\n", "notes", "unknown table"),
+    ("missing table", "[rig]\nmachine = 'x'\n", "specimen", "missing table"),
+    ("missing size", '[specimen]\nname = "cube"\n', "specimen", "size_m"),
+    ("bad toml", "[specimen\n", None, "not valid TOML"),
+]
+
+
+@pytest.mark.parametrize(("specimen", "field", "words"), [c[1:] for c in SPECIMEN_CASES],
+                         ids=[c[0] for c in SPECIMEN_CASES])
+def test_bad_specimen_toml_names_file_and_key(
+    tmp_path: Path, specimen: str, field: str | None, words: str
+) -> None:
+    folder = _write_set(tmp_path / "set", specimen=specimen)
+    with pytest.raises(InputError) as error:
+        load_measurement_set(folder)
+    assert error.value.file == str(folder / SPECIMEN_FILE)
+    assert error.value.field == field
+    assert words in error.value.message
+
+
+@pytest.mark.parametrize("missing", [SPECIMEN_FILE, TESTS_FILE])
+def test_missing_file_is_named(tmp_path: Path, missing: str) -> None:
+    folder = _write_set(tmp_path / "set")
+    (folder / missing).unlink()
+    with pytest.raises(InputError) as error:
+        load_measurement_set(folder)
+    assert error.value.file == str(folder / missing)
+    assert "not found" in error.value.message
+
+
+@pytest.mark.parametrize("tests", ["", HEADER, f"# only a comment\n{HEADER}\n\n"],
+                         ids=["no header", "header only", "comments and header"])
+def test_empty_set_is_refused(tmp_path: Path, tests: str) -> None:
+    folder = _write_set(tmp_path / "set", tests=tests)
+    with pytest.raises(InputError) as error:
+        load_measurement_set(folder)
+    assert error.value.file == str(folder / TESTS_FILE)
+    assert "no header" in error.value.message or "no tests" in error.value.message
