@@ -15,6 +15,7 @@ from enum import StrEnum
 
 import mujoco
 import numpy as np
+from numba import njit
 
 
 class ReleaseRule(StrEnum):
@@ -83,11 +84,13 @@ class Aponeurosis:
         self.shank_vertices = np.asarray(shank_vertices, dtype=int)
         self.round_bodies = np.asarray(round_bodies, dtype=int)
         self.shank_bodies = np.asarray(shank_bodies, dtype=int)
-        # Pinned vertices have no dofs: their rows stay zero (velocity) and unused (force).
+        # Pinned vertices have no dofs: zero velocity, and their forces go to the fixture.
         self._round_free = model.body_dofnum[self.round_bodies] == 3
         self._shank_free = model.body_dofnum[self.shank_bodies] == 3
-        self.round_dofs = model.body_dofadr[self.round_bodies][:, None] + np.arange(3)
-        self.shank_dofs = model.body_dofadr[self.shank_bodies][:, None] + np.arange(3)
+        self._round_dof = np.where(self._round_free, model.body_dofadr[self.round_bodies], -1)
+        self._shank_dof = np.where(self._shank_free, model.body_dofadr[self.shank_bodies], -1)
+        self._tension = np.zeros(len(self.round_bodies))
+        self._on_blade = np.zeros(6)
         self.pairs = np.asarray(pairs, dtype=int)
         self.stiffness_n_m = stiffness_n_m
         self.damping_n_s_m = damping_n_s_m
@@ -99,7 +102,6 @@ class Aponeurosis:
         self.released_by: list[ReleaseRule | None] = [None] * len(self.pairs)
         self.hooked = np.zeros(len(self.pairs), dtype=bool)
         self.hook_local = np.zeros((len(self.pairs), 3))
-        self._last_hook = np.zeros((len(self.pairs), 3))
         self.track_blade(np.zeros(3), np.eye(3))
 
     def __len__(self) -> int:
@@ -120,11 +122,6 @@ class Aponeurosis:
     def endpoints(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """World positions (P, 3) of the round and shank vertex of every binding, m."""
         return data.flexvert_xpos[self.round_vertices], data.flexvert_xpos[self.shank_vertices]
-
-    def _velocity(self, data: mujoco.MjData, dofs: np.ndarray, free: np.ndarray) -> np.ndarray:
-        velocity = np.zeros((len(dofs), 3))
-        velocity[free] = data.qvel[dofs[free]]
-        return velocity
 
     def lengths(self, data: mujoco.MjData) -> np.ndarray:
         """(P,) current distance between the two vertices of every binding, m."""
@@ -147,27 +144,18 @@ class Aponeurosis:
             self.hook_local[new] = (middle - self._blade_pos) @ self._blade_rot
             self.hooked |= new
 
-    def _spring_state(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Forces (P, 3) of every binding spring on its round and shank vertex, N, and its
-        tension, N. A hooked binding runs from its vertices to its hook point on the blade."""
-        a, b = self.endpoints(data)
-        hook = 0.5 * (a + b)
-        if self.hooked.any():
-            hook[self.hooked] = self._blade_pos + self.hook_local[self.hooked] @ self._blade_rot.T
-        to_a, to_b = hook - a, hook - b
-        len_a = np.linalg.norm(to_a, axis=1)
-        len_b = np.linalg.norm(to_b, axis=1)
-        direction = b - a
-        unit = direction / np.maximum(np.linalg.norm(direction, axis=1), 1e-12)[:, None]
-        relative = (self._velocity(data, self.shank_dofs, self._shank_free)
-                    - self._velocity(data, self.round_dofs, self._round_free))
-        rate = np.einsum("ij,ij->i", relative, unit)
-        tension = (self.stiffness_n_m * (len_a + len_b - self.rest_length_m)
-                   + self.damping_n_s_m * rate) * self.bound
-        on_round = tension[:, None] * to_a / np.maximum(len_a, 1e-12)[:, None]
-        on_shank = tension[:, None] * to_b / np.maximum(len_b, 1e-12)[:, None]
-        self._last_hook = hook
-        return on_round, on_shank, tension
+    def _springs(self, data: mujoco.MjData, apply: bool) -> np.ndarray:
+        """Run the binding-spring kernel: (P,) tensions, N; with ``apply`` their forces go
+        into ``qfrc_applied`` and the hooked bindings' pull on the blade into
+        ``self._on_blade`` (force N, moment N m about the blade centre)."""
+        self._on_blade[:] = 0.0
+        _binding_springs(
+            data.flexvert_xpos, data.qvel, data.qfrc_applied, self.round_vertices,
+            self.shank_vertices, self._round_dof, self._shank_dof, self.rest_length_m,
+            self.bound, self.hooked, self.hook_local,
+            self._blade_pos, self._blade_rot, self.stiffness_n_m, self.damping_n_s_m, apply,
+            self._tension, self._on_blade)
+        return self._tension
 
     def apply_forces(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """Add the spring law's forces to ``data.qfrc_applied`` (nothing for constraints).
@@ -177,23 +165,14 @@ class Aponeurosis:
         """
         if self.law is not BindingLaw.SPRING:
             return np.zeros(3), np.zeros(3)
-        on_round, on_shank, _ = self._spring_state(data)
-        np.add.at(data.qfrc_applied, self.round_dofs[self._round_free],
-                  on_round[self._round_free])
-        np.add.at(data.qfrc_applied, self.shank_dofs[self._shank_free],
-                  on_shank[self._shank_free])
-        hooked = self.hooked & self.bound
-        if not hooked.any():
-            return np.zeros(3), np.zeros(3)
-        on_blade = -(on_round[hooked] + on_shank[hooked])
-        arm = self._last_hook[hooked] - self._blade_pos
-        return on_blade.sum(axis=0), np.cross(arm, on_blade).sum(axis=0)
+        self._springs(data, apply=True)
+        return self._on_blade[:3].copy(), self._on_blade[3:].copy()
 
     def forces(self, data: mujoco.MjData) -> np.ndarray:
         """(P,) force carried by every binding, N (0 once released): the spring's force, or
         the norm of the connect constraint's three rows."""
         if self.law is BindingLaw.SPRING:
-            return np.abs(self._spring_state(data)[2])
+            return np.abs(self._springs(data, apply=False))
         rows = data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY
         squared = np.zeros(data.eq_active.shape[0])
         np.add.at(squared, data.efc_id[: data.nefc][rows], data.efc_force[: data.nefc][rows] ** 2)
@@ -282,3 +261,52 @@ def segments_cross_box(start: np.ndarray, end: np.ndarray, half_size: np.ndarray
     enter = np.max(t_low, axis=1)
     leave = np.min(t_high, axis=1)
     return (enter <= leave) & (leave >= 0.0) & (enter <= 1.0)
+
+
+@njit(cache=True)
+def _binding_springs(xpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray,
+                     round_vertex: np.ndarray, shank_vertex: np.ndarray, round_dof: np.ndarray,
+                     shank_dof: np.ndarray, rest: np.ndarray, bound: np.ndarray,
+                     hooked: np.ndarray, hook_local: np.ndarray, blade_pos: np.ndarray,
+                     blade_rot: np.ndarray, stiffness: float, damping: float, apply: bool,
+                     tension_out: np.ndarray, on_blade: np.ndarray) -> None:
+    """Tension of every binding spring (a to its hook point to b; the hook is the middle of a
+    free binding and rides on the blade for a hooked one) and, with ``apply``, its forces on
+    the two vertices' dofs and the hooked ones' force and moment on the blade."""
+    for p in range(len(rest)):
+        if not bound[p]:
+            tension_out[p] = 0.0
+            continue
+        a = xpos[round_vertex[p]]
+        b = xpos[shank_vertex[p]]
+        hook = 0.5 * (a + b)
+        if hooked[p]:
+            hook = blade_pos + blade_rot @ hook_local[p]
+        to_a = hook - a
+        to_b = hook - b
+        len_a = max(np.sqrt(to_a @ to_a), 1e-12)
+        len_b = max(np.sqrt(to_b @ to_b), 1e-12)
+        axis = b - a
+        axis = axis / max(np.sqrt(axis @ axis), 1e-12)
+        rate = 0.0
+        for k in range(3):
+            if shank_dof[p] >= 0:
+                rate += qvel[shank_dof[p] + k] * axis[k]
+            if round_dof[p] >= 0:
+                rate -= qvel[round_dof[p] + k] * axis[k]
+        tension = stiffness * (len_a + len_b - rest[p]) + damping * rate
+        tension_out[p] = tension
+        if not apply:
+            continue
+        on_a = tension * to_a / len_a
+        on_b = tension * to_b / len_b
+        for k in range(3):
+            if round_dof[p] >= 0:
+                qfrc[round_dof[p] + k] += on_a[k]
+            if shank_dof[p] >= 0:
+                qfrc[shank_dof[p] + k] += on_b[k]
+        if hooked[p]:
+            pull = -(on_a + on_b)
+            arm = hook - blade_pos
+            on_blade[:3] += pull
+            on_blade[3:] += np.cross(arm, pull)
