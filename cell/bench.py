@@ -31,16 +31,7 @@ from cell.scenario import Scenario, load_scenario
 from cell.scene import build_scene
 
 
-def _step_time_s(model: mujoco.MjModel, data: mujoco.MjData, steps: int) -> float:
-    for _ in range(steps // 4):  # let contacts form before timing
-        mujoco.mj_step(model, data)
-    start = time.perf_counter()
-    for _ in range(steps):
-        mujoco.mj_step(model, data)
-    return (time.perf_counter() - start) / steps
-
-
-def _tissue_only(scenario: Scenario) -> mujoco.MjModel:
+def tissue_only_model(scenario: Scenario) -> mujoco.MjModel:
     """The scene's muscles, fixture and table without arms or tools."""
     spec = build_scene(scenario).spec
     for prefix in ("knife_arm/", "pull_arm/", "camera_arm/"):
@@ -127,10 +118,11 @@ def run_bench(scenario_path: str | Path, quick: bool = False) -> dict[str, Any]:
     return {
         "scenario": str(scenario_path),
         "machine": {"python": platform.python_version(), "processor": platform.machine(),
-                    "mujoco": mujoco.__version__, "cpus": _cpu_count()},
+                    "mujoco": mujoco.__version__, "cpus": cpu_count()},
         "entries": entries,
     }
 
 
-def _cpu_count() -> int:
+def cpu_count() -> int:
+    """CPUs this process may run on."""
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()

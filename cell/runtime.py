@@ -13,8 +13,8 @@ from cell.material import MassSpringMaterial
 from cell.scenario import Scenario
 from cell.scene import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM, Scene
 
-# Warnings after which MuJoCo's state is no longer a solution of the model.
-_FATAL_WARNINGS = (
+#: Warnings after which MuJoCo's state is no longer a solution of the model.
+FATAL_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQACC,
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
@@ -51,7 +51,7 @@ class Simulation:
         self._knife = self.model.geom_bodyid[self._blade]
         self._gripper = self.model.body(GRIPPER_BODY).id
         self._grasp_site = self.model.site(GRASP_SITE).id
-        self._warnings = np.zeros(len(_FATAL_WARNINGS), dtype=int)
+        self._warnings = np.zeros(len(FATAL_WARNINGS), dtype=int)
         self.grasped = np.zeros(0, dtype=int)
         # One spring model per muscle, so that each has its own fibre field.
         self.springs: dict[str, MassSpringModel] = (
@@ -129,10 +129,10 @@ class Simulation:
         resets the state, time included, so ``data.time`` no longer tells.
         """
         data = self.data
-        counts = np.array([data.warning[w].number for w in _FATAL_WARNINGS])
+        counts = np.array([data.warning[w].number for w in FATAL_WARNINGS])
         fired = counts > self._warnings
         if fired.any():
-            names = [w.name for w, f in zip(_FATAL_WARNINGS, fired, strict=True) if f]
+            names = [w.name for w, f in zip(FATAL_WARNINGS, fired, strict=True) if f]
             self._warnings = counts
             when = self.time_s if time_s is None else time_s
             raise DivergenceError(when, f"MuJoCo warning {', '.join(names)}")
