@@ -101,6 +101,8 @@ def _bench(args: argparse.Namespace) -> int:
         raise InputError(None, "--markdown", "only `musclecell bench tissue` writes Markdown")
     if args.suite == "perception":
         return _bench_perception(args)
+    if args.suite == "env":
+        return _bench_env(args)
     json_path = args.json or Path("out/bench.json")
     report = run_bench(args.scenario, quick=args.quick)
     write_json(json_path, report)
@@ -148,6 +150,25 @@ def _bench_perception(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench_env(args: argparse.Namespace) -> int:
+    from cell.bench_env import run_env_bench
+    from cell.io import write_json
+
+    report = run_env_bench(quick=args.quick)
+    json_path = args.json or Path("out/bench_env.json")
+    write_json(json_path, report)
+    for name, entry in report["entries"].items():
+        line = f"{name}: {entry['value']:.4g} {entry['unit']}"
+        if "ms_per_step" in entry:
+            split = entry["ms_per_step"]
+            line += " (ms/step: " + ", ".join(f"{k} {v:.2f}" for k, v in split.items()) + ")"
+        if "pass" in entry:
+            line += f" target {entry['target']:.4g}: {'pass' if entry['pass'] else 'FAIL'}"
+        print(line)
+    print(f"wrote {json_path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``musclecell``."""
     parser = argparse.ArgumentParser(prog="musclecell", description=__doc__)
@@ -175,15 +196,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = commands.add_parser(
         "bench", help="benchmark the cell, the tissue models or the perception")
-    bench.add_argument("suite", nargs="?", choices=("cell", "tissue", "perception"), default="cell",
+    bench.add_argument("suite", nargs="?", choices=("cell", "tissue", "perception", "env"),
+                       default="cell",
                        help="cell: the whole cell (default); tissue: every tissue model on "
                        "the two muscles, with peers; perception: curvature, guideline and fit, "
-                       "with peers")
+                       "with peers; env: Gymnasium env steps per second")
     bench.add_argument("--scenario", type=Path, default=Path("scenarios/default.toml"),
                        help="scenario of the cell and perception suites")
     bench.add_argument("--json", type=Path,
                        help="JSON out (default out/bench.json, tissue: out/bench_tissue.json, "
-                       "perception: out/bench_perception.json)")
+                       "perception: out/bench_perception.json, env: out/bench_env.json)")
     bench.add_argument("--markdown", type=Path, help="tissue suite: Markdown tables out")
     bench.add_argument("--quick", action="store_true",
                        help="fewer repetitions and a short episode; tissue: the smallest "

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
+from cell.aponeurosis import ReleaseRule
 from cell.camera import CameraRig
 from cell.errors import MusclecellError
 from cell.perception import PerceivedPlan, generic_model, perceive
@@ -34,7 +35,9 @@ from cell.scene import (
 )
 from controllers import gripper, knife
 from controllers.camera import view_pose
+from controllers.gripper import PullSchedule
 from controllers.ik import CellIK, arm_joint_names, pose
+from controllers.trajectory import CartesianTrajectory
 
 #: IK iterations that bring the arms from home to their ready poses before the episode starts.
 _READY_ITERATIONS = 200
@@ -44,6 +47,32 @@ _HELD_SITES = {"camera": "camera/optical", "gripper": GRASP_SITE, "knife": KNIFE
 _PERCEPTION_STREAM = 1
 #: Median gap (m) between facing vertices above which the muscles count as apart.
 APART_GAP_M = 0.02
+
+
+@dataclass(frozen=True)
+class EpisodePlan:
+    """The tools' plan from their ready poses: what the scripted episode follows.
+
+    Attributes:
+        knife: the knife tip's trajectory (world frame, m; times in s of simulated time).
+        cut_path_m: (N, 3) planned tip path while cutting, from the entry at depth on, m.
+        cut_window_s: (start, end) of the cut, s: the knife is at the entry at depth at the
+            start and at the path's last point at the end.
+        pull: the grasp site's trajectory.
+        schedule: when the gripper closes, grasps and pulls.
+        end_s: when the scripted episode stops, s.
+
+    Example:
+        >>> plan = Episode(scenario).plan()
+        >>> position_m, rotation = plan.knife.sample(plan.cut_window_s[0])
+    """
+
+    knife: CartesianTrajectory
+    cut_path_m: np.ndarray
+    cut_window_s: tuple[float, float]
+    pull: CartesianTrajectory
+    schedule: PullSchedule
+    end_s: float
 
 
 @dataclass
@@ -85,6 +114,11 @@ class Episode:
         self.ik = CellIK(self.robot_model, self._home_configuration())
         self._solve_ready_poses()
         self._place_arms()
+        self._control_steps = 0
+        self._knife_tared = self._gripper_tared = self._grasped = False
+        self._jaw_half_m = np.array([scenario.gripper.finger_width_m / 2,
+                                     scenario.gripper.max_opening_m / 2,
+                                     scenario.gripper.finger_length_m / 2])
 
     def _home_configuration(self) -> np.ndarray:
         q = self.robot_model.qpos0.copy()
@@ -116,6 +150,7 @@ class Episode:
         data.ctrl[self.actuators] = q
         data.ctrl[self.fingers] = self.scenario.gripper.max_opening_m / 2
         mujoco.mj_forward(self.scene.model, data)
+        self._ctrl_prev = q.copy()
 
     def run(self, rerun_path: str | Path | None = None, progress: bool = False
             ) -> dict[str, Any]:
@@ -139,31 +174,18 @@ class Episode:
         data, model, scene = sim.data, sim.model, self.scene
         perceived = self.perceive(rig) if rig is not None and scenario.perception.enabled \
             else None
-        if perceived is None:
-            top, interface_y = scene.mesh.top_line, scene.mesh.interface_y
-        else:
-            top, interface_y = perceived.guideline.points_m, perceived.interface_y
-            if top[0, 0] > top[-1, 0]:  # enter from the end the knife waits at (-x)
-                top = top[::-1]
-        tip_pos, tip_rot = ik.site_pose(KNIFE_TIP)
-        knife_traj, cut_path, (cut_start, cut_end) = knife.plan_cut(
-            top, scenario.cut, scenario.layout.table_height_m,
-            scenario.cut.start_s, tip_pos, tip_rot, interface_y=interface_y)
-        grasp_pos, grasp_rot = ik.site_pose(GRASP_SITE)
-        pull_traj, schedule = gripper.plan_pull(
-            grasp_point(scenario, scene.mesh), scenario.pull, scenario.settle_s,
-            (cut_start, cut_end), grasp_pos, grasp_rot)
-        end_s = scenario.end_s or max(knife_traj.end_s, schedule.pull_end_s) + 0.5
-        steps = int(np.ceil(end_s / self.control_dt_s))
+        plan = self.plan(perceived)
+        cut_start, cut_end = plan.cut_window_s
+        steps = int(np.ceil(plan.end_s / self.control_dt_s))
         held = {"camera": ik.site_pose("camera/optical")[0]}
         if not scenario.pull.enabled:
-            held["gripper"] = grasp_pos
+            held["gripper"] = ik.site_pose(GRASP_SITE)[0]
         if not scenario.cut.enabled:
-            held["knife"] = tip_pos
+            held["knife"] = ik.site_pose(KNIFE_TIP)[0]
         recorder = None
         if rerun_path is not None:
             recorder = EpisodeRecorder(rerun_path, scene, f"{scenario.name}-{scenario.seed}")
-            recorder.log_planned_path(cut_path)
+            recorder.log_planned_path(plan.cut_path_m)
             if perceived is not None:
                 recorder.log_perception(perceived)
         frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
@@ -171,45 +193,19 @@ class Episode:
                                            * self.control_dt_s)))
         trace = _Trace()
         tip_site = model.site(KNIFE_TIP).id
-        knife_tared = gripper_tared = grasped = False
-        jaw_half = np.array([scenario.gripper.finger_width_m / 2,
-                             scenario.gripper.max_opening_m / 2,
-                             scenario.gripper.finger_length_m / 2])
-        ctrl_prev = data.ctrl[self.actuators].copy()
         wall_start = time.perf_counter()
         try:
             for k in tqdm(range(steps), disable=not progress, unit="ctrl", desc=scenario.name):
                 t_next = (k + 1) * self.control_dt_s
-                if scenario.cut.enabled:
-                    knife_p, knife_r = knife_traj.sample(t_next)
-                    ik.knife.set_target(pose(knife_p, knife_r))
-                if scenario.pull.enabled:
-                    grasp_p, grasp_r = pull_traj.sample(t_next)
-                    ik.grasp.set_target(pose(grasp_p, grasp_r))
-                ctrl_next = ik.solve(self.control_dt_s)[self.ik_qpos]
-                if scenario.pull.enabled and t_next >= schedule.close_s:
-                    data.ctrl[self.fingers] = 0.0
-                for i in range(1, self.substeps + 1):
-                    data.ctrl[self.actuators] = ctrl_prev + (ctrl_next - ctrl_prev) * (
-                        i / self.substeps)
-                    sim.step()  # one step at a time: the controls ramp between them
-                ctrl_prev = ctrl_next
+                knife_target = plan.knife.sample(t_next) if scenario.cut.enabled else None
+                grasp_target = plan.pull.sample(t_next) if scenario.pull.enabled else None
+                self.control_step(plan, knife_target, grasp_target)
                 t = sim.time_s
-                if not knife_tared and t >= cut_start - 0.1:
-                    sim.tare("knife/force", "knife/torque")
-                    knife_tared = True
-                if scenario.pull.enabled and not gripper_tared and t >= schedule.close_s:
-                    sim.tare("gripper/force", "gripper/torque", "fixture_force")
-                    gripper_tared = True
-                if scenario.pull.enabled and not grasped and t >= schedule.grasp_s:
-                    sim.grasp(jaw_half)
-                    grasped = True
-                cutting = scenario.cut.enabled and cut_start <= t <= cut_end
-                sim.apply_release_rules(t - cut_start if cutting else None)
                 tip = data.site_xpos[tip_site]
-                if scenario.cut.enabled and cut_start <= t <= cut_end:
-                    trace.tracking_error_m.append(float(np.linalg.norm(tip - knife_p)))
-                self._measure(trace, knife_tared, gripper_tared)
+                if knife_target is not None and cut_start <= t <= cut_end:
+                    trace.tracking_error_m.append(
+                        float(np.linalg.norm(tip - knife_target[0])))
+                self._measure(trace, self._knife_tared, self._gripper_tared)
                 for name, start in held.items():
                     site = _HELD_SITES[name]
                     drift = float(np.linalg.norm(data.site_xpos[model.site(site).id] - start))
@@ -226,6 +222,72 @@ class Episode:
         if recorder is not None:
             recorder.close()
         return self._summary(trace, wall_s, perceived)
+
+    def plan(self, perceived: PerceivedPlan | None = None) -> EpisodePlan:
+        """Plan the knife and the gripper from the arms' present IK poses (the ready poses
+        before the first control step): along the perceived guideline and interface, or the
+        generator's own when ``perceived`` is None."""
+        scenario, ik, mesh = self.scenario, self.ik, self.scene.mesh
+        if perceived is None:
+            top, interface_y = mesh.top_line, mesh.interface_y
+        else:
+            top, interface_y = perceived.guideline.points_m, perceived.interface_y
+            if top[0, 0] > top[-1, 0]:  # enter from the end the knife waits at (-x)
+                top = top[::-1]
+        tip_pos, tip_rot = ik.site_pose(KNIFE_TIP)
+        knife_traj, cut_path, window = knife.plan_cut(
+            top, scenario.cut, scenario.layout.table_height_m,
+            scenario.cut.start_s, tip_pos, tip_rot, interface_y=interface_y)
+        grasp_pos, grasp_rot = ik.site_pose(GRASP_SITE)
+        pull_traj, schedule = gripper.plan_pull(
+            grasp_point(scenario, mesh), scenario.pull, scenario.settle_s, window,
+            grasp_pos, grasp_rot)
+        end_s = scenario.end_s or max(knife_traj.end_s, schedule.pull_end_s) + 0.5
+        return EpisodePlan(knife_traj, cut_path, window, pull_traj, schedule, end_s)
+
+    def control_step(self, plan: EpisodePlan,
+                     knife_target: tuple[np.ndarray, np.ndarray] | None,
+                     grasp_target: tuple[np.ndarray, np.ndarray] | None,
+                     ) -> dict[ReleaseRule, np.ndarray]:
+        """One control step: IK toward the tool targets (position m, rotation; None keeps the
+        last target), the joint controls ramped over the physics steps, then the plan's
+        timed events (sensor tares, closing the jaws, the grasp) and the release rules.
+
+        Returns:
+            The bindings released in this step, by rule.
+
+        Raises:
+            DivergenceError: the physics blew up.
+        """
+        scenario, sim, data = self.scenario, self.sim, self.sim.data
+        schedule = plan.schedule
+        cut_start, cut_end = plan.cut_window_s
+        self._control_steps += 1
+        t_next = self._control_steps * self.control_dt_s
+        if knife_target is not None:
+            self.ik.knife.set_target(pose(*knife_target))
+        if grasp_target is not None:
+            self.ik.grasp.set_target(pose(*grasp_target))
+        ctrl_next = self.ik.solve(self.control_dt_s)[self.ik_qpos]
+        if scenario.pull.enabled and t_next >= schedule.close_s:
+            data.ctrl[self.fingers] = 0.0
+        ctrl_prev = self._ctrl_prev
+        for i in range(1, self.substeps + 1):
+            data.ctrl[self.actuators] = ctrl_prev + (ctrl_next - ctrl_prev) * (i / self.substeps)
+            sim.step()  # one step at a time: the controls ramp between them
+        self._ctrl_prev = ctrl_next
+        t = sim.time_s
+        if not self._knife_tared and t >= cut_start - 0.1:
+            sim.tare("knife/force", "knife/torque")
+            self._knife_tared = True
+        if scenario.pull.enabled and not self._gripper_tared and t >= schedule.close_s:
+            sim.tare("gripper/force", "gripper/torque", "fixture_force")
+            self._gripper_tared = True
+        if scenario.pull.enabled and not self._grasped and t >= schedule.grasp_s:
+            sim.grasp(self._jaw_half_m)
+            self._grasped = True
+        cutting = scenario.cut.enabled and cut_start <= t <= cut_end
+        return sim.apply_release_rules(t - cut_start if cutting else None)
 
     def perceive(self, rig: CameraRig) -> PerceivedPlan:
         """Look at the meat from the camera arm's pose and plan the cut (paper Sec. 5); the

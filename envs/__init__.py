@@ -1,0 +1,54 @@
+"""Gymnasium envs of the muscle separation cell, registered on import under ``musclecell/``:
+
+- ``musclecell/MuscleSeparation-v0``: the policy drives the knife and the pull,
+- ``musclecell/Cut-v0``: the knife only (the pull follows the scripted plan),
+- ``musclecell/Pull-v0``: the pull only (the knife follows the scripted plan).
+
+Keyword arguments of ``gymnasium.make`` go to :class:`MuscleSeparationEnv`.
+
+Example:
+    >>> import gymnasium, envs
+    >>> env = gymnasium.make("musclecell/Cut-v0", cell_size_m=0.05)
+"""
+
+from gymnasium.envs.registration import register, registry
+
+import cell  # noqa: F401  (headless rendering is chosen before MuJoCo is imported)
+from envs.options import OPTION_KEYS, apply_options
+from envs.params import ActionLimits, RewardParams
+from envs.separation import (
+    COARSE_CELL_SIZE_M,
+    SEPARATED_FRACTION,
+    CutEnv,
+    MuscleSeparationEnv,
+    PullEnv,
+)
+
+_ENTRY_POINTS = {
+    "musclecell/MuscleSeparation-v0": "envs.separation:MuscleSeparationEnv",
+    "musclecell/Cut-v0": "envs.separation:CutEnv",
+    "musclecell/Pull-v0": "envs.separation:PullEnv",
+}
+
+
+def register_envs() -> None:
+    """Register the three envs with Gymnasium (once; importing :mod:`envs` does it)."""
+    for env_id, entry_point in _ENTRY_POINTS.items():
+        if env_id not in registry:
+            register(id=env_id, entry_point=entry_point, disable_env_checker=False)
+
+
+register_envs()
+
+__all__ = [
+    "COARSE_CELL_SIZE_M",
+    "OPTION_KEYS",
+    "SEPARATED_FRACTION",
+    "ActionLimits",
+    "CutEnv",
+    "MuscleSeparationEnv",
+    "PullEnv",
+    "RewardParams",
+    "apply_options",
+    "register_envs",
+]

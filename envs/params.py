@@ -1,0 +1,85 @@
+"""Parameters of the separation envs: how actions scale to the tools and how steps are scored."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cell.errors import InputError
+
+
+@dataclass(frozen=True)
+class ActionLimits:
+    """What an action of 1 means for each tool, and the bounds its target stays within (SI).
+
+    The knife moves in the frame of its planned path: ``along`` it (progress at up to
+    ``knife_along_speed_m_s``, forward or back), ``across`` it (the blade's normal) and in
+    ``depth`` (the blade's axis), each offset kept within ``knife_max_across_m`` and
+    ``knife_max_depth_m`` of the path, and turns its blade about its axis at up to
+    ``knife_yaw_rate_rad_s``, within ``knife_max_yaw_rad`` of the path's tangent. The grasp
+    site moves at up to ``pull_speed_m_s`` along each world axis, no further than
+    ``pull_max_distance_m`` from the grasp point and never more than ``pull_max_sink_m``
+    below it (the table lies beneath).
+
+    Example:
+        >>> ActionLimits(knife_along_speed_m_s=0.05).knife_max_across_m
+        0.01
+    """
+
+    knife_along_speed_m_s: float = 0.08
+    knife_across_speed_m_s: float = 0.01
+    knife_depth_speed_m_s: float = 0.02
+    knife_yaw_rate_rad_s: float = 0.5
+    knife_max_across_m: float = 0.01
+    knife_max_depth_m: float = 0.02
+    knife_max_yaw_rad: float = 0.35
+    pull_speed_m_s: float = 0.05
+    pull_max_distance_m: float = 0.2
+    pull_max_sink_m: float = 0.005
+
+    def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if not value > 0:
+                raise InputError(None, name, f"must be > 0, got {value}")
+
+
+@dataclass(frozen=True)
+class RewardParams:
+    """Weights of the reward's terms; one step's reward is
+
+    ``progress * d(released fraction) + cut_progress * d(knife's progress along its path)
+    - damage - force - tearing - time_per_step``
+
+(the second term is dense shaping: the bindings release a few at a time)
+
+    where damage is ``contact_per_step`` for each step the blade touches muscle with no
+    binding under it, plus ``off_interface_per_m`` times the blade tip's distance from the true
+    interface beyond ``interface_tolerance_m`` while it touches muscle; force is
+    ``force_per_n`` times the knife force (N) above ``knife_force_limit_n`` plus the pull force
+    above ``pull_force_limit_n``, at most ``force_cap_per_step`` (a blade jammed on the table
+    would otherwise outweigh everything else); tearing is ``tearing`` times the fraction of the
+    bindings torn rather than cut (most of what tearing gains as progress: separating by
+    pulling alone is the damage the knife is there to avoid). A diverged simulation costs
+    ``divergence``.
+
+    Example:
+        >>> RewardParams(time_per_step=0.0).progress
+        10.0
+    """
+
+    progress: float = 10.0
+    cut_progress: float = 2.0
+    contact_per_step: float = 0.02
+    off_interface_per_m: float = 10.0
+    interface_tolerance_m: float = 0.003
+    knife_force_limit_n: float = 20.0
+    pull_force_limit_n: float = 40.0
+    force_per_n: float = 0.01
+    force_cap_per_step: float = 0.2
+    tearing: float = 8.0
+    time_per_step: float = 0.002
+    divergence: float = 10.0
+
+    def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if not value >= 0:
+                raise InputError(None, name, f"must be >= 0, got {value}")

@@ -1,0 +1,105 @@
+"""Policies without a deep-learning dependency: the scripted plan, and a linear policy with
+the cross-entropy search that tunes it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import gymnasium as gym
+import numpy as np
+
+from envs.separation import MuscleSeparationEnv
+
+
+def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
+    """The scripted episode's controllers as a policy of ``env`` (it reads the env's plan).
+
+    Example:
+        >>> policy = scripted_policy(env)
+        >>> env.step(policy(obs))
+    """
+    inner: MuscleSeparationEnv = env.unwrapped
+    return lambda _obs: inner.scripted_action()
+
+
+@dataclass(frozen=True)
+class LinearPolicy:
+    """``action = tanh(weights @ obs + bias)``.
+
+    Example:
+        >>> policy = LinearPolicy.from_vector(np.zeros(4 * 35), action_dims=4, obs_dims=34)
+        >>> policy(obs)
+    """
+
+    weights: np.ndarray
+    bias: np.ndarray
+
+    @classmethod
+    def from_vector(cls, vector: np.ndarray, action_dims: int, obs_dims: int) -> LinearPolicy:
+        """Unpack a flat parameter vector of ``action_dims * (obs_dims + 1)`` entries."""
+        matrix = np.asarray(vector, float).reshape(action_dims, obs_dims + 1)
+        return cls(matrix[:, :-1], matrix[:, -1])
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return np.tanh(self.weights @ obs + self.bias).astype(np.float32)
+
+
+def episode_return(env: gym.Env, policy: Callable[[np.ndarray], np.ndarray], seed: int
+                   ) -> tuple[float, dict]:
+    """Run one episode; returns the undiscounted return and the last info."""
+    obs, info = env.reset(seed=seed)
+    total, done = 0.0, False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        total += float(reward)
+        done = terminated or truncated
+    return total, info
+
+
+@dataclass(frozen=True)
+class CrossEntropyParams:
+    """Cross-entropy search: ``population`` samples per iteration from a diagonal Gaussian,
+    refitted to the best ``elite``; it starts at zero with spread ``weight_std`` on the
+    weights and ``bias_std`` on the biases (small weights keep the first policies from
+    saturating on the observation's larger entries), and ``min_std`` is its floor."""
+
+    iterations: int = 8
+    population: int = 8
+    elite: int = 2
+    weight_std: float = 0.05
+    bias_std: float = 0.5
+    min_std: float = 0.02
+
+
+def cross_entropy_search(env: gym.Env, params: CrossEntropyParams, seed: int,
+                         report: Callable[[int, np.ndarray], None] | None = None
+                         ) -> tuple[LinearPolicy, list[float]]:
+    """Tune a :class:`LinearPolicy` on ``env``; every iteration evaluates its population on
+    the same episode seed (common random numbers). Returns the final mean policy and the
+    population's mean return per iteration.
+
+    Example:
+        >>> policy, curve = cross_entropy_search(CutEnv(time_limit_s=3.0),
+        ...                                      CrossEntropyParams(), seed=0)
+    """
+    rng = np.random.default_rng(seed)
+    obs_dims = env.observation_space.shape[0]
+    action_dims = env.action_space.shape[0]
+    mean = np.zeros(action_dims * (obs_dims + 1))
+    std = np.full((action_dims, obs_dims + 1), params.weight_std)
+    std[:, -1] = params.bias_std
+    std = std.ravel()
+    curve = []
+    for iteration in range(params.iterations):
+        samples = mean + std * rng.standard_normal((params.population, len(mean)))
+        returns = np.array([
+            episode_return(env, LinearPolicy.from_vector(s, action_dims, obs_dims),
+                           seed + iteration)[0] for s in samples])
+        elite = samples[np.argsort(returns)[-params.elite:]]
+        mean = elite.mean(axis=0)
+        std = np.maximum(elite.std(axis=0), params.min_std)
+        curve.append(float(returns.mean()))
+        if report is not None:
+            report(iteration, returns)
+    return LinearPolicy.from_vector(mean, action_dims, obs_dims), curve

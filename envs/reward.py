@@ -1,0 +1,39 @@
+"""One step's reward from the readings before and after it (see :class:`RewardParams`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from envs.observation import Reading
+from envs.params import RewardParams
+
+
+def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: float,
+                 cut_advance: float) -> dict[str, float]:
+    """The reward's terms for a step that led from ``before`` to ``after``, tore the fraction
+    ``torn`` of the bindings and moved the knife ``cut_advance`` (fraction of its path) along;
+    the reward is their sum (costs are negative).
+
+    Example:
+        >>> sum(reward_terms(RewardParams(), before, after, torn=0.0, cut_advance=0.01).values())
+    """
+    touching = after.blade_contacts > 0
+    damage = 0.0
+    if touching and after.under_blade == 0:
+        damage += params.contact_per_step
+    if touching:
+        damage += params.off_interface_per_m * max(
+            0.0, after.interface_offset_m - params.interface_tolerance_m)
+    knife_n = float(np.linalg.norm(after.knife_force_n))
+    pull_n = float(np.linalg.norm(after.pull_force_n))
+    force = min(params.force_cap_per_step, params.force_per_n * (
+        max(0.0, knife_n - params.knife_force_limit_n)
+        + max(0.0, pull_n - params.pull_force_limit_n)))
+    return {
+        "progress": params.progress * (after.released_fraction - before.released_fraction),
+        "cut_progress": params.cut_progress * cut_advance,
+        "damage": -damage,
+        "force": -force,
+        "tearing": -params.tearing * torn,
+        "time": -params.time_per_step,
+    }

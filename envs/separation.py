@@ -1,0 +1,288 @@
+"""The muscle separation task as Gymnasium envs: the policy drives the knife, the pull or both
+through the cell's mink IK, one action per 20 ms control step.
+
+Each episode builds the cell afresh (so that every variation applies), plans the cut and the
+pull as the scripted episode does, and plays the plan's approach (knife down to the entry at
+depth, jaws closed on the shank) before the policy takes over.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any, ClassVar, Literal
+
+import gymnasium as gym
+import numpy as np
+
+from cell.aponeurosis import ReleaseRule
+from cell.camera import CameraRig
+from cell.episode import Episode, EpisodePlan
+from cell.errors import DivergenceError, InputError
+from cell.scenario import Scenario
+from cell.scene import CAMERA, grasp_point
+from envs.commands import KnifeCommand, Pose, PullCommand
+from envs.observation import (
+    OBSERVATION_BOUND,
+    OBSERVATION_NAMES,
+    Sensing,
+    observe,
+)
+from envs.options import apply_options
+from envs.params import ActionLimits, RewardParams
+from envs.render import CellRenderer
+from envs.reward import reward_terms
+
+#: Training resolution of the tissue (m); the cell's own default, 0.025 m, is for evaluation.
+COARSE_CELL_SIZE_M = 0.05
+#: Released fraction at which the muscles count as separated.
+SEPARATED_FRACTION = 0.95
+#: Simulated time past the scripted plan's end the default time limit allows, s.
+_TIME_MARGIN_S = 2.0
+
+Driven = Literal["both", "knife", "pull"]
+_KNIFE_DIMS = 4
+_PULL_DIMS = 3
+
+
+class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Separate the shank from the round: cut along the aponeurosis and pull.
+
+    Actions (Box in [-1, 1], scaled by ``limits``; out-of-range entries are clipped and
+    counted in ``info["clipped_actions"]``): for the knife (along, across, depth, yaw rate)
+    in its planned path's frame, for the gripper the grasp site's velocity (x, y, z, world).
+    ``driven`` picks which the policy drives; the other follows the scripted plan.
+    Observations: see :mod:`envs.observation`. Reward: see :class:`RewardParams`.
+    Terminated when ``SEPARATED_FRACTION`` of the bindings are released or the simulation
+    diverges (``info["diverged"]``, the last finite observation is returned); truncated at
+    ``time_limit_s`` of simulated time after the policy takes over (default: the scripted
+    plan's length plus 2 s).
+
+    Args:
+        scenario: the base cell and plan (default :class:`Scenario`).
+        cell_size_m: tissue resolution, m (0.05 to train, 0.025 to evaluate).
+        perception: plan from the camera (paper Sec. 5, 0.3-1 s per reset) instead of the
+            generator's known interface.
+        options: variations applied at every reset (see :mod:`envs.options`); a reset's own
+            ``options`` apply on top.
+        limits, reward: action scaling and reward weights (defaults when None).
+        time_limit_s: episode length after the approach, s of simulated time.
+        driven: ``"both"``, ``"knife"`` or ``"pull"``.
+        render_mode: None or ``"rgb_array"``.
+
+    Example:
+        >>> env = MuscleSeparationEnv(driven="knife")
+        >>> obs, info = env.reset(seed=0, options={"shape": {"length_m": 0.4}})
+        >>> obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(self, scenario: Scenario | None = None,
+                 cell_size_m: float = COARSE_CELL_SIZE_M, perception: bool = False,
+                 options: Mapping[str, Any] | None = None,
+                 limits: ActionLimits | None = None, reward: RewardParams | None = None,
+                 time_limit_s: float | None = None, driven: Driven = "both",
+                 render_mode: str | None = None) -> None:
+        if driven not in ("both", "knife", "pull"):
+            raise InputError(None, "driven", f"must be both, knife or pull, got {driven!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise InputError(None, "render_mode", f"must be None or rgb_array, got "
+                             f"{render_mode!r}")
+        if time_limit_s is not None and not time_limit_s > 0:
+            raise InputError(None, "time_limit_s", f"must be > 0, got {time_limit_s}")
+        base = Scenario() if scenario is None else scenario
+        base = replace(base, tissue=replace(base.tissue, cell_size_m=cell_size_m),
+                       perception=replace(base.perception, enabled=perception))
+        self.options = dict(options or {})
+        self.base = apply_options(base, self.options)  # fail now, not at the first reset
+        self.limits = ActionLimits() if limits is None else limits
+        self.reward_params = RewardParams() if reward is None else reward
+        self.time_limit_s = time_limit_s
+        self.driven = driven
+        self.render_mode = render_mode
+        self._drives_knife = driven in ("both", "knife")
+        self._drives_pull = driven in ("both", "pull")
+        dims = _KNIFE_DIMS * self._drives_knife + _PULL_DIMS * self._drives_pull
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (dims,), np.float32)
+        self.observation_space = gym.spaces.Box(-OBSERVATION_BOUND, OBSERVATION_BOUND,
+                                                (len(OBSERVATION_NAMES),), np.float32)
+        self.episode: Episode | None = None
+        self.plan: EpisodePlan | None = None
+        self._renderer: CellRenderer | None = None
+
+    # -- episode --------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Build a fresh cell (with ``options`` over the constructor's), plan, play the
+        approach; the scenario's seed (sensor noise, camera noise) comes from the env's
+        random generator."""
+        super().reset(seed=seed)
+        scenario = apply_options(self.base, options or {})
+        scenario = replace(scenario, seed=int(self.np_random.integers(2**31 - 1)))
+        self.close()
+        self.episode = episode = Episode(scenario)
+        perceived = None
+        if scenario.perception.enabled:
+            rig = CameraRig(episode.sim.model, CAMERA, scenario.camera.width_px,
+                            scenario.camera.height_px)
+            try:
+                perceived = episode.perceive(rig)
+            finally:
+                rig.close()
+        self.plan = plan = episode.plan(perceived)
+        self._dt_s = episode.control_dt_s
+        self._knife = KnifeCommand(plan.knife, plan.cut_window_s, scenario.cut.speed_m_s,
+                                   self.limits)
+        self._sensing = Sensing(episode)
+        self.diverged = False
+        self._obs: np.ndarray | None = None
+        self.clipped_actions = 0
+        self.bounded_actions = 0
+        self._divergence = ""
+        # The approach: both tools scripted until the knife is in at the entry and the jaws
+        # hold the shank.
+        handover_s = max(plan.cut_window_s[0], plan.schedule.grasp_s)
+        try:
+            while episode.sim.time_s < handover_s - 1e-9:
+                t_next = episode.sim.time_s + self._dt_s
+                episode.control_step(plan, plan.knife.sample(t_next), plan.pull.sample(t_next))
+        except DivergenceError as exc:
+            self._diverge(exc)
+        self._start_s = episode.sim.time_s
+        self._limit_s = self.time_limit_s or plan.end_s - self._start_s + _TIME_MARGIN_S
+        self._pull = PullCommand(grasp_point(scenario, episode.scene.mesh),
+                                 plan.pull.sample(self._start_s)[1], self.limits)
+        self._reading = self._sensing.read(self._knife)
+        self._obs = self._observe()
+        return self._obs, self._info({})
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """One control step (20 ms by default) of the policy's action."""
+        if self.episode is None or self.plan is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        if self.diverged:
+            return self._obs, -self.reward_params.divergence, True, False, self._info({})
+        episode, plan = self.episode, self.plan
+        raw = np.asarray(action, dtype=float).reshape(self.action_space.shape)
+        clipped = np.clip(np.nan_to_num(raw, nan=0.0), -1.0, 1.0)
+        self.clipped_actions += int(np.count_nonzero(clipped != raw))
+        t_next = episode.sim.time_s + self._dt_s
+        progress = self._knife.progress
+        knife_target, grasp_target = self._targets(clipped, t_next)
+        try:
+            released = episode.control_step(plan, knife_target, grasp_target)
+        except DivergenceError as exc:
+            self._diverge(exc)
+            return self._obs, -self.reward_params.divergence, True, False, self._info({})
+        before, self._reading = self._reading, self._sensing.read(self._knife)
+        torn = len(released.get(ReleaseRule.TEARING, ())) / len(episode.scene.aponeurosis)
+        terms = reward_terms(self.reward_params, before, self._reading, torn,
+                             self._knife.progress - progress)
+        self._obs = self._observe()
+        terminated = self._reading.released_fraction >= SEPARATED_FRACTION
+        truncated = not terminated and self.elapsed_s >= self._limit_s - 1e-9
+        return self._obs, float(sum(terms.values())), terminated, truncated, self._info(terms)
+
+    def _targets(self, action: np.ndarray, t_next: float) -> tuple[Pose, Pose]:
+        plan = self.plan
+        if self._drives_knife:
+            knife_target, hits = self._knife.advance(action[:_KNIFE_DIMS], self._dt_s)
+            self.bounded_actions += hits
+        else:
+            knife_target = plan.knife.sample(t_next)
+        if self._drives_pull:
+            grasp_target, hits = self._pull.advance(action[-_PULL_DIMS:], self._dt_s)
+            self.bounded_actions += hits
+        else:
+            grasp_target = plan.pull.sample(t_next)
+        return knife_target, grasp_target
+
+    def _diverge(self, exc: DivergenceError) -> None:
+        self.diverged = True
+        self._divergence = str(exc)
+
+    def _observe(self) -> np.ndarray:
+        if self.diverged and self._obs is not None:
+            return self._obs  # the state is no longer data: keep the last finite view
+        return observe(self._reading, self._knife, self._pull,
+                       min(1.0, self.elapsed_s / self._limit_s))
+
+    def _info(self, terms: dict[str, float]) -> dict[str, Any]:
+        info: dict[str, Any] = {
+            "diverged": self.diverged,
+            "released_fraction": self._reading.released_fraction,
+            "clipped_actions": self.clipped_actions,
+            "bounded_actions": self.bounded_actions,
+            "sim_time_s": self.episode.sim.time_s,
+            "reward_terms": terms,
+        }
+        if self.diverged:
+            info["divergence"] = self._divergence
+        return info
+
+    @property
+    def elapsed_s(self) -> float:
+        """Simulated time since the policy took over, s."""
+        return self.episode.sim.time_s - self._start_s
+
+    # -- baselines ------------------------------------------------------------------------
+
+    def scripted_action(self) -> np.ndarray:
+        """The action that replays the scripted episode's plan from here: the knife along its
+        path at the plan's speed, the grasp site toward the plan's next point. It reads the
+        plan, so it is a privileged baseline, not a policy of the observation."""
+        parts = []
+        if self._drives_knife:
+            along = (self._knife.speed_m_s / self.limits.knife_along_speed_m_s
+                     if self._knife.progress < 1.0 else 0.0)
+            parts.append([along, 0.0, 0.0, 0.0])
+        if self._drives_pull:
+            goal = self.plan.pull.sample(self.episode.sim.time_s + self._dt_s)[0]
+            velocity = (goal - self._pull.target()[0]) / self._dt_s
+            parts.append(velocity / self.limits.pull_speed_m_s)
+        return np.clip(np.concatenate(parts), -1.0, 1.0).astype(np.float32)
+
+    # -- rendering ------------------------------------------------------------------------
+
+    def render(self) -> np.ndarray | None:
+        """The LWR camera's view beside a fixed overview, (240, 640, 3) uint8, in
+        ``rgb_array`` mode."""
+        if self.render_mode != "rgb_array" or self.episode is None:
+            return None
+        if self._renderer is None:
+            scenario = self.episode.scenario
+            look_at = np.array([scenario.layout.meat_x_m, 0.0,
+                                scenario.layout.table_height_m + 0.05])
+            self._renderer = CellRenderer(self.episode.sim.model, look_at)
+        return self._renderer.render(self.episode.sim.data)
+
+    def close(self) -> None:
+        """Free the renderer's GL context."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class CutEnv(MuscleSeparationEnv):
+    """:class:`MuscleSeparationEnv` with the policy on the knife only; the pull is scripted.
+
+    Example:
+        >>> env = CutEnv(cell_size_m=0.05)
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(driven="knife", **kwargs)
+
+
+class PullEnv(MuscleSeparationEnv):
+    """:class:`MuscleSeparationEnv` with the policy on the pull only; the knife is scripted.
+
+    Example:
+        >>> env = PullEnv(cell_size_m=0.05)
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(driven="pull", **kwargs)
+

@@ -1,0 +1,112 @@
+"""The Gymnasium envs: API conformance, determinism, clipping, options, divergence, baselines."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import envs
+from cell.errors import InputError
+from envs import CutEnv, MuscleSeparationEnv, PullEnv
+
+IDS = ("musclecell/MuscleSeparation-v0", "musclecell/Cut-v0", "musclecell/Pull-v0")
+
+
+@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, CutEnv, PullEnv])
+def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
+    env = env_class(time_limit_s=1.0)
+    check_env(env, skip_render_check=True)
+    env.close()
+
+
+def test_make_after_import_and_render() -> None:
+    assert all(env_id in gym.registry for env_id in IDS)
+    env = gym.make("musclecell/Cut-v0", render_mode="rgb_array", time_limit_s=0.5)
+    env.reset(seed=1)
+    frame = env.render()
+    assert frame.shape == (240, 640, 3) and frame.dtype == np.uint8 and frame.any()
+    env.close()
+
+
+def test_same_seed_same_episode() -> None:
+    def rollout() -> tuple[np.ndarray, list[float]]:
+        env = CutEnv(time_limit_s=1.0)
+        first, _ = env.reset(seed=5)
+        env.action_space.seed(5)
+        rewards = [env.step(env.action_space.sample())[1] for _ in range(20)]
+        return first, rewards
+
+    (obs_a, rewards_a), (obs_b, rewards_b) = rollout(), rollout()
+    np.testing.assert_array_equal(obs_a, obs_b)
+    assert rewards_a == rewards_b
+
+
+def test_out_of_range_actions_are_clipped_and_counted() -> None:
+    env = CutEnv(time_limit_s=1.0)
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([3.0, -2.0, 0.5, 0.0], dtype=np.float32))
+    assert info["clipped_actions"] == 2
+    assert env._knife.across_m == pytest.approx(-env.limits.knife_across_speed_m_s * 0.02)
+
+
+def test_bad_reset_option_names_the_key() -> None:
+    env = CutEnv(time_limit_s=1.0)
+    with pytest.raises(InputError, match="stiffnes_n_m"):
+        env.reset(seed=0, options={"stiffnes_n_m": 80.0})
+    with pytest.raises(InputError, match=r"shape\.cell_size_m"):
+        env.reset(seed=0, options={"shape": {"cell_size_m": 0.1}})
+
+
+def test_reset_options_change_the_cell() -> None:
+    env = PullEnv(time_limit_s=1.0, options={"force_noise_n": 0.0})
+    env.reset(seed=0, options={"shape": {"length_m": 0.35}, "binding_stiffness_n_m": 80.0,
+                               "fibre_direction": (0.0, 1.0, 0.0),
+                               "material": "assets/materials/beef_default.toml"})
+    scenario = env.episode.scenario
+    assert scenario.tissue.length_m == 0.35 and scenario.aponeurosis.stiffness_n_m == 80.0
+    assert scenario.sensors.force_noise_n == 0.0
+    assert scenario.material.fibre_direction == (0.0, 1.0, 0.0)
+
+
+def test_divergence_ends_the_episode_with_a_finite_observation() -> None:
+    env = CutEnv(time_limit_s=1.0)
+    env.reset(seed=0)
+    env.episode.sim.data.qvel[:] = np.nan  # the state a blow-up leaves behind
+    obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+    assert terminated and not truncated and info["diverged"]
+    assert np.isfinite(obs).all() and np.isfinite(reward)
+
+
+def test_scripted_policy_separates_the_muscles() -> None:
+    env = MuscleSeparationEnv()
+    env.reset(seed=0)
+    terminated = truncated = False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, info = env.step(env.scripted_action())
+    assert terminated and not info["diverged"]
+    assert info["released_fraction"] >= envs.SEPARATED_FRACTION
+
+
+def test_random_policy_does_not_separate() -> None:
+    env = MuscleSeparationEnv(time_limit_s=4.0)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    terminated = truncated = False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, info = env.step(env.action_space.sample())
+    assert truncated and not terminated
+    assert info["released_fraction"] < envs.SEPARATED_FRACTION
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+def test_make_vec_steps(mode: str) -> None:
+    vec = gym.make_vec("musclecell/Cut-v0", num_envs=2, vectorization_mode=mode,
+                       time_limit_s=0.5)
+    obs, _ = vec.reset(seed=3)
+    assert obs.shape == (2, vec.single_observation_space.shape[0])
+    for _ in range(3):
+        obs, rewards, _, _, _ = vec.step(vec.action_space.sample())
+    assert np.isfinite(obs).all() and rewards.shape == (2,)
+    vec.close()
