@@ -18,6 +18,7 @@ from envs.options import OPTION_KEYS, apply_options
 from envs.params import ActionLimits, RewardParams
 from envs.separation import (
     COARSE_CELL_SIZE_M,
+    MAX_TORN_FRACTION,
     SEPARATED_FRACTION,
     CutEnv,
     MuscleSeparationEnv,
@@ -42,6 +43,7 @@ register_envs()
 
 __all__ = [
     "COARSE_CELL_SIZE_M",
+    "MAX_TORN_FRACTION",
     "OPTION_KEYS",
     "SEPARATED_FRACTION",
     "ActionLimits",

@@ -37,6 +37,11 @@ from envs.reward import reward_terms
 COARSE_CELL_SIZE_M = 0.05
 #: Released fraction at which the muscles count as separated.
 SEPARATED_FRACTION = 0.95
+#: Most of the bindings that may have torn (rather than been cut) for a release to count as
+#: separation: tearing the muscles apart is the damage the knife is there to avoid, and the
+#: scripted pull's final pull tears whatever the knife left, so release alone would count a
+#: knife that did nothing (the scripted episode tears 30 %, a random knife 93 %).
+MAX_TORN_FRACTION = 0.5
 #: Simulated time past the scripted plan's end the default time limit allows, s.
 _TIME_MARGIN_S = 2.0
 
@@ -53,8 +58,10 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
     in its planned path's frame, for the gripper the grasp site's velocity (x, y, z, world).
     ``driven`` picks which the policy drives; the other follows the scripted plan.
     Observations: see :mod:`envs.observation`. Reward: see :class:`RewardParams`.
-    Terminated when ``SEPARATED_FRACTION`` of the bindings are released or the simulation
-    diverges (``info["diverged"]``, the last finite observation is returned); truncated at
+    Terminated when ``SEPARATED_FRACTION`` of the bindings are released with no more than
+    ``MAX_TORN_FRACTION`` of them torn (``info["torn_fraction"]``; a separation by tearing is
+    no separation, and the episode runs on to its time limit) or the simulation diverges
+    (``info["diverged"]``, the last finite observation is returned); truncated at
     ``time_limit_s`` of simulated time after the policy takes over (default: the scripted
     plan's length plus 2 s).
 
@@ -140,6 +147,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         self._obs: np.ndarray | None = None
         self.clipped_actions = 0
         self.bounded_actions = 0
+        self.torn_bindings = 0
         self._divergence = ""
         # The approach: both tools scripted until the knife is in at the entry and the jaws
         # hold the shank.
@@ -177,11 +185,13 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
             self._diverge(exc)
             return self._obs, -self.reward_params.divergence, True, False, self._info({})
         before, self._reading = self._reading, self._sensing.read(self._knife)
-        torn = len(released.get(ReleaseRule.TEARING, ())) / len(episode.scene.aponeurosis)
+        torn_now = len(released.get(ReleaseRule.TEARING, ()))
+        self.torn_bindings += torn_now
+        torn = torn_now / len(episode.scene.aponeurosis)
         terms = reward_terms(self.reward_params, before, self._reading, torn,
                              self._knife.progress - progress)
         self._obs = self._observe()
-        terminated = self._reading.released_fraction >= SEPARATED_FRACTION
+        terminated = self.separated
         truncated = not terminated and self.elapsed_s >= self._limit_s - 1e-9
         return self._obs, float(sum(terms.values())), terminated, truncated, self._info(terms)
 
@@ -213,6 +223,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         info: dict[str, Any] = {
             "diverged": self.diverged,
             "released_fraction": self._reading.released_fraction,
+            "torn_fraction": self.torn_fraction,
             "clipped_actions": self.clipped_actions,
             "bounded_actions": self.bounded_actions,
             "sim_time_s": self.episode.sim.time_s,
@@ -221,6 +232,17 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         if self.diverged:
             info["divergence"] = self._divergence
         return info
+
+    @property
+    def torn_fraction(self) -> float:
+        """Fraction of the bindings torn since the policy took over."""
+        return self.torn_bindings / len(self.episode.scene.aponeurosis)
+
+    @property
+    def separated(self) -> bool:
+        """``SEPARATED_FRACTION`` released, no more than ``MAX_TORN_FRACTION`` torn."""
+        return (self._reading.released_fraction >= SEPARATED_FRACTION
+                and self.torn_fraction <= MAX_TORN_FRACTION)
 
     @property
     def elapsed_s(self) -> float:
