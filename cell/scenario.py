@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Literal
 
 from cell.aponeurosis import ReleaseRule
-from cell.config import from_table, read_toml
+from cell.config import from_table, read_toml, require_non_negative, require_positive
 from cell.errors import InputError, MaterialError, ScenarioError
 from cell.geometry import MuscleShape
 from cell.material import (
@@ -31,20 +31,6 @@ from cell.tools import CameraParams, GripperParams, KnifeParams
 
 #: The project's root: ``assets/...`` paths in scenario files are read from here.
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
-
-
-def _positive(owner: object, *names: str) -> None:
-    for name in names:
-        value = getattr(owner, name)
-        if not value > 0:
-            raise InputError(None, name, f"must be > 0, got {value}")
-
-
-def _non_negative(owner: object, *names: str) -> None:
-    for name in names:
-        value = getattr(owner, name)
-        if not value >= 0:
-            raise InputError(None, name, f"must be >= 0, got {value}")
 
 
 @dataclass(frozen=True)
@@ -64,7 +50,7 @@ class SimulationParams:
     max_tissue_speed_m_s: float = 20.0
 
     def __post_init__(self) -> None:
-        _positive(self, "timestep_s", "control_rate_hz", "solver_iterations",
+        require_positive(self, "timestep_s", "control_rate_hz", "solver_iterations",
                   "max_tissue_speed_m_s")
         if self.control_rate_hz * self.timestep_s > 1.0:
             raise InputError(None, "control_rate_hz", "faster than the physics step")
@@ -104,9 +90,9 @@ class AponeurosisParams:
         for rule in self.release_rules:
             if rule not in known:
                 raise InputError(None, "release_rules", f"unknown rule {rule!r}; known: {known}")
-        _positive(self, "stiffness_n_m", "tearing_stretch_m", "timeconst_s", "dampratio",
+        require_positive(self, "stiffness_n_m", "tearing_stretch_m", "timeconst_s", "dampratio",
                   "force_share")
-        _non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m")
+        require_non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m")
         if "force" in self.release_rules and self.law != "spring":
             raise InputError(None, "release_rules",
                              "the force rule needs law = \"spring\" (a binding force in N)")
@@ -131,9 +117,9 @@ class CutPlan:
     start_s: float = 0.4
 
     def __post_init__(self) -> None:
-        _positive(self, "speed_m_s", "depth_m", "approach_height_m", "cut_fraction",
+        require_positive(self, "speed_m_s", "depth_m", "approach_height_m", "cut_fraction",
                   "table_clearance_m")
-        _non_negative(self, "lead_in_m", "lead_out_m", "start_s")
+        require_non_negative(self, "lead_in_m", "lead_out_m", "start_s")
         if self.cut_fraction > 1:
             raise InputError(None, "cut_fraction", f"must be <= 1, got {self.cut_fraction}")
 
@@ -163,8 +149,8 @@ class PullPlan:
     start_delay_s: float = 1.0
 
     def __post_init__(self) -> None:
-        _positive(self, "speed_m_s", "distance_m", "grasp_radius_m", "grasp_depth_m")
-        _non_negative(self, "start_delay_s", "grasp_inset_m")
+        require_positive(self, "speed_m_s", "distance_m", "grasp_radius_m", "grasp_depth_m")
+        require_non_negative(self, "start_delay_s", "grasp_inset_m")
         if not 0 <= self.grasp_x_fraction <= 1:
             raise InputError(None, "grasp_x_fraction", "must be in [0, 1]")
         if sum(c * c for c in self.direction) == 0:
@@ -186,7 +172,7 @@ class LayoutParams:
     camera_arm_base: tuple[float, float, float, float] = (0.55, 0.30, 0.6, 180.0)
 
     def __post_init__(self) -> None:
-        _positive(self, "table_height_m")
+        require_positive(self, "table_height_m")
 
 
 @dataclass(frozen=True)
@@ -197,7 +183,7 @@ class SensorParams:
     torque_noise_nm: float = 0.005
 
     def __post_init__(self) -> None:
-        _non_negative(self, "force_noise_n", "torque_noise_nm")
+        require_non_negative(self, "force_noise_n", "torque_noise_nm")
 
 
 @dataclass(frozen=True)
@@ -209,7 +195,7 @@ class RecordingParams:
     camera_rate_hz: float = 2.0
 
     def __post_init__(self) -> None:
-        _positive(self, "rate_hz", "camera_rate_hz")
+        require_positive(self, "rate_hz", "camera_rate_hz")
 
 
 @dataclass(frozen=True)
@@ -247,10 +233,10 @@ class _Head:
     end_s: float | None = None
 
     def __post_init__(self) -> None:
-        _positive(self, "settle_s")
-        _non_negative(self, "seed")
+        require_positive(self, "settle_s")
+        require_non_negative(self, "seed")
         if self.end_s is not None:
-            _positive(self, "end_s")
+            require_positive(self, "end_s")
 
 
 _TABLES = ("simulation", "tissue", "material", "aponeurosis", "knife", "gripper", "camera",

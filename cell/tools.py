@@ -13,13 +13,8 @@ import mujoco
 import numpy as np
 
 from cell.collision import JAWS, ROBOTS
+from cell.config import require_positive
 from cell.errors import InputError
-
-
-def _check_positive(**values: float) -> None:
-    for name, value in values.items():
-        if not value > 0:
-            raise InputError(None, name, f"must be > 0, got {value}")
 
 
 @dataclass(frozen=True)
@@ -45,7 +40,7 @@ class KnifeParams:
     blade_mass_kg: float = 0.04
 
     def __post_init__(self) -> None:
-        _check_positive(**{k: getattr(self, k) for k in self.__dataclass_fields__})
+        require_positive(self)
 
     @property
     def tip_offset_m(self) -> float:
@@ -79,13 +74,8 @@ class GripperParams:
     finger_mass_kg: float = 0.1
 
     def __post_init__(self) -> None:
-        _check_positive(
-            finger_length_m=self.finger_length_m,
-            finger_width_m=self.finger_width_m,
-            finger_thickness_m=self.finger_thickness_m,
-            max_opening_m=self.max_opening_m,
-            finger_force_n=self.finger_force_n,
-        )
+        require_positive(self, "finger_length_m", "finger_width_m", "finger_thickness_m",
+                         "max_opening_m", "finger_force_n")
 
     @property
     def grasp_offset_m(self) -> float:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cell.errors import InputError
+from cell.config import require_non_negative, require_positive
 
 
 @dataclass(frozen=True)
@@ -37,9 +37,7 @@ class ActionLimits:
     pull_max_sink_m: float = 0.005
 
     def __post_init__(self) -> None:
-        for name, value in vars(self).items():
-            if not value > 0:
-                raise InputError(None, name, f"must be > 0, got {value}")
+        require_positive(self)
 
 
 @dataclass(frozen=True)
@@ -80,6 +78,4 @@ class RewardParams:
     divergence: float = 10.0
 
     def __post_init__(self) -> None:
-        for name, value in vars(self).items():
-            if not value >= 0:
-                raise InputError(None, name, f"must be >= 0, got {value}")
+        require_non_negative(self)

@@ -2,11 +2,9 @@
 
 import itertools
 import math
-from collections.abc import Iterator
 
 import mujoco
 import numpy as np
-import pytest
 
 from cell.massspring import MassSpringModel
 from cell.material import MassSpringMaterial
@@ -20,14 +18,6 @@ _RADIUS_M, _LENGTH_M = 0.05, 0.8
 _ET_PA = 3.0e3  # paper: Et = Er = 0.003 MPa
 _LOAD_N = 40.0
 
-
-@pytest.fixture(autouse=True)
-def _mujoco_warnings() -> Iterator[list[str]]:
-    """Keep MuJoCo's warning about a flex without elasticity out of MUJOCO_LOG.TXT."""
-    caught: list[str] = []
-    mujoco.set_mju_user_warning(caught.append)
-    yield caught
-    mujoco.set_mju_user_warning(None)
 
 
 def _cylinder() -> TetMesh:

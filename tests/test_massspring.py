@@ -1,7 +1,6 @@
 """The anisotropic non-linear mass-spring model: Eq. 8 and 10, the kernel, a block of tissue."""
 
 import math
-from collections.abc import Iterator
 
 import mujoco
 import numpy as np
@@ -18,15 +17,6 @@ _SIZE_M = (0.08, 0.08, 0.16)
 # The paper's transversely isotropic test material (Fig. 10), Pa.
 _EL_PA, _ET_PA = 0.25e6, 0.6e6
 
-
-@pytest.fixture(autouse=True)
-def _mujoco_warnings() -> Iterator[list[str]]:
-    """Keep MuJoCo's warnings (a flex without elasticity warns when compiled) out of the
-    MUJOCO_LOG.TXT that its default handler writes in the working directory."""
-    caught: list[str] = []
-    mujoco.set_mju_user_warning(caught.append)
-    yield caught
-    mujoco.set_mju_user_warning(None)
 
 
 def _block(cells: tuple[int, int, int], size_m: tuple[float, float, float]) -> TetMesh:

@@ -2,10 +2,8 @@
 (mass-scaled) run against a fine, slow reference."""
 
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
-import mujoco
 import numpy as np
 import pytest
 
@@ -27,14 +25,6 @@ ANISOTROPIC = MassSpringMaterial.transversely_isotropic(12e3, 6e3)
 # The real specimen at half the stable step.
 REFERENCE = SpecimenSimParams(max_mass_scale=1.0, timestep_safety=0.45)
 
-
-@pytest.fixture(autouse=True)
-def _mujoco_warnings() -> Iterator[list[str]]:
-    """Keep MuJoCo's warnings out of the MUJOCO_LOG.TXT its default handler writes."""
-    caught: list[str] = []
-    mujoco.set_mju_user_warning(caught.append)
-    yield caught
-    mujoco.set_mju_user_warning(None)
 
 
 def _ramp(angle_deg: float, strain: float, rate_per_s: float, samples: int = 100,
