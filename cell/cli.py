@@ -91,14 +91,53 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _diagnose(args: argparse.Namespace) -> int:
+    from cell.diagnosis import DiagnosisParams, diagnose
+    from cell.io import write_atomic, write_json
+    from cell.material import material_to_toml
+    from cell.measured import load_measurement_set
+
+    if args.workers < 1:
+        raise InputError(None, "--workers", f"must be >= 1, got {args.workers}")
+    material_path = args.material or args.json.with_name(f"{args.json.stem}-material.toml")
+    measurements = load_measurement_set(args.set_dir)  # reads everything before any write
+    result = diagnose(measurements, DiagnosisParams(workers=args.workers))
+    extended = result.extended
+    comment = (f"Extended material fitted by `musclecell diagnose` to {measurements.folder.name}"
+               f" ({measurements.specimen.name}).\nModel: {extended.model.name}; causes: "
+               f"{', '.join(result.causes) or 'none'}; held-out RMSE "
+               f"{extended.heldout_rmse_n:.4g} N (baseline "
+               f"{result.baseline.heldout_rmse_n:.4g} N).")
+    if extended.model.has_offset:
+        comment += (f"\nThe load cell read {extended.offset_n:.4g} N at rest: a rig effect, "
+                    "not part of this material.")
+    if args.report is not None:
+        from cell.diagnosis_report import write_report
+
+        write_report(result, args.report, material_path)
+    write_atomic(material_path, material_to_toml(extended.material, comment))
+    write_json(args.json, result.to_json())
+    print(f"causes: {', '.join(result.causes) or 'none (the baseline explains the data)'}; "
+          f"held-out RMSE {result.baseline.heldout_rmse_n:.4g} N -> "
+          f"{extended.heldout_rmse_n:.4g} N (gain {result.gain:.3f}, noise "
+          f"{result.noise_n:.3g} N); wrote {args.json}, {material_path}"
+          + (f", {args.report}" if args.report is not None else ""))
+    return 0
+
+
 def _bench(args: argparse.Namespace) -> int:
     from cell.bench import run_bench
     from cell.io import write_json
 
     if args.suite == "tissue":
         return _bench_tissue(args)
+    if args.suite == "diagnose":
+        return _bench_diagnose(args)
+    if args.seeds is not None:
+        raise InputError(None, "--seeds", "only `musclecell bench diagnose` takes --seeds")
     if args.markdown is not None:
-        raise InputError(None, "--markdown", "only `musclecell bench tissue` writes Markdown")
+        raise InputError(None, "--markdown",
+                         "only `musclecell bench tissue` and `bench diagnose` write Markdown")
     if args.suite == "perception":
         return _bench_perception(args)
     if args.suite == "env":
@@ -169,6 +208,29 @@ def _bench_env(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench_diagnose(args: argparse.Namespace) -> int:
+    from cell.bench_diagnose import bench_seeds, run_diagnose_bench
+    from cell.io import write_atomic, write_json
+
+    count = args.seeds if args.seeds is not None else (3 if args.quick else 10)
+    if count < 1:
+        raise InputError(None, "--seeds", f"must be >= 1, got {count}")
+    report = run_diagnose_bench(bench_seeds(count), progress=print)
+    json_path = args.json or Path("out/bench_diagnose.json")
+    write_json(json_path, report)
+    print(report["markdown"], end="")
+    for name, entry in report["entries"].items():
+        print(f"{name}: {entry['value']:.4g} {entry['unit']}")
+    for name, target in report["targets"].items():
+        print(f"{name}: {target['value']:.4g} target {target['target']:.4g}: "
+              f"{'pass' if target['pass'] else 'FAIL'}")
+    print(f"wrote {json_path}")
+    if args.markdown is not None:
+        write_atomic(args.markdown, report["markdown"])
+        print(f"wrote {args.markdown}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``musclecell``."""
     parser = argparse.ArgumentParser(prog="musclecell", description=__doc__)
@@ -194,19 +256,39 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("output", type=Path)
     export.set_defaults(handler=_export)
 
+    diagnosis = commands.add_parser(
+        "diagnose", help="diagnose a measurement set: what the simulation gets wrong, the "
+        "cause, the extended material and the gain on held-out tests")
+    diagnosis.add_argument("set_dir", type=Path, help="folder with specimen.toml and tests.csv")
+    diagnosis.add_argument("--json", type=Path, required=True, help="write the diagnosis here")
+    diagnosis.add_argument("--material", type=Path,
+                           help="write the extended material TOML here (default: next to the "
+                           "JSON, <name>-material.toml)")
+    diagnosis.add_argument("--report", type=Path,
+                           help="write plots and a Markdown report in this folder")
+    diagnosis.add_argument("--workers", type=int, default=2,
+                           help="processes fitting candidates side by side (default 2)")
+    diagnosis.set_defaults(handler=_diagnose)
+
     bench = commands.add_parser(
         "bench", help="benchmark the cell, the tissue models or the perception")
-    bench.add_argument("suite", nargs="?", choices=("cell", "tissue", "perception", "env"),
+    bench.add_argument("suite", nargs="?",
+                       choices=("cell", "tissue", "perception", "env", "diagnose"),
                        default="cell",
                        help="cell: the whole cell (default); tissue: every tissue model on "
                        "the two muscles, with peers; perception: curvature, guideline and fit, "
-                       "with peers; env: Gymnasium env steps per second")
+                       "with peers; env: Gymnasium env steps per second; diagnose: the "
+                       "diagnosis on unseen hidden-effect measurement sets")
     bench.add_argument("--scenario", type=Path, default=Path("scenarios/default.toml"),
                        help="scenario of the cell and perception suites")
     bench.add_argument("--json", type=Path,
                        help="JSON out (default out/bench.json, tissue: out/bench_tissue.json, "
-                       "perception: out/bench_perception.json, env: out/bench_env.json)")
-    bench.add_argument("--markdown", type=Path, help="tissue suite: Markdown tables out")
+                       "perception: out/bench_perception.json, env: out/bench_env.json, "
+                       "diagnose: out/bench_diagnose.json)")
+    bench.add_argument("--markdown", type=Path,
+                       help="tissue suite: Markdown tables out; diagnose: the confusion table")
+    bench.add_argument("--seeds", type=int,
+                       help="diagnose suite: number of sets (default 10, --quick 3)")
     bench.add_argument("--quick", action="store_true",
                        help="fewer repetitions and a short episode; tissue: the smallest "
                        "mesh only (for smoke tests)")

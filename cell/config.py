@@ -116,24 +116,26 @@ def from_table(
         raise error(file, section or None, str(exc)) from None
 
 
-def require_positive(owner: object, *names: str) -> None:
-    """Raise :class:`InputError` naming the first of ``owner``'s fields ``names`` (all of its
-    dataclass fields when none are named) that is not > 0. For ``__post_init__`` checks.
+def require_positive(owner: object, *names: str, error: type[InputError] = InputError) -> None:
+    """Raise ``error`` naming the first of ``owner``'s fields ``names`` (all of its dataclass
+    fields when none are named) that is not > 0. For ``__post_init__`` checks.
 
     Example:
         >>> require_positive(KnifeParams(), "blade_length_m")
     """
-    _require(owner, names, lambda value: value > 0, "> 0")
+    _require(owner, names, lambda value: value > 0, "> 0", error)
 
 
-def require_non_negative(owner: object, *names: str) -> None:
+def require_non_negative(owner: object, *names: str,
+                         error: type[InputError] = InputError) -> None:
     """Like :func:`require_positive`, for fields that must be >= 0."""
-    _require(owner, names, lambda value: value >= 0, ">= 0")
+    _require(owner, names, lambda value: value >= 0, ">= 0", error)
 
 
-def _require(owner: object, names: tuple[str, ...], holds: Any, bound: str) -> None:
+def _require(owner: object, names: tuple[str, ...], holds: Any, bound: str,
+             error: type[InputError]) -> None:
     for name in names or tuple(f.name for f in dataclasses.fields(owner)):
         value = getattr(owner, name)
         if not holds(value):
-            raise InputError(None, name, f"must be {bound}, got {value}")
+            raise error(None, name, f"must be {bound}, got {value}")
 

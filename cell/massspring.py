@@ -60,7 +60,8 @@ from scipy.optimize import brentq
 from cell.errors import MaterialError
 from cell.flexcomp import flexcomp_xml
 from cell.geometry import MuscleShape, build_two_muscles
-from cell.material import MassSpringMaterial, ModulusCurve
+from cell.material import MassSpringMaterial
+from cell.springlaw import SpringLaw, spring_stress
 from cell.tetmesh import _TET_EDGES, TetMesh, signed_volumes_m3
 
 # Voigt order of the symmetric index pairs of a strain.
@@ -191,6 +192,31 @@ class _AffineLattice:
         return ratio * scale, scale
 
 
+def calibration_factors(
+    points: np.ndarray,
+    edges: np.ndarray,
+    edge_volume_m3: np.ndarray,
+    material: MassSpringMaterial,
+    along: np.ndarray | Sequence[float],
+) -> tuple[float, float]:
+    """(alpha, beta): the factors on El and Et for which the affine lattice of Eq. 10 springs
+    has the material's small-strain moduli along and across fibres lying ``along``.
+
+    Raises:
+        MaterialError: ``longitudinal`` when the lattice cannot give the anisotropy.
+
+    Example:
+        >>> calibration_factors(points, edges, volume, MassSpringMaterial(), (1, 0, 0))
+        ...  # doctest: +SKIP
+        (0.738, 0.738)
+    """
+    lattice = _AffineLattice(points, edges, edge_volume_m3, np.asarray(along, dtype=float))
+    el = material.longitudinal.small_strain_modulus_pa
+    et = material.transverse.small_strain_modulus_pa
+    el_in, et_in = lattice.calibrated(el, et)
+    return el_in / el, et_in / et
+
+
 def lattice_moduli(
     points: np.ndarray,
     edges: np.ndarray,
@@ -218,19 +244,6 @@ def lattice_moduli(
 
 
 @njit(cache=True, fastmath=False)
-def _secant_modulus(x: float, curve: np.ndarray) -> float:
-    """sigma(1 + x) / x for a curve packed by :func:`_pack_curve` (x = r - 1)."""
-    if x > curve[7]:
-        return (curve[9] + curve[11] * (x - curve[7])) / x
-    if x < curve[6]:
-        return (curve[8] + curve[10] * (x - curve[6])) / x
-    value = curve[5]
-    for k in range(4, -1, -1):
-        value = value * x + curve[k]
-    return value
-
-
-@njit(cache=True, fastmath=False)
 def _apply_springs(
     qpos: np.ndarray,
     qvel: np.ndarray,
@@ -243,11 +256,15 @@ def _apply_springs(
     gain: np.ndarray,
     cos_sq: np.ndarray,
     curves: np.ndarray,
+    params: np.ndarray,
+    history: np.ndarray,
+    timestep_s: float,
     damping_s: float,
     position: np.ndarray,
     velocity: np.ndarray,
 ) -> None:
-    """Clear the vertex dofs of ``qfrc`` and add every spring-damper's force to them."""
+    """Clear the vertex dofs of ``qfrc``, add every spring-damper's force to them and advance
+    the springs' history by ``timestep_s``."""
     for i in range(position.shape[0]):
         a = qposadr[i]
         v = dofadr[i]
@@ -268,10 +285,8 @@ def _apply_springs(
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         if length == 0.0:  # a collapsed edge has no direction to push along
             continue
-        x = length / rest_length[e] - 1.0
-        el = _secant_modulus(x, curves[0])
-        et = _secant_modulus(x, curves[1])
-        stiffness = gain[e] * math.sqrt(et * et + (el * el - et * et) * cos_sq[e])
+        stress, modulus = spring_stress(length / rest_length[e] - 1.0, cos_sq[e], curves,
+                                        params, history, e, timestep_s, True)
         ux = dx / length
         uy = dy / length
         uz = dz / length
@@ -281,7 +296,7 @@ def _apply_springs(
             + (velocity[j, 2] - velocity[i, 2]) * uz
         )
         # Positive when stretched or stretching: pulls i towards j and j towards i.
-        tension = stiffness * (length - rest_length[e] + damping_s * rate)
+        tension = gain[e] * (rest_length[e] * stress + modulus * damping_s * rate)
         if dofadr[i] >= 0:
             qfrc[dofadr[i]] += tension * ux
             qfrc[dofadr[i] + 1] += tension * uy
@@ -290,19 +305,6 @@ def _apply_springs(
             qfrc[dofadr[j]] -= tension * ux
             qfrc[dofadr[j] + 1] -= tension * uy
             qfrc[dofadr[j] + 2] -= tension * uz
-
-
-def _pack_curve(curve: ModulusCurve, scale: float) -> np.ndarray:
-    """(12,) secant coefficients, x bounds, stresses and moduli at the bounds, times ``scale``."""
-    bounds = np.array([curve.r_min, curve.r_max])
-    return np.concatenate(
-        [
-            scale * curve.stress_coefficients()[1:],
-            bounds - 1.0,
-            scale * curve.stress_pa(bounds),
-            scale * curve.modulus_pa(bounds),
-        ]
-    )
 
 
 class MassSpringModel:
@@ -314,7 +316,9 @@ class MassSpringModel:
     vertex dofs' entries of ``data.qfrc_applied``: it clears and rewrites them at every call
     and leaves every other entry alone; put external loads on vertices in ``xfrc_applied``.
     All flexes share one material and one fibre direction; use one model per muscle to give
-    each muscle its own.
+    each muscle its own. A material with history (plasticity, relaxation) advances it by the
+    model's time step at every :meth:`apply`: call it once per step, and :meth:`reset` with
+    ``mj_resetData``.
 
     Attributes:
         material: the material, its fibre direction the one now in use.
@@ -323,6 +327,7 @@ class MassSpringModel:
         edge_volume_m3: (E,) volume of the tets sharing each spring, m^3.
         fibre_cosine: (E,) cosine between each spring's rest direction and the fibres.
         calibration: (alpha, beta), the factors on El and Et fed to Eq. 10.
+        calibrate_along: the direction the lattice is calibrated in; None for the fibres'.
         stiffness_n_m: (E,) calibrated small-strain stiffness of each spring, N/m.
         dofadr: (N,) first dof of each vertex's slide joints, -1 for pinned vertices.
         vertex_mass_kg: (N,) mass of each vertex body, kg (0 for pinned vertices).
@@ -336,8 +341,14 @@ class MassSpringModel:
     """
 
     def __init__(
-        self, model: mujoco.MjModel, flexes: Sequence[str], material: MassSpringMaterial
+        self,
+        model: mujoco.MjModel,
+        flexes: Sequence[str],
+        material: MassSpringMaterial,
+        calibrate_along: Sequence[float] | None = None,
     ) -> None:
+        self._model = model
+        self.calibrate_along = calibrate_along
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
         mujoco.mj_flex(model, data)
@@ -381,27 +392,31 @@ class MassSpringModel:
     def set_fibre_direction(self, direction: np.ndarray | Sequence[float]) -> None:
         """Turn the fibres to ``direction`` (world frame, any length) and recalibrate.
 
+        The springs keep their history.
+
         Raises:
             MaterialError: ``fibre_direction`` zero, or ``longitudinal`` when the lattice cannot
                 give the material's anisotropy in that direction.
         """
         material = replace(self.material, fibre_direction=tuple(float(v) for v in direction))
         fibre = np.asarray(material.fibre_direction)
-        lattice = _AffineLattice(self._points, self.edges, self.edge_volume_m3, fibre)
-        el = material.longitudinal.small_strain_modulus_pa
-        et = material.transverse.small_strain_modulus_pa
-        el_in, et_in = lattice.calibrated(el, et)
+        along = fibre if self.calibrate_along is None else self.calibrate_along
+        self.calibration = calibration_factors(self._points, self.edges, self.edge_volume_m3,
+                                               material, along)
         self.material = material
-        self.calibration = (el_in / el, et_in / et)
-        self._cos_sq = lattice.cos_sq
-        self.fibre_cosine = np.sqrt(lattice.cos_sq)
-        self._curves = np.stack(
-            [
-                _pack_curve(material.longitudinal, self.calibration[0]),
-                _pack_curve(material.transverse, self.calibration[1]),
-            ]
-        )
-        self.stiffness_n_m = self._stiffness(el_in, et_in)
+        self._cos_sq = _AffineLattice(self._points, self.edges, self.edge_volume_m3,
+                                      fibre).cos_sq
+        self.fibre_cosine = np.sqrt(self._cos_sq)
+        self._law = SpringLaw.of(material, self.calibration)
+        if not hasattr(self, "_history"):
+            self._history = self._law.history(len(self.edges))
+        self.stiffness_n_m = self._stiffness(
+            self.calibration[0] * material.longitudinal.small_strain_modulus_pa,
+            self.calibration[1] * material.transverse.small_strain_modulus_pa)
+
+    def reset(self) -> None:
+        """Put every spring back at rest: no plastic strain, nothing left to relax."""
+        self._history[:] = 0.0
 
     def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
         return self._gain * _directional_modulus(el_pa, et_pa, self._cos_sq)
@@ -419,7 +434,10 @@ class MassSpringModel:
             self.rest_lengths_m,
             self._gain,
             self._cos_sq,
-            self._curves,
+            self._law.curves,
+            self._law.params,
+            self._history,
+            self._model.opt.timestep,
             self.material.damping_s,
             self._position,
             self._velocity,

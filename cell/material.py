@@ -30,7 +30,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.polynomial import polynomial as P
 
-from cell.config import from_table, read_toml
+from cell.config import from_table, read_toml, require_non_negative, require_positive
 from cell.errors import MaterialError
 
 _DEGREE = 5
@@ -81,10 +81,13 @@ class ContinuumMaterial:
 
 @dataclass(frozen=True)
 class ModulusCurve:
-    """Tangent modulus as a 5th-degree polynomial of the stretch r, clamped outside its range.
+    """Tangent modulus as a function of the stretch r: the paper's 5th-degree polynomial or an
+    exponential law, clamped outside its range.
 
     The modulus is ``E(r) = sum_k coefficients[k] * (r - 1)**k`` Pa inside ``[r_min, r_max]`` and
-    its value at the nearer bound outside. The nominal stress is its integral from the rest
+    its value at the nearer bound outside; with an ``exponent`` b > 0 it is the exponential law
+    ``E(r) = coefficients[0] * exp(b |r - 1|)`` (collagen recruitment, stiffening both ways),
+    whose other coefficients must be 0. The nominal stress is its integral from the rest
     state, ``sigma(r) = int_1^r E`` Pa, so the curve of a measured stress-stretch test is
     recovered by :meth:`fit` and reproduced by :meth:`stress_pa`.
 
@@ -93,10 +96,12 @@ class ModulusCurve:
             modulus.
         r_min: lowest stretch of the fitted range, in (0, 1].
         r_max: highest stretch of the fitted range, >= 1.
+        exponent: b of the exponential law (dimensionless); 0 for the polynomial.
 
     Raises:
         MaterialError: ``coefficients`` (not six finite numbers, or the modulus is not > 0
-            everywhere in the range), ``r_min`` or ``r_max`` (range not around 1).
+            everywhere in the range, or higher coefficients with an exponent), ``r_min`` or
+            ``r_max`` (range not around 1), ``exponent`` (negative or not finite).
 
     Example:
         >>> curve = ModulusCurve((3e4, 1e5, 0, 0, 0, 0), r_min=0.8, r_max=1.3)
@@ -104,11 +109,14 @@ class ModulusCurve:
         (40000.0, 60000.0)
         >>> round(float(curve.stress_pa(1.1)), 6)
         3500.0
+        >>> round(float(ModulusCurve.exponential(3e4, 10.0).modulus_pa(0.9)), 1)
+        81548.5
     """
 
     coefficients: tuple[float, float, float, float, float, float]
     r_min: float = _DEFAULT_R_MIN
     r_max: float = _DEFAULT_R_MAX
+    exponent: float = 0.0
 
     def __post_init__(self) -> None:
         coefficients = np.asarray(self.coefficients, dtype=float)
@@ -121,6 +129,11 @@ class ModulusCurve:
             raise MaterialError(None, "r_min", f"must be in (0, 1], got {self.r_min}")
         if not (1.0 <= self.r_max < math.inf and self.r_max > self.r_min):
             raise MaterialError(None, "r_max", f"must be >= 1 and > r_min, got {self.r_max}")
+        if not (0.0 <= self.exponent < math.inf):
+            raise MaterialError(None, "exponent", f"must be finite and >= 0, got {self.exponent}")
+        if self.exponent and any(coefficients[1:]):
+            raise MaterialError(None, "coefficients",
+                                "an exponential curve takes coefficients[0] only, the rest 0")
         lowest, where = self._minimum()
         if not lowest > 0.0:
             raise MaterialError(
@@ -141,7 +154,7 @@ class ModulusCurve:
     def _minimum(self) -> tuple[float, float]:
         """Lowest modulus in the range (Pa) and the stretch where it is."""
         x = self._candidates(_POSITIVITY_SAMPLES)
-        values = P.polyval(x, self.coefficients)
+        values = self._modulus_inside(x)
         i = int(np.argmin(values))
         return float(values[i]), float(x[i] + 1.0)
 
@@ -156,6 +169,19 @@ class ModulusCurve:
             (30000.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         """
         return cls((modulus_pa, 0.0, 0.0, 0.0, 0.0, 0.0), r_min, r_max)
+
+    @classmethod
+    def exponential(
+        cls, modulus_pa: float, exponent: float, r_min: float = _DEFAULT_R_MIN,
+        r_max: float = _DEFAULT_R_MAX,
+    ) -> ModulusCurve:
+        """The exponential law ``modulus_pa * exp(exponent * |r - 1|)`` (Pa).
+
+        Example:
+            >>> ModulusCurve.exponential(3e4, 8.0).exponent
+            8.0
+        """
+        return cls((modulus_pa, 0.0, 0.0, 0.0, 0.0, 0.0), r_min, r_max, exponent)
 
     @classmethod
     def fit(cls, stretch: np.ndarray, stress_pa: np.ndarray) -> ModulusCurve:
@@ -207,26 +233,36 @@ class ModulusCurve:
         """Modulus at rest, Pa."""
         return self.coefficients[0]
 
+    def _modulus_inside(self, x: np.ndarray) -> np.ndarray:
+        """The modulus law at x = r - 1, unclamped, Pa."""
+        if self.exponent:
+            return self.coefficients[0] * np.exp(self.exponent * np.abs(x))
+        return P.polyval(x, self.coefficients)
+
     def modulus_pa(self, r: np.ndarray | float) -> np.ndarray:
         """Tangent modulus d sigma / d r at stretch ``r``, Pa (clamped outside the range)."""
-        x = np.clip(np.asarray(r, dtype=float), self.r_min, self.r_max) - 1.0
-        return P.polyval(x, self.coefficients)
+        return self._modulus_inside(np.clip(np.asarray(r, dtype=float), self.r_min, self.r_max)
+                                    - 1.0)
 
     def stress_pa(self, r: np.ndarray | float) -> np.ndarray:
         """Nominal stress at stretch ``r``, Pa: the modulus integrated from r = 1."""
         r = np.asarray(r, dtype=float)
-        inside = np.clip(r, self.r_min, self.r_max)
-        return P.polyval(inside - 1.0, self.stress_coefficients()) + self.modulus_pa(r) * (
-            r - inside
-        )
+        x = np.clip(r, self.r_min, self.r_max) - 1.0
+        if self.exponent:
+            inside = np.sign(x) * self.coefficients[0] * np.expm1(self.exponent * np.abs(x)) / (
+                self.exponent)
+        else:
+            inside = P.polyval(x, self.stress_coefficients())
+        return inside + self.modulus_pa(r) * (r - 1.0 - x)
 
     def stress_coefficients(self) -> np.ndarray:
-        """(7,) polynomial coefficients of the stress in (r - 1) inside the range, Pa."""
+        """(7,) polynomial coefficients of the stress in (r - 1) inside the range, Pa (the
+        polynomial law's; an exponential curve has none)."""
         return np.concatenate([[0.0], np.asarray(self.coefficients) / np.arange(1, _DEGREE + 2)])
 
     def max_modulus_pa(self) -> float:
         """Largest modulus at any stretch, Pa (it is reached inside the range)."""
-        return float(P.polyval(self._candidates(2), self.coefficients).max())
+        return float(self._modulus_inside(self._candidates(2)).max())
 
 
 def _meat_modulus() -> ModulusCurve:
@@ -252,10 +288,21 @@ class MassSpringMaterial:
             default muscles stable up to 2.3 ms at 30 kPa.
         fibre_direction: unit vector along the fibres in the world frame (normalised on
             construction); the muscles' length runs along x.
+        compression_scale: factor on both moduli while a spring is shorter than at rest
+            (tension-compression asymmetry); 1 for a symmetric material.
+        relaxation_weights: g_k of the quasi-linear viscoelastic relaxation function
+            ``G(t) = 1 - sum g_k + sum g_k exp(-t / tau_k)`` acting on every spring's elastic
+            force (the curves are the instantaneous response); each >= 0, their sum < 1.
+        relaxation_times_s: tau_k, s, one per weight.
+        yield_strain: spring strain beyond which its rest length flows (permanent set); 0 for
+            an elastic material.
+        hardening: post-yield tangent over the elastic modulus, in [0, 1) (linear kinematic
+            hardening of the spring's elastic strain).
 
     Raises:
-        MaterialError: ``density_kg_m3`` or ``damping_s`` out of range, ``fibre_direction``
-            zero or not finite; curve errors name the curve's own fields.
+        MaterialError: ``density_kg_m3``, ``damping_s``, ``compression_scale``, the relaxation,
+            ``yield_strain`` or ``hardening`` out of range, ``fibre_direction`` zero or not
+            finite; curve errors name the curve's own fields.
 
     Example:
         >>> paper = MassSpringMaterial.transversely_isotropic(0.25e6, 0.6e6)
@@ -270,12 +317,28 @@ class MassSpringMaterial:
     density_kg_m3: float = 1060.0
     damping_s: float = 2.0e-4
     fibre_direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    compression_scale: float = 1.0
+    relaxation_weights: tuple[float, ...] = ()
+    relaxation_times_s: tuple[float, ...] = ()
+    yield_strain: float = 0.0
+    hardening: float = 0.0
 
     def __post_init__(self) -> None:
-        if not self.density_kg_m3 > 0:
-            raise MaterialError(None, "density_kg_m3", f"must be > 0, got {self.density_kg_m3}")
-        if not self.damping_s >= 0:
-            raise MaterialError(None, "damping_s", f"must be >= 0, got {self.damping_s}")
+        require_positive(self, "density_kg_m3", "compression_scale", error=MaterialError)
+        require_non_negative(self, "damping_s", "yield_strain", "hardening", error=MaterialError)
+        if not self.hardening < 1:
+            raise MaterialError(None, "hardening", f"must be < 1, got {self.hardening}")
+        weights = np.asarray(self.relaxation_weights, dtype=float)
+        times = np.asarray(self.relaxation_times_s, dtype=float)
+        if weights.shape != times.shape:
+            raise MaterialError(None, "relaxation_times_s",
+                                f"needs one time per weight: {times.size} for {weights.size}")
+        if not (np.isfinite(weights).all() and (weights >= 0).all() and weights.sum() < 1):
+            raise MaterialError(None, "relaxation_weights",
+                                f"must be >= 0 with a sum < 1, got {self.relaxation_weights!r}")
+        if not (np.isfinite(times).all() and (times > 0).all()):
+            raise MaterialError(None, "relaxation_times_s",
+                                f"must be finite and > 0, got {self.relaxation_times_s!r}")
         fibre = np.asarray(self.fibre_direction, dtype=float)
         norm = float(np.linalg.norm(fibre)) if fibre.shape == (3,) else math.nan
         if not (math.isfinite(norm) and norm > 1e-12):
@@ -344,6 +407,7 @@ class _CurveTable:
     coefficients: tuple[float, float, float, float, float, float] | None = None
     r_min: float = _DEFAULT_R_MIN
     r_max: float = _DEFAULT_R_MAX
+    exponent: float = 0.0
 
     def __post_init__(self) -> None:
         if (self.modulus_pa is None) == (self.coefficients is None):
@@ -357,8 +421,9 @@ class _CurveTable:
 
     def curve(self) -> ModulusCurve:
         if self.coefficients is None:
-            return ModulusCurve.constant(float(self.modulus_pa), self.r_min, self.r_max)
-        return ModulusCurve(self.coefficients, self.r_min, self.r_max)
+            return ModulusCurve.exponential(float(self.modulus_pa), self.exponent, self.r_min,
+                                            self.r_max)
+        return ModulusCurve(self.coefficients, self.r_min, self.r_max, self.exponent)
 
 
 _CURVES = ("longitudinal", "transverse")
@@ -370,17 +435,22 @@ def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
     The file names its ``model`` and gives the fields of :class:`ContinuumMaterial` or
     :class:`MassSpringMaterial`; missing fields take the defaults, except that a mass-spring
     file must give both curves, each as a table with ``modulus_pa`` (a constant) or
-    ``coefficients`` (six, Pa) and optionally ``r_min`` and ``r_max``::
+    ``coefficients`` (six, Pa) and optionally ``r_min``, ``r_max`` and ``exponent`` (the
+    exponential law on ``modulus_pa``)::
 
         model = "mass_spring"
         damping_s = 2e-4
         fibre_direction = [1.0, 0.0, 0.0]
+        compression_scale = 0.5
+        relaxation_weights = [0.3, 0.2]
+        relaxation_times_s = [1.0, 30.0]
         [longitudinal]
         coefficients = [2.5e5, 1e6, 0, 0, 0, 0]
         r_min = 0.8
         r_max = 1.3
         [transverse]
         modulus_pa = 6e5
+        exponent = 8.0
 
     Raises:
         MaterialError: naming the file and the dotted key at fault (unknown key, wrong type,
@@ -423,5 +493,42 @@ def material_from_table(table: dict[str, Any], *, file: str | Path | None = None
             "coefficients": list(curve.coefficients),
             "r_min": curve.r_min,
             "r_max": curve.r_max,
+            "exponent": curve.exponent,
         }
     return from_table(MassSpringMaterial, raw, file=file, section=section, error=MaterialError)
+
+
+def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
+    """``material`` as a material file that :func:`load_material` reads back unchanged,
+    ``comment`` (lines) on top.
+
+    Example:
+        >>> text = material_to_toml(default_meat(), "beef")
+        >>> text.splitlines()[:2]
+        ['# beef', 'model = "mass_spring"']
+    """
+
+    def number(value: float) -> str:
+        return repr(float(value))
+
+    def numbers(values: tuple[float, ...]) -> str:
+        return "[" + ", ".join(number(v) for v in values) + "]"
+
+    lines = [f"# {line}".rstrip() for line in comment.splitlines()]
+    lines += [
+        'model = "mass_spring"',
+        f"density_kg_m3 = {number(material.density_kg_m3)}",
+        f"damping_s = {number(material.damping_s)}",
+        f"fibre_direction = {numbers(material.fibre_direction)}",
+        f"compression_scale = {number(material.compression_scale)}",
+        f"relaxation_weights = {numbers(material.relaxation_weights)}",
+        f"relaxation_times_s = {numbers(material.relaxation_times_s)}",
+        f"yield_strain = {number(material.yield_strain)}",
+        f"hardening = {number(material.hardening)}",
+    ]
+    for name in _CURVES:
+        curve: ModulusCurve = getattr(material, name)
+        lines += ["", f"[{name}]", f"coefficients = {numbers(curve.coefficients)}",
+                  f"r_min = {number(curve.r_min)}", f"r_max = {number(curve.r_max)}",
+                  f"exponent = {number(curve.exponent)}"]
+    return "\n".join(lines) + "\n"

@@ -1,138 +1,61 @@
-"""A measured test, simulated with the project's own material model on a tet mesh of the specimen.
+"""A measured test, simulated quasi-statically with the muscles' own spring law.
 
-The specimen is a box of tets (:func:`~cell.tetmesh.structured_hex_tets`) in a MuJoCo flexcomp
-between two bonded platens, as in the published tests, whose specimens are glued: the bottom
-face is pinned, the top face is held in x and y and follows the test's displacement history in
-z. The result is the axial force on the top face at the test's sample times (positive pulls).
+The specimen is the spring lattice of its tet mesh (:func:`specimen_mesh`, the mirrored Kuhn
+split the muscles use), every spring following :func:`~cell.springlaw.spring_stress`, the law of
+the muscles' kernel, history included. Its platens are lubricated: the bottom face is held
+along the load axis z, the top face follows the test's displacement, and both slide freely, so
+the specimen deforms homogeneously. The deformation gradient is then
 
-The material runs as in the cell, each on MuJoCo's semi-implicit ``Euler`` (dof damping
-implicit, material forces explicit):
+    F = [[a, 0, c], [0, b, 0], [0, 0, 1 + strain]]
 
-- :class:`~cell.material.MassSpringMaterial`: an elasticity-free flex with
-  :class:`~cell.massspring.MassSpringModel` springs, fibres at the test's ``angle_deg`` from
-  the load axis z, in the x-z plane.
-- :class:`~cell.material.ContinuumMaterial`: MuJoCo's own flex elasticity. ``discrete``, the
-  cell's integrator for it, is no use here: its implicit step moves the driven top face back
-  towards rest within the step (whatever its mass), and the interior never follows.
+(fibres in the x-z plane keep y a plane of symmetry; c is the shear a fibre at an angle to the
+load gives), and every spring of one rest direction strains alike. Each sample solves, by
+Newton's method, for the a, b, c at which the lateral faces and the platens carry no traction
+(the Kirchhoff stress ``sum_j w_j s_j r_j n_j n_j`` has only its zz entry; w_j the volume share of
+the springs along rest direction j, s_j their stress, r_j their stretch, n_j their direction now),
+commits the springs' history, and reads the axial force ``A tau_zz / (1 + strain)``.
 
-The top face is driven by writing its vertices' slide ``qpos`` and ``qvel`` before every step.
-A mocap or moving parent is ruled out (the springs need a static parent, and pinned vertices
-stay at rest); an equality or actuator drive would add its own compliance to the measured force.
-Written states are exact, cost nothing, and the reaction is the material's force on those
-vertices, read straight from ``qfrc_applied`` (springs) and ``qfrc_passive`` (flex elasticity).
+Why quasi-static and homogeneous (measured in ``tests/test_specimen.py`` against
+:mod:`cell.specimen_reference`, the same springs in MuJoCo on a 6-cell mesh at the real mass and
+half the stable step): the tests last minutes at strain rates of 1%/s, where inertia and the
+springs' dashpots carry nothing, and the forces agree within 2%. One set of 10 tests takes
+milliseconds instead of minutes, which is what lets a diagnosis refit the material hundreds of
+times. The springs' dashpots (``damping_s``) are left out for that reason.
 
-Speed: the tests are quasi-static and last up to minutes, and explicit material forces bound the
-step by the vertex masses. Mass scaling (a heavier specimen in real time) lengthens the step
-while keeping the time axis, and so every rate-dependent part of the material, real. The scale
-is as large as an inertia budget allows: the stress wave that the test's largest change of
-strain rate launches, ``sqrt(E rho) * height * d(rate)``, stays below ``inertia_tolerance`` of
-``E * strain range``, with E the material's softest modulus over the test's strains. Dof
-damping at ``damping_ratio`` of the lowest axial mode takes out the ringing. Each run reports
-its inertia ratio (net force on the free vertices, zero at equilibrium, over the largest top
-force) and its smallest tet volume ratio (<= 0 once the mesh has inverted).
+The lattice is calibrated (:func:`~cell.massspring.calibration_factors`) with the fibres along a
+lattice axis, and keeps those factors at every fibre angle: a cubic lattice is not isotropic,
+and recalibrating it for oblique fibres would give an isotropic material an angle dependence
+that no tissue has.
 
 Example:
     >>> from cell.measured import load_measurement_set
-    >>> from cell.material import MassSpringMaterial
     >>> data = load_measurement_set("assets/measured/beef_round_example")
     >>> run = simulate_test(data.test("t00"), data.specimen, MassSpringMaterial.isotropic(6e3))
-    >>> run.force_N.shape, run.inertia_ratio < 0.01
-    ((250,), True)
+    >>> run.force_N.shape
+    (250,)
 """
 
 from __future__ import annotations
 
 import math
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, replace
-from multiprocessing import get_context
+from dataclasses import dataclass
 
-import mujoco
 import numpy as np
+from numba import njit
 
 from cell.errors import DivergenceError
-from cell.flexcomp import flexcomp_xml, set_continuum_law
-from cell.massspring import MassSpringModel
-from cell.material import ContinuumMaterial, MassSpringMaterial
+from cell.massspring import calibration_factors, tet_edges
+from cell.material import MassSpringMaterial
 from cell.measured import MeasurementSet, MechanicalTest, Specimen
-from cell.tetmesh import TetMesh, signed_volumes_m3, structured_hex_tets
+from cell.springlaw import SpringLaw, spring_stress
+from cell.tetmesh import TetMesh, structured_hex_tets
 
-Material = MassSpringMaterial | ContinuumMaterial
-
-_FLEX = "specimen"
-# Moduli sampled over a test's stretches to find the softest one.
-_MODULUS_SAMPLES = 65
-# Central-difference step of the continuum's stiffness, relative to the specimen's height.
-_PROBE = 1e-6
-_TINY = float(np.finfo(float).tiny)
-
-
-@dataclass(frozen=True)
-class SpecimenSimParams:
-    """How a test is simulated: mesh, time step and mass scaling.
-
-    Attributes:
-        cells: tet cells along the longest edge of the specimen (the others in proportion, at
-            least 1).
-        inertia_tolerance: inertial stress budget, as a fraction of the test's stress range,
-            that sets the mass scale (module docstring).
-        max_mass_scale: upper bound on the mass scale; 1 simulates the real specimen.
-        damping_ratio: damping of the lowest axial mode by mass-proportional dof damping.
-        timestep_safety: fraction of the stable explicit step taken.
-
-    Raises:
-        ValueError: a parameter out of range.
-
-    Example:
-        >>> reference = SpecimenSimParams(max_mass_scale=1.0, timestep_safety=0.45)
-    """
-
-    cells: int = 4
-    inertia_tolerance: float = 0.005
-    max_mass_scale: float = 1.0e6
-    damping_ratio: float = 0.5
-    timestep_safety: float = 0.9
-
-    def __post_init__(self) -> None:
-        if self.cells < 1:
-            raise ValueError(f"cells must be >= 1, got {self.cells}")
-        for name in ("inertia_tolerance", "damping_ratio"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not self.max_mass_scale >= 1:
-            raise ValueError(f"max_mass_scale must be >= 1, got {self.max_mass_scale}")
-        if not 0 < self.timestep_safety <= 1:
-            raise ValueError(f"timestep_safety must be in (0, 1], got {self.timestep_safety}")
-
-
-@dataclass(frozen=True, eq=False)
-class SimulatedTest:
-    """The simulated force of one test, and how it was simulated.
-
-    Attributes:
-        test_id: the measured test's id.
-        time_s: (n,) the test's sample times, s.
-        force_N: (n,) simulated axial force on the top face at those times, N (+ pulls).
-        mass_scale: simulated specimen mass over its real mass.
-        timestep_s: simulation step, s.
-        steps: number of steps taken.
-        inertia_ratio: largest net force on the free vertices (inertia plus dof damping) over
-            the largest top force; small when the run is quasi-static.
-        min_volume_ratio: smallest tet volume over its rest volume at the sample times; <= 0
-            when the mesh has inverted.
-
-    Example:
-        >>> run.force_N[-1], run.inertia_ratio  # doctest: +SKIP
-    """
-
-    test_id: str
-    time_s: np.ndarray
-    force_N: np.ndarray
-    mass_scale: float
-    timestep_s: float
-    steps: int
-    inertia_ratio: float
-    min_volume_ratio: float
+# Cells along the specimen's longest edge; the homogeneous lattice only needs their shape.
+_CELLS = 2
+_LOAD_AXIS = (0.0, 0.0, 1.0)
+_NEWTON_ITERATIONS = 30
+_NEWTON_TOLERANCE = 1e-8
+_PROBE = 1e-7
 
 
 def specimen_mesh(specimen: Specimen, cells: int) -> TetMesh:
@@ -162,211 +85,239 @@ def fibre_direction(angle_deg: float) -> tuple[float, float, float]:
 
 
 @dataclass(frozen=True, eq=False)
-class _Dofs:
-    """Where the specimen's vertices live in ``qpos``/``qvel``.
+class SpecimenLattice:
+    """The specimen's springs grouped by rest direction, for homogeneous deformation.
 
-    ``top`` and ``top_z``: the driven top face (all three dofs, z only); ``free`` and
-    ``free_z``: every other unpinned vertex; ``mass`` and ``mass_z``: their masses per dof;
-    ``vertex``: each vertex's first dof, -1 when pinned.
+    Attributes:
+        directions: (J, 3) unit rest directions, one per group of parallel springs.
+        weights: (J,) each group's volume share, ``sum(sum(V)) / V`` over its springs
+            (dimensionless; ``K0 l0**2 = sum(V)`` for every spring).
+        mesh: the specimen's mesh.
+        edges: (E, 2) its springs.
+        edge_volume_m3: (E,) volume of the tets sharing each spring, m^3.
+
+    Example:
+        >>> lattice = SpecimenLattice.of(Specimen("cube", (0.01,) * 3))
+        >>> len(lattice.directions), round(float(lattice.weights.sum()), 6)
+        (7, 6.0)
     """
 
-    top: np.ndarray
-    top_z: np.ndarray
-    free: np.ndarray
-    free_z: np.ndarray
-    mass: np.ndarray
-    mass_z: np.ndarray
-    vertex: np.ndarray
+    directions: np.ndarray
+    weights: np.ndarray
+    mesh: TetMesh
+    edges: np.ndarray
+    edge_volume_m3: np.ndarray
 
     @classmethod
-    def of(cls, model: mujoco.MjModel, mesh: TetMesh) -> _Dofs:
-        bodies = model.flex_vertbodyid[model.flex_vertadr[0] :][: len(mesh.points)]
-        vertex = np.where(model.body_dofnum[bodies] > 0, model.body_dofadr[bodies], -1)
-        on_top = mesh.points[:, 2] == mesh.points[:, 2].max()
-        top = on_top & (vertex >= 0)
-        free = ~on_top & (vertex >= 0)
-        xyz = np.arange(3)
-        return cls(
-            top=(vertex[top][:, None] + xyz).ravel(),
-            top_z=vertex[top] + 2,
-            free=(vertex[free][:, None] + xyz).ravel(),
-            free_z=vertex[free] + 2,
-            mass=np.repeat(model.body_mass[bodies[free]], 3),
-            mass_z=model.body_mass[bodies[free]],
-            vertex=vertex,
-        )
+    def of(cls, specimen: Specimen) -> SpecimenLattice:
+        """The lattice of ``specimen``: cubic cells whatever its proportions, as the muscles'
+        (under homogeneous deformation its size only sets the area and the height; cells of
+        its own proportions would make an isotropic material depend on the fibre angle)."""
+        mesh = specimen_mesh(Specimen(specimen.name, (1.0, 1.0, 1.0)), _CELLS)
+        edges, volume = tet_edges(mesh.points, mesh.tets)
+        vectors = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
+        units = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+        # Parallel springs strain alike: one group per direction, either sign.
+        lead = units[np.arange(len(units)), np.argmax(np.abs(units) > 1e-9, axis=1)]
+        units *= np.sign(lead)[:, None]
+        keys, group = np.unique(np.round(units, 9), axis=0, return_inverse=True)
+        weights = np.bincount(group.ravel(), weights=volume) / mesh.volume_m3
+        return cls(keys / np.linalg.norm(keys, axis=1, keepdims=True), weights, mesh, edges,
+                   volume)
 
-    def positions(self, data: mujoco.MjData, rest: np.ndarray) -> np.ndarray:
-        """(N, 3) vertex positions: slide joints along the world axes, one qpos per dof."""
-        moved = rest.copy()
-        free = self.vertex >= 0
-        moved[free] += data.qpos[self.vertex[free][:, None] + np.arange(3)]
-        return moved
+    def calibration(self, material: MassSpringMaterial) -> tuple[float, float]:
+        """(alpha, beta) of ``material`` on this lattice, its fibres along the load axis."""
+        return calibration_factors(self.mesh.points, self.edges, self.edge_volume_m3, material,
+                                   _LOAD_AXIS)
 
 
-def _model(mesh: TetMesh, material: Material, mass_kg: float) -> mujoco.MjModel:
-    """The specimen as a flexcomp, bottom face pinned, no gravity and no contacts."""
-    bottom = np.flatnonzero(mesh.points[:, 2] == 0.0)
-    flex = flexcomp_xml(_FLEX, mesh.points, mesh.tets, material, mass_kg, radius_m=0.0001,
-                        contact='contype="0" conaffinity="0" selfcollide="none"',
-                        pins=bottom.tolist())
-    spec = mujoco.MjSpec.from_string(
-        f"""<mujoco><option gravity="0 0 0" integrator="Euler">
-        <flag contact="disable"/></option><worldbody>{flex}</worldbody></mujoco>"""
-    )
-    set_continuum_law(spec, material)
-    return spec.compile()
+@dataclass(frozen=True, eq=False)
+class SimulatedTest:
+    """The simulated force of one test.
 
+    Attributes:
+        test_id: the measured test's id.
+        time_s: (n,) the test's sample times, s.
+        force_N: (n,) simulated axial force on the top face at those times, N (+ pulls).
+        lateral_stretch: (n, 2) a and b of the deformation gradient (x and y stretch).
 
-def _softest_modulus_pa(material: Material, strain: np.ndarray) -> float:
-    """Smallest tangent modulus of the material over the test's nominal strains, Pa."""
-    if isinstance(material, ContinuumMaterial):
-        return material.young_pa
-    stretch = 1.0 + np.linspace(min(strain.min(), 0.0), max(strain.max(), 0.0), _MODULUS_SAMPLES)
-    return float(min(material.longitudinal.modulus_pa(stretch).min(),
-                     material.transverse.modulus_pa(stretch).min()))
-
-
-def _mass_scale(time_s: np.ndarray, strain: np.ndarray, height_m: float, modulus_pa: float,
-                density_kg_m3: float, params: SpecimenSimParams) -> float:
-    """Largest mass scale whose inertial stress stays within budget (module docstring).
-
-    Keeping ``sqrt(E rho) * height * d(rate)`` below ``tolerance * E * range`` bounds the
-    density at ``E * (tolerance * range / (height * d(rate)))**2``.
+    Example:
+        >>> run.force_N[-1]  # doctest: +SKIP
     """
-    interval = np.diff(time_s)
-    rate = np.divide(np.diff(strain), interval, out=np.zeros(len(interval)), where=interval > 0)
-    # The test starts and ends at rest.
-    rate_change = max(float(np.abs(np.diff(rate, prepend=0.0, append=0.0)).max()), _TINY)
-    strain_range = max(float(np.ptp(strain)), _TINY)
-    density = modulus_pa * (params.inertia_tolerance * strain_range / (height_m * rate_change)) ** 2
-    return float(np.clip(density / density_kg_m3, 1.0, params.max_mass_scale))
+
+    test_id: str
+    time_s: np.ndarray
+    force_N: np.ndarray
+    lateral_stretch: np.ndarray
 
 
-def _continuum_stable_timestep_s(model: mujoco.MjModel, data: mujoco.MjData, dofs: _Dofs,
-                                 damping_s: float, height_m: float) -> float:
-    """Largest stable explicit step of MuJoCo's flex elasticity at rest, s.
+@njit(cache=True, fastmath=False)
+def _kirchhoff(state: np.ndarray, stretch: float, directions: np.ndarray, weights: np.ndarray,
+               cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray, history: np.ndarray,
+               timestep_s: float, commit: bool, out: np.ndarray) -> bool:
+    """Kirchhoff stress (xx, yy, xz, zz; Pa) of F(a, b, c; stretch); False once a spring has
+    collapsed."""
+    a, b, c = state[0], state[1], state[2]
+    out[:] = 0.0
+    for j in range(directions.shape[0]):
+        dx, dy, dz = directions[j, 0], directions[j, 1], directions[j, 2]
+        vx = a * dx + c * dz
+        vy = b * dy
+        vz = stretch * dz
+        length = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if not length > 0.0:
+            return False
+        stress, _ = spring_stress(length - 1.0, cos_sq[j], curves, params, history, j,
+                                  timestep_s, commit)
+        scale = weights[j] * stress / length
+        out[0] += scale * vx * vx
+        out[1] += scale * vy * vy
+        out[2] += scale * vx * vz
+        out[3] += scale * vz * vz
+    return True
 
-    The stiffness of the free dofs comes from central differences of ``qfrc_spring``; its
-    highest frequency w bounds semi-implicit Euler with Rayleigh damping tau at
-    ``sqrt(tau**2 + 4 / w**2) - tau``, as for the springs
-    (:meth:`~cell.massspring.MassSpringModel.stable_timestep_s`).
+
+@njit(cache=True, fastmath=False)
+def _jacobian(state: np.ndarray, tau: np.ndarray, stretch: float, directions: np.ndarray,
+              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
+              history: np.ndarray, timestep_s: float, jacobian: np.ndarray) -> bool:
+    """Forward differences of the lateral stresses in (a, b, c) into ``jacobian``."""
+    trial = np.empty(3)
+    probe = np.empty(4)
+    for i in range(3):
+        trial[:] = state
+        trial[i] += _PROBE
+        if not _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params, history,
+                          timestep_s, False, probe):
+            return False
+        for r in range(3):
+            jacobian[r, i] = (probe[r] - tau[r]) / _PROBE
+    return True
+
+
+@njit(cache=True, fastmath=False)
+def _uniaxial(time_s: np.ndarray, strain: np.ndarray, directions: np.ndarray,
+              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
+              history: np.ndarray, stress_out: np.ndarray, lateral_out: np.ndarray) -> int:
+    """Nominal axial stress (Pa) at every sample into ``stress_out``; returns the index of the
+    first sample without an equilibrium, or -1.
+
+    Newton's method with a Jacobian kept from sample to sample and refreshed when it stops
+    converging fast, and a backtracking line search (the plastic law has kinks).
     """
-    probe = _PROBE * height_m
-    stiffness = np.empty((len(dofs.free), len(dofs.free)))
-    for column, dof in enumerate(dofs.free):
-        pulls = []
-        for offset in (probe, -probe):
-            data.qpos[dof] = offset
-            mujoco.mj_forward(model, data)
-            pulls.append(data.qfrc_spring[dofs.free].copy())
-        data.qpos[dof] = 0.0
-        stiffness[:, column] = (pulls[1] - pulls[0]) / (2.0 * probe)
-    weight = dofs.mass**-0.5
-    omega_sq = float(np.linalg.eigvalsh(weight[:, None] * stiffness * weight[None, :]).max())
-    return math.sqrt(damping_s**2 + 4.0 / omega_sq) - damping_s
+    state = np.array([1.0, 1.0, 0.0])
+    previous = state.copy()
+    trial = np.empty(3)
+    tau = np.empty(4)
+    probe = np.empty(4)
+    jacobian = np.zeros((3, 3))
+    fresh = False
+    # Stresses below this are round-off: the small-strain modulus times a micro-strain.
+    floor = 1e-6 * max(abs(curves[0, 0]), abs(curves[1, 0]))
+    for k in range(time_s.shape[0]):
+        timestep = time_s[k] - time_s[k - 1] if k > 0 else 0.0
+        stretch = 1.0 + strain[k]
+        # Predict the lateral state by extrapolating along the strain from the last two.
+        if k > 1 and strain[k - 1] != strain[k - 2]:
+            slope = (strain[k] - strain[k - 1]) / (strain[k - 1] - strain[k - 2])
+            if abs(slope) <= 4.0:
+                step_back = state - previous
+                previous[:] = state
+                state += slope * step_back
+            else:
+                previous[:] = state
+        else:
+            previous[:] = state
+        if not _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
+                          timestep, False, tau):
+            return k
+        norm = abs(tau[0]) + abs(tau[1]) + abs(tau[2])
+        converged = False
+        for _ in range(_NEWTON_ITERATIONS):
+            if norm <= _NEWTON_TOLERANCE * max(abs(tau[3]) + norm, floor):
+                converged = True
+                break
+            if (k == 0 and not fresh) or (not fresh and jacobian[0, 0] == 0.0):
+                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
+                                  params, history, timestep, jacobian)
+                if not fresh:
+                    return k
+            step = np.linalg.solve(jacobian, tau[:3])
+            length = 1.0
+            improved = False
+            for _ in range(8):
+                trial[:] = state - length * step
+                if _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params,
+                              history, timestep, False, probe):
+                    trial_norm = abs(probe[0]) + abs(probe[1]) + abs(probe[2])
+                    if trial_norm < norm:
+                        improved = True
+                        break
+                length *= 0.5
+            if (improved and trial_norm < 0.25 * norm) or (improved and fresh):
+                state[:] = trial
+                tau[:] = probe
+                norm = trial_norm
+                fresh = False
+            elif fresh:
+                return k
+            else:
+                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
+                                  params, history, timestep, jacobian)
+                if not fresh:
+                    return k
+        if not converged:
+            return k
+        _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
+                   timestep, True, tau)
+        stress_out[k] = tau[3] / stretch
+        lateral_out[k, 0] = state[0]
+        lateral_out[k, 1] = state[1]
+    return -1
 
 
 def simulate_test(
     test: MechanicalTest,
     specimen: Specimen,
-    material: Material,
-    params: SpecimenSimParams | None = None,
+    material: MassSpringMaterial,
+    lattice: SpecimenLattice | None = None,
 ) -> SimulatedTest:
     """Simulate ``test`` on ``specimen`` made of ``material`` (module docstring).
 
-    The specimen's density sets its mass (the material's is not used); a mass-spring
-    material's fibres are turned to the test's angle.
+    The material's fibres are turned to the test's ``angle_deg`` from the load axis, in the
+    x-z plane. ``lattice`` may be passed to reuse the specimen's.
 
     Raises:
-        MaterialError: a mass-spring anisotropy the mesh's springs cannot give.
-        DivergenceError: the simulation blew up.
+        MaterialError: an anisotropy the lattice's springs cannot give.
+        DivergenceError: no equilibrium at some sample (a spring collapsed).
 
     Example:
-        >>> run = simulate_test(test, specimen, ContinuumMaterial(poisson=0.0))  # doctest: +SKIP
+        >>> run = simulate_test(test, specimen, MassSpringMaterial())  # doctest: +SKIP
     """
-    params = SpecimenSimParams() if params is None else params
-    height = specimen.size_m[2]
-    mesh = specimen_mesh(specimen, params.cells)
-    time = test.time_s - test.time_s[0]
-    strain = test.strain(specimen)
-    modulus = _softest_modulus_pa(material, strain)
-    mass_scale = _mass_scale(time, strain, height, modulus, specimen.density_kg_m3, params)
-    model = _model(mesh, material, specimen.density_kg_m3 * mass_scale * mesh.volume_m3)
-    data = mujoco.MjData(model)
-    dofs = _Dofs.of(model, mesh)
-    springs = None
-    if isinstance(material, MassSpringMaterial):
-        turned = replace(material, fibre_direction=fibre_direction(test.angle_deg))
-        springs = MassSpringModel(model, (_FLEX,), turned)
-        stable = springs.stable_timestep_s(safety=1.0)
-    else:
-        stable = _continuum_stable_timestep_s(model, data, dofs, material.damping_s, height)
-    timestep = params.timestep_safety * stable
-    model.opt.timestep = timestep
-    # Lowest axial mode of a bar held at both ends; Euler integrates dof damping implicitly.
-    omega = math.pi / height * math.sqrt(modulus / (specimen.density_kg_m3 * mass_scale))
-    drag_rate = 2.0 * params.damping_ratio * omega
-    model.dof_damping[dofs.free] = drag_rate * dofs.mass
-
-    steps = math.ceil(float(time[-1]) / timestep) + 1
-    grid = np.arange(steps + 1) * timestep
-    drive = np.interp(grid, time, test.displacement_m)
-    speed = np.diff(drive) / timestep
-    sampled = np.zeros(steps, dtype=bool)
-    sampled[np.minimum(np.searchsorted(grid, time), steps - 1)] = True
-    rest_volume = signed_volumes_m3(mesh.points, mesh.tets)
-    force = np.empty(steps)
-    momentum = np.zeros(steps + 1)
-    min_volume_ratio = 1.0
-    for k in range(steps):
-        data.qpos[dofs.top] = 0.0
-        data.qvel[dofs.top] = 0.0
-        data.qpos[dofs.top_z] = drive[k]
-        data.qvel[dofs.top_z] = speed[k]
-        if springs is not None:
-            springs.apply(data)
-        if sampled[k]:
-            volume = signed_volumes_m3(dofs.positions(data, mesh.points), mesh.tets)
-            min_volume_ratio = min(min_volume_ratio, float((volume / rest_volume).min()))
-        mujoco.mj_step(model, data)
-        # Both fields now hold the material's forces at the state the step started from.
-        force[k] = -(data.qfrc_applied[dofs.top_z].sum() + data.qfrc_passive[dofs.top_z].sum())
-        momentum[k + 1] = dofs.mass_z @ data.qvel[dofs.free_z]
-    finite = np.isfinite(force)
-    if not finite.all() or data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
-        at = float(grid[np.argmin(finite)]) if not finite.all() else float(grid[-1])
-        raise DivergenceError(at, f"test {test.test_id!r}: the specimen's state is not finite")
-    # Net force on the free vertices along z: inertia plus the implicit dof damping.
-    net = np.diff(momentum) / timestep + drag_rate * momentum[1:]
-    return SimulatedTest(
-        test_id=test.test_id,
-        time_s=test.time_s,
-        force_N=np.interp(time, grid[:-1], force),
-        mass_scale=mass_scale,
-        timestep_s=timestep,
-        steps=steps,
-        inertia_ratio=float(np.abs(net).max()) / max(float(np.abs(force).max()), _TINY),
-        min_volume_ratio=min_volume_ratio,
-    )
+    lattice = SpecimenLattice.of(specimen) if lattice is None else lattice
+    law = SpringLaw.of(material, lattice.calibration(material))
+    fibre = np.asarray(fibre_direction(test.angle_deg))
+    cos_sq = (lattice.directions @ fibre) ** 2
+    time = np.ascontiguousarray(test.time_s - test.time_s[0])
+    stress = np.empty(len(time))
+    lateral = np.empty((len(time), 2))
+    failed = _uniaxial(time, np.ascontiguousarray(test.strain(specimen)), lattice.directions,
+                       lattice.weights, cos_sq, law.curves, law.params,
+                       law.history(len(lattice.directions)), stress, lateral)
+    if failed >= 0:
+        raise DivergenceError(float(time[failed]),
+                              f"test {test.test_id!r}: the specimen has no equilibrium at "
+                              f"strain {test.strain(specimen)[failed]:.4g}")
+    return SimulatedTest(test.test_id, test.time_s, stress * specimen.area_m2, lateral)
 
 
-def simulate_set(
-    measurements: MeasurementSet,
-    material: Material,
-    params: SpecimenSimParams | None = None,
-    workers: int = 1,
-) -> tuple[SimulatedTest, ...]:
-    """Simulate every test of a set, in its order, ``workers`` processes side by side.
+def simulate_set(measurements: MeasurementSet,
+                 material: MassSpringMaterial) -> tuple[SimulatedTest, ...]:
+    """Simulate every test of a set, in its order, on one lattice.
 
     Example:
         >>> runs = simulate_set(data, MassSpringMaterial.isotropic(6e3))  # doctest: +SKIP
     """
-    specimen = measurements.specimen
-    if workers <= 1:
-        return tuple(simulate_test(t, specimen, material, params) for t in measurements.tests)
-    count = len(measurements.tests)
-    # Forked workers inherit MuJoCo and the compiled spring kernel instead of loading them.
-    with ProcessPoolExecutor(workers, mp_context=get_context("fork")) as pool:
-        return tuple(pool.map(simulate_test, measurements.tests, [specimen] * count,
-                              [material] * count, [params] * count))
+    lattice = SpecimenLattice.of(measurements.specimen)
+    return tuple(simulate_test(test, measurements.specimen, material, lattice)
+                 for test in measurements.tests)

@@ -1,0 +1,189 @@
+"""The catalogue of causes: each one a change to the mass-spring material, with the parameters
+a fit varies.
+
+A :class:`MaterialModel` is the baseline (linear, isotropic, rate-independent springs of
+modulus E) plus some causes of the catalogue; it maps a vector of *shape* parameters, E and a
+load-cell offset to a :class:`~cell.material.MassSpringMaterial` that the muscles can run.
+The simulated force is linear in E (every part of the spring law scales with it) and in the
+offset, so a fit solves for those two in closed form and searches only the shape parameters.
+
+===============================  ==============================================================
+cause                            change to the material (shape parameters)
+===============================  ==============================================================
+``strain_stiffening``            both moduli follow the exponential law E exp(b |r - 1|) or the
+                                 paper's polynomial E (1 + k (r - 1)**2) (b or k)
+``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2) (q)
+``viscoelasticity``              quasi-linear relaxation on fixed times spanning the tests
+                                 (one weight per time)
+``tension_compression_asymmetry`` both moduli times s while a spring is compressed (log s)
+``plasticity``                   yield strain and hardening ratio of every spring
+``force_offset``                 the load cell reads a constant offset (a rig effect: it is
+                                 not part of the material the muscles get)
+===============================  ==============================================================
+
+Example:
+    >>> model = MaterialModel(("anisotropy",), relaxation_times_s=(1.0, 10.0, 100.0))
+    >>> model.parameter_names
+    ('log_el_over_et',)
+    >>> model.material(model.initial, 1e4, 1060.0).longitudinal.small_strain_modulus_pa
+    10000.0
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from cell.material import MassSpringMaterial, ModulusCurve
+
+CAUSES = (
+    "strain_stiffening",
+    "anisotropy",
+    "viscoelasticity",
+    "tension_compression_asymmetry",
+    "plasticity",
+    "force_offset",
+)
+UNEXPLAINED = "unexplained"
+Stiffening = Literal["exponential", "polynomial"]
+
+
+@dataclass(frozen=True)
+class MaterialModel:
+    """The baseline springs plus ``causes`` (module docstring).
+
+    Attributes:
+        causes: causes of the catalogue, in any order.
+        stiffening: the strain-stiffening law, when ``strain_stiffening`` is a cause.
+        relaxation_times_s: the relaxation times of ``viscoelasticity``, s.
+        stretch_range: (r_min, r_max) over which a stiffening curve holds; outside it the
+            modulus stays at its value at the bound.
+
+    Raises:
+        ValueError: an unknown cause.
+
+    Example:
+        >>> MaterialModel(("plasticity",), relaxation_times_s=(1.0,)).parameter_names
+        ('yield_strain', 'hardening')
+    """
+
+    causes: tuple[str, ...] = ()
+    stiffening: Stiffening = "exponential"
+    relaxation_times_s: tuple[float, ...] = (1.0, 10.0, 100.0)
+    stretch_range: tuple[float, float] = (0.5, 1.5)
+
+    def __post_init__(self) -> None:
+        unknown = set(self.causes) - set(CAUSES)
+        if unknown:
+            raise ValueError(f"unknown causes {sorted(unknown)}; the catalogue is {CAUSES}")
+        object.__setattr__(self, "causes", tuple(c for c in CAUSES if c in self.causes))
+
+    @property
+    def name(self) -> str:
+        """A short description, e.g. ``mass_spring linear isotropic + anisotropy``."""
+        if not self.causes:
+            return "mass_spring linear isotropic rate-independent"
+        parts = [f"strain_stiffening ({self.stiffening})" if c == "strain_stiffening" else c
+                 for c in self.causes]
+        return "mass_spring + " + " + ".join(parts)
+
+    @property
+    def has_offset(self) -> bool:
+        """Whether the load cell's offset is fitted."""
+        return "force_offset" in self.causes
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the shape parameters, in vector order."""
+        names: list[str] = []
+        if "strain_stiffening" in self.causes:
+            names.append("stiffening_exponent" if self.stiffening == "exponential"
+                         else "stiffening_quadratic")
+        if "anisotropy" in self.causes:
+            names.append("log_el_over_et")
+        if "viscoelasticity" in self.causes:
+            names += [f"relaxation_load_{k}" for k in range(len(self.relaxation_times_s))]
+        if "tension_compression_asymmetry" in self.causes:
+            names.append("log_compression_scale")
+        if "plasticity" in self.causes:
+            names += ["yield_strain", "hardening"]
+        return tuple(names)
+
+    @property
+    def initial(self) -> np.ndarray:
+        """A starting point for the shape parameters."""
+        start = {"stiffening_exponent": 4.0, "stiffening_quadratic": 10.0,
+                 "log_el_over_et": 0.0, "log_compression_scale": 0.0, "yield_strain": 0.03,
+                 "hardening": 0.3}
+        return np.array([start.get(n, 0.3) for n in self.parameter_names])
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the shape parameters."""
+        limits = {"stiffening_exponent": (0.0, 40.0), "stiffening_quadratic": (0.0, 400.0),
+                  "log_el_over_et": (-1.6, 1.6), "log_compression_scale": (-3.0, 3.0),
+                  "yield_strain": (0.002, 0.4), "hardening": (0.0, 0.95)}
+        pairs = [limits.get(n, (0.0, 30.0)) for n in self.parameter_names]
+        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+
+    def values(self, shape: np.ndarray) -> dict[str, float]:
+        """The shape parameters by name."""
+        return dict(zip(self.parameter_names, (float(v) for v in shape), strict=True))
+
+    def material(self, shape: np.ndarray, modulus_pa: float,
+                 density_kg_m3: float) -> MassSpringMaterial:
+        """The material for ``shape`` and small-strain modulus ``modulus_pa`` (the geometric
+        mean of El and Et), fibres along x (the muscles' length)."""
+        value = self.values(shape)
+        ratio = math.exp(value.get("log_el_over_et", 0.0))
+        r_min, r_max = self.stretch_range
+
+        def curve(modulus: float) -> ModulusCurve:
+            if "stiffening_exponent" in value:
+                return ModulusCurve.exponential(modulus, value["stiffening_exponent"], r_min,
+                                                r_max)
+            quadratic = value.get("stiffening_quadratic", 0.0)
+            return ModulusCurve((modulus, 0.0, modulus * quadratic, 0.0, 0.0, 0.0), r_min, r_max)
+
+        loads = np.array([value[n] for n in self.parameter_names
+                          if n.startswith("relaxation_load_")])
+        weights = loads / (1.0 + loads.sum()) if len(loads) else loads
+        return MassSpringMaterial(
+            longitudinal=curve(modulus_pa * math.sqrt(ratio)),
+            transverse=curve(modulus_pa / math.sqrt(ratio)),
+            density_kg_m3=density_kg_m3,
+            compression_scale=math.exp(value.get("log_compression_scale", 0.0)),
+            relaxation_weights=tuple(weights.tolist()),
+            relaxation_times_s=self.relaxation_times_s if len(loads) else (),
+            yield_strain=value.get("yield_strain", 0.0),
+            hardening=value.get("hardening", 0.0),
+        )
+
+    def reported(self, shape: np.ndarray, modulus_pa: float,
+                 offset_n: float) -> dict[str, float]:
+        """The fitted parameters in physical units, for people and the JSON report."""
+        material = self.material(shape, modulus_pa, 1.0)
+        params = {"young_pa": modulus_pa}
+        value = self.values(shape)
+        if "strain_stiffening" in self.causes:
+            key = next(n for n in value if n.startswith("stiffening_"))
+            params[key] = value[key]
+        if "anisotropy" in self.causes:
+            params["el_pa"] = material.longitudinal.small_strain_modulus_pa
+            params["et_pa"] = material.transverse.small_strain_modulus_pa
+        if "viscoelasticity" in self.causes:
+            for k, (g, tau) in enumerate(zip(material.relaxation_weights,
+                                             material.relaxation_times_s, strict=True)):
+                params[f"relaxation_weight_{k}"] = g
+                params[f"relaxation_time_{k}_s"] = tau
+        if "tension_compression_asymmetry" in self.causes:
+            params["compression_scale"] = material.compression_scale
+        if "plasticity" in self.causes:
+            params["yield_strain"] = material.yield_strain
+            params["hardening"] = material.hardening
+        if self.has_offset:
+            params["force_offset_n"] = offset_n
+        return params
