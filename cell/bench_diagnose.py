@@ -1,8 +1,9 @@
 """``musclecell bench diagnose``: the diagnosis on hidden-effect sets it has never seen.
 
 Each set is drawn by the project's hidden-effect generator (``tests/hidden_effects.py``, read
-from the source checkout) with a seed the tests never use and a random effect, so that the
-effect, its magnitude, the noise, the mid angle and the rates are all unseen. Every set is
+from the source checkout) with a seed the tests never use, so that the magnitude, the noise,
+the mid angle and the rates are all unseen; the hidden effect cycles through the catalogue and
+none with the seed, so that ten sets or more try every one. Every set is
 written to a temporary folder, read back, and diagnosed; the wall time of :func:`diagnose`
 is measured per set. A set is correct when the catalogue causes it names (``unexplained``
 aside) are exactly its hidden effect, or none when none is hidden.
@@ -97,7 +98,8 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
     with tempfile.TemporaryDirectory(prefix="bench-diagnose-") as scratch:
         for seed in seeds:
             folder = Path(scratch) / f"set-{seed}"
-            truth = generator.write_hidden_effect_set(folder, seed, "random")
+            effect = generator.EFFECTS[seed % len(generator.EFFECTS)]
+            truth = generator.write_hidden_effect_set(folder, seed, effect)
             data = load_measurement_set(folder)
             start = time.perf_counter()
             result = diagnose(data, params)

@@ -67,6 +67,7 @@ class DiagnosisParams:
             they have structure.
         workers: processes fitting candidates side by side.
         max_evaluations: cap on a fit's simulations of the set.
+        fold_evaluations: cap on a held-out refit's, which starts from the full fit.
 
     Example:
         >>> DiagnosisParams(workers=2).fit_samples
@@ -80,6 +81,7 @@ class DiagnosisParams:
     structure_correlation: float = 0.5
     workers: int = 1
     max_evaluations: int = 400
+    fold_evaluations: int = 40
 
     def __post_init__(self) -> None:
         if self.fit_samples < 8:
@@ -290,7 +292,7 @@ def fit_model(problem: _Problem, models: list[MaterialModel], params: DiagnosisP
     heldout = []
     for left_out, test in enumerate(problem.tests):
         others = [i for i in everything if i != left_out]
-        fold = _fit(problem, model, others, shape, params.max_evaluations // 4)
+        fold = _fit(problem, model, others, shape, params.fold_evaluations)
         heldout.append(_predict(problem, model, fold[0], fold[1], fold[2], test))
     residual = np.concatenate([h - t.force_N for h, t in zip(heldout, problem.tests,
                                                                strict=True)])

@@ -26,6 +26,10 @@ class InputError(MusclecellError):
         where = ", ".join(p for p in (self.file, field) if p)
         super().__init__(f"{where}: {message}" if where else message)
 
+    def __reduce__(self) -> tuple:
+        # Rebuilt from its own arguments when it crosses a process boundary.
+        return type(self), (self.file, self.field, self.message)
+
 
 class ScenarioError(InputError):
     """A scenario TOML file with a wrong key, type or value."""
@@ -51,6 +55,9 @@ class DivergenceError(MusclecellError):
         self.time_s = time_s
         self.reason = reason
         super().__init__(f"simulation diverged at t = {time_s:.4f} s: {reason}")
+
+    def __reduce__(self) -> tuple:
+        return type(self), (self.time_s, self.reason)
 
 
 class PerceptionError(MusclecellError):

@@ -2,8 +2,10 @@
 a fit varies.
 
 A :class:`MaterialModel` is the baseline (linear, isotropic, rate-independent springs of
-modulus E) plus some causes of the catalogue; it maps a vector of *shape* parameters, E and a
-load-cell offset to a :class:`~cell.material.MassSpringMaterial` that the muscles can run.
+modulus E, their lattice's geometric stiffening compensated so that "linear" means a linear
+nominal stress-strain curve, as measured data reads) plus some causes of the catalogue; it
+maps a vector of *shape* parameters, E and a load-cell offset to a
+:class:`~cell.material.MassSpringMaterial` that the muscles can run.
 The simulated force is linear in E (every part of the spring law scales with it) and in the
 offset, so a fit solves for those two in closed form and searches only the shape parameters.
 
@@ -38,6 +40,7 @@ from typing import Literal
 import numpy as np
 
 from cell.material import MassSpringMaterial, ModulusCurve
+from cell.springlaw import LATTICE_STIFFENING
 
 CAUSES = (
     "strain_stiffening",
@@ -160,6 +163,7 @@ class MaterialModel:
             relaxation_times_s=self.relaxation_times_s if len(loads) else (),
             yield_strain=value.get("yield_strain", 0.0),
             hardening=value.get("hardening", 0.0),
+            geometric_compensation=LATTICE_STIFFENING,
         )
 
     def reported(self, shape: np.ndarray, modulus_pa: float,

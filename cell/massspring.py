@@ -455,8 +455,11 @@ class MassSpringModel:
         of the value with ``safety=1``.
         """
         alpha, beta = self.calibration
-        el = alpha * self.material.longitudinal.max_modulus_pa()
-        et = beta * self.material.transverse.max_modulus_pa()
+        # The compensation k stiffens a shortened spring: its tangent gains 1 / (1 + k x)**2.
+        shortest = min(self.material.longitudinal.r_min, self.material.transverse.r_min) - 1.0
+        gain = (1.0 + self.material.geometric_compensation * shortest) ** -2
+        el = alpha * gain * self.material.longitudinal.max_modulus_pa()
+        et = beta * gain * self.material.transverse.max_modulus_pa()
         stiffness = self._stiffness(el, et)
         free = self.dofadr >= 0
         # Row of each free vertex's x dof in the reduced system; -1 for pinned vertices.

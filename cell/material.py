@@ -298,6 +298,11 @@ class MassSpringMaterial:
             an elastic material.
         hardening: post-yield tangent over the elastic modulus, in [0, 1) (linear kinematic
             hardening of the spring's elastic strain).
+        geometric_compensation: k in a spring's stress ``E x / (1 + k x)``: a lattice of
+            springs stiffens geometrically (its uniaxial nominal secant is about E (1 + 0.28
+            strain) with k = 0), and ``cell.springlaw.LATTICE_STIFFENING`` (0.33) cancels that,
+            so that the curves are the nominal stress-strain curves of a uniaxial test. In
+            [0, 1); fitted materials carry it, older ones keep 0.
 
     Raises:
         MaterialError: ``density_kg_m3``, ``damping_s``, ``compression_scale``, the relaxation,
@@ -322,12 +327,15 @@ class MassSpringMaterial:
     relaxation_times_s: tuple[float, ...] = ()
     yield_strain: float = 0.0
     hardening: float = 0.0
+    geometric_compensation: float = 0.0
 
     def __post_init__(self) -> None:
         require_positive(self, "density_kg_m3", "compression_scale", error=MaterialError)
-        require_non_negative(self, "damping_s", "yield_strain", "hardening", error=MaterialError)
-        if not self.hardening < 1:
-            raise MaterialError(None, "hardening", f"must be < 1, got {self.hardening}")
+        require_non_negative(self, "damping_s", "yield_strain", "hardening",
+                             "geometric_compensation", error=MaterialError)
+        for name in ("hardening", "geometric_compensation"):
+            if not getattr(self, name) < 1:
+                raise MaterialError(None, name, f"must be < 1, got {getattr(self, name)}")
         weights = np.asarray(self.relaxation_weights, dtype=float)
         times = np.asarray(self.relaxation_times_s, dtype=float)
         if weights.shape != times.shape:
@@ -525,6 +533,7 @@ def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
         f"relaxation_times_s = {numbers(material.relaxation_times_s)}",
         f"yield_strain = {number(material.yield_strain)}",
         f"hardening = {number(material.hardening)}",
+        f"geometric_compensation = {number(material.geometric_compensation)}",
     ]
     for name in _CURVES:
         curve: ModulusCurve = getattr(material, name)

@@ -99,7 +99,7 @@ class SpecimenLattice:
     Example:
         >>> lattice = SpecimenLattice.of(Specimen("cube", (0.01,) * 3))
         >>> len(lattice.directions), round(float(lattice.weights.sum()), 6)
-        (7, 6.0)
+        (9, 6.0)
     """
 
     directions: np.ndarray
@@ -117,9 +117,12 @@ class SpecimenLattice:
         edges, volume = tet_edges(mesh.points, mesh.tets)
         vectors = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
         units = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
-        # Parallel springs strain alike: one group per direction, either sign.
-        lead = units[np.arange(len(units)), np.argmax(np.abs(units) > 1e-9, axis=1)]
-        units *= np.sign(lead)[:, None]
+        # Springs strain alike when parallel (either sign) or mirror images across y = 0, which
+        # F keeps a plane of symmetry: one group per direction up to both.
+        units[:, 1] = np.abs(units[:, 1])
+        in_plane = units[:, [0, 2]]
+        lead = in_plane[np.arange(len(units)), np.argmax(np.abs(in_plane) > 1e-9, axis=1)]
+        units[:, [0, 2]] *= np.where(lead < 0.0, -1.0, 1.0)[:, None]
         keys, group = np.unique(np.round(units, 9), axis=0, return_inverse=True)
         weights = np.bincount(group.ravel(), weights=volume) / mesh.volume_m3
         return cls(keys / np.linalg.norm(keys, axis=1, keepdims=True), weights, mesh, edges,

@@ -1,0 +1,94 @@
+"""`musclecell diagnose`: the contract's JSON field by field, the extended material in the cell,
+bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from cell.cli import main
+from cell.diagnosis import DiagnosisParams
+from cell.episode import Episode
+from cell.extensions import CAUSES, UNEXPLAINED
+from cell.material import MassSpringMaterial, load_material
+from cell.scenario import PROJECT_ROOT, load_scenario
+from tests.hidden_effects import write_hidden_effect_set
+from tests.test_episode import coarse
+
+
+@pytest.fixture(scope="module")
+def diagnosed(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+    """A viscoelastic set diagnosed from the command line: the JSON and the material file."""
+    folder = tmp_path_factory.mktemp("viscoelastic")
+    write_hidden_effect_set(folder / "set", 7, "viscoelasticity")
+    out = folder / "out" / "diagnosis.json"
+    assert main(["diagnose", str(folder / "set"), "--json", str(out)]) == 0
+    return json.loads(out.read_text()), out.with_name("diagnosis-material.toml")
+
+
+def _entry(entry: dict) -> None:
+    assert isinstance(entry["model"], str) and entry["model"]
+    assert all(isinstance(v, float) and math.isfinite(v) for v in entry["params"].values())
+    assert entry["heldout_rmse_N"] > 0.0
+
+
+def test_json_follows_the_contract_field_by_field(diagnosed: tuple[dict, Path]) -> None:
+    report, _ = diagnosed
+    assert {"baseline", "causes", "candidates", "extended", "gain"} <= set(report)
+    _entry(report["baseline"])
+    _entry(report["extended"])
+    assert report["baseline"]["params"].keys() == {"young_pa"}
+    assert report["causes"][0] == "viscoelasticity"
+    assert set(report["causes"]) <= set(CAUSES) | {UNEXPLAINED}
+    assert [c["cause"] for c in report["candidates"]] == list(CAUSES)
+    for candidate in report["candidates"]:
+        assert set(candidate) >= {"cause", "params", "heldout_rmse_N", "selected"}
+        assert candidate["selected"] == (candidate["cause"] in report["causes"])
+        assert candidate["heldout_rmse_N"] > 0.0
+    assert report["gain"] == pytest.approx(
+        1.0 - report["extended"]["heldout_rmse_N"] / report["baseline"]["heldout_rmse_N"])
+    assert report["gain"] > 0.5
+    assert "relaxation_weight_0" in report["extended"]["params"]
+
+
+def test_extended_material_loads_into_the_default_scenario(diagnosed: tuple[dict, Path],
+                                                           tmp_path: Path) -> None:
+    _, material_path = diagnosed
+    material = load_material(material_path)
+    assert isinstance(material, MassSpringMaterial)
+    assert sum(material.relaxation_weights) > 0.2
+    default = (PROJECT_ROOT / "scenarios" / "default.toml").read_text()
+    line = next(x for x in default.splitlines() if x.startswith("file = "))
+    scenario_path = tmp_path / "default_with_fitted_meat.toml"
+    scenario_path.write_text(default.replace(line, f'file = "{material_path.as_posix()}"'))
+    assert load_scenario(scenario_path).material == material
+
+
+def test_episode_runs_on_the_extended_material(diagnosed: tuple[dict, Path]) -> None:
+    material = replace(load_material(diagnosed[1]), fibre_direction=(1.0, 0.0, 0.0))
+    result = Episode(coarse(material=material)).run()["result"]
+    assert result["released_fraction"] > 0.9
+
+
+def test_a_bad_set_writes_nothing(tmp_path: Path) -> None:
+    folder = tmp_path / "set"
+    write_hidden_effect_set(folder, 3, None)
+    lines = (folder / "tests.csv").read_text().splitlines()
+    lines[5] = lines[5].rsplit(",", 1)[0] + ",nan"
+    (folder / "tests.csv").write_text("\n".join(lines) + "\n")
+    out = tmp_path / "diagnosis.json"
+    out.write_text("before")
+    assert main(["diagnose", str(folder), "--json", str(out)]) == 2
+    assert out.read_text() == "before"
+    assert not out.with_name("diagnosis-material.toml").exists()
+
+
+def test_params_are_checked() -> None:
+    with pytest.raises(ValueError, match="fit_samples"):
+        DiagnosisParams(fit_samples=2)
+    with pytest.raises(ValueError, match="workers"):
+        DiagnosisParams(workers=0)
