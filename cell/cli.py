@@ -100,6 +100,10 @@ def _diagnose(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise InputError(None, "--workers", f"must be >= 1, got {args.workers}")
     material_path = args.material or args.json.with_name(f"{args.json.stem}-material.toml")
+    if args.report is not None:
+        from cell.diagnosis_report import require_matplotlib
+
+        require_matplotlib()
     measurements = load_measurement_set(args.set_dir)  # reads everything before any write
     result = diagnose(measurements, DiagnosisParams(workers=args.workers))
     extended = result.extended

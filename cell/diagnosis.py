@@ -38,7 +38,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import find_peaks
 
-from cell.errors import DivergenceError
+from cell.errors import DivergenceError, MaterialError
 from cell.extensions import CAUSES, UNEXPLAINED, MaterialModel
 from cell.material import MassSpringMaterial
 from cell.measured import MeasurementSet, MechanicalTest, Specimen
@@ -227,12 +227,13 @@ class _Problem:
 
     def unit_forces(self, model: MaterialModel, shape: np.ndarray,
                     tests: tuple[MechanicalTest, ...]) -> list[np.ndarray] | None:
-        """Each test's force at modulus ``_REFERENCE_PA``, N; None when a run fails."""
+        """Each test's force at modulus ``_REFERENCE_PA``, N; None when the lattice cannot give
+        the material or a run has no equilibrium."""
         material = model.material(shape, _REFERENCE_PA, self.specimen.density_kg_m3)
         try:
             return [simulate_test(t, self.specimen, material, self.lattice).force_N
                     for t in tests]
-        except DivergenceError:
+        except (DivergenceError, MaterialError):
             return None
 
 
@@ -282,12 +283,25 @@ def _predict(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus
 
 def fit_model(problem: _Problem, models: list[MaterialModel], params: DiagnosisParams,
               start: Start = None) -> ModelFit:
-    """Fit each of ``models`` (variants of one candidate) to every test, keep the best fit and
-    leave each test out of it in turn (module docstring)."""
+    """Fit each of ``models`` (variants of one candidate) to every test and keep the best:
+    among variants with as many parameters, the lowest residual; between those, the lowest
+    held-out error (module docstring)."""
     everything = list(range(len(problem.tests)))
-    fits = [(model, *_fit(problem, model, everything, _start(start, model),
-                          params.max_evaluations)) for model in models]
-    model, shape, modulus, offset, rss, count = min(fits, key=lambda fit: fit[4])
+    best: dict[int, tuple] = {}
+    for model in models:
+        fit = (model, *_fit(problem, model, everything, _start(start, model),
+                            params.max_evaluations))
+        size = len(model.parameter_names)
+        if size not in best or fit[4] < best[size][4]:
+            best[size] = fit
+    return min((_hold_out(problem, *fit, params) for fit in best.values()),
+               key=lambda fit: fit.heldout_rmse_n)
+
+
+def _hold_out(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus: float,
+              offset: float, rss: float, count: int, params: DiagnosisParams) -> ModelFit:
+    """The fit of ``model`` on every test, and each test predicted by a refit without it."""
+    everything = list(range(len(problem.tests)))
     fitted = tuple(_predict(problem, model, shape, modulus, offset, t) for t in problem.tests)
     heldout = []
     for left_out, test in enumerate(problem.tests):
@@ -326,9 +340,12 @@ def _start(previous: Start, model: MaterialModel) -> np.ndarray:
 
 def _variants(causes: tuple[str, ...], times: tuple[float, ...],
               stretch_range: tuple[float, float]) -> list[MaterialModel]:
-    """The models for ``causes``: both stiffening laws when stiffening is among them."""
+    """The models for ``causes``: both stiffening laws when stiffening is among them, Eq. 10
+    with and without its oblique factor when anisotropy is."""
     laws = ("exponential", "polynomial") if "strain_stiffening" in causes else ("exponential",)
-    return [MaterialModel(causes, law, times, stretch_range) for law in laws]
+    obliques = (False, True) if "anisotropy" in causes else (False,)
+    return [MaterialModel(causes, law, times, stretch_range, oblique)
+            for law in laws for oblique in obliques]
 
 
 def _relaxation_times_s(measurements: MeasurementSet) -> tuple[float, ...]:

@@ -19,6 +19,7 @@ Example:
 
 from __future__ import annotations
 
+import importlib.util
 import io
 import math
 import os
@@ -43,6 +44,12 @@ _HOLD_TOLERANCE = 1e-3
 _BASELINE, _EXTENDED = "tab:red", "tab:blue"
 
 
+def require_matplotlib() -> None:
+    """Raise :class:`InputError` now, before a long diagnosis, when plots cannot be drawn."""
+    if importlib.util.find_spec("matplotlib") is None:
+        raise InputError(None, "--report", "needs matplotlib: pip install 'musclecell[report]'")
+
+
 def write_report(diagnosis: Diagnosis, folder: Path,
                  material_path: Path | None = None) -> list[Path]:
     """Write ``forces.png``, ``residuals.png`` and ``report.md`` into ``folder`` (created if
@@ -51,11 +58,9 @@ def write_report(diagnosis: Diagnosis, folder: Path,
     Raises:
         InputError: matplotlib is not installed.
     """
-    try:
-        from matplotlib.figure import Figure  # a figure off pyplot: headless, nothing to close
-    except ImportError:
-        raise InputError(None, "--report",
-                         "needs matplotlib: pip install 'musclecell[report]'") from None
+    require_matplotlib()
+    from matplotlib.figure import Figure  # a figure off pyplot: headless, nothing to close
+
     folder = Path(folder)
     forces = write_atomic(folder / "forces.png",
                           _png(_draw_forces(Figure(layout="constrained"), diagnosis)))

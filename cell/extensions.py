@@ -14,10 +14,12 @@ cause                            change to the material (shape parameters)
 ===============================  ==============================================================
 ``strain_stiffening``            both moduli follow the exponential law E exp(b |r - 1|) or the
                                  paper's polynomial E (1 + k (r - 1)**2) (b or k)
-``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2) (q)
+``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), and
+                                 the oblique springs' factor (q, oblique)
 ``viscoelasticity``              quasi-linear relaxation on fixed times spanning the tests
                                  (one weight per time)
-``tension_compression_asymmetry`` both moduli times s while a spring is compressed (log s)
+``tension_compression_asymmetry`` El and Et of compressed springs (their logs over the
+                                 tension ones), and with stiffening its own exponent
 ``plasticity``                   yield strain and hardening ratio of every spring
 ``force_offset``                 the load cell reads a constant offset (a rig effect: it is
                                  not part of the material the muscles get)
@@ -64,6 +66,7 @@ class MaterialModel:
         relaxation_times_s: the relaxation times of ``viscoelasticity``, s.
         stretch_range: (r_min, r_max) over which a stiffening curve holds; outside it the
             modulus stays at its value at the bound.
+        oblique: whether ``anisotropy`` also fits the oblique springs' factor.
 
     Raises:
         ValueError: an unknown cause.
@@ -77,6 +80,7 @@ class MaterialModel:
     stiffening: Stiffening = "exponential"
     relaxation_times_s: tuple[float, ...] = (1.0, 10.0, 100.0)
     stretch_range: tuple[float, float] = (0.5, 1.5)
+    oblique: bool = False
 
     def __post_init__(self) -> None:
         unknown = set(self.causes) - set(CAUSES)
@@ -89,8 +93,9 @@ class MaterialModel:
         """A short description, e.g. ``mass_spring linear isotropic + anisotropy``."""
         if not self.causes:
             return "mass_spring linear isotropic rate-independent"
-        parts = [f"strain_stiffening ({self.stiffening})" if c == "strain_stiffening" else c
-                 for c in self.causes]
+        variant = {"strain_stiffening": f" ({self.stiffening})",
+                   "anisotropy": " (Eq. 10 with oblique factor)" if self.oblique else " (Eq. 10)"}
+        parts = [c + variant.get(c, "") for c in self.causes]
         return "mass_spring + " + " + ".join(parts)
 
     @property
@@ -106,11 +111,13 @@ class MaterialModel:
             names.append("stiffening_exponent" if self.stiffening == "exponential"
                          else "stiffening_quadratic")
         if "anisotropy" in self.causes:
-            names.append("log_el_over_et")
+            names += ["log_el_over_et", "oblique"] if self.oblique else ["log_el_over_et"]
         if "viscoelasticity" in self.causes:
             names += [f"relaxation_load_{k}" for k in range(len(self.relaxation_times_s))]
         if "tension_compression_asymmetry" in self.causes:
-            names.append("log_compression_scale")
+            names += ["log_el_compression", "log_et_compression"]
+            if "strain_stiffening" in self.causes:
+                names.append(f"compression_{names[0]}")
         if "plasticity" in self.causes:
             names += ["yield_strain", "hardening"]
         return tuple(names)
@@ -119,17 +126,21 @@ class MaterialModel:
     def initial(self) -> np.ndarray:
         """A starting point for the shape parameters."""
         start = {"stiffening_exponent": 4.0, "stiffening_quadratic": 10.0,
-                 "log_el_over_et": 0.0, "log_compression_scale": 0.0, "yield_strain": 0.03,
-                 "hardening": 0.3}
-        return np.array([start.get(n, 0.3) for n in self.parameter_names])
+                 "yield_strain": 0.03, "hardening": 0.3, "oblique": 0.0}
+        return np.array([start.get(n.removeprefix("compression_"),
+                                   0.0 if n.startswith("log_") else 0.3)
+                         for n in self.parameter_names])
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the shape parameters."""
         limits = {"stiffening_exponent": (0.0, 40.0), "stiffening_quadratic": (0.0, 400.0),
-                  "log_el_over_et": (-1.6, 1.6), "log_compression_scale": (-3.0, 3.0),
-                  "yield_strain": (0.002, 0.4), "hardening": (0.0, 0.95)}
-        pairs = [limits.get(n, (0.0, 30.0)) for n in self.parameter_names]
+                  "log_el_over_et": (-1.6, 1.6), "oblique": (-0.8, 3.0),
+                  "log_el_compression": (-3.0, 3.0),
+                  "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
+                  "hardening": (0.0, 0.95)}
+        pairs = [limits.get(n.removeprefix("compression_"), (0.0, 30.0))
+                 for n in self.parameter_names]
         return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
 
     def values(self, shape: np.ndarray) -> dict[str, float]:
@@ -144,26 +155,34 @@ class MaterialModel:
         ratio = math.exp(value.get("log_el_over_et", 0.0))
         r_min, r_max = self.stretch_range
 
-        def curve(modulus: float) -> ModulusCurve:
+        def curve(modulus: float, prefix: str = "") -> ModulusCurve:
             if "stiffening_exponent" in value:
-                return ModulusCurve.exponential(modulus, value["stiffening_exponent"], r_min,
-                                                r_max)
-            quadratic = value.get("stiffening_quadratic", 0.0)
+                return ModulusCurve.exponential(
+                    modulus, value[f"{prefix}stiffening_exponent"], r_min, r_max)
+            quadratic = value.get(f"{prefix}stiffening_quadratic", 0.0)
             return ModulusCurve((modulus, 0.0, modulus * quadratic, 0.0, 0.0, 0.0), r_min, r_max)
 
+        el, et = modulus_pa * math.sqrt(ratio), modulus_pa / math.sqrt(ratio)
+        asymmetric = "log_el_compression" in value
+        if asymmetric:
+            squeezed = "compression_" if any(n.startswith("compression_") for n in value) else ""
+            el_c = curve(el * math.exp(value["log_el_compression"]), squeezed)
+            et_c = curve(et * math.exp(value["log_et_compression"]), squeezed)
         loads = np.array([value[n] for n in self.parameter_names
                           if n.startswith("relaxation_load_")])
         weights = loads / (1.0 + loads.sum()) if len(loads) else loads
         return MassSpringMaterial(
-            longitudinal=curve(modulus_pa * math.sqrt(ratio)),
-            transverse=curve(modulus_pa / math.sqrt(ratio)),
+            longitudinal=curve(el),
+            transverse=curve(et),
+            longitudinal_compression=el_c if asymmetric else None,
+            transverse_compression=et_c if asymmetric else None,
             density_kg_m3=density_kg_m3,
-            compression_scale=math.exp(value.get("log_compression_scale", 0.0)),
             relaxation_weights=tuple(weights.tolist()),
             relaxation_times_s=self.relaxation_times_s if len(loads) else (),
             yield_strain=value.get("yield_strain", 0.0),
             hardening=value.get("hardening", 0.0),
             geometric_compensation=LATTICE_STIFFENING,
+            oblique=value.get("oblique", 0.0),
         )
 
     def reported(self, shape: np.ndarray, modulus_pa: float,
@@ -172,19 +191,20 @@ class MaterialModel:
         material = self.material(shape, modulus_pa, 1.0)
         params = {"young_pa": modulus_pa}
         value = self.values(shape)
-        if "strain_stiffening" in self.causes:
-            key = next(n for n in value if n.startswith("stiffening_"))
-            params[key] = value[key]
+        params.update({n: v for n, v in value.items() if "stiffening_" in n})
         if "anisotropy" in self.causes:
             params["el_pa"] = material.longitudinal.small_strain_modulus_pa
             params["et_pa"] = material.transverse.small_strain_modulus_pa
+            if self.oblique:
+                params["oblique"] = material.oblique
         if "viscoelasticity" in self.causes:
             for k, (g, tau) in enumerate(zip(material.relaxation_weights,
                                              material.relaxation_times_s, strict=True)):
                 params[f"relaxation_weight_{k}"] = g
                 params[f"relaxation_time_{k}_s"] = tau
         if "tension_compression_asymmetry" in self.causes:
-            params["compression_scale"] = material.compression_scale
+            params["el_compression_pa"] = material.longitudinal_compression.coefficients[0]
+            params["et_compression_pa"] = material.transverse_compression.coefficients[0]
         if "plasticity" in self.causes:
             params["yield_strain"] = material.yield_strain
             params["hardening"] = material.hardening

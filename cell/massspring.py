@@ -140,6 +140,13 @@ def _directional_modulus(
     return np.sqrt(et_pa**2 + (el_pa**2 - et_pa**2) * cos_sq)
 
 
+def oblique_gain(oblique: float, cos_sq: np.ndarray) -> np.ndarray:
+    """Factor on Eq. 10's modulus of springs at squared cosine ``cos_sq`` to the fibres:
+    ``1 + oblique * 4 c**2 (1 - c**2)``, 1 along and across them, ``1 + oblique`` at 45 degrees
+    (:attr:`~cell.material.MassSpringMaterial.oblique`)."""
+    return 1.0 + oblique * 4.0 * cos_sq * (1.0 - cos_sq)
+
+
 def _fibre_frame(fibre: np.ndarray) -> np.ndarray:
     """(3, 3) rows: the unit fibre direction and two unit vectors across it."""
     a = np.asarray(fibre, dtype=float) / np.linalg.norm(fibre)
@@ -153,11 +160,13 @@ class _AffineLattice:
     """Affine (homogeneous strain) stiffness of a spring lattice, in the fibre frame."""
 
     def __init__(
-        self, points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray, fibre: np.ndarray
+        self, points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
+        fibre: np.ndarray, oblique: float = 0.0
     ) -> None:
         d = points[edges[:, 1]] - points[edges[:, 0]]
         u = d / np.linalg.norm(d, axis=1, keepdims=True) @ _fibre_frame(fibre).T
         self.cos_sq = u[:, 0] ** 2
+        self.oblique_gain = oblique_gain(oblique, self.cos_sq)
         self.quartic = u[:, _VOIGT[:, 0]] * u[:, _VOIGT[:, 1]]
         self.edge_volume_m3 = edge_volume_m3
         self.volume_m3 = float(edge_volume_m3.sum()) / len(_TET_EDGES)
@@ -165,7 +174,8 @@ class _AffineLattice:
     def moduli(self, el_pa: float, et_pa: float) -> tuple[float, float]:
         """Young's moduli (Pa) of the lattice along and across the fibres, Eq. 10 springs."""
         # K l**2 = ||E u|| sum(V), so C = sum(||E u|| sum(V) u u u u) / V.
-        weight = _directional_modulus(el_pa, et_pa, self.cos_sq) * self.edge_volume_m3
+        weight = (_directional_modulus(el_pa, et_pa, self.cos_sq) * self.oblique_gain
+                  * self.edge_volume_m3)
         stiffness = (self.quartic * weight[:, None]).T @ self.quartic / self.volume_m3
         compliance = np.diag(np.linalg.inv(stiffness))
         return float(1.0 / compliance[0]), float(0.5 * (1.0 / compliance[1] + 1.0 / compliance[2]))
@@ -210,11 +220,34 @@ def calibration_factors(
         ...  # doctest: +SKIP
         (0.738, 0.738)
     """
-    lattice = _AffineLattice(points, edges, edge_volume_m3, np.asarray(along, dtype=float))
+    lattice = _AffineLattice(points, edges, edge_volume_m3, np.asarray(along, dtype=float),
+                             material.oblique)
     el = material.longitudinal.small_strain_modulus_pa
     et = material.transverse.small_strain_modulus_pa
     el_in, et_in = lattice.calibrated(el, et)
     return el_in / el, et_in / et
+
+
+def calibrated_law(
+    points: np.ndarray,
+    edges: np.ndarray,
+    edge_volume_m3: np.ndarray,
+    material: MassSpringMaterial,
+    along: np.ndarray | Sequence[float],
+) -> tuple[SpringLaw, tuple[float, float], tuple[float, float]]:
+    """``material``'s spring law on this lattice and its (alpha, beta) in tension and in
+    compression: each pair of curves calibrated (:func:`calibration_factors`) for fibres lying
+    ``along``.
+
+    Raises:
+        MaterialError: ``longitudinal`` when the lattice cannot give an anisotropy.
+    """
+    tension = calibration_factors(points, edges, edge_volume_m3, material, along)
+    symmetric = material.longitudinal_compression is material.transverse_compression is None
+    compression = (tension if symmetric else
+                   calibration_factors(points, edges, edge_volume_m3, material.in_compression(),
+                                       along))
+    return SpringLaw.of(material, tension, compression), tension, compression
 
 
 def lattice_moduli(
@@ -401,13 +434,12 @@ class MassSpringModel:
         material = replace(self.material, fibre_direction=tuple(float(v) for v in direction))
         fibre = np.asarray(material.fibre_direction)
         along = fibre if self.calibrate_along is None else self.calibrate_along
-        self.calibration = calibration_factors(self._points, self.edges, self.edge_volume_m3,
-                                               material, along)
+        self._law, self.calibration, self._compression_calibration = calibrated_law(
+            self._points, self.edges, self.edge_volume_m3, material, along)
         self.material = material
         self._cos_sq = _AffineLattice(self._points, self.edges, self.edge_volume_m3,
                                       fibre).cos_sq
         self.fibre_cosine = np.sqrt(self._cos_sq)
-        self._law = SpringLaw.of(material, self.calibration)
         if not hasattr(self, "_history"):
             self._history = self._law.history(len(self.edges))
         self.stiffness_n_m = self._stiffness(
@@ -419,7 +451,8 @@ class MassSpringModel:
         self._history[:] = 0.0
 
     def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
-        return self._gain * _directional_modulus(el_pa, et_pa, self._cos_sq)
+        return (self._gain * _directional_modulus(el_pa, et_pa, self._cos_sq)
+                * oblique_gain(self.material.oblique, self._cos_sq))
 
     def apply(self, data: mujoco.MjData) -> None:
         """Write the springs' forces for the state in ``data`` into ``data.qfrc_applied``."""
@@ -454,12 +487,15 @@ class MassSpringModel:
         the paper's Fig. 10 moduli, with and without damping) the measured limit lies within 5%
         of the value with ``safety=1``.
         """
-        alpha, beta = self.calibration
-        # The compensation k stiffens a shortened spring: its tangent gains 1 / (1 + k x)**2.
-        shortest = min(self.material.longitudinal.r_min, self.material.transverse.r_min) - 1.0
+        # The packed curves hold the calibrated moduli; their stiffest, in tension or in
+        # compression, sets the step. The compensation k stiffens a shortened spring: its
+        # tangent gains 1 / (1 + k x)**2.
+        squeezed = self.material.in_compression()
+        shortest = min(squeezed.longitudinal.r_min, squeezed.transverse.r_min) - 1.0
         gain = (1.0 + self.material.geometric_compensation * shortest) ** -2
-        el = alpha * gain * self.material.longitudinal.max_modulus_pa()
-        et = beta * gain * self.material.transverse.max_modulus_pa()
+        pairs = ((self.material, self.calibration), (squeezed, self._compression_calibration))
+        el = gain * max(f[0] * m.longitudinal.max_modulus_pa() for m, f in pairs)
+        et = gain * max(f[1] * m.transverse.max_modulus_pa() for m, f in pairs)
         stiffness = self._stiffness(el, et)
         free = self.dofadr >= 0
         # Row of each free vertex's x dof in the reduced system; -1 for pinned vertices.

@@ -23,7 +23,7 @@ the matching dataclass; see :func:`load_material`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -288,8 +288,11 @@ class MassSpringMaterial:
             default muscles stable up to 2.3 ms at 30 kPa.
         fibre_direction: unit vector along the fibres in the world frame (normalised on
             construction); the muscles' length runs along x.
-        compression_scale: factor on both moduli while a spring is shorter than at rest
-            (tension-compression asymmetry); 1 for a symmetric material.
+        longitudinal_compression: El while a spring is shorter than at rest (tension-
+            compression asymmetry: muscle is strongly anisotropic in tension, weakly in
+            compression); None for the tension curve.
+        transverse_compression: Et while a spring is shorter than at rest; None for the
+            tension curve.
         relaxation_weights: g_k of the quasi-linear viscoelastic relaxation function
             ``G(t) = 1 - sum g_k + sum g_k exp(-t / tau_k)`` acting on every spring's elastic
             force (the curves are the instantaneous response); each >= 0, their sum < 1.
@@ -298,6 +301,10 @@ class MassSpringMaterial:
             an elastic material.
         hardening: post-yield tangent over the elastic modulus, in [0, 1) (linear kinematic
             hardening of the spring's elastic strain).
+        oblique: springs at 45 degrees to the fibres get ``1 + oblique`` times Eq. 10's modulus,
+            blended as ``4 c**2 (1 - c**2)`` in the cosine c (> -1; 0 is the paper's Eq. 10).
+            The third constant of a transversely isotropic material's stiffness against the
+            load angle, which Eq. 10 alone fixes from El and Et.
         geometric_compensation: k in a spring's stress ``E x / (1 + k x)``: a lattice of
             springs stiffens geometrically (its uniaxial nominal secant is about E (1 + 0.28
             strain) with k = 0), and ``cell.springlaw.LATTICE_STIFFENING`` (0.33) cancels that,
@@ -305,7 +312,7 @@ class MassSpringMaterial:
             [0, 1); fitted materials carry it, older ones keep 0.
 
     Raises:
-        MaterialError: ``density_kg_m3``, ``damping_s``, ``compression_scale``, the relaxation,
+        MaterialError: ``density_kg_m3``, ``damping_s``, the relaxation,
             ``yield_strain`` or ``hardening`` out of range, ``fibre_direction`` zero or not
             finite; curve errors name the curve's own fields.
 
@@ -322,20 +329,24 @@ class MassSpringMaterial:
     density_kg_m3: float = 1060.0
     damping_s: float = 2.0e-4
     fibre_direction: tuple[float, float, float] = (1.0, 0.0, 0.0)
-    compression_scale: float = 1.0
+    longitudinal_compression: ModulusCurve | None = None
+    transverse_compression: ModulusCurve | None = None
     relaxation_weights: tuple[float, ...] = ()
     relaxation_times_s: tuple[float, ...] = ()
     yield_strain: float = 0.0
     hardening: float = 0.0
     geometric_compensation: float = 0.0
+    oblique: float = 0.0
 
     def __post_init__(self) -> None:
-        require_positive(self, "density_kg_m3", "compression_scale", error=MaterialError)
+        require_positive(self, "density_kg_m3", error=MaterialError)
         require_non_negative(self, "damping_s", "yield_strain", "hardening",
                              "geometric_compensation", error=MaterialError)
         for name in ("hardening", "geometric_compensation"):
             if not getattr(self, name) < 1:
                 raise MaterialError(None, name, f"must be < 1, got {getattr(self, name)}")
+        if not -1 < self.oblique < math.inf:
+            raise MaterialError(None, "oblique", f"must be > -1 and finite, got {self.oblique}")
         weights = np.asarray(self.relaxation_weights, dtype=float)
         times = np.asarray(self.relaxation_times_s, dtype=float)
         if weights.shape != times.shape:
@@ -356,6 +367,17 @@ class MassSpringMaterial:
                 f"must be a finite non-zero 3-vector, got {self.fibre_direction!r}",
             )
         object.__setattr__(self, "fibre_direction", tuple((fibre / norm).tolist()))
+
+    def in_compression(self) -> MassSpringMaterial:
+        """This material with its compression curves as its curves.
+
+        Example:
+            >>> MassSpringMaterial().in_compression() == MassSpringMaterial()
+            True
+        """
+        return replace(self, longitudinal=self.longitudinal_compression or self.longitudinal,
+                       transverse=self.transverse_compression or self.transverse,
+                       longitudinal_compression=None, transverse_compression=None)
 
     @classmethod
     def isotropic(cls, young_pa: float, **fields: Any) -> MassSpringMaterial:
@@ -435,6 +457,7 @@ class _CurveTable:
 
 
 _CURVES = ("longitudinal", "transverse")
+_COMPRESSION_CURVES = ("longitudinal_compression", "transverse_compression")
 
 
 def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
@@ -449,7 +472,6 @@ def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
         model = "mass_spring"
         damping_s = 2e-4
         fibre_direction = [1.0, 0.0, 0.0]
-        compression_scale = 0.5
         relaxation_weights = [0.3, 0.2]
         relaxation_times_s = [1.0, 30.0]
         [longitudinal]
@@ -459,6 +481,8 @@ def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
         [transverse]
         modulus_pa = 6e5
         exponent = 8.0
+        [transverse_compression]   # optional, as the two above
+        modulus_pa = 3e5
 
     Raises:
         MaterialError: naming the file and the dotted key at fault (unknown key, wrong type,
@@ -487,8 +511,10 @@ def material_from_table(table: dict[str, Any], *, file: str | Path | None = None
     if model != "mass_spring":
         raise MaterialError(file, key("model"),
                             f"must be 'continuum' or 'mass_spring', got {model!r}")
-    for name in _CURVES:
+    for name in _CURVES + _COMPRESSION_CURVES:
         if name not in raw:
+            if name in _COMPRESSION_CURVES:
+                continue
             raise MaterialError(file, key(name), "missing table: give modulus_pa = <Pa> or "
                                 "coefficients = [6 values]")
         if not isinstance(raw[name], dict):
@@ -528,15 +554,17 @@ def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
         f"density_kg_m3 = {number(material.density_kg_m3)}",
         f"damping_s = {number(material.damping_s)}",
         f"fibre_direction = {numbers(material.fibre_direction)}",
-        f"compression_scale = {number(material.compression_scale)}",
         f"relaxation_weights = {numbers(material.relaxation_weights)}",
         f"relaxation_times_s = {numbers(material.relaxation_times_s)}",
         f"yield_strain = {number(material.yield_strain)}",
         f"hardening = {number(material.hardening)}",
         f"geometric_compensation = {number(material.geometric_compensation)}",
+        f"oblique = {number(material.oblique)}",
     ]
-    for name in _CURVES:
-        curve: ModulusCurve = getattr(material, name)
+    for name in _CURVES + _COMPRESSION_CURVES:
+        curve: ModulusCurve | None = getattr(material, name)
+        if curve is None:
+            continue
         lines += ["", f"[{name}]", f"coefficients = {numbers(curve.coefficients)}",
                   f"r_min = {number(curve.r_min)}", f"r_max = {number(curve.r_max)}",
                   f"exponent = {number(curve.exponent)}"]

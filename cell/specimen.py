@@ -22,7 +22,7 @@ springs' dashpots carry nothing, and the forces agree within 2%. One set of 10 t
 milliseconds instead of minutes, which is what lets a diagnosis refit the material hundreds of
 times. The springs' dashpots (``damping_s``) are left out for that reason.
 
-The lattice is calibrated (:func:`~cell.massspring.calibration_factors`) with the fibres along a
+The lattice is calibrated (:func:`~cell.massspring.calibrated_law`) with the fibres along a
 lattice axis, and keeps those factors at every fibre angle: a cubic lattice is not isotropic,
 and recalibrating it for oblique fibres would give an isotropic material an angle dependence
 that no tissue has.
@@ -44,7 +44,7 @@ import numpy as np
 from numba import njit
 
 from cell.errors import DivergenceError
-from cell.massspring import calibration_factors, tet_edges
+from cell.massspring import calibrated_law, tet_edges
 from cell.material import MassSpringMaterial
 from cell.measured import MeasurementSet, MechanicalTest, Specimen
 from cell.springlaw import SpringLaw, spring_stress
@@ -128,10 +128,11 @@ class SpecimenLattice:
         return cls(keys / np.linalg.norm(keys, axis=1, keepdims=True), weights, mesh, edges,
                    volume)
 
-    def calibration(self, material: MassSpringMaterial) -> tuple[float, float]:
-        """(alpha, beta) of ``material`` on this lattice, its fibres along the load axis."""
-        return calibration_factors(self.mesh.points, self.edges, self.edge_volume_m3, material,
-                                   _LOAD_AXIS)
+    def law(self, material: MassSpringMaterial) -> SpringLaw:
+        """``material``'s spring law on this lattice, calibrated with its fibres along the load
+        axis."""
+        return calibrated_law(self.mesh.points, self.edges, self.edge_volume_m3, material,
+                              _LOAD_AXIS)[0]
 
 
 @dataclass(frozen=True, eq=False)
@@ -298,7 +299,7 @@ def simulate_test(
         >>> run = simulate_test(test, specimen, MassSpringMaterial())  # doctest: +SKIP
     """
     lattice = SpecimenLattice.of(specimen) if lattice is None else lattice
-    law = SpringLaw.of(material, lattice.calibration(material))
+    law = lattice.law(material)
     fibre = np.asarray(fibre_direction(test.angle_deg))
     cos_sq = (lattice.directions @ fibre) ** 2
     time = np.ascontiguousarray(test.time_s - test.time_s[0])

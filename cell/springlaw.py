@@ -6,10 +6,11 @@ run. It works in the spring's strain x = l / l0 - 1 and returns its *stress* s, 
 ``K0 l0`` where ``K0 = sum(V) / l0**2`` is the spring's geometric gain (Eq. 10 without the
 modulus): ``tension = K0 * l0 * s``.
 
-- Elastic stress (Eq. 10 with secant moduli): ``s_e = ||E(x_e) u|| x_e / (1 + k x)``, El and
+- Elastic stress (Eq. 10 with secant moduli): ``s_e = w ||E(x_e) u|| x_e / (1 + k x)``, El and
   Et the material's curves at the elastic strain x_e (:class:`~cell.material.ModulusCurve`),
-  times ``compression_scale`` while x_e < 0; k is the material's ``geometric_compensation``
-  (:data:`LATTICE_STIFFENING` cancels the lattice's own geometric stiffening).
+  its compression curves while x_e < 0; k is the material's ``geometric_compensation``
+  (:data:`LATTICE_STIFFENING` cancels the lattice's own geometric stiffening) and w =
+  ``1 + oblique 4 c**2 (1 - c**2)`` weighs springs oblique to the fibres.
 - Plasticity: x_e = x - p with p the spring's plastic strain; it flows when the elastic strain
   leaves ``[-y, y]`` around the back strain ``H p``, H = h / (1 - h) for the hardening ratio h
   (linear kinematic hardening: the tangent past yield is h times the elastic one).
@@ -48,7 +49,7 @@ from cell.material import MassSpringMaterial, ModulusCurve
 # strains -0.3 to 0.25 (tests/test_specimen.py).
 LATTICE_STIFFENING = 0.33
 # Layout of SpringLaw.params.
-_COMPRESSION, _YIELD, _BACK, _GEOMETRY, _G_INF, _TERMS = range(6)
+_YIELD, _BACK, _GEOMETRY, _OBLIQUE, _G_INF, _TERMS = range(6)
 # Layout of a history row.
 _PLASTIC, _LAST = 0, 1
 _STATES = 2
@@ -113,11 +114,11 @@ def spring_stress(
         elif over < -yield_strain:
             plastic += (over + yield_strain) / (1.0 + back)
     elastic = x - plastic
-    el = secant_modulus(elastic, curves[0])
-    et = secant_modulus(elastic, curves[1])
-    modulus = math.sqrt(et * et + (el * el - et * et) * cos_sq)
-    if elastic < 0.0:
-        modulus *= params[_COMPRESSION]
+    first = 2 if elastic < 0.0 else 0  # the compression curves follow the tension ones
+    el = secant_modulus(elastic, curves[first])
+    et = secant_modulus(elastic, curves[first + 1])
+    modulus = math.sqrt(et * et + (el * el - et * et) * cos_sq) * (
+        1.0 + params[_OBLIQUE] * 4.0 * cos_sq * (1.0 - cos_sq))
     # The lattice stiffens with its whole deformation, plastic part included.
     stress = modulus * elastic / (1.0 + params[_GEOMETRY] * x)
     terms = int(params[_TERMS])
@@ -147,29 +148,34 @@ class SpringLaw:
     """A material packed for :func:`spring_stress`.
 
     Attributes:
-        curves: (2, 13) El and Et curves (:func:`pack_curve`), times their calibration factors.
-        params: compression scale, yield strain, back-strain factor H, geometric compensation,
+        curves: (4, 13) El and Et in tension, then in compression (:func:`pack_curve`), times
+            their calibration factors.
+        params: yield strain, back-strain factor H, geometric compensation, oblique factor,
             g_inf, K, g_1..g_K, tau_1..tau_K (s).
 
     Example:
         >>> SpringLaw.of(MassSpringMaterial()).params[:6].tolist()
-        [1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        [0.0, 0.0, 0.0, 0.0, 1.0, 0.0]
     """
 
     curves: np.ndarray
     params: np.ndarray
 
     @classmethod
-    def of(cls, material: MassSpringMaterial,
-           calibration: tuple[float, float] = (1.0, 1.0)) -> SpringLaw:
-        """Pack ``material`` with its moduli times ``calibration`` (alpha, beta)."""
+    def of(cls, material: MassSpringMaterial, calibration: tuple[float, float] = (1.0, 1.0),
+           compression_calibration: tuple[float, float] | None = None) -> SpringLaw:
+        """Pack ``material`` with its moduli times ``calibration`` (alpha, beta), its
+        compression curves times ``compression_calibration`` (the same when None)."""
+        squeezed = material.in_compression()
+        compression_calibration = compression_calibration or calibration
         curves = np.stack([pack_curve(material.longitudinal, calibration[0]),
-                           pack_curve(material.transverse, calibration[1])])
+                           pack_curve(material.transverse, calibration[1]),
+                           pack_curve(squeezed.longitudinal, compression_calibration[0]),
+                           pack_curve(squeezed.transverse, compression_calibration[1])])
         weights = np.asarray(material.relaxation_weights, dtype=float)
         back = material.hardening / (1.0 - material.hardening)
         params = np.concatenate([
-            [material.compression_scale, material.yield_strain, back,
-             material.geometric_compensation,
+            [material.yield_strain, back, material.geometric_compensation, material.oblique,
              1.0 - weights.sum(), len(weights)],
             weights,
             np.asarray(material.relaxation_times_s, dtype=float),
