@@ -22,7 +22,7 @@ Example:
     >>> from cell.measured import load_measurement_set
     >>> result = diagnose(load_measurement_set("assets/measured/beef_round_example"))
     >>> result.causes  # doctest: +SKIP
-    ('anisotropy', 'viscoelasticity', 'strain_stiffening', 'tension_compression_asymmetry')
+    ('tension_compression_asymmetry', 'anisotropy', 'unexplained')
 """
 
 from __future__ import annotations
@@ -137,7 +137,7 @@ class Diagnosis:
         measurements: the set.
         noise_n: the force noise estimated from the data, N.
         baseline: the baseline fit.
-        candidates: the baseline plus each single cause, in catalogue order.
+        candidates: the baseline plus one cause, for each cause of the catalogue in order.
         steps: the fit after each accepted cause, in order.
         extended: the final model (the baseline when no cause is accepted).
         causes: accepted causes, most important first, then ``unexplained`` if it applies.

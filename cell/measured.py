@@ -310,7 +310,7 @@ def load_measurement_set(folder: str | Path) -> MeasurementSet:
 
     Example:
         >>> len(load_measurement_set("assets/measured/beef_round_example").tests)
-        10
+        20
     """
     folder = Path(folder)
     specimen = load_specimen(folder / SPECIMEN_FILE)
