@@ -9,9 +9,9 @@ material, the gain on held-out tests.
 3. Causes are added one at a time, the one with the lowest held-out error first, while it
    lowers the held-out mean square error by more than ``min_variance_drop`` times the noise
    variance (the noise from the data: second differences of each test's force) *and* lowers
-   the Bayesian information criterion, and cuts the held-out RMSE to at most
-   ``max_rmse_ratio`` of what it was. When the final held-out error is still more than
-   ``unexplained_ratio`` times the noise and its residuals are correlated (lag-one
+   the Bayesian information criterion, cuts the held-out RMSE to at most ``max_rmse_ratio``
+   of what it was, and lowers it on at least ``min_improved_fraction`` of the tests. When the
+   final held-out error is still more than ``unexplained_ratio`` times the noise and its residuals are correlated (lag-one
    autocorrelation above ``structure_correlation``), ``unexplained`` is added.
 
 Fits search the shape parameters with ``scipy.optimize.least_squares`` on up to
@@ -62,6 +62,9 @@ class DiagnosisParams:
         max_rmse_ratio: and bring the held-out RMSE below this fraction of what it was (the
             springs cannot follow every law exactly, and a cause must explain more than the
             shape of a misfit the others leave).
+        min_improved_fraction: and lower the held-out error of at least this fraction of the
+            tests: a real effect shows in most tests, a cause that only absorbs what the springs
+            cannot follow in a few of them is not one.
         unexplained_ratio: held-out RMSE over the noise above which left structure counts.
         structure_correlation: lag-one autocorrelation of held-out residuals above which
             they have structure.
@@ -77,6 +80,7 @@ class DiagnosisParams:
     fit_samples: int = 40
     min_variance_drop: float = 1.0
     max_rmse_ratio: float = 0.85
+    min_improved_fraction: float = 0.75
     unexplained_ratio: float = 2.0
     structure_correlation: float = 0.5
     workers: int = 1
@@ -366,6 +370,15 @@ def _stretch_range(measurements: MeasurementSet) -> tuple[float, float]:
             1.0 + max(float(strains.max()), 0.0) + margin)
 
 
+def _improved_fraction(fit: ModelFit, previous: ModelFit,
+                       tests: tuple[MechanicalTest, ...]) -> float:
+    """Fraction of the tests whose held-out RMSE ``fit`` lowers below ``previous``'s."""
+    lower = [np.mean((new - test.force_N) ** 2) < np.mean((old - test.force_N) ** 2)
+             for new, old, test in zip(fit.heldout_force_n, previous.heldout_force_n, tests,
+                                       strict=True)]
+    return float(np.mean(lower))
+
+
 def _structure(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> float:
     """Lag-one autocorrelation of the held-out residuals, pooled over tests."""
     products, squares = 0.0, 0.0
@@ -419,7 +432,9 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
             best = min(trials, key=lambda fit: fit.heldout_rmse_n)
             drop = current.heldout_rmse_n**2 - best.heldout_rmse_n**2
             if (drop <= params.min_variance_drop * noise**2 or best.bic >= current.bic
-                    or best.heldout_rmse_n > params.max_rmse_ratio * current.heldout_rmse_n):
+                    or best.heldout_rmse_n > params.max_rmse_ratio * current.heldout_rmse_n
+                    or _improved_fraction(best, current, measurements.tests)
+                    < params.min_improved_fraction):
                 break
             added = next(c for c in best.model.causes if c not in current.model.causes)
             current = best

@@ -139,7 +139,7 @@ def test_diagnosis_names_the_hidden_effect(tmp_path: Path, effect: str | None,
     from cell.diagnosis import DiagnosisParams, diagnose
 
     truth: HiddenEffect = write_hidden_effect_set(tmp_path, seed=seed, effect=effect)
-    result = diagnose(load_measurement_set(tmp_path), DiagnosisParams(workers=1))
+    result = diagnose(load_measurement_set(tmp_path), DiagnosisParams(workers=2))
     note = f"truth {truth}, causes {result.causes}, gain {result.gain:.3f}"
     if effect is None:
         assert result.causes == (), note
@@ -151,7 +151,7 @@ def test_diagnosis_names_the_hidden_effect(tmp_path: Path, effect: str | None,
 def test_diagnose_bench_runs_on_one_set() -> None:
     from cell.bench_diagnose import run_diagnose_bench
 
-    report = run_diagnose_bench([10_000], workers=1)
+    report = run_diagnose_bench([10_000], workers=2)
     assert {"sets", "entries", "confusion", "markdown", "targets"} <= report.keys()
     assert len(report["sets"]) == 1
     assert {"time_per_set", "correct"} <= report["targets"].keys()
