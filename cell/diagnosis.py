@@ -11,8 +11,9 @@ material, the gain on held-out tests.
    variance (the noise from the data: second differences of each test's force) *and* lowers
    the Bayesian information criterion, cuts the held-out RMSE to at most ``max_rmse_ratio``
    of what it was, and lowers it on at least ``min_improved_fraction`` of the tests. When the
-   final held-out error is still more than ``unexplained_ratio`` times the noise and its residuals are correlated (lag-one
-   autocorrelation above ``structure_correlation``), ``unexplained`` is added.
+   final held-out error is still more than ``unexplained_ratio`` times the noise and its
+   residuals are correlated (lag-one autocorrelation above ``structure_correlation``),
+   ``unexplained`` is added.
 
 Fits search the shape parameters with ``scipy.optimize.least_squares`` on up to
 ``fit_samples`` samples per test (picked evenly along time and displacement, turning points
