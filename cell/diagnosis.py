@@ -10,10 +10,10 @@ material, the gain on held-out tests.
    lowers the held-out mean square error by more than ``min_variance_drop`` times the noise
    variance (the noise from the data: second differences of each test's force) *and* lowers
    the Bayesian information criterion, cuts the held-out RMSE to at most ``max_rmse_ratio``
-   of what it was, and lowers it on at least ``min_improved_fraction`` of the tests. When the
-   final held-out error is still more than ``unexplained_ratio`` times the noise and its
-   residuals are correlated (lag-one autocorrelation above ``structure_correlation``),
-   ``unexplained`` is added.
+   of what it was, and (from the second on) lowers it on at least ``min_improved_fraction`` of
+   the tests. When the final held-out error is still more than ``unexplained_ratio`` times the
+   noise and its residuals are correlated (lag-one autocorrelation above
+   ``structure_correlation``), ``unexplained`` is added.
 
 Fits search the shape parameters with ``scipy.optimize.least_squares`` on up to
 ``fit_samples`` samples per test (picked evenly along time and displacement, turning points
@@ -63,9 +63,10 @@ class DiagnosisParams:
         max_rmse_ratio: and bring the held-out RMSE below this fraction of what it was (the
             springs cannot follow every law exactly, and a cause must explain more than the
             shape of a misfit the others leave).
-        min_improved_fraction: and lower the held-out error of at least this fraction of the
-            tests: a real effect shows in most tests, a cause that only absorbs what the springs
-            cannot follow in a few of them is not one.
+        min_improved_fraction: a cause after the first must also lower the held-out error of
+            at least this fraction of the tests: a real effect shows in most tests, a cause
+            that only absorbs in a few of them what the springs cannot follow is not one (the
+            first cause may trade some tests for others while it stands in for the rest).
         unexplained_ratio: held-out RMSE over the noise above which left structure counts.
         structure_correlation: lag-one autocorrelation of held-out residuals above which
             they have structure.
@@ -434,8 +435,8 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
             drop = current.heldout_rmse_n**2 - best.heldout_rmse_n**2
             if (drop <= params.min_variance_drop * noise**2 or best.bic >= current.bic
                     or best.heldout_rmse_n > params.max_rmse_ratio * current.heldout_rmse_n
-                    or _improved_fraction(best, current, measurements.tests)
-                    < params.min_improved_fraction):
+                    or (accepted and _improved_fraction(best, current, measurements.tests)
+                    < params.min_improved_fraction)):
                 break
             added = next(c for c in best.model.causes if c not in current.model.causes)
             current = best
