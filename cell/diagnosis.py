@@ -290,16 +290,16 @@ def _predict(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus
 def fit_model(problem: _Problem, models: list[MaterialModel], params: DiagnosisParams,
               start: Start = None) -> ModelFit:
     """Fit each of ``models`` (variants of one candidate) to every test and keep the best:
-    among variants with as many parameters, the lowest residual; between those, the lowest
-    held-out error (module docstring)."""
+    between stiffening laws, the lowest residual; between variants with other parameters, the
+    lowest held-out error (module docstring)."""
     everything = list(range(len(problem.tests)))
-    best: dict[int, tuple] = {}
+    best: dict[tuple[str, ...], tuple] = {}
     for model in models:
         fit = (model, *_fit(problem, model, everything, _start(start, model),
                             params.max_evaluations))
-        size = len(model.parameter_names)
-        if size not in best or fit[4] < best[size][4]:
-            best[size] = fit
+        kind = tuple(n for n in model.parameter_names if "stiffening_" not in n)
+        if kind not in best or fit[4] < best[kind][4]:
+            best[kind] = fit
     return min((_hold_out(problem, *fit, params) for fit in best.values()),
                key=lambda fit: fit.heldout_rmse_n)
 
@@ -347,11 +347,13 @@ def _start(previous: Start, model: MaterialModel) -> np.ndarray:
 def _variants(causes: tuple[str, ...], times: tuple[float, ...],
               stretch_range: tuple[float, float]) -> list[MaterialModel]:
     """The models for ``causes``: both stiffening laws when stiffening is among them, Eq. 10
-    with and without its oblique factor when anisotropy is."""
+    with and without its oblique factor when anisotropy is, one compression factor or two when
+    the asymmetry is."""
     laws = ("exponential", "polynomial") if "strain_stiffening" in causes else ("exponential",)
     obliques = (False, True) if "anisotropy" in causes else (False,)
-    return [MaterialModel(causes, law, times, stretch_range, oblique)
-            for law in laws for oblique in obliques]
+    apart = (False, True) if "tension_compression_asymmetry" in causes else (False,)
+    return [MaterialModel(causes, law, times, stretch_range, oblique, split)
+            for law in laws for oblique in obliques for split in apart]
 
 
 def _relaxation_times_s(measurements: MeasurementSet) -> tuple[float, ...]:

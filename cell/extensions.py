@@ -67,6 +67,8 @@ class MaterialModel:
         stretch_range: (r_min, r_max) over which a stiffening curve holds; outside it the
             modulus stays at its value at the bound.
         oblique: whether ``anisotropy`` also fits the oblique springs' factor.
+        compression_per_direction: whether ``tension_compression_asymmetry`` scales El and Et
+            of compressed springs apart (else by one factor).
 
     Raises:
         ValueError: an unknown cause.
@@ -81,6 +83,7 @@ class MaterialModel:
     relaxation_times_s: tuple[float, ...] = (1.0, 10.0, 100.0)
     stretch_range: tuple[float, float] = (0.5, 1.5)
     oblique: bool = False
+    compression_per_direction: bool = False
 
     def __post_init__(self) -> None:
         unknown = set(self.causes) - set(CAUSES)
@@ -94,7 +97,9 @@ class MaterialModel:
         if not self.causes:
             return "mass_spring linear isotropic rate-independent"
         variant = {"strain_stiffening": f" ({self.stiffening})",
-                   "anisotropy": " (Eq. 10 with oblique factor)" if self.oblique else " (Eq. 10)"}
+                   "anisotropy": " (Eq. 10 with oblique factor)" if self.oblique else " (Eq. 10)",
+                   "tension_compression_asymmetry": " (El and Et apart)"
+                   if self.compression_per_direction else " (one factor)"}
         parts = [c + variant.get(c, "") for c in self.causes]
         return "mass_spring + " + " + ".join(parts)
 
@@ -115,7 +120,8 @@ class MaterialModel:
         if "viscoelasticity" in self.causes:
             names += [f"relaxation_load_{k}" for k in range(len(self.relaxation_times_s))]
         if "tension_compression_asymmetry" in self.causes:
-            names += ["log_el_compression", "log_et_compression"]
+            names += (["log_el_compression", "log_et_compression"]
+                      if self.compression_per_direction else ["log_compression"])
             if "strain_stiffening" in self.causes:
                 names.append(f"compression_{names[0]}")
         if "plasticity" in self.causes:
@@ -136,7 +142,7 @@ class MaterialModel:
         """Lower and upper bounds of the shape parameters."""
         limits = {"stiffening_exponent": (0.0, 40.0), "stiffening_quadratic": (0.0, 400.0),
                   "log_el_over_et": (-1.6, 1.6), "oblique": (-0.8, 3.0),
-                  "log_el_compression": (-3.0, 3.0),
+                  "log_el_compression": (-3.0, 3.0), "log_compression": (-3.0, 3.0),
                   "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
                   "hardening": (0.0, 0.95)}
         pairs = [limits.get(n.removeprefix("compression_"), (0.0, 30.0))
@@ -163,11 +169,12 @@ class MaterialModel:
             return ModulusCurve((modulus, 0.0, modulus * quadratic, 0.0, 0.0, 0.0), r_min, r_max)
 
         el, et = modulus_pa * math.sqrt(ratio), modulus_pa / math.sqrt(ratio)
-        asymmetric = "log_el_compression" in value
+        asymmetric = "tension_compression_asymmetry" in self.causes
         if asymmetric:
             squeezed = "compression_" if any(n.startswith("compression_") for n in value) else ""
-            el_c = curve(el * math.exp(value["log_el_compression"]), squeezed)
-            et_c = curve(et * math.exp(value["log_et_compression"]), squeezed)
+            common = value.get("log_compression", 0.0)
+            el_c = curve(el * math.exp(value.get("log_el_compression", common)), squeezed)
+            et_c = curve(et * math.exp(value.get("log_et_compression", common)), squeezed)
         loads = np.array([value[n] for n in self.parameter_names
                           if n.startswith("relaxation_load_")])
         weights = loads / (1.0 + loads.sum()) if len(loads) else loads
