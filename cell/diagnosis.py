@@ -76,10 +76,10 @@ class DiagnosisParams:
 
     Example:
         >>> DiagnosisParams(workers=2).fit_samples
-        40
+        32
     """
 
-    fit_samples: int = 40
+    fit_samples: int = 32
     min_variance_drop: float = 1.0
     max_rmse_ratio: float = 0.85
     min_improved_fraction: float = 0.75
@@ -87,7 +87,7 @@ class DiagnosisParams:
     structure_correlation: float = 0.5
     workers: int = 1
     max_evaluations: int = 400
-    fold_evaluations: int = 40
+    fold_evaluations: int = 20
 
     def __post_init__(self) -> None:
         if self.fit_samples < 8:

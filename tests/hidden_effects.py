@@ -26,15 +26,9 @@ from typing import Any, Literal
 
 import numpy as np
 
-EFFECTS: tuple[str | None, ...] = (
-    "strain_stiffening",
-    "anisotropy",
-    "viscoelasticity",
-    "tension_compression_asymmetry",
-    "plasticity",
-    "force_offset",
-    None,
-)
+from cell.extensions import CAUSES
+
+EFFECTS: tuple[str | None, ...] = (*CAUSES, None)
 """The effects one set can hide: the six causes of the catalogue, and None (baseline alone)."""
 
 DENSITY_KG_M3 = 1060.0
