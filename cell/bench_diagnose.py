@@ -74,13 +74,14 @@ def confusion_markdown(confusion: dict[str, dict[str, int]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
+def run_diagnose_bench(seeds: Sequence[int], workers: int = 2,
                        progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Diagnose one hidden-effect set per seed; times, correctness, confusion, targets.
 
     Args:
         seeds: one set per seed (:func:`bench_seeds` gives seeds the tests never use).
-        workers: ``DiagnosisParams.workers``; None keeps the diagnosis's default.
+        workers: ``DiagnosisParams.workers``: 2, the cores of the machine the target is for
+            (and ``musclecell diagnose``'s default).
         progress: called with one line per set.
 
     Raises:
@@ -92,7 +93,7 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
     from cell.measured import load_measurement_set
 
     generator = load_generator()
-    params = DiagnosisParams() if workers is None else DiagnosisParams(workers=workers)
+    params = DiagnosisParams(workers=workers)
     sets: list[dict[str, Any]] = []
     confusion: dict[str, dict[str, int]] = {}
     with tempfile.TemporaryDirectory(prefix="bench-diagnose-") as scratch:
