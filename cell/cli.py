@@ -180,17 +180,25 @@ def _bench_perception(args: argparse.Namespace) -> int:
     report = run_perception_bench(args.scenario, quick=args.quick)
     json_path = args.json or Path("out/bench_perception.json")
     write_json(json_path, report)
-    for name, entry in report["entries"].items():
+    _print_entries(report["entries"])
+    print(f"wrote {json_path}")
+    return 0
+
+
+def _print_entries(entries: dict) -> None:
+    """One line per bench entry: value, peer and ratio, the per-step split, the target."""
+    for name, entry in entries.items():
         line = f"{name}: {entry['value']:.4g} {entry['unit']}"
         if entry.get("ratio") is not None:
             line += f" (peer {entry['peer']:.4g}, ratio {entry['ratio']:.3g})"
         elif "skipped" in entry:
             line += f" (peer skipped: {entry['skipped']})"
+        if "ms_per_step" in entry:
+            split = entry["ms_per_step"]
+            line += " (ms/step: " + ", ".join(f"{k} {v:.2f}" for k, v in split.items()) + ")"
         if "pass" in entry:
             line += f" target {entry['target']:.4g}: {'pass' if entry['pass'] else 'FAIL'}"
         print(line)
-    print(f"wrote {json_path}")
-    return 0
 
 
 def _bench_env(args: argparse.Namespace) -> int:
@@ -200,14 +208,7 @@ def _bench_env(args: argparse.Namespace) -> int:
     report = run_env_bench(quick=args.quick)
     json_path = args.json or Path("out/bench_env.json")
     write_json(json_path, report)
-    for name, entry in report["entries"].items():
-        line = f"{name}: {entry['value']:.4g} {entry['unit']}"
-        if "ms_per_step" in entry:
-            split = entry["ms_per_step"]
-            line += " (ms/step: " + ", ".join(f"{k} {v:.2f}" for k, v in split.items()) + ")"
-        if "pass" in entry:
-            line += f" target {entry['target']:.4g}: {'pass' if entry['pass'] else 'FAIL'}"
-        print(line)
+    _print_entries(report["entries"])
     print(f"wrote {json_path}")
     return 0
 
