@@ -11,12 +11,12 @@ from typing import TYPE_CHECKING
 from cell.errors import DivergenceError, InputError, MusclecellError, ScenarioError
 
 if TYPE_CHECKING:
-    from cell.scenario import Scenario
+    from cell.sim.scenario import Scenario
 
 
 def _load(args: argparse.Namespace) -> Scenario:
     """The scenario named on the command line, with ``--seed`` applied."""
-    from cell.scenario import load_scenario
+    from cell.sim.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
@@ -27,8 +27,8 @@ def _load(args: argparse.Namespace) -> Scenario:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from cell.episode import Episode
     from cell.io import write_json
+    from cell.sim.episode import Episode
 
     scenario = _load(args)
     summary = Episode(scenario).run(rerun_path=args.rerun, progress=not args.quiet)
@@ -45,10 +45,10 @@ def _run(args: argparse.Namespace) -> int:
 def _plan(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from cell.camera import CameraRig
-    from cell.episode import Episode
     from cell.io import write_json
-    from cell.scene import CAMERA, KNIFE_TIP
+    from cell.robots.camera import CameraRig
+    from cell.robots.names import CAMERA, KNIFE_TIP
+    from cell.sim.episode import Episode
     from controllers.knife import plan_cut
 
     scenario = _load(args)
@@ -83,8 +83,8 @@ def _plan(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from cell.scenario import load_scenario
-    from cell.scene import build_scene, export_mjcf
+    from cell.sim.assembly import build_scene, export_mjcf
+    from cell.sim.scenario import load_scenario
 
     path = export_mjcf(build_scene(load_scenario(args.scenario)), args.output)
     print(f"wrote {path}")
@@ -92,16 +92,16 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def _diagnose(args: argparse.Namespace) -> int:
-    from cell.diagnosis import DiagnosisParams, diagnose
     from cell.io import write_atomic, write_json
-    from cell.material import material_to_toml
-    from cell.measured import load_measurement_set
+    from cell.rheology.diagnosis import DiagnosisParams, diagnose
+    from cell.rheology.measured import load_measurement_set
+    from cell.tissue.material import material_to_toml
 
     if args.workers < 1:
         raise InputError(None, "--workers", f"must be >= 1, got {args.workers}")
     material_path = args.material or args.json.with_name(f"{args.json.stem}-material.toml")
     if args.report is not None:
-        from cell.diagnosis_report import require_matplotlib
+        from cell.rheology.report import require_matplotlib
 
         require_matplotlib()
     measurements = load_measurement_set(args.set_dir)  # reads everything before any write
@@ -116,7 +116,7 @@ def _diagnose(args: argparse.Namespace) -> int:
         comment += (f"\nThe load cell read {extended.offset_n:.4g} N at rest: a rig effect, "
                     "not part of this material.")
     if args.report is not None:
-        from cell.diagnosis_report import write_report
+        from cell.rheology.report import write_report
 
         write_report(result, args.report, material_path)
     write_atomic(material_path, material_to_toml(extended.material, comment))
@@ -130,7 +130,7 @@ def _diagnose(args: argparse.Namespace) -> int:
 
 
 def _bench(args: argparse.Namespace) -> int:
-    from cell.bench import run_bench
+    from cell.bench.cell import run_bench
     from cell.io import write_json
 
     if args.suite == "tissue":
@@ -156,7 +156,7 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def _bench_tissue(args: argparse.Namespace) -> int:
-    from cell.bench_tissue import TissueBenchParams, markdown_report, run_tissue_bench
+    from cell.bench.tissue import TissueBenchParams, markdown_report, run_tissue_bench
     from cell.io import write_atomic, write_json
 
     params = TissueBenchParams.quick() if args.quick else TissueBenchParams()
@@ -174,7 +174,7 @@ def _bench_tissue(args: argparse.Namespace) -> int:
 
 
 def _bench_perception(args: argparse.Namespace) -> int:
-    from cell.bench_perception import run_perception_bench
+    from cell.bench.perception import run_perception_bench
     from cell.io import write_json
 
     report = run_perception_bench(args.scenario, quick=args.quick)
@@ -202,7 +202,7 @@ def _print_entries(entries: dict) -> None:
 
 
 def _bench_env(args: argparse.Namespace) -> int:
-    from cell.bench_env import run_env_bench
+    from cell.bench.env import run_env_bench
     from cell.io import write_json
 
     report = run_env_bench(quick=args.quick)
@@ -214,7 +214,7 @@ def _bench_env(args: argparse.Namespace) -> int:
 
 
 def _bench_diagnose(args: argparse.Namespace) -> int:
-    from cell.bench_diagnose import bench_seeds, run_diagnose_bench
+    from cell.bench.diagnose import bench_seeds, run_diagnose_bench
     from cell.io import write_atomic, write_json
 
     count = args.seeds if args.seeds is not None else (3 if args.quick else 10)

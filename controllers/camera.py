@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cell.geometry import TwoMuscleMesh
+from cell.tissue.geometry import TwoMuscleMesh
 
 #: Camera position relative to the meat's top centre (m): high above it, clear of the Vipers'
 #: wrists, a little toward the camera arm.

@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.scenario import PullPlan
+from cell.config import require_non_negative, require_positive
+from cell.errors import InputError
 from controllers.knife import APPROACH_SPEED_M_S, TRANSIT_SPEED_M_S
 from controllers.trajectory import CartesianTrajectory, Waypoint
 
@@ -16,6 +17,43 @@ _JAWS_DOWN = np.column_stack([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0
 _APPROACH_M = 0.08
 #: Time for the fingers to close before the grasp bindings are switched on, s.
 CLOSE_TIME_S = 0.3
+
+
+@dataclass(frozen=True)
+class PullPlan:
+    """How the gripper grasps the shank and pulls it away from the round.
+
+    The grasp is at ``grasp_x_fraction`` of the length, ``grasp_inset_m`` in from the
+    shank's outer side, jaws ``grasp_depth_m`` below its top. From ``start_delay_s`` after
+    the cut starts until it ends, the gripper pulls ``tension_m`` along ``direction`` (world
+    frame, normalised) to open the cut, as a butcher does; once the knife is out it pulls on to
+    ``distance_m`` at ``speed_m_s``. The jaws lean ``tilt_deg`` toward the interface, which
+    keeps the gripper's wrist clear of the knife. ``enabled = false`` keeps the gripper still.
+    """
+
+    enabled: bool = True
+    tilt_deg: float = 40.0
+    grasp_x_fraction: float = 0.5
+    grasp_inset_m: float = 0.035
+    grasp_depth_m: float = 0.03
+    grasp_radius_m: float = 0.03
+    direction: tuple[float, float, float] = (0.0, 1.0, 0.6)
+    tension_m: float = 0.006
+    distance_m: float = 0.16
+    speed_m_s: float = 0.02
+    start_delay_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        require_positive(self, "speed_m_s", "distance_m", "grasp_radius_m", "grasp_depth_m")
+        require_non_negative(self, "start_delay_s", "grasp_inset_m")
+        if not 0 <= self.grasp_x_fraction <= 1:
+            raise InputError(None, "grasp_x_fraction", "must be in [0, 1]")
+        if sum(c * c for c in self.direction) == 0:
+            raise InputError(None, "direction", "must not be the zero vector")
+        if not 0 <= self.tilt_deg <= 80:
+            raise InputError(None, "tilt_deg", f"must be in [0, 80], got {self.tilt_deg}")
+        if not 0 <= self.tension_m < self.distance_m:
+            raise InputError(None, "tension_m", "must be in [0, distance_m)")
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,8 @@ import mink
 import mujoco
 import numpy as np
 
-from cell.dh import ArmDescription
-from cell.scene import ARMS, GRASP_SITE, KNIFE_TIP
+from cell.robots.dh import ArmDescription
+from cell.robots.names import ARMS, GRASP_SITE, KNIFE_TIP
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class CellIK:
     """Differential IK of the knife tip, the grasp site and the camera's gaze.
 
     Args:
-        model: the arms-only model (see :func:`cell.scene.build_robot_spec`).
+        model: the arms-only model (see :func:`cell.sim.assembly.build_robot_spec`).
         q0: starting configuration (nq,), e.g. every arm's home pose.
         params: costs, limits and solver.
 

@@ -3,15 +3,43 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
-from cell.scenario import CutPlan
+from cell.config import require_non_negative, require_positive
+from cell.errors import InputError
 from controllers.trajectory import CartesianTrajectory, Waypoint
 
 #: Speed of free moves between poses (m/s) and of vertical approach moves.
 TRANSIT_SPEED_M_S = 0.25
 APPROACH_SPEED_M_S = 0.06
+
+
+@dataclass(frozen=True)
+class CutPlan:
+    """Where and how the knife cuts: along the interface's top line at ``depth_m`` below it
+    (tip), never closer than ``table_clearance_m`` to the table, at ``speed_m_s``, entering
+    ``lead_in_m`` before the meat's end and leaving ``lead_out_m`` after ``cut_fraction`` of
+    the line (1 = the whole interface). ``enabled = false`` keeps the knife waiting above the
+    entry point."""
+
+    enabled: bool = True
+    speed_m_s: float = 0.03
+    depth_m: float = 0.065
+    table_clearance_m: float = 0.015
+    approach_height_m: float = 0.06
+    lead_in_m: float = 0.04
+    lead_out_m: float = 0.04
+    cut_fraction: float = 1.0
+    start_s: float = 0.4
+
+    def __post_init__(self) -> None:
+        require_positive(self, "speed_m_s", "depth_m", "approach_height_m", "cut_fraction",
+                  "table_clearance_m")
+        require_non_negative(self, "lead_in_m", "lead_out_m", "start_s")
+        if self.cut_fraction > 1:
+            raise InputError(None, "cut_fraction", f"must be <= 1, got {self.cut_fraction}")
 
 
 #: A surface y(x, z) in world coordinates (m), such as the interface between the muscles.

@@ -26,7 +26,7 @@ class KnifeCommand:
     the plan; it stays within the cut window.
 
     Args:
-        trajectory: the planned knife trajectory (:attr:`cell.episode.EpisodePlan.knife`).
+        trajectory: the planned knife trajectory (:attr:`cell.sim.episode.EpisodePlan.knife`).
         window_s: its cutting window (start, end), s.
         speed_m_s: the plan's cutting speed.
         limits: speeds and bounds.

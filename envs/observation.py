@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.episode import Episode
-from cell.scene import GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
+from cell.robots.names import GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
+from cell.sim.episode import Episode
 from envs.commands import KnifeCommand, PullCommand
 
 #: Every entry of the observation is clipped to plus or minus this.

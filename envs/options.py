@@ -2,7 +2,7 @@
 
 Keys (every one optional; SI units):
 
-- ``shape``: a mapping of :class:`~cell.geometry.MuscleShape` fields but ``cell_size_m`` (the
+- ``shape``: a mapping of :class:`~cell.tissue.geometry.MuscleShape` fields but ``cell_size_m`` (the
   resolution is the env's constructor argument),
 - ``material``: a material object or the path of a material TOML file,
 - ``fibre_direction``: the fibres' direction, world frame (a mass-spring material's),
@@ -21,9 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from cell.errors import InputError, MaterialError
-from cell.geometry import MuscleShape
-from cell.material import ContinuumMaterial, MassSpringMaterial, load_material
-from cell.scenario import Scenario
+from cell.sim.scenario import Scenario
+from cell.tissue.geometry import MuscleShape
+from cell.tissue.material import ContinuumMaterial, MassSpringMaterial, load_material
 
 
 def _shape(scenario: Scenario, value: Any) -> Scenario:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from cell.scene import CAMERA
+from cell.robots.names import CAMERA
 
 #: The overview looks at the meat from this far (m), azimuth and elevation (degrees).
 _OVERVIEW_DISTANCE_M = 1.4

@@ -15,12 +15,13 @@ from typing import Any, ClassVar, Literal
 import gymnasium as gym
 import numpy as np
 
-from cell.aponeurosis import ReleaseRule
-from cell.camera import CameraRig
-from cell.episode import Episode, EpisodePlan
 from cell.errors import DivergenceError, InputError
-from cell.scenario import Scenario
-from cell.scene import CAMERA, grasp_point
+from cell.robots.camera import CameraRig
+from cell.robots.names import CAMERA
+from cell.sim.assembly import grasp_point
+from cell.sim.episode import Episode, EpisodePlan
+from cell.sim.scenario import Scenario
+from cell.tissue.aponeurosis import ReleaseRule
 from envs.commands import KnifeCommand, Pose, PullCommand
 from envs.observation import (
     OBSERVATION_BOUND,

@@ -10,11 +10,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from cell.aponeurosis import Aponeurosis, BindingLaw, ReleaseRule, segments_cross_box
-from cell.geometry import MuscleShape
-from cell.scenario import AponeurosisParams, Scenario
-from cell.scene import Scene, build_scene
-from cell.tools import KnifeParams
+from cell.robots.tools import KnifeParams
+from cell.sim.assembly import Scene, build_scene
+from cell.sim.scenario import AponeurosisParams, Scenario
+from cell.tissue.aponeurosis import Aponeurosis, BindingLaw, ReleaseRule, segments_cross_box
+from cell.tissue.geometry import MuscleShape
 
 UNIT_BOX = np.array([1.0, 1.0, 1.0])
 BLADE = KnifeParams().blade_half_size_m

@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from cell.bench_tissue import extrapolated_force_n, largest_stable_timestep_s, tissue_models
+from cell.bench.tissue import extrapolated_force_n, largest_stable_timestep_s, tissue_models
 from cell.cli import main
 
 _MODELS = {model.key for model in tissue_models()}

@@ -6,9 +6,9 @@ import math
 import mujoco
 import numpy as np
 
-from cell.massspring import MassSpringModel
-from cell.material import MassSpringMaterial
-from cell.tetmesh import TetMesh, structured_hex_tets
+from cell.tissue.massspring import MassSpringModel
+from cell.tissue.material import MassSpringMaterial
+from cell.tissue.tetmesh import TetMesh, structured_hex_tets
 
 # 2 x 2 cells across, 10 along: 99 nodes and 240 tets (the paper: 95 and 244). Cells 1.6 times
 # longer along the axis than across let the lattice reach El/Et from 0.65 to 35 (a cubic cell

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from cell.curvature import surface_curvature
 from cell.errors import InputError, PerceptionError
-from cell.pointcloud import SurfaceMesh
+from cell.perception.curvature import surface_curvature
+from cell.perception.pointcloud import SurfaceMesh
 
 JITTER = 0.3  # of the grid step or mean edge length
 

@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 
 from cell.cli import main
-from cell.diagnosis import DiagnosisParams
-from cell.episode import Episode
-from cell.extensions import CAUSES, UNEXPLAINED
-from cell.material import MassSpringMaterial, load_material
-from cell.scenario import PROJECT_ROOT, load_scenario
-from tests.hidden_effects import write_hidden_effect_set
+from cell.rheology.causes import CAUSES, UNEXPLAINED
+from cell.rheology.diagnosis import DiagnosisParams
+from cell.rheology.synthetic import write_hidden_effect_set
+from cell.sim.episode import Episode
+from cell.sim.scenario import PROJECT_ROOT, load_scenario
+from cell.tissue.material import MassSpringMaterial, load_material
 from tests.test_episode import coarse
 
 

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from cell.diagnosis import DiagnosisParams, diagnose
-from cell.diagnosis_report import write_report
-from cell.measured import load_measurement_set
-from tests.hidden_effects import write_hidden_effect_set
+from cell.rheology.diagnosis import DiagnosisParams, diagnose
+from cell.rheology.measured import load_measurement_set
+from cell.rheology.report import write_report
+from cell.rheology.synthetic import write_hidden_effect_set
 
 
 def test_report_shows_the_figures_the_cause_and_the_gain(tmp_path: Path) -> None:

@@ -13,10 +13,12 @@ import numpy as np
 import pytest
 
 from cell.cli import main
-from cell.episode import Episode
-from cell.geometry import MuscleShape
-from cell.perception import PerceptionParams
-from cell.scenario import AponeurosisParams, CutPlan, PullPlan, Scenario
+from cell.perception.pipeline import PerceptionParams
+from cell.sim.episode import Episode
+from cell.sim.scenario import AponeurosisParams, Scenario
+from cell.tissue.geometry import MuscleShape
+from controllers.gripper import PullPlan
+from controllers.knife import CutPlan
 
 
 def coarse(**changes: object) -> Scenario:

@@ -11,8 +11,8 @@ import pytest
 import trimesh
 
 from cell.errors import InputError, MeshError
-from cell.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
-from cell.tetmesh import (
+from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
+from cell.tissue.tetmesh import (
     TetMesh,
     TetQuality,
     signed_volumes_m3,

@@ -6,14 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cell.camera import CameraRig
-from cell.curvature import Curvature, surface_curvature
-from cell.episode import Episode
 from cell.errors import InputError, PerceptionError
-from cell.guideline import GuidelineParams, find_cut_path
-from cell.pointcloud import SensorNoise, SurfaceMesh, capture, depth_mesh
-from cell.scenario import Scenario
-from cell.scene import CAMERA
+from cell.perception.curvature import Curvature, surface_curvature
+from cell.perception.guideline import GuidelineParams, find_cut_path
+from cell.perception.pointcloud import SensorNoise, SurfaceMesh, capture, depth_mesh
+from cell.robots.camera import CameraRig
+from cell.robots.names import CAMERA
+from cell.sim.episode import Episode
+from cell.sim.scenario import Scenario
 
 CURVATURE_RADIUS_M = 0.015
 LENGTH_M = 0.4

@@ -1,7 +1,7 @@
 """Hidden-effect sets: the generator's own checks, then the diagnosis must name what is hidden.
 
 For every effect of the catalogue (and none) and three fixed seeds, a set is drawn with that
-effect at random magnitudes and noise (``tests/hidden_effects.py``); the diagnosis must name
+effect at random magnitudes and noise (``cell/rheology/synthetic.py``); the diagnosis must name
 exactly that cause (``unexplained`` aside) and gain more than half of the baseline's held-out
 error, or name nothing when nothing is hidden.
 """
@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cell.measured import MeasurementSet, MechanicalTest, load_measurement_set
-from tests.hidden_effects import EFFECTS, HiddenEffect, write_hidden_effect_set
+from cell.rheology.measured import MeasurementSet, MechanicalTest, load_measurement_set
+from cell.rheology.synthetic import EFFECTS, HiddenEffect, write_hidden_effect_set
 
 CAUSES = tuple(e for e in EFFECTS if e is not None)
 
@@ -136,7 +136,7 @@ def test_each_effect_shows_in_the_data(tmp_path: Path, effect: str | None) -> No
      for i, effect in enumerate(EFFECTS) for k in range(3)])
 def test_diagnosis_names_the_hidden_effect(tmp_path: Path, effect: str | None,
                                            seed: int) -> None:
-    from cell.diagnosis import DiagnosisParams, diagnose
+    from cell.rheology.diagnosis import DiagnosisParams, diagnose
 
     truth: HiddenEffect = write_hidden_effect_set(tmp_path, seed=seed, effect=effect)
     result = diagnose(load_measurement_set(tmp_path), DiagnosisParams(workers=2))
@@ -149,7 +149,7 @@ def test_diagnosis_names_the_hidden_effect(tmp_path: Path, effect: str | None,
 
 
 def test_diagnose_bench_runs_on_one_set() -> None:
-    from cell.bench_diagnose import run_diagnose_bench
+    from cell.bench.diagnose import run_diagnose_bench
 
     report = run_diagnose_bench([10_000], workers=2)
     assert {"sets", "entries", "confusion", "markdown", "targets"} <= report.keys()

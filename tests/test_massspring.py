@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from cell.errors import MaterialError
-from cell.geometry import MuscleShape, build_two_muscles
-from cell.massspring import MassSpringModel, lattice_moduli, spring_stiffness, tet_edges
-from cell.material import MassSpringMaterial, ModulusCurve
-from cell.tetmesh import TetMesh, structured_hex_tets
+from cell.tissue.geometry import MuscleShape, build_two_muscles
+from cell.tissue.massspring import MassSpringModel, lattice_moduli, spring_stiffness, tet_edges
+from cell.tissue.material import MassSpringMaterial, ModulusCurve
+from cell.tissue.tetmesh import TetMesh, structured_hex_tets
 
 _CELLS = (4, 4, 8)
 _SIZE_M = (0.08, 0.08, 0.16)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cell.errors import MaterialError
-from cell.material import (
+from cell.tissue.material import (
     ContinuumMaterial,
     MassSpringMaterial,
     ModulusCurve,
@@ -171,6 +171,6 @@ def test_bad_material_file_names_file_and_key(tmp_path: Path, text: str, key: st
 
 
 def test_shipped_default_material_file_is_the_default_meat() -> None:
-    from cell.material import default_meat
+    from cell.tissue.material import default_meat
 
     assert load_material("assets/materials/beef_default.toml") == default_meat()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cell.errors import InputError
-from cell.measured import (
+from cell.rheology.measured import (
     MODES,
     SPECIMEN_FILE,
     TESTS_FILE,

@@ -11,12 +11,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from cell.camera import CameraRig
 from cell.cli import main
-from cell.episode import Episode
 from cell.errors import InputError, PerceptionError
-from cell.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
-from cell.perception import (
+from cell.perception.pipeline import (
     PerceivedPlan,
     PerceptionParams,
     PredictedInterface,
@@ -24,9 +21,12 @@ from cell.perception import (
     marker_position,
     perceive,
 )
-from cell.registration import AffineFit, predict_interface
-from cell.scenario import PROJECT_ROOT, Scenario
-from cell.scene import CAMERA, KNIFE_TIP
+from cell.perception.registration import AffineFit, predict_interface
+from cell.robots.camera import CameraRig
+from cell.robots.names import CAMERA, KNIFE_TIP
+from cell.sim.episode import Episode
+from cell.sim.scenario import PROJECT_ROOT, Scenario
+from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
 from controllers.knife import plan_cut
 
 DEFAULT_SCENARIO = PROJECT_ROOT / "scenarios" / "default.toml"
@@ -46,7 +46,7 @@ def rig(episode: Episode) -> Iterator[CameraRig]:
 
 @pytest.fixture(scope="module")
 def generic(episode: Episode) -> TwoMuscleMesh:
-    return generic_model(episode.scenario.layout)
+    return generic_model(episode.scenario.layout.meat_origin_m)
 
 
 @pytest.fixture(scope="module")

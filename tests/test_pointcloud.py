@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cell.camera import CameraRig
-from cell.episode import Episode
 from cell.errors import InputError, PerceptionError
-from cell.pointcloud import DepthView, SensorNoise, SurfaceMesh, capture, depth_mesh
-from cell.scenario import Scenario
-from cell.scene import CAMERA
+from cell.perception.pointcloud import DepthView, SensorNoise, SurfaceMesh, capture, depth_mesh
+from cell.robots.camera import CameraRig
+from cell.robots.names import CAMERA
+from cell.sim.episode import Episode
+from cell.sim.scenario import Scenario
 
 FOCAL_PX = 200.0
 HEIGHT_PX, WIDTH_PX = 24, 32

@@ -8,8 +8,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from cell.errors import PerceptionError
-from cell.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
-from cell.registration import AffineFit, fit_generic_model, model_surface, predict_interface
+from cell.perception.registration import (
+    AffineFit,
+    fit_generic_model,
+    model_surface,
+    predict_interface,
+)
+from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
 
 TABLE_Z_M = 0.6
 

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from cell.errors import MaterialError, ScenarioError
-from cell.geometry import MuscleShape
-from cell.material import ContinuumMaterial, MassSpringMaterial
-from cell.runtime import Simulation
-from cell.scenario import Scenario, SimulationParams
-from cell.scene import build_scene
+from cell.sim.assembly import build_scene
+from cell.sim.scenario import Scenario, SimulationParams
+from cell.sim.simulation import Simulation
+from cell.tissue.geometry import MuscleShape
+from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
 
 COARSE = Scenario(tissue=MuscleShape(cell_size_m=0.05))
 

@@ -9,7 +9,7 @@ import pytest
 
 from cell.cli import main
 from cell.errors import ScenarioError
-from cell.scenario import Scenario, load_scenario
+from cell.sim.scenario import Scenario, load_scenario
 
 DEFAULT = Path(__file__).resolve().parents[1] / "scenarios" / "default.toml"
 

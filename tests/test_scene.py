@@ -10,14 +10,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from cell.aponeurosis import BindingLaw
-from cell.camera import CameraRig
-from cell.episode import Episode
 from cell.errors import DivergenceError
-from cell.geometry import MuscleShape
-from cell.runtime import Simulation
-from cell.scenario import AponeurosisParams, Scenario
-from cell.scene import CAMERA, Scene, build_scene, export_mjcf
+from cell.robots.camera import CameraRig
+from cell.robots.names import CAMERA
+from cell.sim.assembly import Scene, build_scene, export_mjcf
+from cell.sim.episode import Episode
+from cell.sim.scenario import AponeurosisParams, Scenario
+from cell.sim.simulation import Simulation
+from cell.tissue.aponeurosis import BindingLaw
+from cell.tissue.geometry import MuscleShape
 
 SCENARIO = Scenario(tissue=MuscleShape(cell_size_m=0.05))
 SENSORS = {"knife/force", "knife/torque", "gripper/force", "gripper/torque", "fixture_force"}

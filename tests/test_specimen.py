@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from cell.errors import DivergenceError
-from cell.material import MassSpringMaterial, ModulusCurve
-from cell.measured import MechanicalTest, Specimen, load_measurement_set
-from cell.specimen import fibre_direction, simulate_set, simulate_test, specimen_mesh
-from cell.specimen_reference import SpecimenSimParams, simulate_meshed
-from cell.springlaw import LATTICE_STIFFENING
+from cell.rheology.measured import MechanicalTest, Specimen, load_measurement_set
+from cell.rheology.specimen import fibre_direction, simulate_set, simulate_test, specimen_mesh
+from cell.tissue.material import MassSpringMaterial, ModulusCurve
+from cell.tissue.springlaw import LATTICE_STIFFENING
+from tests.specimen_reference import SpecimenSimParams, simulate_meshed
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "assets" / "measured" / "beef_round_example"
 CUBE = Specimen("cube", (0.01, 0.01, 0.01))

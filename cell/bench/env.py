@@ -1,0 +1,92 @@
+"""``musclecell bench env``: env steps per second of ``musclecell/Cut-v0``, one env and eight
+vectorised (synchronously, in one process), at the coarse and the default tissue resolution.
+
+One env step is one control step (20 ms: 10 physics steps of 2 ms). Each single-env entry
+splits a step's wall time into physics (:meth:`Simulation.step`, MuJoCo and the tissue
+forces), IK (the three-arm mink solve) and the rest (release rules, sensing, observation,
+reward: Python overhead).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from cell.tissue.geometry import MuscleShape
+
+#: Target for one env at the coarse resolution on one core, env steps per second.
+TARGET_STEPS_PER_S = 200.0
+
+
+class _Stopwatch:
+    """Accumulates the wall time of the calls it wraps."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+
+    def wrap(self, function: Callable[..., Any]) -> Callable[..., Any]:
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.seconds += time.perf_counter() - start
+        return timed
+
+
+def bench_single(cell_size_m: float, steps: int) -> dict[str, Any]:
+    """One env: steps per second and the per-step split, ms."""
+    import envs
+
+    env = envs.CutEnv(cell_size_m=cell_size_m, time_limit_s=10 * steps)
+    env.reset(seed=0)
+    physics, ik = _Stopwatch(), _Stopwatch()
+    # Wrapped on the instances, so that the timing covers exactly this env's calls.
+    env.episode.sim.step = physics.wrap(env.episode.sim.step)
+    env.episode.ik.solve = ik.wrap(env.episode.ik.solve)
+    action = np.array([0.4, 0.0, 0.0, 0.0], dtype=np.float32)
+    start = time.perf_counter()
+    for _ in range(steps):
+        env.step(action)
+    wall = time.perf_counter() - start
+    per_step = {"total": wall / steps * 1e3, "physics": physics.seconds / steps * 1e3,
+                "ik": ik.seconds / steps * 1e3}
+    per_step["python_overhead"] = per_step["total"] - per_step["physics"] - per_step["ik"]
+    return {"value": steps / wall, "unit": "env steps/s", "ms_per_step": per_step,
+            "tissue_nodes": env.episode.scene.node_count, "cell_size_m": cell_size_m}
+
+
+def bench_vector(cell_size_m: float, steps: int, num_envs: int = 8) -> dict[str, Any]:
+    """``num_envs`` envs in a synchronous vector env: env steps (all envs) per second."""
+    import envs  # noqa: F401  (registers the ids)
+
+    vec = gym.make_vec("musclecell/Cut-v0", num_envs=num_envs, vectorization_mode="sync",
+                       cell_size_m=cell_size_m, time_limit_s=10 * steps)
+    vec.reset(seed=0)
+    actions = np.tile(np.array([0.4, 0.0, 0.0, 0.0], dtype=np.float32), (num_envs, 1))
+    start = time.perf_counter()
+    for _ in range(steps):
+        vec.step(actions)
+    wall = time.perf_counter() - start
+    vec.close()
+    return {"value": num_envs * steps / wall, "unit": "env steps/s", "num_envs": num_envs,
+            "mode": "sync", "cell_size_m": cell_size_m}
+
+
+def run_env_bench(quick: bool = False) -> dict[str, Any]:
+    """Every entry; returns the JSON-ready report."""
+    steps = 30 if quick else 200
+    coarse, default = 0.05, MuscleShape().cell_size_m
+    entries = {
+        "single_coarse": bench_single(coarse, steps),
+        "single_default": bench_single(default, steps),
+        "vector8_coarse": bench_vector(coarse, steps // 2),
+        "vector8_default": bench_vector(default, steps // 4),
+    }
+    entries["single_coarse"]["target"] = TARGET_STEPS_PER_S
+    entries["single_coarse"]["pass"] = entries["single_coarse"]["value"] >= TARGET_STEPS_PER_S
+    return {"env": "musclecell/Cut-v0", "entries": entries}

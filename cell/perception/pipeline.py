@@ -1,0 +1,466 @@
+"""Perception of the cut (paper Sec. 5): what the camera sees becomes the knife's guideline and
+the hidden interface it follows at depth.
+
+One call, :func:`perceive`, runs the chain on the rendered scene: capture a noisy depth image
+(:func:`~cell.perception.pointcloud.capture`), bin it into a cloud and a surface mesh
+(:func:`~cell.perception.pointcloud.depth_mesh`), estimate the curvature
+(:func:`~cell.perception.curvature.surface_curvature`), walk the valley from the start point P0
+(:func:`~cell.perception.guideline.find_cut_path`), fit the generic two-muscle model to the cloud
+(:func:`~cell.perception.registration.fit_generic_model`) and map its interface into the world
+(:func:`~cell.perception.registration.predict_interface`).
+
+P0 is a marker the camera sees. In the real cell an operator (or a vision tag) marks the
+valley at one end of the meat; in simulation the marker is the point of the generator's true
+top line ``marker_inset_m`` (along it) in from its first (-x) end, and that is the only thing
+the chain takes from the true geometry. The camera finds it by projecting it into the image
+and reading the perceived depth there: it is seen when its pixel has a depth and that depth is
+the marker's own within a tolerance (else it is out of view, behind something, or not on the
+surface), and P0 is the marker's pixel ray at the perceived depth. The truth is otherwise used
+only to score the result.
+
+The knife follows the interface at depth as :class:`PredictedInterface` gives it: the fitted
+model's interface, shifted along y onto the seen valley. A fit whose interface leans more than
+any muscle pair's can (``max_interface_lean``) is refused rather than cut along.
+
+Example:
+    >>> episode = Episode(load_scenario("scenarios/default.toml"))
+    >>> rig = CameraRig(episode.scene.model, CAMERA, 320, 240)
+    >>> plan = perceive(rig, episode.sim.data, episode.scene.mesh,
+    ...                 generic_model(episode.scenario.layout.meat_origin_m), PerceptionParams(),
+    ...                 np.random.default_rng(0))
+    >>> plan.guideline_distance_m.mean_m < 0.005
+    True
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from cell.errors import InputError, PerceptionError
+from cell.perception.curvature import Curvature, surface_curvature
+from cell.perception.guideline import CutPath, GuidelineParams, find_cut_path
+from cell.perception.pointcloud import DepthView, SensorNoise, SurfaceMesh, capture, depth_mesh
+from cell.perception.registration import (
+    AffineFit,
+    FitParams,
+    InterfacePrediction,
+    fit_generic_model,
+    predict_interface,
+)
+from cell.robots.camera import CameraRig
+from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
+
+# Solving y(x, z) on the fitted interface: each round shrinks the error by the surface's slope
+# across y in the model's frame (a hundredth for fits within a few degrees of the nominal pose).
+_INTERFACE_ROUNDS = 50
+_INTERFACE_TOLERANCE_M = 1e-10
+# The fewest cloud points the chain works with: the twelve the fit needs.
+_MIN_CLOUD_POINTS = 12
+# Height step over which the predicted interface's lean is measured below the guideline, m.
+_LEAN_STEP_M = 0.01
+
+
+@dataclass(frozen=True)
+class PerceptionParams:
+    """How the cut is perceived (SI units).
+
+    Attributes:
+        enabled: whether the episode plans the knife from this perception (True) or from the
+            generator's true top line and interface (False, the ground-truth baseline); read by
+            the caller, :func:`perceive` itself always perceives.
+        noise_sigma_at_1m_m: depth noise at 1 m, m (see
+        :class:`~cell.perception.pointcloud.SensorNoise`). dropout_fraction: fraction of pixels
+        without depth, in [0, 1). bin_px: the depth image is binned this many pixels square before
+        meshing; 4 on the
+            default 320 x 240 camera gives about the paper's mesh (1376 nodes).
+        curvature_radius_m: radius of the curvature ball.
+        marker_inset_m: the start marker's distance along the true top line from its first
+            (-x) end, m.
+        marker_tolerance_m: the most the perceived depth at the marker's pixel may differ from
+            the marker's own depth for the marker to count as seen, m.
+        max_interface_lean: the steepest lean |dy/dz| the fitted interface may have below the
+            guideline (the generator's shapes keep within 0.5). A top view leaves the fit's
+            shears of height into y nearly free, and on meat far from the generic shape the
+            fit uses them: its interface then leans tens of degrees and the knife would cut
+            into a muscle, so such a fit is refused.
+        guideline: how the valley is walked (:class:`~cell.perception.guideline.GuidelineParams`).
+        fit: how the generic model is fitted (:class:`~cell.perception.registration.FitParams`).
+
+    Raises:
+        InputError: a field out of range; ``field`` names it.
+
+    Example:
+        >>> PerceptionParams(bin_px=2).noise
+        SensorNoise(sigma_at_1m_m=0.0015, dropout_fraction=0.02)
+    """
+
+    enabled: bool = True
+    noise_sigma_at_1m_m: float = 1.5e-3
+    dropout_fraction: float = 0.02
+    bin_px: int = 4
+    curvature_radius_m: float = 0.015
+    marker_inset_m: float = 0.02
+    marker_tolerance_m: float = 0.005
+    max_interface_lean: float = 0.5
+    guideline: GuidelineParams = field(default_factory=GuidelineParams)
+    fit: FitParams = field(default_factory=FitParams)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.enabled, bool):
+            raise InputError(None, "enabled", f"must be true or false, got {self.enabled!r}")
+        if not self.noise_sigma_at_1m_m >= 0.0:
+            raise InputError(None, "noise_sigma_at_1m_m",
+                             f"must be >= 0, got {self.noise_sigma_at_1m_m}")
+        if not 0.0 <= self.dropout_fraction < 1.0:
+            raise InputError(None, "dropout_fraction",
+                             f"must be in [0, 1), got {self.dropout_fraction}")
+        if isinstance(self.bin_px, bool) or not (isinstance(self.bin_px, int)
+                                                 and self.bin_px >= 1):
+            raise InputError(None, "bin_px", f"must be an integer >= 1, got {self.bin_px!r}")
+        for name in ("curvature_radius_m", "marker_tolerance_m", "max_interface_lean"):
+            if not getattr(self, name) > 0.0:
+                raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
+        if not self.marker_inset_m >= 0.0:
+            raise InputError(None, "marker_inset_m", f"must be >= 0, got {self.marker_inset_m}")
+        if not isinstance(self.guideline, GuidelineParams):
+            raise InputError(None, "guideline", "must be a GuidelineParams")
+        if not isinstance(self.fit, FitParams):
+            raise InputError(None, "fit", "must be a FitParams")
+
+    @property
+    def noise(self) -> SensorNoise:
+        """The sensor model these parameters describe."""
+        return SensorNoise(self.noise_sigma_at_1m_m, self.dropout_fraction)
+
+
+@dataclass(frozen=True)
+class Deviation:
+    """Mean and greatest of a set of distances, m.
+
+    Example:
+        >>> Deviation.of(np.array([0.001, 0.003])).max_m
+        0.003
+    """
+
+    mean_m: float
+    max_m: float
+
+    @classmethod
+    def of(cls, distances_m: np.ndarray) -> Deviation:
+        """The mean and the maximum of ``distances_m`` (non-empty), m."""
+        return cls(float(np.mean(distances_m)), float(np.max(distances_m)))
+
+
+@dataclass(frozen=True, eq=False)
+class PredictedInterface:
+    """The interface as the surface y(x, z), world frame, m: the callable that
+    :func:`controllers.knife.plan_cut` takes as ``interface_y``.
+
+    Its shape below the surface is the fitted model's: the generic model's own interface
+    mid-surface (:meth:`~cell.tissue.geometry.TwoMuscleMesh.interface_y`) mapped by the fit, in
+    closed form, so it extends past the meat's ends where the knife enters and leaves
+    (:func:`~cell.perception.registration.predict_interface` samples the same surface at the model's
+    facing pairs). Its place is the seen valley's: at each x it is shifted along y to pass
+    through the guideline. The camera sees the interface's top edge directly, while an affine
+    fit of the generic shape to meat of another shape places it millimetres to centimetres off
+    (heights and the interface's bow do not map affinely); below the top, the fit's lean is
+    all there is to go on.
+
+    Attributes:
+        fit: the fitted affine map of the generic model.
+        model: the generic model.
+        anchor_m: (K, 3) the guideline the surface passes through, m.
+
+    Example:
+        >>> interface_y = PredictedInterface(plan.fit, generic, plan.guideline.points_m)
+        >>> interface_y(np.array([0.0]), np.array([0.62]))
+    """
+
+    fit: AffineFit
+    model: TwoMuscleMesh
+    anchor_m: np.ndarray
+
+    def fitted_y(self, x_m: np.ndarray, z_m: np.ndarray) -> np.ndarray:
+        """World y (m) of the fitted model's interface at world (x, z) (m), not shifted onto
+        the guideline; broadcasts.
+
+        Raises:
+            PerceptionError: the fitted surface is not a function of (x, z) there (a fit
+                turned so far that the interface faces along x or z).
+        """
+        x, z = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(z_m, dtype=float))
+        inverse = np.linalg.inv(self.fit.matrix)
+        pivot = self.fit.pivot_m
+        # The world point (x, y, z) maps back to q = q0 + y a in the model's frame, and lies on
+        # the interface where q_y equals the model's interface y at (q_x, q_z).
+        world = np.stack([x, np.zeros_like(x), z], axis=-1)
+        q0 = (world - pivot - self.fit.translation_m) @ inverse.T + pivot
+        along = inverse[:, 1]
+        y = np.zeros_like(x)
+        for _ in range(_INTERFACE_ROUNDS):
+            q = q0 + y[..., None] * along
+            residual = q[..., 1] - self.model.interface_y(q[..., 0], q[..., 2])
+            y = y - residual / along[1]
+            if np.all(np.abs(residual) <= _INTERFACE_TOLERANCE_M):
+                return y
+        raise PerceptionError(
+            "the fitted interface is not a surface y(x, z) at the points asked: the fit turned "
+            "the generic model too far from its nominal pose")
+
+    def __call__(self, x_m: np.ndarray, z_m: np.ndarray) -> np.ndarray:
+        """World y (m) of the interface at world (x, z) (m); broadcasts. Past the guideline's
+        ends the shift of its nearest end holds.
+
+        Raises:
+            PerceptionError: as :meth:`fitted_y`.
+        """
+        x = np.asarray(x_m, dtype=float)
+        order = np.argsort(self.anchor_m[:, 0])
+        anchor_x, anchor_y, anchor_z = self.anchor_m[order].T
+        shift_y = anchor_y - self.fitted_y(anchor_x, anchor_z)
+        return self.fitted_y(x, z_m) + np.interp(x, anchor_x, shift_y)
+
+
+@dataclass(frozen=True, eq=False)
+class PerceivedPlan:
+    """Everything the camera gave towards the cut, world frame.
+
+    Attributes:
+        cloud_m: (N, 3) the binned point cloud, m.
+        mesh: the surface mesh of the binned depth grid.
+        curvature: per-vertex curvature of ``mesh`` (``curvature.mean_1_m``: mean, 1/m).
+        marker_m: (3,) the start marker as the camera sees it, m.
+        guideline: the cut guideline on the surface (points, tangents, normals, nodes).
+        fit: the generic model's fitted twelve parameters.
+        interface: the interface the fit predicts, sampled at the model's facing pairs.
+        interface_y: the same interface as y(x, z), shifted onto the guideline, for
+            :func:`controllers.knife.plan_cut`.
+        timings_s: wall time of each stage (capture, mesh, curvature, guideline, fit,
+            predict), s.
+        guideline_distance_m: plan-view (xy) distance of the guideline's samples to the
+            generator's true top line, None without the truth.
+        coverage: the guideline's length over the true top line's length, None without the
+            truth.
+        interface_error_m: |predicted - true| interface y at the true interface's facing-pair
+            midpoints (table to top, end to end), None without the truth.
+
+    Example:
+        >>> plan.guideline.length_m, plan.guideline_distance_m.max_m
+    """
+
+    cloud_m: np.ndarray
+    mesh: SurfaceMesh
+    curvature: Curvature
+    marker_m: np.ndarray
+    guideline: CutPath
+    fit: AffineFit
+    interface: InterfacePrediction
+    interface_y: PredictedInterface
+    timings_s: Mapping[str, float]
+    guideline_distance_m: Deviation | None = None
+    coverage: float | None = None
+    interface_error_m: Deviation | None = None
+
+    @property
+    def cut_depth_m(self) -> np.ndarray:
+        """(K,) how deep the cut must reach below each guideline sample to part the muscles
+        (:meth:`~cell.perception.registration.InterfacePrediction.depth_below`), m."""
+        return self.interface.depth_below(self.guideline.points_m)
+
+    def summary(self) -> dict[str, Any]:
+        """The plan's figures as JSON-ready values (SI units; rotation as a rotation vector,
+        rad; translation about the generic model's centroid ``pivot_m``; S of A = R S as three
+        scales and three shears ``(S_xy, S_xz, S_yz)``)."""
+        fit, path = self.fit, self.guideline
+        scale_shear = fit.scale_shear
+        depth = self.cut_depth_m
+
+        def deviation(value: Deviation | None) -> dict[str, float] | None:
+            return None if value is None else {"mean": value.mean_m, "max": value.max_m}
+
+        return {
+            "guideline": {
+                "distance_to_true_top_line_xy_m": deviation(self.guideline_distance_m),
+                "coverage_of_true_top_line": self.coverage,
+                "length_m": path.length_m,
+                "samples": len(path.points_m),
+                "nodes": len(path.nodes),
+                "start_m": self.marker_m.tolist(),
+            },
+            "fit": {
+                "rotation_vector_rad": fit.rotation_vector_rad.tolist(),
+                "translation_m": fit.translation_m.tolist(),
+                "scales": np.diag(scale_shear).tolist(),
+                "shears": scale_shear[np.triu_indices(3, 1)].tolist(),
+                "pivot_m": fit.pivot_m.tolist(),
+                "rms_m": fit.rms_m,
+            },
+            "interface": {
+                "y_error_m": deviation(self.interface_error_m),
+                "cut_depth_m": {"min": float(depth.min()), "mean": float(depth.mean()),
+                                "max": float(depth.max()), "along_path": depth.tolist()},
+            },
+            "mesh": {"nodes": len(self.mesh.vertices_m),
+                     "triangles": len(self.mesh.triangles),
+                     "cloud_points": len(self.cloud_m)},
+            "timing_s": dict(self.timings_s),
+        }
+
+
+def generic_model(origin_m: tuple[float, float, float] | np.ndarray) -> TwoMuscleMesh:
+    """The generic model: the default :class:`~cell.tissue.geometry.MuscleShape` (not the
+    scenario's own, which stands for the real meat the robot does not know) where the fixture
+    holds the meat, the middle of its interface at ``origin_m`` (world, m).
+
+    Example:
+        >>> generic_model((0.0, 0.0, 0.6)).origin_m
+        array([0. , 0. , 0.6])
+    """
+    return build_two_muscles(MuscleShape(), origin_m=tuple(origin_m))
+
+
+def marker_position(truth: TwoMuscleMesh, inset_m: float) -> np.ndarray:
+    """(3,) the simulated start marker: the point of ``truth``'s top line ``inset_m`` along it
+    from its first (-x) end, m (its last point if the line is shorter).
+
+    Example:
+        >>> marker_position(build_two_muscles(MuscleShape()), 0.0)
+        array([-0.225   , -0.014375,  0.05625 ])
+    """
+    line = truth.top_line
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+    return np.array([np.interp(inset_m, arc, line[:, k]) for k in range(3)])
+
+
+def _seen_marker(view: DepthView, marker_m: np.ndarray, bin_px: int,
+                 tolerance_m: float) -> np.ndarray:
+    """The marker's pixel ray at the depth perceived there (the binned grid's, which has had
+    the noise's median taken), m; PerceptionError where the camera does not see it."""
+    height, width = view.depth_m.shape
+    camera = view.rotation.T @ (np.asarray(marker_m, dtype=float) - view.position_m)
+    depth = -camera[2]
+    if not depth > 0.0:
+        raise PerceptionError(f"the marker at {np.round(marker_m, 4).tolist()} m is behind "
+                              "the camera")
+    # The pinhole formula of cell.perception.pointcloud, solved for the pixel.
+    u = round(view.focal_px * camera[0] / depth + width / 2.0 - 0.5)
+    v = round(-view.focal_px * camera[1] / depth + height / 2.0 - 0.5)
+    row, col = v // bin_px, u // bin_px
+    if not (0 <= row < height // bin_px and 0 <= col < width // bin_px):
+        raise PerceptionError(f"the marker at {np.round(marker_m, 4).tolist()} m is out of "
+                              f"view: it projects to pixel ({u}, {v}) of {width} x {height}")
+    seen = view.grid_points_m(bin_px)[row, col]
+    seen_depth = float((seen - view.position_m) @ -view.rotation[:, 2])
+    if not np.isfinite(seen_depth):
+        raise PerceptionError(f"the camera does not see the marker at "
+                              f"{np.round(marker_m, 4).tolist()} m: no meat at its pixel "
+                              f"({u}, {v})")
+    if abs(seen_depth - depth) > tolerance_m:
+        raise PerceptionError(
+            f"the camera does not see the marker at {np.round(marker_m, 4).tolist()} m: the "
+            f"surface at its pixel is {seen_depth - depth:+.3f} m from it along the view "
+            f"(tolerance {tolerance_m} m), so it is hidden or not on the meat")
+    return view.position_m + view.rotation @ (camera * seen_depth / depth)
+
+
+def _distance_xy(points_m: np.ndarray, line_m: np.ndarray) -> np.ndarray:
+    """(K,) distance in the xy-plane from each of ``points_m`` (K, 3) to the polyline
+    ``line_m`` (L, 3), m."""
+    start, chord = line_m[:-1, :2], np.diff(line_m[:, :2], axis=0)
+    offsets = points_m[:, None, :2] - start
+    along = np.clip(np.einsum("kij,ij->ki", offsets, chord) / np.sum(chord * chord, axis=1),
+                    0.0, 1.0)
+    return np.linalg.norm(offsets - along[..., None] * chord, axis=2).min(axis=1)
+
+
+def perceive(
+    rig: CameraRig,
+    data: mujoco.MjData,
+    truth: TwoMuscleMesh | None,
+    generic: TwoMuscleMesh,
+    params: PerceptionParams,
+    rng: np.random.Generator,
+    marker_m: np.ndarray | None = None,
+) -> PerceivedPlan:
+    """Find the cut guideline and the hidden interface from what ``rig`` sees of ``data``.
+
+    Args:
+        rig: the camera (its arm already framing the meat).
+        data: the simulation state to look at (``mj_forward`` run on it).
+        truth: the generator's true meat, for the marker and the scores; None to give
+            ``marker_m`` and go without scores.
+        generic: the model fitted to the cloud (:func:`generic_model`).
+        params: the perception's parameters.
+        rng: the sensor noise's random source (seed it for repeatable runs).
+        marker_m: (3,) the start marker, m; by default :func:`marker_position` of ``truth``.
+
+    Returns:
+        The plan; ``interface_y`` goes to :func:`controllers.knife.plan_cut` with
+        ``guideline.points_m`` as its path.
+
+    Raises:
+        PerceptionError: the camera sees no meat, too few points for the chain, the marker out
+            of view or off the meat, no valley at it, or a fitted interface leaning more than
+            ``max_interface_lean``: never a path then.
+        InputError: neither ``truth`` nor ``marker_m`` given.
+    """
+    if marker_m is None:
+        if truth is None:
+            raise InputError(None, "marker_m", "is needed when the truth is not given")
+        marker_m = marker_position(truth, params.marker_inset_m)
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(stage: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[stage] = now - clock
+        clock = now
+
+    view = capture(rig, data, params.noise, rng)
+    cloud = view.points_m(params.bin_px)
+    if len(cloud) < _MIN_CLOUD_POINTS:
+        raise PerceptionError(
+            f"the cloud has {len(cloud)} points after {params.bin_px} x {params.bin_px} binning; "
+            f"the surface and the fit need at least {_MIN_CLOUD_POINTS}")
+    lap("capture")
+    mesh = depth_mesh(view, params.bin_px)
+    lap("mesh")
+    curvature = surface_curvature(mesh, params.curvature_radius_m)
+    lap("curvature")
+    start = _seen_marker(view, marker_m, params.bin_px, params.marker_tolerance_m)
+    guideline = find_cut_path(mesh, curvature, start, params.guideline)
+    lap("guideline")
+    fit = fit_generic_model(cloud, generic, params.fit)
+    lap("fit")
+    interface = predict_interface(fit, generic)
+    interface_y = PredictedInterface(fit, generic, guideline.points_m)
+    x, _, z = guideline.points_m.T
+    lean = (interface_y.fitted_y(x, z) - interface_y.fitted_y(x, z - _LEAN_STEP_M)) / _LEAN_STEP_M
+    if np.max(np.abs(lean)) > params.max_interface_lean:
+        raise PerceptionError(
+            f"the fitted model's interface leans up to {np.max(np.abs(lean)):.2f} (|dy/dz|) "
+            f"below the guideline, more than {params.max_interface_lean}: the view does not "
+            "pin down this meat's shape, and the knife would cut into a muscle")
+    lap("predict")
+    timings["total"] = sum(timings.values())
+    scores: dict[str, Any] = {}
+    if truth is not None:
+        line_length = float(np.linalg.norm(np.diff(truth.top_line, axis=0), axis=1).sum())
+        true_surface = predict_interface(
+            AffineFit(np.eye(3), np.zeros(3), np.zeros(3), 0.0), truth).surface_m.reshape(-1, 3)
+        scores = {
+            "guideline_distance_m": Deviation.of(_distance_xy(guideline.points_m,
+                                                              truth.top_line)),
+            "coverage": guideline.length_m / line_length,
+            "interface_error_m": Deviation.of(np.abs(
+                interface_y(true_surface[:, 0], true_surface[:, 2]) - true_surface[:, 1])),
+        }
+    return PerceivedPlan(cloud, mesh, curvature, start, guideline, fit, interface, interface_y,
+                         timings, **scores)

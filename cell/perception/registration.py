@@ -1,0 +1,271 @@
+"""Fitting the generic two-muscle model to a perceived point cloud (paper Sec. 3.1), and what
+the fitted model predicts about the hidden interface.
+
+The generic model is the outer surface (boundary triangles) of
+:func:`~cell.tissue.geometry.build_two_muscles`. It is fitted with the paper's twelve parameters: an
+affine map x -> A (x - c) + c + t about the model's centroid c, with A = R S, R a rotation
+(three angles) and S upper triangular (three scales on its diagonal, three shears above it),
+and t a translation. A = R S is the QR factorisation of A, one-to-one for det A > 0, so the
+solver works on the twelve entries of A and t directly: the residuals are then linear in them
+and their Jacobian exact for given correspondences.
+
+The residual of a cloud point p is its signed distance to the plane of the closest model
+triangle, mapped by the current estimate (point-to-plane, which lets the cloud slide along the
+surface); correspondences are found again in every round, in the model's own frame (the cloud
+mapped back by the inverse affine map) where the triangles do not move, and each round solves
+the linear weighted least-squares problem exactly (point-to-plane ICP with a Gauss-Newton step).
+A robust (Cauchy) loss keeps stray points (the table, a tool) from pulling the fit.
+
+Example:
+    >>> model = build_two_muscles(MuscleShape(), origin_m=(0.0, 0.0, 0.6))
+    >>> fit = fit_generic_model(view.points_m(bin_px=2), model)
+    >>> fit.rms_m < 0.002
+    True
+    >>> depth_m = predict_interface(fit, model).depth_below(path.points_m)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from cell.errors import InputError, PerceptionError
+from cell.perception.pointcloud import SurfaceMesh
+from cell.tissue.geometry import TwoMuscleMesh
+
+# Closest triangles are sought among those whose centroids are nearest a point; the model's
+# triangles are of similar size, and this many candidates always held the closest in tests.
+_CANDIDATE_TRIANGLES = 12
+
+
+@dataclass(frozen=True)
+class FitParams:
+    """How the generic model is fitted (SI units).
+
+    Attributes:
+        robust_scale_m: distance f beyond which a cloud point counts less than quadratically
+            (the Cauchy loss f^2 log(1 + (d / f)^2), applied as weights); about the sensor's
+            noise plus the model's misfit.
+        max_iterations: most correspondence-and-solve rounds.
+        tolerance_m: stop once no model vertex moves more than this in a round, m.
+
+    Raises:
+        InputError: a non-positive value.
+
+    Example:
+        >>> FitParams(robust_scale_m=0.005).max_iterations
+        30
+    """
+
+    robust_scale_m: float = 0.002
+    max_iterations: int = 30
+    tolerance_m: float = 1e-5
+
+    def __post_init__(self) -> None:
+        for name in ("robust_scale_m", "max_iterations", "tolerance_m"):
+            if not getattr(self, name) > 0:
+                raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
+
+
+@dataclass(frozen=True, eq=False)
+class AffineFit:
+    """A fitted affine map x -> A (x - c) + c + t of the generic model onto the cloud.
+
+    Attributes:
+        matrix: (3, 3) A = R S.
+        translation_m: (3,) t, m.
+        pivot_m: (3,) c, the generic model's centroid, m.
+        rms_m: root-mean-square point-to-surface distance of the cloud in the last round, m.
+
+    Example:
+        >>> fit.rotation_vector_rad, np.diag(fit.scale_shear)
+    """
+
+    matrix: np.ndarray
+    translation_m: np.ndarray
+    pivot_m: np.ndarray
+    rms_m: float
+
+    def apply(self, points_m: np.ndarray) -> np.ndarray:
+        """Map (..., 3) model points to the world, m."""
+        return (np.asarray(points_m) - self.pivot_m) @ self.matrix.T + self.pivot_m + (
+            self.translation_m
+        )
+
+    @property
+    def _qr(self) -> tuple[np.ndarray, np.ndarray]:
+        rotation, upper = np.linalg.qr(self.matrix)
+        signs = np.sign(np.diag(upper))
+        return rotation * signs, upper * signs[:, None]
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """(3, 3) R of A = R S (a proper rotation while det A > 0)."""
+        return self._qr[0]
+
+    @property
+    def scale_shear(self) -> np.ndarray:
+        """(3, 3) S of A = R S: upper triangular, scales on the diagonal, shears above it."""
+        return self._qr[1]
+
+    @property
+    def rotation_vector_rad(self) -> np.ndarray:
+        """(3,) the three rotation parameters: axis times angle, rad."""
+        return Rotation.from_matrix(self.rotation).as_rotvec()
+
+
+def model_surface(model: TwoMuscleMesh) -> SurfaceMesh:
+    """The generic model's outer surface: both muscles' boundary triangles, wound outward."""
+    round_points = model.round.points
+    return SurfaceMesh(
+        np.concatenate([round_points, model.shank.points]),
+        np.concatenate([model.round.boundary, model.shank.boundary + len(round_points)]),
+    )
+
+
+def _closest_on_triangles(
+    points: np.ndarray, corners: np.ndarray, candidates: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closest point to each of ``points`` (N, 3) on its ``candidates`` (N, K) triangles,
+    whose ``corners`` are (T, 3, 3); returns the points (N, 3) and the triangle ids (N,)."""
+    a, b, c = (corners[candidates, i] for i in range(3))  # (N, K, 3) each
+    p = points[:, None, :]
+    normal = np.cross(b - a, c - a)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    projected = p - np.sum((p - a) * normal, axis=-1, keepdims=True) * normal
+    # Inside the triangle where the projection is on the inner side of all three edges.
+    inside = np.ones(candidates.shape, dtype=bool)
+    for start, end in ((a, b), (b, c), (c, a)):
+        inside &= np.sum(np.cross(end - start, projected - start) * normal, axis=-1) >= 0.0
+    edge_points = []
+    for start, end in ((a, b), (b, c), (c, a)):
+        edge = end - start
+        t = np.clip(np.sum((p - start) * edge, axis=-1) / np.sum(edge * edge, axis=-1), 0, 1)
+        edge_points.append(start + t[..., None] * edge)
+    edge_points = np.stack(edge_points)  # (3, N, K, 3)
+    nearest_edge = np.argmin(np.linalg.norm(edge_points - p, axis=-1), axis=0)
+    on_edge = np.take_along_axis(edge_points, nearest_edge[None, ..., None], axis=0)[0]
+    best = np.where(inside[..., None], projected, on_edge)
+    pick = np.argmin(np.linalg.norm(best - p, axis=-1), axis=1)
+    rows = np.arange(len(points))
+    return best[rows, pick], candidates[rows, pick]
+
+
+def fit_generic_model(
+    cloud_m: np.ndarray,
+    model: TwoMuscleMesh,
+    params: FitParams | None = None,
+    initial: AffineFit | None = None,
+) -> AffineFit:
+    """Fit the twelve parameters that map ``model``'s surface onto ``cloud_m`` (N, 3), m.
+
+    Build ``model`` where the meat is expected (``origin_m`` of
+    :func:`~cell.tissue.geometry.build_two_muscles`): the fit starts from the identity (or
+    ``initial``) and converges from rotations of several degrees and offsets of centimetres.
+
+    Raises:
+        PerceptionError: fewer than twelve cloud points (too few for twelve parameters), or a
+            fit that mirrors the model.
+    """
+    params = FitParams() if params is None else params
+    cloud = np.asarray(cloud_m, dtype=float).reshape(-1, 3)
+    if len(cloud) < 12:
+        raise PerceptionError(f"the cloud has {len(cloud)} points; a 12-parameter fit needs 12")
+    surface = model_surface(model)
+    corners = surface.vertices_m[surface.triangles]
+    normals = surface.triangle_normals()
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    centroid_tree = cKDTree(corners.mean(axis=1))
+    pivot = surface.vertices_m.mean(axis=0)
+    matrix = np.eye(3) if initial is None else initial.matrix.copy()
+    translation = np.zeros(3) if initial is None else initial.translation_m.copy()
+    for _ in range(params.max_iterations):
+        # Correspondences in the model's frame, where the triangles stay put.
+        in_model = np.linalg.solve(matrix, (cloud - pivot - translation).T).T + pivot
+        _, near = centroid_tree.query(in_model, k=min(_CANDIDATE_TRIANGLES, len(corners)))
+        closest, triangle = _closest_on_triangles(in_model, corners, near.reshape(len(cloud), -1))
+        world_normals = np.linalg.solve(matrix.T, normals[triangle].T).T  # A^-T n, row-wise
+        world_normals /= np.linalg.norm(world_normals, axis=1, keepdims=True)
+        # r = n . (p - c) - n . (A (q - c)) - n . t is linear in (A, t) for fixed q and n.
+        jacobian = np.concatenate(
+            [(world_normals[:, :, None] * (closest - pivot)[:, None, :]).reshape(-1, 9),
+             world_normals], axis=1,
+        )
+        target = np.einsum("ij,ij->i", world_normals, cloud - pivot)
+        current = np.concatenate([matrix.ravel(), translation])
+        residual = target - jacobian @ current
+        # Iteratively reweighted least squares with the Cauchy loss, rho(d) = f^2 log(1 +
+        # (d / f)^2), of the full distance d to the closest point: a stray point on the plane
+        # of a face but beyond its edge (the table beside the meat) is far, not on the surface.
+        distance = np.linalg.norm(cloud - (closest - pivot) @ matrix.T - pivot - translation,
+                                  axis=1)
+        weights = 1.0 / np.sqrt(1.0 + (distance / params.robust_scale_m) ** 2)
+        solution = np.linalg.lstsq(weights[:, None] * jacobian, weights * target, rcond=None)[0]
+        moved = (surface.vertices_m - pivot) @ (solution[:9].reshape(3, 3) - matrix).T + (
+            solution[9:] - translation
+        )
+        matrix, translation = solution[:9].reshape(3, 3), solution[9:]
+        if np.max(np.linalg.norm(moved, axis=1)) < params.tolerance_m:
+            break
+    if not np.linalg.det(matrix) > 0.0:
+        raise PerceptionError(
+            "the fit turned the generic model inside out (det A <= 0): the cloud does not "
+            "constrain it; place the model closer to the meat or give a fuller view"
+        )
+    return AffineFit(matrix, translation, pivot, float(np.sqrt(np.mean(residual**2))))
+
+
+@dataclass(frozen=True, eq=False)
+class InterfacePrediction:
+    """The hidden interface (aponeurosis mid-surface) as the fitted model places it.
+
+    Attributes:
+        surface_m: (U, W, 3) the midpoints of the model's facing vertex pairs, mapped by the
+            fit: U stations along the muscles, W levels from the table (0) to the top (W - 1).
+
+    Example:
+        >>> prediction = predict_interface(fit, model)
+        >>> prediction.top_line_m.shape
+        (19, 3)
+    """
+
+    surface_m: np.ndarray
+
+    @property
+    def top_line_m(self) -> np.ndarray:
+        """(U, 3) the interface's top edge, at the bottom of the valley, m."""
+        return self.surface_m[:, -1]
+
+    @property
+    def bottom_line_m(self) -> np.ndarray:
+        """(U, 3) the interface's bottom edge, on the table, m."""
+        return self.surface_m[:, 0]
+
+    def depth_below(self, points_m: np.ndarray) -> np.ndarray:
+        """(K,) how far the interface reaches below each of ``points_m`` (K, 3), in m along
+        world z: the height of each point above the interface's bottom edge at the same place
+        along the muscles (the point projected onto the top line in the xy-plane), which is
+        how deep a cut from that point must go to part the muscles there."""
+        points = np.asarray(points_m, dtype=float).reshape(-1, 3)
+        top, bottom = self.top_line_m[:, :2], self.bottom_line_m
+        start, chord = top[:-1], np.diff(top, axis=0)
+        along = np.clip(
+            np.einsum("kij,ij->ki", points[:, None, :2] - start, chord)
+            / np.sum(chord * chord, axis=1), 0.0, 1.0,
+        )
+        offsets = points[:, None, :2] - (start + along[..., None] * chord)
+        segment = np.argmin(np.einsum("kij,kij->ki", offsets, offsets), axis=1)
+        fraction = along[np.arange(len(points)), segment]
+        floor = (1.0 - fraction) * bottom[segment, 2] + fraction * bottom[segment + 1, 2]
+        return points[:, 2] - floor
+
+
+def predict_interface(fit: AffineFit, model: TwoMuscleMesh) -> InterfacePrediction:
+    """Map ``model``'s interface (its facing pairs' midpoints) with ``fit``."""
+    pairs = model.pairs
+    midpoints = 0.5 * (model.round.points[pairs[:, 0]] + model.shank.points[pairs[:, 1]])
+    stations = len(model.top_line)
+    return InterfacePrediction(fit.apply(midpoints).reshape(stations, -1, 3))

@@ -1,0 +1,220 @@
+"""The catalogue of causes: each one a change to the mass-spring material, with the parameters
+a fit varies.
+
+A :class:`MaterialModel` is the baseline (linear, isotropic, rate-independent springs of
+modulus E, their lattice's geometric stiffening compensated so that "linear" means a linear
+nominal stress-strain curve, as measured data reads) plus some causes of the catalogue; it
+maps a vector of *shape* parameters, E and a load-cell offset to a
+:class:`~cell.tissue.material.MassSpringMaterial` that the muscles can run.
+The simulated force is linear in E (every part of the spring law scales with it) and in the
+offset, so a fit solves for those two in closed form and searches only the shape parameters.
+
+===============================  ==============================================================
+cause                            change to the material (shape parameters)
+===============================  ==============================================================
+``strain_stiffening``            both moduli follow the exponential law E exp(b |r - 1|) or the
+                                 paper's polynomial E (1 + k (r - 1)**2) (b or k)
+``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), and
+                                 the oblique springs' factor (q, oblique)
+``viscoelasticity``              quasi-linear relaxation on fixed times spanning the tests
+                                 (one weight per time)
+``tension_compression_asymmetry`` El and Et of compressed springs (their logs over the
+                                 tension ones), and with stiffening its own exponent
+``plasticity``                   yield strain and hardening ratio of every spring
+``force_offset``                 the load cell reads a constant offset (a rig effect: it is
+                                 not part of the material the muscles get)
+===============================  ==============================================================
+
+Example:
+    >>> model = MaterialModel(("anisotropy",), relaxation_times_s=(1.0, 10.0, 100.0))
+    >>> model.parameter_names
+    ('log_el_over_et',)
+    >>> model.material(model.initial, 1e4, 1060.0).longitudinal.small_strain_modulus_pa
+    10000.0
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from cell.tissue.material import MassSpringMaterial, ModulusCurve
+from cell.tissue.springlaw import LATTICE_STIFFENING
+
+CAUSES = (
+    "strain_stiffening",
+    "anisotropy",
+    "viscoelasticity",
+    "tension_compression_asymmetry",
+    "plasticity",
+    "force_offset",
+)
+UNEXPLAINED = "unexplained"
+Stiffening = Literal["exponential", "polynomial"]
+
+
+@dataclass(frozen=True)
+class MaterialModel:
+    """The baseline springs plus ``causes`` (module docstring).
+
+    Attributes:
+        causes: causes of the catalogue, in any order.
+        stiffening: the strain-stiffening law, when ``strain_stiffening`` is a cause.
+        relaxation_times_s: the relaxation times of ``viscoelasticity``, s.
+        stretch_range: (r_min, r_max) over which a stiffening curve holds; outside it the
+            modulus stays at its value at the bound.
+        oblique: whether ``anisotropy`` also fits the oblique springs' factor.
+        compression_per_direction: whether ``tension_compression_asymmetry`` scales El and Et
+            of compressed springs apart (else by one factor).
+
+    Raises:
+        ValueError: an unknown cause.
+
+    Example:
+        >>> MaterialModel(("plasticity",), relaxation_times_s=(1.0,)).parameter_names
+        ('yield_strain', 'hardening')
+    """
+
+    causes: tuple[str, ...] = ()
+    stiffening: Stiffening = "exponential"
+    relaxation_times_s: tuple[float, ...] = (1.0, 10.0, 100.0)
+    stretch_range: tuple[float, float] = (0.5, 1.5)
+    oblique: bool = False
+    compression_per_direction: bool = False
+
+    def __post_init__(self) -> None:
+        unknown = set(self.causes) - set(CAUSES)
+        if unknown:
+            raise ValueError(f"unknown causes {sorted(unknown)}; the catalogue is {CAUSES}")
+        object.__setattr__(self, "causes", tuple(c for c in CAUSES if c in self.causes))
+
+    @property
+    def name(self) -> str:
+        """A short description, e.g. ``mass_spring linear isotropic + anisotropy``."""
+        if not self.causes:
+            return "mass_spring linear isotropic rate-independent"
+        variant = {"strain_stiffening": f" ({self.stiffening})",
+                   "anisotropy": " (Eq. 10 with oblique factor)" if self.oblique else " (Eq. 10)",
+                   "tension_compression_asymmetry": " (El and Et apart)"
+                   if self.compression_per_direction else " (one factor)"}
+        parts = [c + variant.get(c, "") for c in self.causes]
+        return "mass_spring + " + " + ".join(parts)
+
+    @property
+    def has_offset(self) -> bool:
+        """Whether the load cell's offset is fitted."""
+        return "force_offset" in self.causes
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the shape parameters, in vector order."""
+        names: list[str] = []
+        if "strain_stiffening" in self.causes:
+            names.append("stiffening_exponent" if self.stiffening == "exponential"
+                         else "stiffening_quadratic")
+        if "anisotropy" in self.causes:
+            names += ["log_el_over_et", "oblique"] if self.oblique else ["log_el_over_et"]
+        if "viscoelasticity" in self.causes:
+            names += [f"relaxation_load_{k}" for k in range(len(self.relaxation_times_s))]
+        if "tension_compression_asymmetry" in self.causes:
+            names += (["log_el_compression", "log_et_compression"]
+                      if self.compression_per_direction else ["log_compression"])
+            if "strain_stiffening" in self.causes:
+                names.append(f"compression_{names[0]}")
+        if "plasticity" in self.causes:
+            names += ["yield_strain", "hardening"]
+        return tuple(names)
+
+    @property
+    def initial(self) -> np.ndarray:
+        """A starting point for the shape parameters."""
+        start = {"stiffening_exponent": 4.0, "stiffening_quadratic": 10.0,
+                 "yield_strain": 0.03, "hardening": 0.3, "oblique": 0.0}
+        return np.array([start.get(n.removeprefix("compression_"),
+                                   0.0 if n.startswith("log_") else 0.3)
+                         for n in self.parameter_names])
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the shape parameters."""
+        limits = {"stiffening_exponent": (0.0, 40.0), "stiffening_quadratic": (0.0, 400.0),
+                  "log_el_over_et": (-1.6, 1.6), "oblique": (-0.8, 3.0),
+                  "log_el_compression": (-3.0, 3.0), "log_compression": (-3.0, 3.0),
+                  "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
+                  "hardening": (0.0, 0.95)}
+        pairs = [limits.get(n.removeprefix("compression_"), (0.0, 30.0))
+                 for n in self.parameter_names]
+        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+
+    def values(self, shape: np.ndarray) -> dict[str, float]:
+        """The shape parameters by name."""
+        return dict(zip(self.parameter_names, (float(v) for v in shape), strict=True))
+
+    def material(self, shape: np.ndarray, modulus_pa: float,
+                 density_kg_m3: float) -> MassSpringMaterial:
+        """The material for ``shape`` and small-strain modulus ``modulus_pa`` (the geometric
+        mean of El and Et), fibres along x (the muscles' length)."""
+        value = self.values(shape)
+        ratio = math.exp(value.get("log_el_over_et", 0.0))
+        r_min, r_max = self.stretch_range
+
+        def curve(modulus: float, prefix: str = "") -> ModulusCurve:
+            if "stiffening_exponent" in value:
+                return ModulusCurve.exponential(
+                    modulus, value[f"{prefix}stiffening_exponent"], r_min, r_max)
+            quadratic = value.get(f"{prefix}stiffening_quadratic", 0.0)
+            return ModulusCurve((modulus, 0.0, modulus * quadratic, 0.0, 0.0, 0.0), r_min, r_max)
+
+        el, et = modulus_pa * math.sqrt(ratio), modulus_pa / math.sqrt(ratio)
+        asymmetric = "tension_compression_asymmetry" in self.causes
+        if asymmetric:
+            squeezed = "compression_" if any(n.startswith("compression_") for n in value) else ""
+            common = value.get("log_compression", 0.0)
+            el_c = curve(el * math.exp(value.get("log_el_compression", common)), squeezed)
+            et_c = curve(et * math.exp(value.get("log_et_compression", common)), squeezed)
+        loads = np.array([value[n] for n in self.parameter_names
+                          if n.startswith("relaxation_load_")])
+        weights = loads / (1.0 + loads.sum()) if len(loads) else loads
+        return MassSpringMaterial(
+            longitudinal=curve(el),
+            transverse=curve(et),
+            longitudinal_compression=el_c if asymmetric else None,
+            transverse_compression=et_c if asymmetric else None,
+            density_kg_m3=density_kg_m3,
+            relaxation_weights=tuple(weights.tolist()),
+            relaxation_times_s=self.relaxation_times_s if len(loads) else (),
+            yield_strain=value.get("yield_strain", 0.0),
+            hardening=value.get("hardening", 0.0),
+            geometric_compensation=LATTICE_STIFFENING,
+            oblique=value.get("oblique", 0.0),
+        )
+
+    def reported(self, shape: np.ndarray, modulus_pa: float,
+                 offset_n: float) -> dict[str, float]:
+        """The fitted parameters in physical units, for people and the JSON report."""
+        material = self.material(shape, modulus_pa, 1.0)
+        params = {"young_pa": modulus_pa}
+        value = self.values(shape)
+        params.update({n: v for n, v in value.items() if "stiffening_" in n})
+        if "anisotropy" in self.causes:
+            params["el_pa"] = material.longitudinal.small_strain_modulus_pa
+            params["et_pa"] = material.transverse.small_strain_modulus_pa
+            if self.oblique:
+                params["oblique"] = material.oblique
+        if "viscoelasticity" in self.causes:
+            for k, (g, tau) in enumerate(zip(material.relaxation_weights,
+                                             material.relaxation_times_s, strict=True)):
+                params[f"relaxation_weight_{k}"] = g
+                params[f"relaxation_time_{k}_s"] = tau
+        if "tension_compression_asymmetry" in self.causes:
+            params["el_compression_pa"] = material.longitudinal_compression.coefficients[0]
+            params["et_compression_pa"] = material.transverse_compression.coefficients[0]
+        if "plasticity" in self.causes:
+            params["yield_strain"] = material.yield_strain
+            params["hardening"] = material.hardening
+        if self.has_offset:
+            params["force_offset_n"] = offset_n
+        return params

@@ -1,0 +1,207 @@
+"""A report of a diagnosis for a person to read first: where the baseline is wrong, and what
+the extended model changes.
+
+:func:`write_report` writes three files into a folder:
+
+- ``forces.png``: per test, the measured force and the baseline's and the extended model's
+  held-out predictions (each from a fit without that test) against time;
+- ``residuals.png``: the held-out residuals (measured minus predicted) against nominal strain,
+  strain rate, time in hold, fibre angle, tension or compression and loading or unloading;
+- ``report.md``: the causes, the gain, the candidates, the selection steps and the extended
+  model's parameters, with links to the two figures.
+
+Plots need matplotlib (the ``report`` extra); it is imported only when a report is written.
+
+Example:
+    >>> write_report(diagnose(load_measurement_set("assets/measured/beef_round_example")),
+    ...              Path("out/diagnosis"))  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import io
+import math
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from cell.errors import InputError
+from cell.io import write_atomic
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from cell.rheology.diagnosis import Diagnosis, ModelFit
+    from cell.rheology.measured import MechanicalTest, Specimen
+
+_DPI = 110
+_COLUMNS = 4
+# Displacement change, as a fraction of the test's range, that ends a hold.
+_HOLD_TOLERANCE = 1e-3
+_BASELINE, _EXTENDED = "tab:red", "tab:blue"
+
+
+def require_matplotlib() -> None:
+    """Raise :class:`InputError` now, before a long diagnosis, when plots cannot be drawn."""
+    if importlib.util.find_spec("matplotlib") is None:
+        raise InputError(None, "--report", "needs matplotlib: pip install 'musclecell[report]'")
+
+
+def write_report(diagnosis: Diagnosis, folder: Path,
+                 material_path: Path | None = None) -> list[Path]:
+    """Write ``forces.png``, ``residuals.png`` and ``report.md`` into ``folder`` (created if
+    missing), each atomically; ``material_path`` is where the extended material's TOML is.
+
+    Raises:
+        InputError: matplotlib is not installed.
+    """
+    require_matplotlib()
+    from matplotlib.figure import Figure  # a figure off pyplot: headless, nothing to close
+
+    folder = Path(folder)
+    forces = write_atomic(folder / "forces.png",
+                          _png(_draw_forces(Figure(layout="constrained"), diagnosis)))
+    residuals = write_atomic(folder / "residuals.png",
+                             _png(_draw_residuals(Figure(layout="constrained"), diagnosis)))
+    markdown = _markdown(diagnosis, folder, material_path, forces.name, residuals.name)
+    return [forces, residuals, write_atomic(folder / "report.md", markdown)]
+
+
+def _png(figure: Figure) -> bytes:
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=_DPI)
+    return buffer.getvalue()
+
+
+def _draw_forces(figure: Figure, diagnosis: Diagnosis) -> Figure:
+    """One panel per test: measured force, baseline and extended held-out predictions."""
+    tests = diagnosis.measurements.tests
+    rows = math.ceil(len(tests) / _COLUMNS)
+    columns = min(len(tests), _COLUMNS)
+    figure.set_size_inches(4.0 * columns, 2.9 * rows + 0.6)
+    axes = figure.subplots(rows, columns, squeeze=False).ravel()
+    for k, (ax, test) in enumerate(zip(axes, tests, strict=False)):
+        ax.plot(test.time_s, test.force_N, ".", color="0.45", markersize=2.5, label="measured")
+        ax.plot(test.time_s, diagnosis.extended.heldout_force_n[k], color=_EXTENDED,
+                label=f"extended held-out ({diagnosis.extended.heldout_rmse_n:.3g} N RMSE)")
+        # Dashed, so that it shows on the extended when no cause was accepted.
+        ax.plot(test.time_s, diagnosis.baseline.heldout_force_n[k], "--", color=_BASELINE,
+                label=f"baseline held-out ({diagnosis.baseline.heldout_rmse_n:.3g} N RMSE)")
+        ax.set_title(f"{test.test_id}: {test.mode}, {test.angle_deg:g}°", fontsize=10)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("force (N)")
+    for ax in axes[len(tests):]:
+        ax.set_visible(False)
+    figure.legend(*axes[0].get_legend_handles_labels(), loc="outside upper center", ncols=3)
+    return figure
+
+
+def _hold_time_s(test: MechanicalTest) -> np.ndarray:
+    """Time since the displacement last moved by more than the tolerance, s (0 while moving)."""
+    tolerance = _HOLD_TOLERANCE * max(float(np.ptp(test.displacement_m)), 1e-12)
+    hold = np.zeros(len(test.time_s))
+    anchor = 0
+    for i in range(1, len(hold)):
+        if abs(test.displacement_m[i] - test.displacement_m[anchor]) > tolerance:
+            anchor = i
+        hold[i] = test.time_s[i] - test.time_s[anchor]
+    return hold
+
+
+def _features(test: MechanicalTest, specimen: Specimen) -> dict[str, np.ndarray]:
+    """Per sample: strain, strain rate (1/s), time in hold (s), and the categories' codes."""
+    strain = test.strain(specimen)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rate = np.gradient(strain, test.time_s)
+        loading = np.sign(np.gradient(np.abs(strain), test.time_s))
+    hold = _hold_time_s(test)
+    return {
+        "strain": strain,
+        "rate": np.where(np.isfinite(rate), rate, 0.0),
+        "hold": hold,
+        "angle": np.full(len(strain), test.angle_deg),
+        "tension": (strain > 0).astype(float),
+        "loading": np.where(hold > 0, 1.0, np.where(loading > 0, 2.0, 0.0)),
+    }
+
+
+# Panel key, x label, tick labels of a categorical panel (None for a continuous one).
+_PANELS = (
+    ("strain", "nominal strain", None),
+    ("rate", "strain rate (1/s)", None),
+    ("hold", "time in hold (s)", None),
+    ("angle", "fibre angle (deg)", None),
+    ("tension", "sign of strain", ("compression", "tension")),
+    ("loading", "sign of d|strain|/dt", ("unloading", "hold", "loading")),
+)
+
+
+def _draw_residuals(figure: Figure, diagnosis: Diagnosis) -> Figure:
+    """Six panels of held-out residuals, baseline dark, extended light beside it."""
+    data = diagnosis.measurements
+    features = [_features(t, data.specimen) for t in data.tests]
+    figure.set_size_inches(13.0, 7.6)
+    axes = figure.subplots(2, 3).ravel()
+    # Fit, label, colour, opacity, side of its strip on categorical panels.
+    fits = ((diagnosis.baseline, "baseline", _BASELINE, 0.55, -1.0),
+            (diagnosis.extended, "extended", _EXTENDED, 0.2, 1.0))
+    jitter = np.random.default_rng(0).uniform(-0.6, 0.6, sum(len(f["strain"]) for f in features))
+    for ax, (key, label, ticks) in zip(axes, _PANELS, strict=True):
+        x = np.concatenate([f[key] for f in features])
+        spread = 0.12 if ticks else 0.0
+        if key == "angle":
+            spread = 0.03 * max(float(np.ptp(x)), 30.0)
+        for fit, name, color, alpha, side in fits:
+            ax.scatter(x + (side + jitter) * spread, _residual(fit, data.tests), s=4,
+                       color=color, alpha=alpha, linewidths=0, label=f"{name}: {fit.model.name}")
+        ax.axhline(0.0, color="0.3", linewidth=0.8)
+        ax.set_xlabel(label)
+        ax.set_ylabel("measured - held-out (N)")
+        if key == "rate":
+            ax.set_xscale("symlog", linthresh=max(1e-2 * float(np.abs(x).max()), 1e-9))
+        if ticks:
+            ax.set_xticks(range(len(ticks)), ticks)
+    figure.legend(*axes[0].get_legend_handles_labels(), loc="outside upper center", ncols=2,
+                  markerscale=4)
+    return figure
+
+
+def _residual(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> np.ndarray:
+    return np.concatenate([t.force_N - f for t, f in zip(tests, fit.heldout_force_n,
+                                                          strict=True)])
+
+
+def _markdown(diagnosis: Diagnosis, folder: Path, material_path: Path | None, forces: str,
+              residuals: str) -> str:
+    """``report.md``: causes, gain, errors, candidates, steps, parameters, links."""
+    base, extended = diagnosis.baseline, diagnosis.extended
+    causes = (f"Causes, most important first: {', '.join(diagnosis.causes)}."
+              if diagnosis.causes else "No cause found: the baseline explains the data.")
+    lines = [
+        f"# Diagnosis of {diagnosis.measurements.specimen.name}", "", causes, "",
+        f"Gain {diagnosis.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
+        f"{extended.heldout_rmse_n:.4g} N (extended); noise {diagnosis.noise_n:.3g} N.", "",
+        "## Candidates", "", "| cause | held-out RMSE (N) | BIC | selected |", "|---|---|---|---|",
+    ]
+    for fit in (base, *diagnosis.candidates):
+        cause = ", ".join(fit.model.causes) or "none (baseline)"
+        selected = "yes" if set(fit.model.causes) & set(diagnosis.causes) else ""
+        lines.append(f"| {cause} | {fit.heldout_rmse_n:.4g} | {fit.bic:.1f} | {selected} |")
+    lines += ["", "## Steps", ""]
+    lines += [f"{k}. {' + '.join(fit.model.causes)}: held-out RMSE {fit.heldout_rmse_n:.4g} N, "
+              f"BIC {fit.bic:.1f}" for k, fit in enumerate(diagnosis.steps, start=1)]
+    if not diagnosis.steps:
+        lines.append("No cause was accepted.")
+    lines += ["", f"## Extended model: {extended.model.name}", "", "| parameter | value |",
+              "|---|---|"]
+    lines += [f"| {name} | {value:.4g} |" for name, value in extended.params.items()]
+    lines.append("")
+    if material_path is not None:
+        link = Path(os.path.relpath(Path(material_path).absolute(), folder.absolute()))
+        lines += [f"Material TOML: [{material_path}]({link.as_posix()})", ""]
+    lines += [f"![Measured and held-out forces]({forces})", "",
+              f"![Held-out residuals]({residuals})", ""]
+    return "\n".join(lines)

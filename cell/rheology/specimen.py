@@ -1,0 +1,327 @@
+"""A measured test, simulated quasi-statically with the muscles' own spring law.
+
+The specimen is the spring lattice of its tet mesh (:func:`specimen_mesh`, the mirrored Kuhn
+split the muscles use), every spring following :func:`~cell.tissue.springlaw.spring_stress`, the law
+of the muscles' kernel, history included. Its platens are lubricated: the bottom face is held
+along the load axis z, the top face follows the test's displacement, and both slide freely, so
+the specimen deforms homogeneously. The deformation gradient is then
+
+    F = [[a, 0, c], [0, b, 0], [0, 0, 1 + strain]]
+
+(fibres in the x-z plane keep y a plane of symmetry; c is the shear a fibre at an angle to the
+load gives), and every spring of one rest direction strains alike. Each sample solves, by
+Newton's method, for the a, b, c at which the lateral faces and the platens carry no traction
+(the Kirchhoff stress ``sum_j w_j s_j r_j n_j n_j`` has only its zz entry; w_j the volume share of
+the springs along rest direction j, s_j their stress, r_j their stretch, n_j their direction now),
+commits the springs' history, and reads the axial force ``A tau_zz / (1 + strain)``.
+
+Why quasi-static and homogeneous (measured in ``tests/test_specimen.py`` against
+:mod:`tests.specimen_reference`, the same springs in MuJoCo on a 6-cell mesh at the real mass and
+half the stable step): the tests last minutes at strain rates of 1%/s, where inertia and the
+springs' dashpots carry nothing, and the forces agree within 2%. One set of 10 tests takes
+milliseconds instead of minutes, which is what lets a diagnosis refit the material hundreds of
+times. The springs' dashpots (``damping_s``) are left out for that reason.
+
+The lattice is calibrated (:func:`~cell.tissue.massspring.calibrated_law`) with the fibres along a
+lattice axis, and keeps those factors at every fibre angle: a cubic lattice is not isotropic,
+and recalibrating it for oblique fibres would give an isotropic material an angle dependence
+that no tissue has.
+
+Example:
+    >>> from cell.rheology.measured import load_measurement_set
+    >>> data = load_measurement_set("assets/measured/beef_round_example")
+    >>> run = simulate_test(data.test("t00"), data.specimen, MassSpringMaterial.isotropic(6e3))
+    >>> run.force_N.shape
+    (250,)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from cell.errors import DivergenceError
+from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
+from cell.tissue.massspring import calibrated_law, tet_edges
+from cell.tissue.material import MassSpringMaterial
+from cell.tissue.springlaw import SpringLaw, spring_stress
+from cell.tissue.tetmesh import TetMesh, structured_hex_tets
+
+# Cells along the specimen's longest edge; the homogeneous lattice only needs their shape.
+_CELLS = 2
+_LOAD_AXIS = (0.0, 0.0, 1.0)
+_NEWTON_ITERATIONS = 30
+_NEWTON_TOLERANCE = 1e-8
+_PROBE = 1e-7
+
+
+def specimen_mesh(specimen: Specimen, cells: int) -> TetMesh:
+    """The specimen as a box of tets, ``cells`` along its longest edge, from the origin to
+    ``size_m``: bottom face at z = 0, top face at z = ``size_m[2]``.
+
+    Example:
+        >>> len(specimen_mesh(Specimen("cube", (0.01, 0.01, 0.01)), 2).tets)
+        48
+    """
+    size = np.asarray(specimen.size_m)
+    counts = tuple(max(1, round(cells * s / size.max())) for s in size)
+    axes = [np.linspace(0.0, s, n + 1) for s, n in zip(size, counts, strict=True)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    return TetMesh.from_arrays(grid, structured_hex_tets(counts), specimen.name)
+
+
+def fibre_direction(angle_deg: float) -> tuple[float, float, float]:
+    """Unit fibre direction at ``angle_deg`` from the load axis z, in the x-z plane.
+
+    Example:
+        >>> [round(v, 6) for v in fibre_direction(90.0)]
+        [1.0, 0.0, 0.0]
+    """
+    angle = math.radians(angle_deg)
+    return (math.sin(angle), 0.0, math.cos(angle))
+
+
+@dataclass(frozen=True, eq=False)
+class SpecimenLattice:
+    """The specimen's springs grouped by rest direction, for homogeneous deformation.
+
+    Attributes:
+        directions: (J, 3) unit rest directions, one per group of parallel springs.
+        weights: (J,) each group's volume share, ``sum(sum(V)) / V`` over its springs
+            (dimensionless; ``K0 l0**2 = sum(V)`` for every spring).
+        mesh: the specimen's mesh.
+        edges: (E, 2) its springs.
+        edge_volume_m3: (E,) volume of the tets sharing each spring, m^3.
+
+    Example:
+        >>> lattice = SpecimenLattice.of(Specimen("cube", (0.01,) * 3))
+        >>> len(lattice.directions), round(float(lattice.weights.sum()), 6)
+        (9, 6.0)
+    """
+
+    directions: np.ndarray
+    weights: np.ndarray
+    mesh: TetMesh
+    edges: np.ndarray
+    edge_volume_m3: np.ndarray
+
+    @classmethod
+    def of(cls, specimen: Specimen) -> SpecimenLattice:
+        """The lattice of ``specimen``: cubic cells whatever its proportions, as the muscles'
+        (under homogeneous deformation its size only sets the area and the height; cells of
+        its own proportions would make an isotropic material depend on the fibre angle)."""
+        mesh = specimen_mesh(Specimen(specimen.name, (1.0, 1.0, 1.0)), _CELLS)
+        edges, volume = tet_edges(mesh.points, mesh.tets)
+        vectors = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
+        units = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+        # Springs strain alike when parallel (either sign) or mirror images across y = 0, which
+        # F keeps a plane of symmetry: one group per direction up to both.
+        units[:, 1] = np.abs(units[:, 1])
+        in_plane = units[:, [0, 2]]
+        lead = in_plane[np.arange(len(units)), np.argmax(np.abs(in_plane) > 1e-9, axis=1)]
+        units[:, [0, 2]] *= np.where(lead < 0.0, -1.0, 1.0)[:, None]
+        keys, group = np.unique(np.round(units, 9), axis=0, return_inverse=True)
+        weights = np.bincount(group.ravel(), weights=volume) / mesh.volume_m3
+        return cls(keys / np.linalg.norm(keys, axis=1, keepdims=True), weights, mesh, edges,
+                   volume)
+
+    def law(self, material: MassSpringMaterial) -> SpringLaw:
+        """``material``'s spring law on this lattice, calibrated with its fibres along the load
+        axis."""
+        return calibrated_law(self.mesh.points, self.edges, self.edge_volume_m3, material,
+                              _LOAD_AXIS)[0]
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedTest:
+    """The simulated force of one test.
+
+    Attributes:
+        test_id: the measured test's id.
+        time_s: (n,) the test's sample times, s.
+        force_N: (n,) simulated axial force on the top face at those times, N (+ pulls).
+        lateral_stretch: (n, 2) a and b of the deformation gradient (x and y stretch).
+
+    Example:
+        >>> run.force_N[-1]  # doctest: +SKIP
+    """
+
+    test_id: str
+    time_s: np.ndarray
+    force_N: np.ndarray
+    lateral_stretch: np.ndarray
+
+
+@njit(cache=True, fastmath=False)
+def _kirchhoff(state: np.ndarray, stretch: float, directions: np.ndarray, weights: np.ndarray,
+               cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray, history: np.ndarray,
+               timestep_s: float, commit: bool, out: np.ndarray) -> bool:
+    """Kirchhoff stress (xx, yy, xz, zz; Pa) of F(a, b, c; stretch); False once a spring has
+    collapsed."""
+    a, b, c = state[0], state[1], state[2]
+    out[:] = 0.0
+    for j in range(directions.shape[0]):
+        dx, dy, dz = directions[j, 0], directions[j, 1], directions[j, 2]
+        vx = a * dx + c * dz
+        vy = b * dy
+        vz = stretch * dz
+        length = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if not length > 0.0:
+            return False
+        stress, _ = spring_stress(length - 1.0, cos_sq[j], curves, params, history, j,
+                                  timestep_s, commit)
+        scale = weights[j] * stress / length
+        out[0] += scale * vx * vx
+        out[1] += scale * vy * vy
+        out[2] += scale * vx * vz
+        out[3] += scale * vz * vz
+    return True
+
+
+@njit(cache=True, fastmath=False)
+def _jacobian(state: np.ndarray, tau: np.ndarray, stretch: float, directions: np.ndarray,
+              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
+              history: np.ndarray, timestep_s: float, jacobian: np.ndarray) -> bool:
+    """Forward differences of the lateral stresses in (a, b, c) into ``jacobian``."""
+    trial = np.empty(3)
+    probe = np.empty(4)
+    for i in range(3):
+        trial[:] = state
+        trial[i] += _PROBE
+        if not _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params, history,
+                          timestep_s, False, probe):
+            return False
+        for r in range(3):
+            jacobian[r, i] = (probe[r] - tau[r]) / _PROBE
+    return True
+
+
+@njit(cache=True, fastmath=False)
+def _uniaxial(time_s: np.ndarray, strain: np.ndarray, directions: np.ndarray,
+              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
+              history: np.ndarray, stress_out: np.ndarray, lateral_out: np.ndarray) -> int:
+    """Nominal axial stress (Pa) at every sample into ``stress_out``; returns the index of the
+    first sample without an equilibrium, or -1.
+
+    Newton's method with a Jacobian kept from sample to sample and refreshed when it stops
+    converging fast, and a backtracking line search (the plastic law has kinks).
+    """
+    state = np.array([1.0, 1.0, 0.0])
+    previous = state.copy()
+    trial = np.empty(3)
+    tau = np.empty(4)
+    probe = np.empty(4)
+    jacobian = np.zeros((3, 3))
+    fresh = False
+    # Stresses below this are round-off: the small-strain modulus times a micro-strain.
+    floor = 1e-6 * max(abs(curves[0, 0]), abs(curves[1, 0]))
+    for k in range(time_s.shape[0]):
+        timestep = time_s[k] - time_s[k - 1] if k > 0 else 0.0
+        stretch = 1.0 + strain[k]
+        # Predict the lateral state by extrapolating along the strain from the last two.
+        if k > 1 and strain[k - 1] != strain[k - 2]:
+            slope = (strain[k] - strain[k - 1]) / (strain[k - 1] - strain[k - 2])
+            if abs(slope) <= 4.0:
+                step_back = state - previous
+                previous[:] = state
+                state += slope * step_back
+            else:
+                previous[:] = state
+        else:
+            previous[:] = state
+        if not _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
+                          timestep, False, tau):
+            return k
+        norm = abs(tau[0]) + abs(tau[1]) + abs(tau[2])
+        converged = False
+        for _ in range(_NEWTON_ITERATIONS):
+            if norm <= _NEWTON_TOLERANCE * max(abs(tau[3]) + norm, floor):
+                converged = True
+                break
+            if (k == 0 and not fresh) or (not fresh and jacobian[0, 0] == 0.0):
+                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
+                                  params, history, timestep, jacobian)
+                if not fresh:
+                    return k
+            step = np.linalg.solve(jacobian, tau[:3])
+            length = 1.0
+            improved = False
+            for _ in range(8):
+                trial[:] = state - length * step
+                if _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params,
+                              history, timestep, False, probe):
+                    trial_norm = abs(probe[0]) + abs(probe[1]) + abs(probe[2])
+                    if trial_norm < norm:
+                        improved = True
+                        break
+                length *= 0.5
+            if (improved and trial_norm < 0.25 * norm) or (improved and fresh):
+                state[:] = trial
+                tau[:] = probe
+                norm = trial_norm
+                fresh = False
+            elif fresh:
+                return k
+            else:
+                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
+                                  params, history, timestep, jacobian)
+                if not fresh:
+                    return k
+        if not converged:
+            return k
+        _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
+                   timestep, True, tau)
+        stress_out[k] = tau[3] / stretch
+        lateral_out[k, 0] = state[0]
+        lateral_out[k, 1] = state[1]
+    return -1
+
+
+def simulate_test(
+    test: MechanicalTest,
+    specimen: Specimen,
+    material: MassSpringMaterial,
+    lattice: SpecimenLattice | None = None,
+) -> SimulatedTest:
+    """Simulate ``test`` on ``specimen`` made of ``material`` (module docstring).
+
+    The material's fibres are turned to the test's ``angle_deg`` from the load axis, in the
+    x-z plane. ``lattice`` may be passed to reuse the specimen's.
+
+    Raises:
+        MaterialError: an anisotropy the lattice's springs cannot give.
+        DivergenceError: no equilibrium at some sample (a spring collapsed).
+
+    Example:
+        >>> run = simulate_test(test, specimen, MassSpringMaterial())  # doctest: +SKIP
+    """
+    lattice = SpecimenLattice.of(specimen) if lattice is None else lattice
+    law = lattice.law(material)
+    fibre = np.asarray(fibre_direction(test.angle_deg))
+    cos_sq = (lattice.directions @ fibre) ** 2
+    time = np.ascontiguousarray(test.time_s - test.time_s[0])
+    stress = np.empty(len(time))
+    lateral = np.empty((len(time), 2))
+    failed = _uniaxial(time, np.ascontiguousarray(test.strain(specimen)), lattice.directions,
+                       lattice.weights, cos_sq, law.curves, law.params,
+                       law.history(len(lattice.directions)), stress, lateral)
+    if failed >= 0:
+        raise DivergenceError(float(time[failed]),
+                              f"test {test.test_id!r}: the specimen has no equilibrium at "
+                              f"strain {test.strain(specimen)[failed]:.4g}")
+    return SimulatedTest(test.test_id, test.time_s, stress * specimen.area_m2, lateral)
+
+
+def simulate_set(measurements: MeasurementSet,
+                 material: MassSpringMaterial) -> tuple[SimulatedTest, ...]:
+    """Simulate every test of a set, in its order, on one lattice.
+
+    Example:
+        >>> runs = simulate_set(data, MassSpringMaterial.isotropic(6e3))  # doctest: +SKIP
+    """
+    lattice = SpecimenLattice.of(measurements.specimen)
+    return tuple(simulate_test(test, measurements.specimen, material, lattice)
+                 for test in measurements.tests)

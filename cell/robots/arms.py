@@ -1,0 +1,449 @@
+"""Build an arm from its DH table as a :class:`mujoco.MjSpec`, ready to attach into the cell.
+
+The spec's names are a contract with the rest of musclecell (an attach prefix such as
+``knife_arm/`` is prepended to all of them):
+
+* body ``base``: the DH base frame, z up; bodies ``link1`` .. ``linkN``, body ``link{i}`` sits at
+  DH frame i-1 and turns with joint i about its local z;
+* hinge joints ``joint1`` .. ``jointN`` (the DH variable q, limited to the DH range);
+* one position actuator per joint, also named ``joint{i}`` (actuators are their own namespace),
+  control range = joint range, torque-limited, with gravity compensation routed through it;
+* site ``flange`` on ``linkN`` at DH frame N, z along the tool axis, where tools are attached.
+
+Example:
+    >>> import mujoco
+    >>> from cell.robots.dh import VIPER_S1700D
+    >>> model = build_arm(VIPER_S1700D).compile()
+    >>> model.nu, model.site("flange").bodyid[0] == model.body("link6").id
+    (6, np.True_)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from cell.errors import InputError
+from cell.robots.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription, DHJoint, dh_transform
+
+__all__ = [
+    "DEFAULT_SERVO",
+    "KUKA_LWR4_LOOK",
+    "LOOKS",
+    "VIPER_S1700D_LOOK",
+    "ArmLook",
+    "ServoTuning",
+    "build_arm",
+    "servo_stiffness_nm_per_rad",
+    "torque_limits_nm",
+]
+
+_GRAVITY_M_S2 = 9.81
+# Segments shorter than this are not drawn: a DH offset of zero means the two axes meet.
+_MIN_SEGMENT_M = 1e-6
+_RGBA = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class ServoTuning:
+    """How :func:`build_arm` sizes the joint servos, and the load it sizes them for.
+
+    Attributes:
+        load_n: force at the tool the servos must hold, in N.
+        deflection_m: flange deflection allowed under ``load_n``, in m; shared equally between
+            the joints, so the bound holds whatever the load's direction and the arm's pose.
+        tool_reach_m: distance from the flange to where a tool carries its load, in m.
+        timestep_s: time step the servos must be stable at with explicit stiffness
+            (``implicitfast``), in s.
+        omega_timestep: bound on (servo natural frequency x ``timestep_s``); explicit springs
+            diverge at 2, and accuracy suffers well before.
+        dampratio: damping ratio of each position servo (MuJoCo computes kv from it at qpos0).
+        damping_time_s: joint viscous damping as kp x this time, in s; a drive friction that
+            also keeps the ``Euler`` integrator stable, at a lag of q' x this time, in rad.
+        payload_kg: payload used to estimate torque limits the maker does not publish, in kg.
+        torque_margin: estimated torque limit / static torque of the outstretched arm with
+            the payload at ``tool_reach_m``.
+
+    Example:
+        >>> ServoTuning(deflection_m=0.5e-3).load_n
+        20.0
+    """
+
+    load_n: float = 20.0
+    deflection_m: float = 1e-3
+    tool_reach_m: float = 0.2
+    timestep_s: float = 0.002
+    omega_timestep: float = 0.5
+    dampratio: float = 1.0
+    damping_time_s: float = 0.001
+    payload_kg: float = 20.0
+    torque_margin: float = 1.5
+
+
+DEFAULT_SERVO = ServoTuning()
+"""The servo sizing the cell uses: 1 mm at the flange under 20 N at 0.2 m from it, 2 ms steps."""
+
+
+@dataclass(frozen=True)
+class ArmLook:
+    """Primitive shapes that make a DH chain look like its arm.
+
+    Link i is drawn as capsules along its DH offsets (d along its own axis, then a along the
+    common normal) and a cylinder housing the next joint at its far end; the last link ends in
+    a flange disk instead.
+
+    Attributes:
+        segment_radius_m: capsule radius of each link, in m.
+        housing_radius_m: radius of the housing of joint i+1 on link i, and of the flange disk
+            for the last link, in m.
+        base_radius_m: radius of the base column, in m.
+        base_height_m: height of the base column, in m; link 1 starts above it.
+        shell_rgba: colour of the link shells.
+        housing_rgba: colour of the joint housings, the base and the flange.
+
+    Example:
+        >>> len(VIPER_S1700D_LOOK.segment_radius_m)
+        6
+    """
+
+    segment_radius_m: tuple[float, ...]
+    housing_radius_m: tuple[float, ...]
+    base_radius_m: float
+    base_height_m: float
+    shell_rgba: _RGBA
+    housing_rgba: _RGBA
+
+    def size_m(self, link: int) -> float:
+        """Largest radius of link ``link`` (0 is the base), in m."""
+        if link == 0:
+            return self.base_radius_m
+        return max(self.segment_radius_m[link - 1], self.housing_radius_m[link - 1])
+
+
+VIPER_S1700D_LOOK = ArmLook(
+    segment_radius_m=(0.15, 0.09, 0.09, 0.065, 0.05, 0.04),
+    housing_radius_m=(0.12, 0.11, 0.085, 0.07, 0.055, 0.045),
+    base_radius_m=0.2,
+    base_height_m=0.25,
+    shell_rgba=(0.93, 0.93, 0.91, 1.0),
+    housing_rgba=(0.45, 0.46, 0.48, 1.0),
+)
+"""White shells, grey housings, sized after the Viper s1700D's drawings."""
+
+KUKA_LWR4_LOOK = ArmLook(
+    segment_radius_m=(0.06, 0.06, 0.06, 0.06, 0.055, 0.05, 0.04),
+    housing_radius_m=(0.065, 0.065, 0.065, 0.065, 0.06, 0.055, 0.04),
+    base_radius_m=0.08,
+    base_height_m=0.11,
+    shell_rgba=(1.0, 0.45, 0.05, 1.0),
+    housing_rgba=(0.4, 0.4, 0.42, 1.0),
+)
+"""Orange shells, grey joint rings, sized after the LWR4+."""
+
+LOOKS: dict[str, ArmLook] = {
+    VIPER_S1700D.name: VIPER_S1700D_LOOK,
+    KUKA_LWR4.name: KUKA_LWR4_LOOK,
+}
+"""Look of each known arm, by :attr:`ArmDescription.name`."""
+
+
+def _link_length_m(joint: DHJoint) -> float:
+    return math.hypot(joint.a_m, joint.d_m)
+
+
+def _lever_arms_m(arm: ArmDescription, tool_reach_m: float) -> list[list[float]]:
+    """Upper bounds of the distance from each joint axis to each link's far end and the tool.
+
+    Row i (0-based joint) has N + 1 entries: links 1..N, then the tool point. The d offset of
+    joint i runs along its own axis, so only its a offset counts.
+    """
+    n = arm.dof
+    levers = []
+    for i in range(n):
+        row = [0.0] * (n + 1)
+        reach = abs(arm.joints[i].a_m)
+        for k in range(i, n):
+            if k > i:
+                reach += _link_length_m(arm.joints[k])
+            row[k] = reach
+        row[n] = reach + tool_reach_m
+        levers.append(row)
+    return levers
+
+
+def servo_stiffness_nm_per_rad(
+    arm: ArmDescription, tuning: ServoTuning = DEFAULT_SERVO
+) -> tuple[float, ...]:
+    """Position gain kp of each joint so the flange yields at most ``tuning.deflection_m``.
+
+    A force F at lever r from joint i turns it by F r / kp and moves the tool by F r^2 / kp; with
+    the deflection shared equally by the N joints, kp_i = N F r_i^2 / deflection.
+
+    Args:
+        arm: the arm.
+        tuning: load, allowed deflection and tool reach.
+
+    Returns:
+        kp per joint, in N m/rad.
+
+    Example:
+        >>> kp = servo_stiffness_nm_per_rad(VIPER_S1700D)
+        >>> kp[0] > kp[5]
+        True
+    """
+    levers = _lever_arms_m(arm, tuning.tool_reach_m)
+    return tuple(arm.dof * tuning.load_n * row[-1] ** 2 / tuning.deflection_m for row in levers)
+
+
+def torque_limits_nm(arm: ArmDescription, tuning: ServoTuning = DEFAULT_SERVO) -> tuple[float, ...]:
+    """Torque limit of each joint: the published one, or an estimate where there is none.
+
+    The estimate is ``tuning.torque_margin`` times the gravity torque about the joint, taken as
+    horizontal, of the links beyond it stretched out, each with its mass at its far end, plus
+    ``tuning.payload_kg`` at ``tuning.tool_reach_m`` beyond the flange: an upper bound of the
+    static load, with headroom for acceleration.
+
+    Args:
+        arm: the arm.
+        tuning: payload, tool reach and margin of the estimate.
+
+    Returns:
+        torque limit per joint, in N m.
+
+    Example:
+        >>> torque_limits_nm(KUKA_LWR4)[0]
+        176.0
+    """
+    levers = _lever_arms_m(arm, tuning.tool_reach_m)
+    limits = []
+    for i, joint in enumerate(arm.joints):
+        if joint.max_torque_nm is not None:
+            limits.append(joint.max_torque_nm)
+            continue
+        row = levers[i]
+        moment_kg_m = sum(m * r for m, r in zip(arm.link_masses_kg, row, strict=False))
+        moment_kg_m += tuning.payload_kg * row[-1]
+        limits.append(tuning.torque_margin * _GRAVITY_M_S2 * moment_kg_m)
+    return tuple(limits)
+
+
+def _quat(rotation: np.ndarray) -> np.ndarray:
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, rotation.reshape(9))
+    return quat
+
+
+@dataclass(frozen=True)
+class _Shape:
+    """One primitive before its mass is known: MuJoCo type, size, pose in the link frame."""
+
+    name: str
+    kind: mujoco.mjtGeom
+    size: tuple[float, ...]
+    pos: np.ndarray
+    quat: np.ndarray
+    rgba: _RGBA
+    volume_m3: float
+
+
+def _capsule(name: str, start: np.ndarray, end: np.ndarray, radius: float, rgba: _RGBA) -> _Shape:
+    axis = end - start
+    length = float(np.linalg.norm(axis))
+    # Orientation from the z axis onto the segment, so the shape is fixed by pos/quat alone.
+    quat = np.empty(4)
+    mujoco.mju_quatZ2Vec(quat, axis / length)
+    volume = math.pi * radius**2 * (length + 4.0 * radius / 3.0)
+    return _Shape(
+        name,
+        mujoco.mjtGeom.mjGEOM_CAPSULE,
+        (radius, length / 2),
+        (start + end) / 2,
+        quat,
+        rgba,
+        volume,
+    )
+
+
+def _cylinder(
+    name: str, center: np.ndarray, rotation: np.ndarray, radius: float, half: float, rgba: _RGBA
+) -> _Shape:
+    volume = 2.0 * math.pi * radius**2 * half
+    return _Shape(
+        name, mujoco.mjtGeom.mjGEOM_CYLINDER, (radius, half), center, _quat(rotation), rgba, volume
+    )
+
+
+def _link_shapes(arm: ArmDescription, look: ArmLook, i: int) -> list[_Shape]:
+    """Shapes of link ``i`` (0-based) in its body frame, DH frame i rotated by q_i."""
+    joint = arm.joints[i]
+    end = dh_transform(joint, 0.0)
+    corner = np.array([0.0, 0.0, joint.d_m])
+    tip = end[:3, 3]
+    radius = look.segment_radius_m[i]
+    housing = look.housing_radius_m[i]
+    name = f"link{i + 1}"
+    shapes = []
+    # Link 1 rises out of the base column rather than from the floor.
+    start = np.array([0.0, 0.0, look.base_height_m if i == 0 else 0.0])
+    if joint.d_m - start[2] > _MIN_SEGMENT_M:
+        shapes.append(_capsule(f"{name}_column", start, corner, radius, look.shell_rgba))
+    if abs(joint.a_m) > _MIN_SEGMENT_M:
+        shapes.append(_capsule(f"{name}_arm", corner, tip, radius, look.shell_rgba))
+    if i < arm.dof - 1:
+        shapes.append(
+            _cylinder(f"{name}_housing", tip, end[:3, :3], housing, housing, look.housing_rgba)
+        )
+    else:
+        # The disk ends flush with the flange, so a tool attached there touches, not overlaps.
+        half = 0.2 * housing
+        shapes.append(
+            _cylinder(
+                f"{name}_flange",
+                tip - half * end[:3, 2],
+                end[:3, :3],
+                housing,
+                half,
+                look.housing_rgba,
+            )
+        )
+    return shapes
+
+
+def _excluded_pairs(arm: ArmDescription, look: ArmLook) -> list[tuple[int, int]]:
+    """Link pairs whose contacts are off (0 is the base).
+
+    Neighbours always overlap at their joint. Links i and i+2 are excluded too when link i+1 is
+    shorter than their radii: primitive shapes cannot show the clearance the real joint keeps
+    between them (a spherical wrist, the LWR's knuckles).
+    """
+    pairs = [(i, i + 1) for i in range(arm.dof)]
+    for i in range(arm.dof - 1):
+        gap_m = _link_length_m(arm.joints[i])
+        if gap_m < look.size_m(i) + look.size_m(i + 2):
+            pairs.append((i, i + 2))
+    return pairs
+
+
+def _body_name(link: int) -> str:
+    return "base" if link == 0 else f"link{link}"
+
+
+def build_arm(
+    arm: ArmDescription,
+    *,
+    stiffness_nm_per_rad: float | None = None,
+    tuning: ServoTuning = DEFAULT_SERVO,
+    look: ArmLook | None = None,
+) -> mujoco.MjSpec:
+    """Build ``arm`` as a spec whose base frame is the spec's world frame.
+
+    Every link carries ``gravcomp = 1`` and every joint ``actgravcomp``, so the servos hold the
+    arm against gravity exactly, within their torque limits; the position error left is that
+    of loads the arm was not built with (tools, contacts). The armature of joint i is
+    kp_i (timestep / omega_timestep)^2, which bounds the servo frequencies so that explicit
+    stiffness (``implicitfast``) is stable at ``tuning.timestep_s``; ``discrete`` is stable
+    at any step. The spec authors no ``option`` so that it merges into a scene's without
+    conflict; angles are in radians.
+
+    Args:
+        arm: DH table, masses and home pose.
+        stiffness_nm_per_rad: kp of every joint servo, in N m/rad; None sizes each joint's kp
+            with :func:`servo_stiffness_nm_per_rad`.
+        tuning: servo sizing; see :class:`ServoTuning`.
+        look: shapes and colours; None takes ``LOOKS[arm.name]``.
+
+    Returns:
+        A spec that compiles alone and can be attached under a prefix.
+
+    Raises:
+        InputError: no look is known for the arm, or the look has the wrong number of links.
+
+    Example:
+        >>> spec = build_arm(KUKA_LWR4)
+        >>> parent = mujoco.MjSpec()
+        >>> frame = parent.worldbody.add_frame(pos=[1.0, 0.0, 0.0])
+        >>> _ = parent.attach(spec, frame=frame, prefix="camera_arm/")
+        >>> parent.compile().actuator("camera_arm/joint7").trnid[0] > 0
+        np.True_
+    """
+    if look is None:
+        if arm.name not in LOOKS:
+            raise InputError(None, "look", f"no look known for arm {arm.name!r}; pass one")
+        look = LOOKS[arm.name]
+    if len(look.segment_radius_m) != arm.dof or len(look.housing_radius_m) != arm.dof:
+        raise InputError(None, "look", f"{arm.name} has {arm.dof} links; the look has not")
+
+    if stiffness_nm_per_rad is None:
+        kp = servo_stiffness_nm_per_rad(arm, tuning)
+    else:
+        kp = (stiffness_nm_per_rad,) * arm.dof
+    torque = torque_limits_nm(arm, tuning)
+    inertia_time_s2 = (tuning.timestep_s / tuning.omega_timestep) ** 2
+
+    spec = mujoco.MjSpec()
+    spec.modelname = arm.name
+    spec.compiler.degree = False
+
+    base = spec.worldbody.add_body(name="base")
+    half_height = look.base_height_m / 2
+    base.add_geom(
+        name="base_column",
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[look.base_radius_m, half_height, 0.0],
+        pos=[0.0, 0.0, half_height],
+        mass=arm.base_mass_kg,
+        rgba=look.housing_rgba,
+    )
+
+    parent = base
+    offset = np.eye(4)
+    for i, joint in enumerate(arm.joints):
+        name = f"link{i + 1}"
+        body = parent.add_body(
+            name=name, pos=offset[:3, 3], quat=_quat(offset[:3, :3]), gravcomp=1.0
+        )
+        body.add_joint(
+            name=f"joint{i + 1}",
+            type=mujoco.mjtJoint.mjJNT_HINGE,
+            axis=[0.0, 0.0, 1.0],
+            range=[joint.lower_rad, joint.upper_rad],
+            limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            damping=kp[i] * tuning.damping_time_s,
+            armature=kp[i] * inertia_time_s2,
+            actgravcomp=True,
+            # Servo and gravity compensation come from one motor: clamp their sum.
+            actfrclimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            actfrcrange=[-torque[i], torque[i]],
+        )
+        shapes = _link_shapes(arm, look, i)
+        total_volume = sum(s.volume_m3 for s in shapes)
+        for shape in shapes:
+            body.add_geom(
+                name=shape.name,
+                type=shape.kind,
+                size=[*shape.size, 0.0],
+                pos=shape.pos,
+                quat=shape.quat,
+                mass=arm.link_masses_kg[i] * shape.volume_m3 / total_volume,
+                rgba=shape.rgba,
+            )
+        actuator = spec.add_actuator(
+            name=f"joint{i + 1}",
+            target=f"joint{i + 1}",
+            trntype=mujoco.mjtTrn.mjTRN_JOINT,
+            ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            ctrlrange=[joint.lower_rad, joint.upper_rad],
+            forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            forcerange=[-torque[i], torque[i]],
+        )
+        actuator.set_to_position(kp=kp[i], dampratio=tuning.dampratio)
+        offset = dh_transform(joint, 0.0)
+        parent = body
+
+    parent.add_site(name="flange", pos=offset[:3, 3], quat=_quat(offset[:3, :3]))
+    for a, b in _excluded_pairs(arm, look):
+        spec.add_exclude(bodyname1=_body_name(a), bodyname2=_body_name(b))
+    return spec

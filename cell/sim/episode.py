@@ -1,0 +1,366 @@
+"""A scripted cutting episode: the camera arm frames the meat, the gripper grasps the shank,
+the knife cuts along the interface's top line while the gripper pulls the shank away.
+
+The summary splits into ``result`` (a function of the scenario and its seed alone) and
+``timing`` (wall-clock figures of this run).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from tqdm import tqdm
+
+from cell.errors import MusclecellError
+from cell.perception.pipeline import PerceivedPlan, generic_model, perceive
+from cell.robots.camera import CameraRig
+from cell.robots.names import ARMS, CAMERA, GRASP_SITE, KNIFE_TIP
+from cell.sim.assembly import (
+    Scene,
+    build_robot_spec,
+    build_scene,
+    grasp_point,
+)
+from cell.sim.recording import EpisodeRecorder
+from cell.sim.scenario import Scenario
+from cell.sim.simulation import Simulation
+from cell.tissue.aponeurosis import ReleaseRule
+from controllers import gripper, knife
+from controllers.camera import view_pose
+from controllers.gripper import PullSchedule
+from controllers.ik import CellIK, arm_joint_names, pose
+from controllers.trajectory import CartesianTrajectory
+
+#: IK iterations that bring the arms from home to their ready poses before the episode starts.
+_READY_ITERATIONS = 200
+#: The site whose drift shows whether an arm that should hold still does.
+_HELD_SITES = {"camera": "camera/optical", "gripper": GRASP_SITE, "knife": KNIFE_TIP}
+#: Which random stream of the seed the camera's noise draws from (the sensors use stream 0).
+_PERCEPTION_STREAM = 1
+#: Median gap (m) between facing vertices above which the muscles count as apart.
+APART_GAP_M = 0.02
+
+
+@dataclass(frozen=True)
+class EpisodePlan:
+    """The tools' plan from their ready poses: what the scripted episode follows.
+
+    Attributes:
+        knife: the knife tip's trajectory (world frame, m; times in s of simulated time).
+        cut_path_m: (N, 3) planned tip path while cutting, from the entry at depth on, m.
+        cut_window_s: (start, end) of the cut, s: the knife is at the entry at depth at the
+            start and at the path's last point at the end.
+        pull: the grasp site's trajectory.
+        schedule: when the gripper closes, grasps and pulls.
+        end_s: when the scripted episode stops, s.
+
+    Example:
+        >>> plan = Episode(scenario).plan()
+        >>> position_m, rotation = plan.knife.sample(plan.cut_window_s[0])
+    """
+
+    knife: CartesianTrajectory
+    cut_path_m: np.ndarray
+    cut_window_s: tuple[float, float]
+    pull: CartesianTrajectory
+    schedule: PullSchedule
+    end_s: float
+
+
+@dataclass
+class _Trace:
+    """What the loop measures while it runs."""
+
+    tracking_error_m: list[float] = field(default_factory=list)
+    knife_force_n: list[float] = field(default_factory=list)
+    knife_torque_nm: list[float] = field(default_factory=list)
+    pull_force_n: list[float] = field(default_factory=list)
+    fixture_force_n: list[float] = field(default_factory=list)
+    held_drift_m: dict[str, float] = field(default_factory=dict)
+
+
+class Episode:
+    """One scripted episode over a freshly built scene.
+
+    Example:
+        >>> episode = Episode(load_scenario("scenarios/default.toml"))
+        >>> summary = episode.run(rerun_path="out/default.rrd")
+        >>> summary["result"]["released_fraction"]
+    """
+
+    def __init__(self, scenario: Scenario, scene: Scene | None = None) -> None:
+        self.scenario = scenario
+        self.scene = build_scene(scenario) if scene is None else scene
+        self.robot_model = build_robot_spec(scenario).compile()
+        self.sim = Simulation(self.scene, scenario)
+        model = self.scene.model
+        names = [n for prefix, arm in ARMS.items() for n in arm_joint_names(prefix, arm)]
+        self.scene_qpos = np.array([model.joint(n).qposadr[0] for n in names])
+        self.ik_qpos = np.array([self.robot_model.joint(n).qposadr[0] for n in names])
+        self.actuators = np.array([model.actuator(n).id for n in names])
+        self.fingers = np.array([model.actuator(f"gripper/finger_{s}").id
+                                 for s in ("left", "right")])
+        self.control_dt_s = 1.0 / scenario.simulation.control_rate_hz
+        self.substeps = max(1, round(self.control_dt_s / scenario.simulation.timestep_s))
+        self.generic = generic_model(scenario.layout.meat_origin_m)
+        self.ik = CellIK(self.robot_model, self._home_configuration())
+        self._solve_ready_poses()
+        self._place_arms()
+        self._control_steps = 0
+        self._knife_tared = self._gripper_tared = self._grasped = False
+        self._jaw_half_m = np.array([scenario.gripper.finger_width_m / 2,
+                                     scenario.gripper.max_opening_m / 2,
+                                     scenario.gripper.finger_length_m / 2])
+
+    def _home_configuration(self) -> np.ndarray:
+        q = self.robot_model.qpos0.copy()
+        for prefix, arm in ARMS.items():
+            for name, angle in zip(arm_joint_names(prefix, arm), arm.home_q_rad, strict=True):
+                q[self.robot_model.joint(name).qposadr[0]] = angle
+        return q
+
+    def _solve_ready_poses(self) -> None:
+        """Solve IK (kinematics only) for the poses the arms start from: knife above the cut's
+        entry, gripper above the grasp point, camera framing the meat."""
+        scenario, mesh = self.scenario, self.scene.mesh
+        eye, look = view_pose(mesh)
+        self.ik.camera.set_target(pose(eye, np.eye(3)))
+        self.ik.gaze.set_target(look)
+        # Before the camera has looked, the knife can only wait where the generic model
+        # puts the valley's end.
+        expected = self.generic.top_line if scenario.perception.enabled else mesh.top_line
+        self.ik.knife.set_target(pose(*knife.ready_pose(expected, scenario.cut)))
+        self.ik.grasp.set_target(pose(*gripper.ready_pose(grasp_point(scenario, mesh),
+                                                          scenario.pull)))
+        for _ in range(_READY_ITERATIONS):
+            self.ik.solve(self.control_dt_s)
+
+    def _place_arms(self) -> None:
+        data = self.sim.data
+        q = self.ik.configuration.q[self.ik_qpos]
+        data.qpos[self.scene_qpos] = q
+        data.ctrl[self.actuators] = q
+        data.ctrl[self.fingers] = self.scenario.gripper.max_opening_m / 2
+        mujoco.mj_forward(self.scene.model, data)
+        self._ctrl_prev = q.copy()
+
+    def run(self, rerun_path: str | Path | None = None, progress: bool = False
+            ) -> dict[str, Any]:
+        """Run the episode; returns the summary. Writes the Rerun file if a path is given.
+
+        Raises:
+            DivergenceError: the physics blew up (nothing is written then).
+        """
+        scenario, model = self.scenario, self.sim.model
+        rig = (CameraRig(model, CAMERA, scenario.camera.width_px, scenario.camera.height_px)
+               if scenario.perception.enabled or rerun_path is not None else None)
+        try:
+            return self._run(rig, rerun_path, progress)
+        finally:
+            if rig is not None:
+                rig.close()
+
+    def _run(self, rig: CameraRig | None, rerun_path: str | Path | None,
+             progress: bool) -> dict[str, Any]:
+        scenario, sim, ik = self.scenario, self.sim, self.ik
+        data, model, scene = sim.data, sim.model, self.scene
+        perceived = self.perceive(rig) if rig is not None and scenario.perception.enabled \
+            else None
+        plan = self.plan(perceived)
+        cut_start, cut_end = plan.cut_window_s
+        steps = int(np.ceil(plan.end_s / self.control_dt_s))
+        held = {"camera": ik.site_pose("camera/optical")[0]}
+        if not scenario.pull.enabled:
+            held["gripper"] = ik.site_pose(GRASP_SITE)[0]
+        if not scenario.cut.enabled:
+            held["knife"] = ik.site_pose(KNIFE_TIP)[0]
+        recorder = None
+        if rerun_path is not None:
+            recorder = EpisodeRecorder(rerun_path, scene, f"{scenario.name}-{scenario.seed}")
+            recorder.log_planned_path(plan.cut_path_m)
+            if perceived is not None:
+                recorder.log_perception(perceived)
+        frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
+        camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
+                                           * self.control_dt_s)))
+        trace = _Trace()
+        tip_site = model.site(KNIFE_TIP).id
+        wall_start = time.perf_counter()
+        try:
+            for k in tqdm(range(steps), disable=not progress, unit="ctrl", desc=scenario.name):
+                t_next = (k + 1) * self.control_dt_s
+                knife_target = plan.knife.sample(t_next) if scenario.cut.enabled else None
+                grasp_target = plan.pull.sample(t_next) if scenario.pull.enabled else None
+                self.control_step(plan, knife_target, grasp_target)
+                t = sim.time_s
+                tip = data.site_xpos[tip_site]
+                if knife_target is not None and cut_start <= t <= cut_end:
+                    trace.tracking_error_m.append(
+                        float(np.linalg.norm(tip - knife_target[0])))
+                self._measure(trace, self._knife_tared, self._gripper_tared)
+                for name, start in held.items():
+                    site = _HELD_SITES[name]
+                    drift = float(np.linalg.norm(data.site_xpos[model.site(site).id] - start))
+                    trace.held_drift_m[name] = max(trace.held_drift_m.get(name, 0.0), drift)
+                if recorder is not None and k % frame_every == 0:
+                    recorder.log_frame(data, tip, self._scalars(trace))
+                if recorder is not None and rig is not None and k % camera_every == 0:
+                    recorder.log_camera(data, rig)
+        except MusclecellError:
+            if recorder is not None:
+                recorder.abort()
+            raise
+        wall_s = time.perf_counter() - wall_start
+        if recorder is not None:
+            recorder.close()
+        return self._summary(trace, wall_s, perceived)
+
+    def plan(self, perceived: PerceivedPlan | None = None) -> EpisodePlan:
+        """Plan the knife and the gripper from the arms' present IK poses (the ready poses
+        before the first control step): along the perceived guideline and interface, or the
+        generator's own when ``perceived`` is None."""
+        scenario, ik, mesh = self.scenario, self.ik, self.scene.mesh
+        if perceived is None:
+            top, interface_y = mesh.top_line, mesh.interface_y
+        else:
+            top, interface_y = perceived.guideline.points_m, perceived.interface_y
+            if top[0, 0] > top[-1, 0]:  # enter from the end the knife waits at (-x)
+                top = top[::-1]
+        tip_pos, tip_rot = ik.site_pose(KNIFE_TIP)
+        knife_traj, cut_path, window = knife.plan_cut(
+            top, scenario.cut, scenario.layout.table_height_m,
+            scenario.cut.start_s, tip_pos, tip_rot, interface_y=interface_y)
+        grasp_pos, grasp_rot = ik.site_pose(GRASP_SITE)
+        pull_traj, schedule = gripper.plan_pull(
+            grasp_point(scenario, mesh), scenario.pull, scenario.settle_s, window,
+            grasp_pos, grasp_rot)
+        end_s = scenario.end_s or max(knife_traj.end_s, schedule.pull_end_s) + 0.5
+        return EpisodePlan(knife_traj, cut_path, window, pull_traj, schedule, end_s)
+
+    def control_step(self, plan: EpisodePlan,
+                     knife_target: tuple[np.ndarray, np.ndarray] | None,
+                     grasp_target: tuple[np.ndarray, np.ndarray] | None,
+                     ) -> dict[ReleaseRule, np.ndarray]:
+        """One control step: IK toward the tool targets (position m, rotation; None keeps the
+        last target), the joint controls ramped over the physics steps, then the plan's
+        timed events (sensor tares, closing the jaws, the grasp) and the release rules.
+
+        Returns:
+            The bindings released in this step, by rule.
+
+        Raises:
+            DivergenceError: the physics blew up.
+        """
+        scenario, sim, data = self.scenario, self.sim, self.sim.data
+        schedule = plan.schedule
+        cut_start, cut_end = plan.cut_window_s
+        self._control_steps += 1
+        t_next = self._control_steps * self.control_dt_s
+        if knife_target is not None:
+            self.ik.knife.set_target(pose(*knife_target))
+        if grasp_target is not None:
+            self.ik.grasp.set_target(pose(*grasp_target))
+        ctrl_next = self.ik.solve(self.control_dt_s)[self.ik_qpos]
+        if scenario.pull.enabled and t_next >= schedule.close_s:
+            data.ctrl[self.fingers] = 0.0
+        ctrl_prev = self._ctrl_prev
+        for i in range(1, self.substeps + 1):
+            data.ctrl[self.actuators] = ctrl_prev + (ctrl_next - ctrl_prev) * (i / self.substeps)
+            sim.step()  # one step at a time: the controls ramp between them
+        self._ctrl_prev = ctrl_next
+        t = sim.time_s
+        if not self._knife_tared and t >= cut_start - 0.1:
+            sim.tare("knife/force", "knife/torque")
+            self._knife_tared = True
+        if scenario.pull.enabled and not self._gripper_tared and t >= schedule.close_s:
+            sim.tare("gripper/force", "gripper/torque", "fixture_force")
+            self._gripper_tared = True
+        if scenario.pull.enabled and not self._grasped and t >= schedule.grasp_s:
+            sim.grasp(self._jaw_half_m)
+            self._grasped = True
+        cutting = scenario.cut.enabled and cut_start <= t <= cut_end
+        return sim.apply_release_rules(t - cut_start if cutting else None)
+
+    def perceive(self, rig: CameraRig) -> PerceivedPlan:
+        """Look at the meat from the camera arm's pose and plan the cut (paper Sec. 5); the
+        sensor noise follows the scenario's seed.
+
+        Raises:
+            PerceptionError: no meat in view, no valley at the start marker, a bad fit.
+        """
+        mujoco.mj_forward(self.scene.model, self.sim.data)
+        rng = np.random.default_rng([self.scenario.seed, _PERCEPTION_STREAM])
+        return perceive(rig, self.sim.data, self.scene.mesh, self.generic,
+                        self.scenario.perception, rng)
+
+    def _measure(self, trace: _Trace, knife_tared: bool, gripper_tared: bool) -> None:
+        sim = self.sim
+        if knife_tared:
+            trace.knife_force_n.append(float(np.linalg.norm(sim.read("knife/force"))))
+            trace.knife_torque_nm.append(float(np.linalg.norm(sim.read("knife/torque"))))
+        if gripper_tared:
+            trace.pull_force_n.append(float(np.linalg.norm(sim.read("gripper/force"))))
+            trace.fixture_force_n.append(float(np.linalg.norm(sim.read("fixture_force"))))
+
+    def _scalars(self, trace: _Trace) -> dict[str, float]:
+        apo = self.scene.aponeurosis
+        values = {"progress/released_fraction": float(1.0 - apo.bound.mean())}
+        for name, series in (("forces/knife_n", trace.knife_force_n),
+                             ("forces/knife_torque_nm", trace.knife_torque_nm),
+                             ("forces/pull_n", trace.pull_force_n),
+                             ("forces/fixture_n", trace.fixture_force_n),
+                             ("tracking/knife_error_m", trace.tracking_error_m)):
+            if series:
+                values[name] = series[-1]
+        return values
+
+    def _summary(self, trace: _Trace, wall_s: float,
+                 perceived: PerceivedPlan | None) -> dict[str, Any]:
+        scene, sim = self.scene, self.sim
+        apo = scene.aponeurosis
+        gap = apo.lengths(sim.data) - apo.rest_length_m
+        released_fraction = float(1.0 - apo.bound.mean())
+        errors = np.array(trace.tracking_error_m) if trace.tracking_error_m else np.zeros(1)
+
+        def peak(series: list[float]) -> float:
+            return float(max(series)) if series else 0.0
+
+        result = {
+            "scenario": self.scenario.name,
+            "seed": self.scenario.seed,
+            "tissue_nodes": scene.node_count,
+            "bindings": len(apo),
+            "released_by_rule": apo.released_counts(),
+            "released_fraction": released_fraction,
+            "gap_m": {"median": float(np.median(gap)), "mean": float(gap.mean()),
+                      "min": float(gap.min())},
+            "muscles_apart": bool(released_fraction >= 0.95
+                                  and float(np.median(gap)) >= APART_GAP_M),
+            "grasped_vertices": len(sim.grasped),
+            "knife_force_peak_n": peak(trace.knife_force_n),
+            "knife_torque_peak_nm": peak(trace.knife_torque_nm),
+            "pull_force_peak_n": peak(trace.pull_force_n),
+            "fixture_force_peak_n": peak(trace.fixture_force_n),
+            "knife_tracking_error_m": {"median": float(np.median(errors)),
+                                       "p95": float(np.percentile(errors, 95)),
+                                       "max": float(errors.max())},
+            "held_arm_drift_m": trace.held_drift_m,
+            "sim_time_s": sim.time_s,
+        }
+        if perceived is not None:
+            distance = perceived.guideline_distance_m
+            result["perception"] = {
+                "guideline_to_true_top_line_xy_m": {"mean": distance.mean_m,
+                                                    "max": distance.max_m},
+                "coverage_of_true_top_line": perceived.coverage,
+                "fit_rms_m": perceived.fit.rms_m,
+                "cut_depth_m": {"min": float(perceived.cut_depth_m.min()),
+                                "max": float(perceived.cut_depth_m.max())},
+            }
+        timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s}
+        return {"result": result, "timing": timing}

@@ -1,0 +1,190 @@
+"""Headless Rerun recordings of an episode (``.rrd`` files for the Rerun viewer).
+
+Layout: ``world/cell/<body>`` holds each robot and tool body (static shapes, a transform per
+frame), ``world/tissue/<muscle>`` the muscle surfaces (static triangles, vertex positions per
+frame), ``world/aponeurosis`` the bindings, ``world/knife_path/*`` the planned and executed
+tip paths, ``world/camera`` the camera with its RGB and depth images, ``forces/*`` and
+``progress/*`` time series. Time is the ``sim_time`` timeline, in s.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import rerun as rr
+
+from cell.perception.pipeline import PerceivedPlan
+from cell.robots.camera import CameraRig
+from cell.sim.assembly import Scene
+
+_RELEASE_COLOURS = {"knife": [255, 200, 0], "tearing": [255, 60, 200],
+                    "force": [60, 200, 255]}
+#: Mean curvature (1/m) shown at full colour in the perception mesh.
+_CURVATURE_SCALE_1_M = 30.0
+
+
+def _xyzw(wxyz: np.ndarray) -> np.ndarray:
+    """MuJoCo quaternions are (w, x, y, z); Rerun's are (x, y, z, w)."""
+    return np.asarray(wxyz)[..., [1, 2, 3, 0]]
+
+
+def _rgba8(rgba: np.ndarray) -> list[int]:
+    return [round(255 * float(c)) for c in np.clip(rgba, 0, 1)]
+
+
+def _entity(body_name: str) -> str:
+    return "world/cell/" + body_name.replace("/", ".")
+
+
+class EpisodeRecorder:
+    """Writes one episode to a ``.rrd`` file; the file appears (atomically) at :meth:`close`.
+
+    Args:
+        path: the ``.rrd`` file to write.
+        scene: the compiled cell.
+        recording_id: fixed id, so that the same seed gives the same recording identity.
+
+    Example:
+        >>> rec = EpisodeRecorder("out/episode.rrd", scene, recording_id="default-0")
+        >>> rec.log_frame(data)
+        >>> rec.close()
+    """
+
+    def __init__(self, path: str | Path, scene: Scene, recording_id: str) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        self.scene = scene
+        self.model = scene.model
+        rid = uuid.uuid5(uuid.NAMESPACE_URL, f"musclecell/{recording_id}")
+        self.stream = rr.RecordingStream("musclecell", recording_id=rid)
+        self.stream.save(self._tmp)
+        tissue = set(scene.round_bodies.tolist()) | set(scene.shank_bodies.tolist())
+        self._bodies = [b for b in range(1, self.model.nbody)
+                        if b not in tissue and self.model.body_geomnum[b] > 0]
+        self._executed: list[np.ndarray] = []
+        self._log_static()
+
+    def _geom_archetype(self, g: int) -> rr.AsComponents | None:
+        m = self.model
+        kind = m.geom_type[g]
+        size = m.geom_size[g]
+        pos = m.geom_pos[g]
+        quat = _xyzw(m.geom_quat[g])
+        colour = [_rgba8(m.geom_rgba[g])]
+        if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+            axis = np.zeros(3)
+            mujoco.mju_rotVecQuat(axis, np.array([0.0, 0.0, size[1]]), m.geom_quat[g])
+            return rr.Capsules3D(lengths=[2 * size[1]], radii=[size[0]],
+                                 translations=[pos - axis], quaternions=[quat], colors=colour)
+        if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+            return rr.Cylinders3D(lengths=[2 * size[1]], radii=[size[0]], centers=[pos],
+                                  quaternions=[quat], colors=colour, fill_mode="solid")
+        if kind == mujoco.mjtGeom.mjGEOM_BOX:
+            return rr.Boxes3D(half_sizes=[size], centers=[pos], quaternions=[quat],
+                              colors=colour, fill_mode="solid")
+        if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+            return rr.Ellipsoids3D(half_sizes=[[size[0]] * 3], centers=[pos], colors=colour,
+                                   fill_mode="solid")
+        return None
+
+    def _log_static(self) -> None:
+        m, s = self.model, self.stream
+        s.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        for b in [0, *self._bodies]:
+            name = "world/cell/static" if b == 0 else _entity(m.body(b).name)
+            for g in range(m.body_geomadr[b], m.body_geomadr[b] + m.body_geomnum[b]):
+                archetype = self._geom_archetype(g)
+                if archetype is not None:
+                    s.log(f"{name}/{m.geom(g).name or g}", archetype, static=True)
+        for muscle in ("round", "shank"):
+            mesh = getattr(self.scene.mesh, muscle)
+            f = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, muscle)
+            s.log(f"world/tissue/{muscle}", rr.Mesh3D(
+                vertex_positions=mesh.points, triangle_indices=mesh.boundary,
+                albedo_factor=_rgba8(m.flex_rgba[f])), static=True)
+
+    def set_time(self, time_s: float) -> None:
+        """Set the ``sim_time`` timeline for what is logged next."""
+        self.stream.set_time("sim_time", duration=time_s)
+
+    def log_planned_path(self, path_m: np.ndarray) -> None:
+        """The knife tip path the controller plans to follow."""
+        self.stream.log("world/knife_path/planned",
+                        rr.LineStrips3D([path_m], colors=[[0, 160, 255]], radii=0.0015),
+                        static=True)
+
+    def log_perception(self, plan: PerceivedPlan) -> None:
+        """What the camera gave, at the current time: the cloud, the surface mesh coloured by
+        mean curvature (blue: valley, red: ridge), the guideline's nodes and its spline."""
+        s = self.stream
+        s.log("world/perception/cloud", rr.Points3D(plan.cloud_m, colors=[[200, 200, 200]],
+                                                   radii=0.001))
+        mean = np.clip(plan.curvature.mean_1_m / _CURVATURE_SCALE_1_M, -1.0, 1.0)
+        colours = np.stack([np.clip(mean, 0, 1), np.zeros_like(mean), np.clip(-mean, 0, 1)], 1)
+        s.log("world/perception/mesh", rr.Mesh3D(
+            vertex_positions=plan.mesh.vertices_m, triangle_indices=plan.mesh.triangles,
+            vertex_colors=(0.3 + 0.7 * colours) * 255))
+        path = plan.guideline
+        s.log("world/perception/guideline_nodes",
+              rr.Points3D(plan.mesh.vertices_m[path.nodes], colors=[[0, 255, 120]], radii=0.003))
+        s.log("world/perception/guideline",
+              rr.LineStrips3D([path.points_m], colors=[[0, 255, 120]], radii=0.0015))
+
+    def log_frame(self, data: mujoco.MjData, knife_tip_m: np.ndarray,
+                  scalars: dict[str, float]) -> None:
+        """Body poses, muscle surfaces, bindings, executed path and time series, at
+        ``data.time``."""
+        m, s, scene = self.model, self.stream, self.scene
+        self.set_time(float(data.time))
+        for b in self._bodies:
+            s.log(_entity(m.body(b).name), rr.Transform3D(
+                translation=data.xpos[b], quaternion=_xyzw(data.xquat[b])))
+        for muscle in ("round", "shank"):
+            f = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, muscle)
+            start = m.flex_vertadr[f]
+            verts = data.flexvert_xpos[start:start + m.flex_vertnum[f]]
+            s.log(f"world/tissue/{muscle}", rr.Mesh3D.from_fields(vertex_positions=verts))
+        apo = scene.aponeurosis
+        a, b = apo.endpoints(data)
+        bound = apo.bound
+        s.log("world/aponeurosis/bound", rr.LineStrips3D(
+            np.stack([a[bound], b[bound]], axis=1), colors=[[255, 255, 255]], radii=0.0008))
+        released = ~bound
+        colours = [_RELEASE_COLOURS[str(apo.released_by[i])] for i in np.flatnonzero(released)]
+        s.log("world/aponeurosis/released", rr.Points3D(
+            0.5 * (a[released] + b[released]), colors=colours if colours else None,
+            radii=0.0015))
+        self._executed.append(np.array(knife_tip_m, float))
+        s.log("world/knife_path/executed", rr.LineStrips3D(
+            [np.array(self._executed)], colors=[[255, 80, 0]], radii=0.001))
+        for name, value in scalars.items():
+            s.log(name, rr.Scalars(float(value)))
+
+    def log_camera(self, data: mujoco.MjData, rig: CameraRig) -> None:
+        """The camera's pose, intrinsics, RGB and metric depth at ``data.time``."""
+        s = self.stream
+        self.set_time(float(data.time))
+        position, rotation = rig.pose(data)
+        s.log("world/camera", rr.Transform3D(translation=position, mat3x3=rotation))
+        s.log("world/camera", rr.Pinhole(
+            focal_length=rig.focal_px, width=rig.width_px, height=rig.height_px,
+            camera_xyz=rr.ViewCoordinates.RUB))
+        s.log("world/camera/rgb", rr.Image(rig.rgb(data)))
+        s.log("world/camera/depth", rr.DepthImage(rig.depth(data), meter=1.0))
+
+    def close(self) -> Path:
+        """Flush and move the recording into place."""
+        self.stream.flush()
+        self.stream.disconnect()
+        os.replace(self._tmp, self.path)
+        return self.path
+
+    def abort(self) -> None:
+        """Drop the partial recording (the episode failed)."""
+        self.stream.disconnect()
+        self._tmp.unlink(missing_ok=True)

@@ -1,0 +1,257 @@
+"""Scenario files: one TOML file describes one scripted cutting episode.
+
+Every table maps onto a parameter dataclass; a wrong key, type or value raises
+:class:`~cell.errors.ScenarioError` naming the file and the dotted key.
+
+Example:
+    >>> scenario = load_scenario("scenarios/default.toml")
+    >>> scenario.cut.speed_m_s
+    0.03
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Literal
+
+from cell.config import from_table, read_toml, require_non_negative, require_positive
+from cell.errors import InputError, MaterialError, ScenarioError
+from cell.perception.pipeline import PerceptionParams
+from cell.robots.tools import CameraParams, GripperParams, KnifeParams
+from cell.tissue.aponeurosis import ReleaseRule
+from cell.tissue.geometry import MuscleShape
+from cell.tissue.material import (
+    ContinuumMaterial,
+    MassSpringMaterial,
+    default_meat,
+    load_material,
+    material_from_table,
+)
+from controllers.gripper import PullPlan
+from controllers.knife import CutPlan
+
+#: The project's root: ``assets/...`` paths in scenario files are read from here.
+PROJECT_ROOT = Path(__file__).resolve().parent.parent
+
+
+@dataclass(frozen=True)
+class SimulationParams:
+    """Physics settings. ``timestep_s`` is MuJoCo's step; the controllers run at
+    ``control_rate_hz``; ``max_tissue_speed_m_s`` flags an energy blow-up. ``integrator``
+    ``"auto"`` picks ``discrete`` for continuum materials (the only one MuJoCo runs them
+    with) and ``implicitfast`` for the mass-spring model. ``muscle_contact`` lets the two
+    muscles collide with each other (off by default: it more than doubles a step's cost, and
+    the bindings and the pull keep them apart)."""
+
+    timestep_s: float = 0.002
+    control_rate_hz: float = 50.0
+    integrator: Literal["auto", "discrete", "implicitfast", "euler"] = "auto"
+    muscle_contact: bool = False
+    solver_iterations: int = 100
+    max_tissue_speed_m_s: float = 20.0
+
+    def __post_init__(self) -> None:
+        require_positive(self, "timestep_s", "control_rate_hz", "solver_iterations",
+                  "max_tissue_speed_m_s")
+        if self.control_rate_hz * self.timestep_s > 1.0:
+            raise InputError(None, "control_rate_hz", "faster than the physics step")
+
+
+@dataclass(frozen=True)
+class AponeurosisParams:
+    """Bindings across the interface and how they release.
+
+    ``law``: ``"spring"`` (the paper's binding springs: ``stiffness_n_m``, paper 50 N/m, and a
+    dashpot ``damping_n_s_m``) or ``"constraint"`` (soft MuJoCo ``connect`` equalities with
+    ``timeconst_s`` and ``dampratio``, whose stiffness scales with the vertex masses).
+    ``release_rules``: any of ``"knife"``, ``"tearing"`` and ``"force"``.
+    ``tearing_stretch_m``: stretch beyond rest length that tears a binding (paper: 1e-2 m);
+    ``tearing_force_n``: a pull-off strength that tears it too (0: none).
+    ``knife_margin_m``: how far beyond the blade box a binding counts as under the blade.
+    ``force_curve``: the measured knife cutting force against time since the cut began (CSV,
+    path relative to the scenario file, or to the project root for ``assets/...``);
+    ``force_share``: the fraction of that force one binding under the blade must carry to be
+    cut (the knife force also shears muscle and overcomes friction).
+    """
+
+    law: Literal["spring", "constraint"] = "spring"
+    stiffness_n_m: float = 50.0
+    damping_n_s_m: float = 0.5
+    release_rules: tuple[str, ...] = ("knife", "tearing")
+    tearing_stretch_m: float = 0.01
+    tearing_force_n: float = 0.0
+    timeconst_s: float = 0.01
+    dampratio: float = 1.0
+    knife_margin_m: float = 0.003
+    force_curve: str = str(PROJECT_ROOT / "assets/cutting_force/boning_knife_synthetic.csv")
+    force_share: float = 0.1
+
+    def __post_init__(self) -> None:
+        known = sorted(rule.value for rule in ReleaseRule)
+        for rule in self.release_rules:
+            if rule not in known:
+                raise InputError(None, "release_rules", f"unknown rule {rule!r}; known: {known}")
+        require_positive(self, "stiffness_n_m", "tearing_stretch_m", "timeconst_s", "dampratio",
+                  "force_share")
+        require_non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m")
+        if "force" in self.release_rules and self.law != "spring":
+            raise InputError(None, "release_rules",
+                             "the force rule needs law = \"spring\" (a binding force in N)")
+
+
+@dataclass(frozen=True)
+class LayoutParams:
+    """Where things stand in the cell (world frame, m; yaw about z in degrees)."""
+
+    table_height_m: float = 0.6
+    meat_x_m: float = 0.0
+    knife_arm_base: tuple[float, float, float, float] = (0.0, -0.85, 0.0, 90.0)
+    pull_arm_base: tuple[float, float, float, float] = (0.0, 0.95, 0.0, -90.0)
+    camera_arm_base: tuple[float, float, float, float] = (0.55, 0.30, 0.6, 180.0)
+
+    def __post_init__(self) -> None:
+        require_positive(self, "table_height_m")
+
+    @property
+    def meat_origin_m(self) -> tuple[float, float, float]:
+        """Where the fixture holds the meat: the middle of its interface on the table, m."""
+        return (self.meat_x_m, 0.0, self.table_height_m)
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """Sensor noise (standard deviations), drawn from the scenario's seed."""
+
+    force_noise_n: float = 0.05
+    torque_noise_nm: float = 0.005
+
+    def __post_init__(self) -> None:
+        require_non_negative(self, "force_noise_n", "torque_noise_nm")
+
+
+@dataclass(frozen=True)
+class RecordingParams:
+    """What the Rerun recording keeps: scene frames at ``rate_hz``, camera images at
+    ``camera_rate_hz``."""
+
+    rate_hz: float = 20.0
+    camera_rate_hz: float = 2.0
+
+    def __post_init__(self) -> None:
+        require_positive(self, "rate_hz", "camera_rate_hz")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One scripted episode: the cell, the meat, and the plan.
+
+    Example:
+        >>> Scenario(name="quick", tissue=MuscleShape(cell_size_m=0.05))
+    """
+
+    name: str = "default"
+    seed: int = 0
+    settle_s: float = 0.3
+    end_s: float | None = None
+    simulation: SimulationParams = field(default_factory=SimulationParams)
+    tissue: MuscleShape = field(default_factory=MuscleShape)
+    material: ContinuumMaterial | MassSpringMaterial = field(default_factory=default_meat)
+    aponeurosis: AponeurosisParams = field(default_factory=AponeurosisParams)
+    knife: KnifeParams = field(default_factory=KnifeParams)
+    gripper: GripperParams = field(default_factory=GripperParams)
+    camera: CameraParams = field(default_factory=CameraParams)
+    cut: CutPlan = field(default_factory=CutPlan)
+    pull: PullPlan = field(default_factory=PullPlan)
+    layout: LayoutParams = field(default_factory=LayoutParams)
+    sensors: SensorParams = field(default_factory=SensorParams)
+    perception: PerceptionParams = field(default_factory=PerceptionParams)
+    recording: RecordingParams = field(default_factory=RecordingParams)
+
+
+@dataclass(frozen=True)
+class _Head:
+    name: str = "default"
+    seed: int = 0
+    settle_s: float = 0.3
+    end_s: float | None = None
+
+    def __post_init__(self) -> None:
+        require_positive(self, "settle_s")
+        require_non_negative(self, "seed")
+        if self.end_s is not None:
+            require_positive(self, "end_s")
+
+
+_TABLES = ("simulation", "tissue", "material", "aponeurosis", "knife", "gripper", "camera",
+           "cut", "pull", "layout", "sensors", "perception", "recording")
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario TOML file.
+
+    The file has a ``[scenario]`` table (name, seed, settle_s, end_s) and one table per
+    :class:`Scenario` field; every table and key is optional and takes the defaults.
+    """
+    path = Path(path)
+    raw = read_toml(path)
+    unknown = set(raw) - {"scenario", *_TABLES}
+    if unknown:
+        raise ScenarioError(path, sorted(unknown)[0],
+                            f"unknown table (known: scenario, {', '.join(_TABLES)})")
+    head = raw.get("scenario", {})
+    if not isinstance(head, dict):
+        raise ScenarioError(path, "scenario", "expected a table")
+    # Checked on its own so that its keys are reported as ``scenario.<key>``.
+    checked = from_table(_Head, head, file=path, section="scenario")
+    table = {f.name: getattr(checked, f.name) for f in fields(_Head)}
+    for name in _TABLES:
+        if name in raw and name != "material":
+            table[name] = raw[name]
+    scenario = from_table(Scenario, table, file=path, section="")
+    if "material" in raw:
+        scenario = replace(scenario, material=_material(path, raw["material"]))
+    if (isinstance(scenario.material, ContinuumMaterial)
+            and scenario.simulation.integrator not in ("auto", "discrete")):
+        raise ScenarioError(path, "simulation.integrator",
+                            "MuJoCo runs flex continuum elasticity only with 'discrete'")
+    curve = _resolve(path, scenario.aponeurosis.force_curve, "aponeurosis.force_curve")
+    return replace(scenario, aponeurosis=replace(scenario.aponeurosis, force_curve=curve))
+
+
+def _material(scenario_file: Path, table: object) -> ContinuumMaterial | MassSpringMaterial:
+    """The ``[material]`` table: ``file = "<material TOML>"`` alone, or the material inline.
+
+    Errors come as :class:`ScenarioError` naming the file at fault (the scenario, or the
+    material file it names) and the key.
+    """
+    try:
+        return _read_material(scenario_file, table)
+    except MaterialError as exc:
+        raise ScenarioError(exc.file, exc.field, exc.message) from None
+
+
+def _read_material(scenario_file: Path, table: object
+                   ) -> ContinuumMaterial | MassSpringMaterial:
+    if not isinstance(table, dict):
+        raise ScenarioError(scenario_file, "material", "expected a table")
+    if "file" in table:
+        if len(table) > 1:
+            extra = sorted(set(table) - {"file"})[0]
+            raise ScenarioError(scenario_file, f"material.{extra}",
+                                "give either file = ... or the material's keys, not both")
+        if not isinstance(table["file"], str):
+            raise ScenarioError(scenario_file, "material.file", "expected a path string")
+        return load_material(_resolve(scenario_file, table["file"], "material.file"))
+    return material_from_table(table, file=scenario_file, section="material")
+
+
+def _resolve(scenario_file: Path, name: str, key: str) -> str:
+    """A data file named in a scenario: absolute, relative to the scenario file, or relative
+    to the project root; it must exist."""
+    candidates = [Path(name)] if Path(name).is_absolute() else [
+        scenario_file.parent / name, PROJECT_ROOT / name]
+    for candidate in candidates:
+        if candidate.is_file():
+            return str(candidate)
+    raise ScenarioError(scenario_file, key, f"file not found: {name}")

@@ -1,0 +1,209 @@
+"""Stepping the cell: physics, binding release rules, the grasp, sensors, divergence checks."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from cell.errors import DivergenceError, MaterialError, ScenarioError
+from cell.robots.names import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM
+from cell.sim.assembly import Scene
+from cell.sim.scenario import Scenario
+from cell.tissue.aponeurosis import ReleaseRule
+from cell.tissue.forcecurve import ForceCurve
+from cell.tissue.massspring import MassSpringModel
+from cell.tissue.material import MassSpringMaterial
+
+#: Warnings after which MuJoCo's state is no longer a solution of the model.
+FATAL_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+)
+
+
+class Simulation:
+    """The scene's physics with the episode's rules applied between control steps.
+
+    Sensor readings are tared at :meth:`tare` (the tool's own weight) and carry the noise of
+    ``scenario.sensors``, drawn from the scenario's seed.
+
+    Example:
+        >>> sim = Simulation(build_scene(scenario), scenario)
+        >>> sim.step(10)
+        >>> sim.apply_release_rules()
+    """
+
+    def __init__(self, scene: Scene, scenario: Scenario) -> None:
+        self.scene = scene
+        self.scenario = scenario
+        self.model = scene.model
+        self.data = mujoco.MjData(self.model)
+        self.rng = np.random.default_rng(scenario.seed)
+        self._sensor = {name: self._sensor_slice(name) for name in (
+            "knife/force", "knife/torque", "gripper/force", "gripper/torque", "fixture_force")}
+        self._tare = {name: np.zeros(3) for name in self._sensor}
+        tissue = np.concatenate([scene.round_bodies, scene.shank_bodies])
+        tissue = np.unique(tissue[self.model.body_dofnum[tissue] > 0])
+        self._tissue_dofs = np.concatenate([
+            np.arange(self.model.body_dofadr[b], self.model.body_dofadr[b]
+                      + self.model.body_dofnum[b]) for b in tissue])
+        self._blade = self.model.geom(KNIFE_BLADE_GEOM).id
+        self._knife = self.model.geom_bodyid[self._blade]
+        self._gripper = self.model.body(GRIPPER_BODY).id
+        self._grasp_site = self.model.site(GRASP_SITE).id
+        self._warnings = np.zeros(len(FATAL_WARNINGS), dtype=int)
+        self.grasped = np.zeros(0, dtype=int)
+        # One spring model per muscle, so that each has its own fibre field.
+        self.springs: dict[str, MassSpringModel] = (
+            {muscle: MassSpringModel(self.model, (muscle,), scenario.material)
+             for muscle in ("round", "shank")}
+            if isinstance(scenario.material, MassSpringMaterial) else {})
+        if self.springs:
+            stable = min(model.stable_timestep_s() for model in self.springs.values())
+            if self.model.opt.timestep > stable:
+                raise ScenarioError(None, "simulation.timestep_s",
+                                    f"{self.model.opt.timestep} s is above the stable step "
+                                    f"{stable:.3g} s of this mass-spring material and mesh")
+        rules = scenario.aponeurosis.release_rules
+        self.force_curve = (ForceCurve.from_csv(scenario.aponeurosis.force_curve)
+                            if ReleaseRule.FORCE.value in rules else None)
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time, s."""
+        return float(self.data.time)
+
+    def _sensor_slice(self, name: str) -> slice:
+        sensor = self.model.sensor(name)
+        start = int(sensor.adr[0])
+        return slice(start, start + int(sensor.dim[0]))
+
+    def step(self, count: int = 1) -> None:
+        """Advance ``count`` physics steps, then check for divergence.
+
+        Before each step the forces that MuJoCo does not compute itself (mass-spring
+        springs, binding springs, hooked bindings on the blade) are written from the present
+        state. A blow-up inside the ``count`` steps is caught after them: MuJoCo's warning
+        counters and the non-finite state persist.
+        """
+        start = self.time_s
+        for _ in range(count):
+            self._apply_forces()
+            mujoco.mj_step(self.model, self.data)
+        self.check_divergence(start + count * self.model.opt.timestep)
+
+    def _apply_forces(self) -> None:
+        data = self.data
+        if not self.springs:
+            data.qfrc_applied[self._tissue_dofs] = 0.0
+        for springs in self.springs.values():
+            springs.apply(data)  # rewrites its muscle's dofs' entries
+        apo = self.scene.aponeurosis
+        blade_pos = data.geom_xpos[self._blade]
+        apo.track_blade(blade_pos, data.geom_xmat[self._blade])
+        force, moment = apo.apply_forces(data)
+        if force.any() or data.xfrc_applied[self._knife].any():
+            # xfrc_applied acts at the knife's centre of mass, the hooks' moment is about
+            # the blade centre.
+            lever = blade_pos - data.xipos[self._knife]
+            data.xfrc_applied[self._knife, :3] = force
+            data.xfrc_applied[self._knife, 3:] = moment + np.cross(lever, force)
+
+    def set_fibre_direction(self, muscle: str, direction: np.ndarray) -> None:
+        """Turn the fibres of ``muscle`` (``"round"`` or ``"shank"``) to ``direction`` (world
+        frame), as the vision module would after looking at the meat.
+
+        Raises:
+            MaterialError: a zero direction, or a continuum material (it has no fibres).
+        """
+        if muscle not in self.springs:
+            raise MaterialError(None, "fibre_direction",
+                                f"no mass-spring muscle named {muscle!r} (the continuum "
+                                "materials are isotropic)")
+        self.springs[muscle].set_fibre_direction(direction)
+
+    def check_divergence(self, time_s: float | None = None) -> None:
+        """Raise :class:`DivergenceError` on NaN, a fatal MuJoCo warning or runaway tissue.
+
+        ``time_s`` is the time the step should have reached: after a fatal warning MuJoCo
+        resets the state, time included, so ``data.time`` no longer tells.
+        """
+        data = self.data
+        counts = np.array([data.warning[w].number for w in FATAL_WARNINGS])
+        fired = counts > self._warnings
+        if fired.any():
+            names = [w.name for w, f in zip(FATAL_WARNINGS, fired, strict=True) if f]
+            self._warnings = counts
+            when = self.time_s if time_s is None else time_s
+            raise DivergenceError(when, f"MuJoCo warning {', '.join(names)}")
+        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+            raise DivergenceError(self.time_s, "non-finite position or velocity")
+        speed = np.abs(data.qvel[self._tissue_dofs]).max(initial=0.0)
+        limit = self.scenario.simulation.max_tissue_speed_m_s
+        if speed > limit:
+            raise DivergenceError(self.time_s, f"tissue speed {speed:.3g} m/s above {limit} m/s")
+
+    def apply_release_rules(self, knife_time_s: float | None = None
+                            ) -> dict[ReleaseRule, np.ndarray]:
+        """Release bindings by the scenario's rules; returns the indices released per rule.
+
+        ``knife_time_s`` is the time since the knife began cutting (None before): the force
+        rule reads the measured cutting force at that time.
+        """
+        params = self.scenario.aponeurosis
+        apo = self.scene.aponeurosis
+        rules = params.release_rules
+        released: dict[ReleaseRule, np.ndarray] = {}
+        under_blade = apo.under_blade(
+            self.data, self.data.geom_xpos[self._blade], self.data.geom_xmat[self._blade],
+            self.model.geom_size[self._blade], params.knife_margin_m)
+        if ReleaseRule.KNIFE.value in rules:
+            released[ReleaseRule.KNIFE] = apo.release_by_knife(self.data, self.time_s,
+                                                               under_blade)
+        if self.force_curve is not None and knife_time_s is not None:
+            apo.hook(self.data, under_blade)
+            threshold = params.force_share * self.force_curve.at(knife_time_s)
+            released[ReleaseRule.FORCE] = apo.release_by_force(self.data, self.time_s,
+                                                               under_blade, threshold)
+        if ReleaseRule.TEARING.value in rules:
+            released[ReleaseRule.TEARING] = apo.release_by_tearing(
+                self.data, self.time_s, params.tearing_stretch_m,
+                params.tearing_force_n or None)
+        return released
+
+    def grasp(self, jaw_half_size_m: np.ndarray) -> int:
+        """Bind the shank vertices inside the jaw box (centred on the grasp site, in its frame)
+        to the gripper where they are now; returns how many were bound."""
+        model, data, scene = self.model, self.data, self.scene
+        bodies = scene.shank_bodies[scene.grasp_vertices]
+        site_pos = data.site_xpos[self._grasp_site]
+        site_rot = data.site_xmat[self._grasp_site].reshape(3, 3)
+        local = (data.xpos[bodies] - site_pos) @ site_rot
+        inside = np.all(np.abs(local) <= jaw_half_size_m, axis=1)
+        gripper_pos = data.xpos[self._gripper]
+        gripper_rot = data.xmat[self._gripper].reshape(3, 3)
+        for eq, body in zip(scene.grasp_equalities[inside], bodies[inside], strict=True):
+            model.eq_data[eq, 0:3] = (data.xpos[body] - gripper_pos) @ gripper_rot
+            model.eq_data[eq, 3:6] = 0.0
+            data.eq_active[eq] = 1
+        self.grasped = scene.grasp_equalities[inside]
+        return int(inside.sum())
+
+    def ungrasp(self) -> None:
+        """Let go of everything the gripper holds."""
+        self.data.eq_active[self.grasped] = 0
+        self.grasped = np.zeros(0, dtype=int)
+
+    def tare(self, *names: str) -> None:
+        """Zero sensors (all by default) at the present load, such as a tool's own weight."""
+        for name in names or tuple(self._sensor):
+            self._tare[name] = self.data.sensordata[self._sensor[name]].copy()
+
+    def read(self, name: str) -> np.ndarray:
+        """A tared, noisy 3-vector sensor reading: ``knife/force``, ``knife/torque``,
+        ``gripper/force``, ``gripper/torque`` (N, N m, sensor frame) or ``fixture_force``."""
+        noise = self.scenario.sensors
+        sigma = noise.torque_noise_nm if name.endswith("torque") else noise.force_noise_n
+        value = self.data.sensordata[self._sensor[name]] - self._tare[name]
+        return value + self.rng.normal(0.0, sigma, 3)

@@ -1,0 +1,674 @@
+"""The paper's anisotropic non-linear mass-spring model, acting on MuJoCo flex vertices.
+
+Every edge of the tetrahedral mesh is a spring-damper (Eq. 6): the force on its ends is
+``-(K (l - l0) + K tau dl/dt)`` along the edge, where l0 is the rest length and ``tau`` the
+material's damping time. The stiffness is Eq. 10, ``K = ||E u|| sum(V) / l0**2``: u the edge's
+unit rest direction, sum(V) the volume of the tets sharing the edge and E = diag(El, Et, Er)
+the modulus matrix in the fibre frame (Et = Er), so that ``||E u|| = sqrt(El**2 c**2 +
+Et**2 (1 - c**2))`` with c the cosine between the edge and the fibres; with El = Et = E it is
+Eq. 8, ``K = E sum(V) / l0**2``. Both moduli are updated every step from the spring's stretch
+r = l / l0 (:class:`~cell.tissue.material.ModulusCurve`); K uses their secant values
+``sigma(r) / (r - 1)``, so that a spring's force follows the measured stress curve
+(a conservative spring) instead of the tangent modulus times the extension.
+
+Calibration: a spring lattice is not the continuum whose moduli set its springs. The affine
+(homogeneous strain) stiffness of the lattice, ``C = sum(K l0**2 u u u u) / V``, gives its
+Young's moduli along and across the fibres; for the mirrored Kuhn split of cubic cells with
+Eq. 8 it is ``42/31 E = 1.355 E`` (Poisson's ratio 5/31 = 0.16), and Eq. 10 compresses the
+anisotropy (El/Et = 0.42 comes out as 0.55). :class:`MassSpringModel` therefore feeds Eq. 10
+with the moduli ``(alpha El, beta Et)`` for which the affine lattice of its own mesh has the
+material's small-strain moduli El and Et along and across the fibres: alpha = beta = 31/42 for
+isotropic cubic cells, alpha = 0.47 and beta = 0.78 for the paper's El = 0.25 MPa, Et = 0.6 MPa
+with fibres along a cell axis. On cells that are not cubes alpha and beta differ even for an
+isotropic material: they also undo the cells' own anisotropy along and across the fibres. A
+central-force lattice reaches a limited anisotropy (El/Et about 0.16 to 9 on the muscle meshes,
+depending on the fibre direction); beyond it the model refuses the material. The factors are
+constant over the stretch, exact while the curves keep their small-strain ratio El/Et; at large
+stretch the springs off the load axis see less of the strain than the material does, so a curve
+that stiffens fourfold over its range is followed within 8% (isotropic) to 16% (El != Et) at
+r = 1.3, one that stiffens twofold within 5%.
+
+Forces go into ``data.qfrc_applied`` at the vertex dofs (3 slide joints per vertex body); the
+kernel is compiled with numba. Positions are the vertex bodies' rest positions plus their slide
+``qpos``, in the frame of the flex's parent body, which must be static (the world or a body
+welded to it): the current state, with no kinematics pass and no lag.
+
+Example:
+    >>> material = MassSpringMaterial()
+    >>> model = two_muscle_model(MuscleShape(cell_size_m=0.05), material)
+    >>> data = mujoco.MjData(model)
+    >>> springs = MassSpringModel(model, ("round", "shank"), material)
+    >>> springs.apply(data)  # before every step
+    >>> mujoco.mj_step(model, data)
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import mujoco
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spl
+from numba import njit
+from scipy.optimize import brentq
+
+from cell.errors import MaterialError
+from cell.tissue.flexcomp import flexcomp_xml
+from cell.tissue.geometry import MuscleShape, build_two_muscles
+from cell.tissue.material import MassSpringMaterial
+from cell.tissue.springlaw import SpringLaw, spring_stress
+from cell.tissue.tetmesh import _TET_EDGES, TetMesh, signed_volumes_m3
+
+# Voigt order of the symmetric index pairs of a strain.
+_VOIGT = np.array([[0, 0], [1, 1], [2, 2], [1, 2], [0, 2], [0, 1]])
+_INTEGRATORS = {
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    "euler": mujoco.mjtIntegrator.mjINT_EULER,
+}
+# Bracket of log(El / Et) searched by the calibration.
+_LOG_RATIO_BOUND = math.log(1e4)
+
+
+def tet_edges(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique edges of a tet mesh and, per edge, the volume of the tets that share it.
+
+    Args:
+        points: (N, 3) vertex positions, m.
+        tets: (M, 4) int vertex indices.
+
+    Returns:
+        ``edges`` (E, 2) int64 vertex pairs, lower index first, and ``edge_volume_m3`` (E,):
+        the sum of the volumes of the tets holding each edge (their sum is 6 times the mesh
+        volume: a tet has six edges).
+
+    Example:
+        >>> p = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [0, 0, 1]], float)
+        >>> edges, volume = tet_edges(p, np.array([[0, 1, 2, 3]]))
+        >>> len(edges), round(float(volume.sum()), 6)
+        (6, 1.0)
+    """
+    volume = np.abs(signed_volumes_m3(points, tets))
+    pairs = np.sort(np.asarray(tets, dtype=np.int64)[:, _TET_EDGES].reshape(-1, 2), axis=1)
+    key = pairs[:, 0] * len(points) + pairs[:, 1]
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    return pairs[first], np.bincount(inverse, weights=np.repeat(volume, len(_TET_EDGES)))
+
+
+def spring_stiffness(
+    points: np.ndarray,
+    edges: np.ndarray,
+    edge_volume_m3: np.ndarray,
+    el_pa: float | np.ndarray,
+    et_pa: float | np.ndarray,
+    fibre: np.ndarray | Sequence[float],
+) -> np.ndarray:
+    """Eq. 10: stiffness (N/m) of each edge spring, ``||E u|| sum(V) / l**2``.
+
+    Args:
+        points: (N, 3) vertex positions, m (the lengths and directions are taken here).
+        edges: (E, 2) vertex pairs.
+        edge_volume_m3: (E,) volume of the tets sharing each edge, m^3.
+        el_pa: modulus along the fibres, Pa (a scalar or one per edge).
+        et_pa: modulus across the fibres (Et = Er), Pa.
+        fibre: fibre direction, any length.
+
+    Returns:
+        (E,) stiffness, N/m; equal to Eq. 8, ``E sum(V) / l**2``, when ``el_pa == et_pa == E``.
+
+    Example:
+        >>> p = np.array([[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0]])
+        >>> spring_stiffness(p, np.array([[0, 1], [0, 2]]), np.full(2, 1e-6), 2e5, 6e5, (1, 0, 0))
+        array([2000., 6000.])
+    """
+    d = points[edges[:, 1]] - points[edges[:, 0]]
+    length_sq = np.einsum("ij,ij->i", d, d)
+    f = np.asarray(fibre, dtype=float)
+    cos_sq = (d @ f) ** 2 / (length_sq * (f @ f))
+    return _directional_modulus(el_pa, et_pa, cos_sq) * edge_volume_m3 / length_sq
+
+
+def _directional_modulus(
+    el_pa: float | np.ndarray, et_pa: float | np.ndarray, cos_sq: np.ndarray
+) -> np.ndarray:
+    """``||E u||`` of Eq. 10 (Pa) for edges at squared cosine ``cos_sq`` to the fibres."""
+    # Et**2 + (El**2 - Et**2) c**2 keeps El == Et exact: sqrt(E**2) == E in IEEE arithmetic.
+    return np.sqrt(et_pa**2 + (el_pa**2 - et_pa**2) * cos_sq)
+
+
+def oblique_gain(oblique: float, cos_sq: np.ndarray) -> np.ndarray:
+    """Factor on Eq. 10's modulus of springs at squared cosine ``cos_sq`` to the fibres:
+    ``1 + oblique * 4 c**2 (1 - c**2)``, 1 along and across them, ``1 + oblique`` at 45 degrees
+    (:attr:`~cell.tissue.material.MassSpringMaterial.oblique`)."""
+    return 1.0 + oblique * 4.0 * cos_sq * (1.0 - cos_sq)
+
+
+def _fibre_frame(fibre: np.ndarray) -> np.ndarray:
+    """(3, 3) rows: the unit fibre direction and two unit vectors across it."""
+    a = np.asarray(fibre, dtype=float) / np.linalg.norm(fibre)
+    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
+    t = np.cross(a, helper)
+    t /= np.linalg.norm(t)
+    return np.stack([a, t, np.cross(a, t)])
+
+
+class _AffineLattice:
+    """Affine (homogeneous strain) stiffness of a spring lattice, in the fibre frame."""
+
+    def __init__(
+        self, points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
+        fibre: np.ndarray, oblique: float = 0.0
+    ) -> None:
+        d = points[edges[:, 1]] - points[edges[:, 0]]
+        u = d / np.linalg.norm(d, axis=1, keepdims=True) @ _fibre_frame(fibre).T
+        self.cos_sq = u[:, 0] ** 2
+        self.oblique_gain = oblique_gain(oblique, self.cos_sq)
+        self.quartic = u[:, _VOIGT[:, 0]] * u[:, _VOIGT[:, 1]]
+        self.edge_volume_m3 = edge_volume_m3
+        self.volume_m3 = float(edge_volume_m3.sum()) / len(_TET_EDGES)
+
+    def moduli(self, el_pa: float, et_pa: float) -> tuple[float, float]:
+        """Young's moduli (Pa) of the lattice along and across the fibres, Eq. 10 springs."""
+        # K l**2 = ||E u|| sum(V), so C = sum(||E u|| sum(V) u u u u) / V.
+        weight = (_directional_modulus(el_pa, et_pa, self.cos_sq) * self.oblique_gain
+                  * self.edge_volume_m3)
+        stiffness = (self.quartic * weight[:, None]).T @ self.quartic / self.volume_m3
+        compliance = np.diag(np.linalg.inv(stiffness))
+        return float(1.0 / compliance[0]), float(0.5 * (1.0 / compliance[1] + 1.0 / compliance[2]))
+
+    def calibrated(self, el_pa: float, et_pa: float) -> tuple[float, float]:
+        """Eq. 10 moduli (Pa) for which the lattice's moduli are ``el_pa`` and ``et_pa``."""
+        target = math.log(el_pa / et_pa)
+
+        def mismatch(log_ratio: float) -> float:
+            el, et = self.moduli(math.exp(log_ratio), 1.0)
+            return math.log(el / et) - target
+
+        lo, hi = mismatch(-_LOG_RATIO_BOUND), mismatch(_LOG_RATIO_BOUND)
+        if lo > 0 or hi < 0:
+            reachable = (math.exp(lo + target), math.exp(hi + target))
+            raise MaterialError(
+                None,
+                "longitudinal",
+                f"El/Et = {el_pa / et_pa:.4g} is outside what this mesh's springs can give "
+                f"({reachable[0]:.3g} to {reachable[1]:.3g})",
+            )
+        ratio = math.exp(brentq(mismatch, -_LOG_RATIO_BOUND, _LOG_RATIO_BOUND, xtol=1e-12))
+        scale = et_pa / self.moduli(ratio, 1.0)[1]
+        return ratio * scale, scale
+
+
+def calibration_factors(
+    points: np.ndarray,
+    edges: np.ndarray,
+    edge_volume_m3: np.ndarray,
+    material: MassSpringMaterial,
+    along: np.ndarray | Sequence[float],
+) -> tuple[float, float]:
+    """(alpha, beta): the factors on El and Et for which the affine lattice of Eq. 10 springs
+    has the material's small-strain moduli along and across fibres lying ``along``.
+
+    Raises:
+        MaterialError: ``longitudinal`` when the lattice cannot give the anisotropy.
+
+    Example:
+        >>> calibration_factors(points, edges, volume, MassSpringMaterial(), (1, 0, 0))
+        ...  # doctest: +SKIP
+        (0.738, 0.738)
+    """
+    lattice = _AffineLattice(points, edges, edge_volume_m3, np.asarray(along, dtype=float),
+                             material.oblique)
+    el = material.longitudinal.small_strain_modulus_pa
+    et = material.transverse.small_strain_modulus_pa
+    el_in, et_in = lattice.calibrated(el, et)
+    return el_in / el, et_in / et
+
+
+def calibrated_law(
+    points: np.ndarray,
+    edges: np.ndarray,
+    edge_volume_m3: np.ndarray,
+    material: MassSpringMaterial,
+    along: np.ndarray | Sequence[float],
+) -> tuple[SpringLaw, tuple[float, float], tuple[float, float]]:
+    """``material``'s spring law on this lattice and its (alpha, beta) in tension and in
+    compression: each pair of curves calibrated (:func:`calibration_factors`) for fibres lying
+    ``along``.
+
+    Raises:
+        MaterialError: ``longitudinal`` when the lattice cannot give an anisotropy.
+    """
+    tension = calibration_factors(points, edges, edge_volume_m3, material, along)
+    symmetric = material.longitudinal_compression is material.transverse_compression is None
+    compression = (tension if symmetric else
+                   calibration_factors(points, edges, edge_volume_m3, material.in_compression(),
+                                       along))
+    return SpringLaw.of(material, tension, compression), tension, compression
+
+
+def lattice_moduli(
+    points: np.ndarray,
+    edges: np.ndarray,
+    edge_volume_m3: np.ndarray,
+    el_pa: float,
+    et_pa: float,
+    fibre: np.ndarray | Sequence[float],
+) -> tuple[float, float]:
+    """Young's moduli (Pa) along and across the fibres of a lattice of Eq. 10 springs.
+
+    From the lattice's affine stiffness: every edge strained as the mesh is. Exact for a
+    uniform strain of a periodic lattice; a finite block relaxes about 2% softer.
+
+    Example:
+        >>> from cell.tissue.tetmesh import structured_hex_tets
+        >>> g = np.stack(np.meshgrid(*[np.linspace(0, 0.1, 5)] * 3, indexing="ij"), -1)
+        >>> mesh = TetMesh.from_arrays(g.reshape(-1, 3), structured_hex_tets((4, 4, 4)), "c")
+        >>> edges, volume = tet_edges(mesh.points, mesh.tets)
+        >>> [round(e / 3e4, 3) for e in lattice_moduli(mesh.points, edges, volume, 3e4, 3e4,
+        ...                                            (1, 0, 0))]
+        [1.355, 1.355]
+    """
+    lattice = _AffineLattice(points, edges, edge_volume_m3, np.asarray(fibre, dtype=float))
+    return lattice.moduli(el_pa, et_pa)
+
+
+@njit(cache=True, fastmath=False)
+def _apply_springs(
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    qfrc: np.ndarray,
+    qposadr: np.ndarray,
+    dofadr: np.ndarray,
+    rest_position: np.ndarray,
+    edges: np.ndarray,
+    rest_length: np.ndarray,
+    gain: np.ndarray,
+    cos_sq: np.ndarray,
+    curves: np.ndarray,
+    params: np.ndarray,
+    history: np.ndarray,
+    timestep_s: float,
+    damping_s: float,
+    position: np.ndarray,
+    velocity: np.ndarray,
+) -> None:
+    """Clear the vertex dofs of ``qfrc``, add every spring-damper's force to them and advance
+    the springs' history by ``timestep_s``."""
+    for i in range(position.shape[0]):
+        a = qposadr[i]
+        v = dofadr[i]
+        for k in range(3):
+            if a < 0:
+                position[i, k] = rest_position[i, k]
+                velocity[i, k] = 0.0
+            else:
+                position[i, k] = rest_position[i, k] + qpos[a + k]
+                velocity[i, k] = qvel[v + k]
+                qfrc[v + k] = 0.0
+    for e in range(edges.shape[0]):
+        i = edges[e, 0]
+        j = edges[e, 1]
+        dx = position[j, 0] - position[i, 0]
+        dy = position[j, 1] - position[i, 1]
+        dz = position[j, 2] - position[i, 2]
+        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if length == 0.0:  # a collapsed edge has no direction to push along
+            continue
+        stress, modulus = spring_stress(length / rest_length[e] - 1.0, cos_sq[e], curves,
+                                        params, history, e, timestep_s, True)
+        ux = dx / length
+        uy = dy / length
+        uz = dz / length
+        rate = (
+            (velocity[j, 0] - velocity[i, 0]) * ux
+            + (velocity[j, 1] - velocity[i, 1]) * uy
+            + (velocity[j, 2] - velocity[i, 2]) * uz
+        )
+        # Positive when stretched or stretching: pulls i towards j and j towards i.
+        tension = gain[e] * (rest_length[e] * stress + modulus * damping_s * rate)
+        if dofadr[i] >= 0:
+            qfrc[dofadr[i]] += tension * ux
+            qfrc[dofadr[i] + 1] += tension * uy
+            qfrc[dofadr[i] + 2] += tension * uz
+        if dofadr[j] >= 0:
+            qfrc[dofadr[j]] -= tension * ux
+            qfrc[dofadr[j] + 1] -= tension * uy
+            qfrc[dofadr[j] + 2] -= tension * uz
+
+
+class MassSpringModel:
+    """Anisotropic non-linear springs on the edges of MuJoCo 3D flexes (module docstring).
+
+    The flexes must have no elasticity of their own (no ``<elasticity>``, or ``young="0"``),
+    and vertex bodies with three slide joints along their parent's axes (flexcomp's default);
+    pinned vertices have no dofs and stay where their parent puts them. :meth:`apply` owns the
+    vertex dofs' entries of ``data.qfrc_applied``: it clears and rewrites them at every call
+    and leaves every other entry alone; put external loads on vertices in ``xfrc_applied``.
+    All flexes share one material and one fibre direction; use one model per muscle to give
+    each muscle its own. A material with history (plasticity, relaxation) advances it by the
+    model's time step at every :meth:`apply`: call it once per step, and :meth:`reset` with
+    ``mj_resetData``.
+
+    Attributes:
+        material: the material, its fibre direction the one now in use.
+        edges: (E, 2) vertex pairs, indices into the flexes' vertices taken in order.
+        rest_lengths_m: (E,) rest length of each spring, m.
+        edge_volume_m3: (E,) volume of the tets sharing each spring, m^3.
+        fibre_cosine: (E,) cosine between each spring's rest direction and the fibres.
+        calibration: (alpha, beta), the factors on El and Et fed to Eq. 10.
+        calibrate_along: the direction the lattice is calibrated in; None for the fibres'.
+        stiffness_n_m: (E,) calibrated small-strain stiffness of each spring, N/m.
+        dofadr: (N,) first dof of each vertex's slide joints, -1 for pinned vertices.
+        vertex_mass_kg: (N,) mass of each vertex body, kg (0 for pinned vertices).
+
+    Example:
+        >>> material = MassSpringMaterial.transversely_isotropic(0.25e6, 0.6e6)
+        >>> model = two_muscle_model(MuscleShape(cell_size_m=0.05), material)
+        >>> springs = MassSpringModel(model, ("round", "shank"), material)
+        >>> model.opt.timestep = springs.stable_timestep_s()
+        >>> springs.set_fibre_direction((0.0, 1.0, 0.0))  # the vision module's update
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        flexes: Sequence[str],
+        material: MassSpringMaterial,
+        calibrate_along: Sequence[float] | None = None,
+    ) -> None:
+        self._model = model
+        self.calibrate_along = calibrate_along
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_flex(model, data)
+        points, tets, vertices = [], [], []
+        count = 0
+        for name in flexes:
+            flex = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_FLEX, name)
+            if flex < 0 or model.flex_dim[flex] != 3:
+                raise ValueError(f"no 3D (tetrahedral) flex named {name!r}")
+            first, n = int(model.flex_vertadr[flex]), int(model.flex_vertnum[flex])
+            world = data.flexvert_xpos[first : first + n].copy()
+            bodies = model.flex_vertbodyid[first : first + n]
+            vertices.append(_flex_vertices(model, data, name, bodies, world))
+            elem = int(model.flex_elemdataadr[flex])
+            local = model.flex_elem[elem : elem + 4 * int(model.flex_elemnum[flex])]
+            points.append(world)
+            tets.append(local.reshape(-1, 4) + count)
+            count += n
+        qposadr, dofadr, rest, mass = (
+            np.concatenate(column) for column in zip(*vertices, strict=True)
+        )
+        self._points = np.concatenate(points)
+        self.edges, self.edge_volume_m3 = tet_edges(self._points, np.concatenate(tets))
+        d = self._points[self.edges[:, 1]] - self._points[self.edges[:, 0]]
+        self.rest_lengths_m = np.linalg.norm(d, axis=1)
+        self._gain = self.edge_volume_m3 / self.rest_lengths_m**2
+        self._qposadr = qposadr
+        self.dofadr = dofadr
+        self._rest_position = rest
+        self.vertex_mass_kg = mass
+        self._position = np.zeros_like(self._rest_position)
+        self._velocity = np.zeros_like(self._rest_position)
+        self.material = material
+        self.set_fibre_direction(material.fibre_direction)
+
+    @property
+    def vertex_count(self) -> int:
+        """Number of vertices of all the flexes, pinned ones included."""
+        return len(self.dofadr)
+
+    def set_fibre_direction(self, direction: np.ndarray | Sequence[float]) -> None:
+        """Turn the fibres to ``direction`` (world frame, any length) and recalibrate.
+
+        The springs keep their history.
+
+        Raises:
+            MaterialError: ``fibre_direction`` zero, or ``longitudinal`` when the lattice cannot
+                give the material's anisotropy in that direction.
+        """
+        material = replace(self.material, fibre_direction=tuple(float(v) for v in direction))
+        fibre = np.asarray(material.fibre_direction)
+        along = fibre if self.calibrate_along is None else self.calibrate_along
+        self._law, self.calibration, self._compression_calibration = calibrated_law(
+            self._points, self.edges, self.edge_volume_m3, material, along)
+        self.material = material
+        self._cos_sq = _AffineLattice(self._points, self.edges, self.edge_volume_m3,
+                                      fibre).cos_sq
+        self.fibre_cosine = np.sqrt(self._cos_sq)
+        if not hasattr(self, "_history"):
+            self._history = self._law.history(len(self.edges))
+        self.stiffness_n_m = self._stiffness(
+            self.calibration[0] * material.longitudinal.small_strain_modulus_pa,
+            self.calibration[1] * material.transverse.small_strain_modulus_pa)
+
+    def reset(self) -> None:
+        """Put every spring back at rest: no plastic strain, nothing left to relax."""
+        self._history[:] = 0.0
+
+    def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
+        return (self._gain * _directional_modulus(el_pa, et_pa, self._cos_sq)
+                * oblique_gain(self.material.oblique, self._cos_sq))
+
+    def apply(self, data: mujoco.MjData) -> None:
+        """Write the springs' forces for the state in ``data`` into ``data.qfrc_applied``."""
+        _apply_springs(
+            data.qpos,
+            data.qvel,
+            data.qfrc_applied,
+            self._qposadr,
+            self.dofadr,
+            self._rest_position,
+            self.edges,
+            self.rest_lengths_m,
+            self._gain,
+            self._cos_sq,
+            self._law.curves,
+            self._law.params,
+            self._history,
+            self._model.opt.timestep,
+            self.material.damping_s,
+            self._position,
+            self._velocity,
+        )
+
+    def stable_timestep_s(self, safety: float = 0.9) -> float:
+        """Largest time step the springs allow, s, times ``safety``.
+
+        MuJoCo integrates ``qfrc_applied`` explicitly, so the step is bounded by the highest
+        angular frequency w of the springs at rest with the curves' stiffest moduli (the largest
+        eigenvalue of M^-1 K); with the dashpots (``K tau``) semi-implicit Euler is stable for
+        ``h**2 w**2 + 2 h tau w**2 < 4``. Contacts and bindings go through MuJoCo's constraint
+        solver and do not enter. On the two muscles (1235 and 4712 nodes, 30 and 250 kPa and
+        the paper's Fig. 10 moduli, with and without damping) the measured limit lies within 5%
+        of the value with ``safety=1``.
+        """
+        # The packed curves hold the calibrated moduli; their stiffest, in tension or in
+        # compression, sets the step. The compensation k stiffens a shortened spring: its
+        # tangent gains 1 / (1 + k x)**2.
+        squeezed = self.material.in_compression()
+        shortest = min(squeezed.longitudinal.r_min, squeezed.transverse.r_min) - 1.0
+        gain = (1.0 + self.material.geometric_compensation * shortest) ** -2
+        pairs = ((self.material, self.calibration), (squeezed, self._compression_calibration))
+        el = gain * max(f[0] * m.longitudinal.max_modulus_pa() for m, f in pairs)
+        et = gain * max(f[1] * m.transverse.max_modulus_pa() for m, f in pairs)
+        stiffness = self._stiffness(el, et)
+        free = self.dofadr >= 0
+        # Row of each free vertex's x dof in the reduced system; -1 for pinned vertices.
+        row = np.where(free, 3 * np.cumsum(free) - 3, -1)
+        direction = (self._points[self.edges[:, 1]] - self._points[self.edges[:, 0]]) / (
+            self.rest_lengths_m[:, None]
+        )
+        block = stiffness[:, None, None] * direction[:, :, None] * direction[:, None, :]
+        rows, cols, values = [], [], []
+        for a, b, sign in ((0, 0, 1.0), (1, 1, 1.0), (0, 1, -1.0), (1, 0, -1.0)):
+            ra, rb = row[self.edges[:, a]], row[self.edges[:, b]]
+            both = (ra >= 0) & (rb >= 0)
+            k = np.arange(3)
+            rows.append((ra[both, None, None] + k[:, None]).repeat(3, axis=2).ravel())
+            cols.append((rb[both, None, None] + k[None, :]).repeat(3, axis=1).ravel())
+            values.append(sign * block[both].ravel())
+        size = 3 * int(free.sum())
+        scale = np.repeat(self.vertex_mass_kg[free] ** -0.5, 3)
+        matrix = sp.csr_matrix(
+            (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
+            shape=(size, size),
+        )
+        reduced = sp.diags(scale) @ matrix @ sp.diags(scale)
+        omega_sq = float(spl.eigsh(reduced, k=1, which="LA", return_eigenvectors=False)[0])
+        tau = self.material.damping_s
+        return safety * (math.sqrt(tau**2 + 4.0 / omega_sq) - tau)
+
+
+def _flex_vertices(
+    model: mujoco.MjModel, data: mujoco.MjData, name: str, bodies: np.ndarray, world: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """qpos and dof addresses (-1 when pinned), rest positions in the parent frame and masses
+    of the vertices of flex ``name``, whose vertex bodies are ``bodies``."""
+    free = model.body_dofnum[bodies] > 0
+    parents = np.unique(np.concatenate([model.body_parentid[bodies[free]], bodies[~free]]))
+    if len(parents) != 1:
+        raise ValueError(f"flex {name!r}: vertices hang from several bodies {parents.tolist()}")
+    parent = int(parents[0])
+    if model.body_weldid[parent] != 0 or model.body_mocapid[parent] >= 0:
+        raise ValueError(f"flex {name!r}: parent body {parent} moves; it must be static")
+    for body in bodies[free]:
+        joints = slice(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body])
+        if (
+            model.body_dofnum[body] != 3
+            or (model.jnt_type[joints] != mujoco.mjtJoint.mjJNT_SLIDE).any()
+            or not np.array_equal(model.jnt_axis[joints], np.eye(3))
+            or not np.array_equal(model.body_quat[body], [1.0, 0.0, 0.0, 0.0])
+        ):
+            raise ValueError(f"flex {name!r}: body {body} lacks slide joints along x, y, z")
+    rotation = data.xmat[parent].reshape(3, 3)
+    rest = (world - data.xpos[parent]) @ rotation
+    qposadr = np.full(len(bodies), -1, dtype=np.int64)
+    dofadr = np.full(len(bodies), -1, dtype=np.int64)
+    qposadr[free] = model.jnt_qposadr[model.body_jntadr[bodies[free]]]
+    dofadr[free] = model.body_dofadr[bodies[free]]
+    # Slide joints add qpos to the body's rest position: keep the part qpos0 does not hold.
+    rest[free] -= model.qpos0[qposadr[free][:, None] + np.arange(3)]
+    mass = np.where(free, model.body_mass[bodies], 0.0)
+    return qposadr, dofadr, rest, mass
+
+
+@dataclass(frozen=True)
+class CouplingTiming:
+    """Wall time of the two muscles on a table, per node and step, in microseconds.
+
+    Attributes:
+        nodes: tissue vertices, pinned ones included.
+        edges: springs.
+        integrator: MuJoCo integrator.
+        timestep_s: MuJoCo time step, s.
+        mujoco_us: ``mj_step`` alone, the spring forces frozen in ``qfrc_applied``.
+        coupled_us: :meth:`MassSpringModel.apply` then ``mj_step``.
+        kernel_us: :meth:`MassSpringModel.apply` alone.
+    """
+
+    nodes: int
+    edges: int
+    integrator: str
+    timestep_s: float
+    mujoco_us: float
+    coupled_us: float
+    kernel_us: float
+
+
+def two_muscle_model(
+    shape: MuscleShape,
+    material: MassSpringMaterial,
+    integrator: Literal["implicitfast", "euler"] = "implicitfast",
+    timestep_s: float = 0.002,
+) -> mujoco.MjModel:
+    """The two muscles of ``shape`` as elasticity-free flexcomps for :class:`MassSpringModel`.
+
+    As in the cell: on a plane at z = 0, the round's bottom vertices (but those of the
+    interface) pinned to a static ``fixture`` body, one ``connect`` per facing pair, CG with
+    elliptic cones. Vertex masses are the density times the volume, shared evenly.
+
+    Example:
+        >>> model = two_muscle_model(MuscleShape(cell_size_m=0.05), MassSpringMaterial())
+        >>> model.nflex, model.neq
+        (2, 30)
+    """
+    mesh = build_two_muscles(shape)
+    low = mesh.round.points[:, 2] <= 1e-9
+    pins = np.setdiff1d(np.flatnonzero(low), mesh.pairs[:, 0])
+    connects = "".join(
+        f'<connect body1="round_{r}" body2="shank_{s}" anchor="0 0 0" solref="0.01 1"/>'
+        for r, s in mesh.pairs
+    )
+    model = mujoco.MjModel.from_xml_string(
+        f"""<mujoco><option timestep="{timestep_s}" solver="CG" cone="elliptic"/>
+        <worldbody><geom name="floor" type="plane" size="1 1 0.1"/>
+        <body name="fixture">{_muscle("round", mesh.round, material, pins)}</body>
+        {_muscle("shank", mesh.shank, material, ())}
+        </worldbody><equality>{connects}</equality></mujoco>"""
+    )
+    model.opt.integrator = _INTEGRATORS[integrator]
+    return model
+
+
+def _muscle(name: str, mesh: TetMesh, material: MassSpringMaterial, pins: Sequence[int]) -> str:
+    return flexcomp_xml(name, mesh.points, mesh.tets, material,
+                        material.density_kg_m3 * mesh.volume_m3, radius_m=0.0005,
+                        contact='selfcollide="none" condim="3" solref="0.005 1"', pins=pins)
+
+
+def bench_coupling(
+    cell_size_m: float = 0.025,
+    integrator: Literal["implicitfast", "euler"] = "implicitfast",
+    timestep_s: float = 0.002,
+    steps: int = 500,
+    burst: int = 25,
+    material: MassSpringMaterial | None = None,
+) -> CouplingTiming:
+    """Time MuJoCo with and without the spring kernel on :func:`two_muscle_model`.
+
+    The muscles first settle for ``steps`` steps so that contacts and bindings are loaded;
+    each timing then runs ``steps`` steps in bursts of ``burst`` from that state (frozen spring
+    forces would let the muscles drift away from it) and keeps the median burst.
+
+    Example:
+        >>> timing = bench_coupling(0.025, "implicitfast")  # doctest: +SKIP
+        >>> round(timing.coupled_us / timing.mujoco_us, 1)  # doctest: +SKIP
+        1.1
+    """
+    material = MassSpringMaterial() if material is None else material
+    model = two_muscle_model(MuscleShape(cell_size_m=cell_size_m), material, integrator, timestep_s)
+    settled = mujoco.MjData(model)
+    springs = MassSpringModel(model, ("round", "shank"), material)
+    for _ in range(steps):
+        springs.apply(settled)
+        mujoco.mj_step(model, settled)
+    data = mujoco.MjData(model)
+
+    def run(apply: bool, step: bool) -> float:
+        bursts = []
+        for _ in range(max(1, steps // burst)):
+            mujoco.mj_copyData(data, model, settled)
+            start = time.perf_counter()
+            for _ in range(burst):
+                if apply:
+                    springs.apply(data)
+                if step:
+                    mujoco.mj_step(model, data)
+            bursts.append(time.perf_counter() - start)
+        # The median burst drops the ones another process on the machine slowed down.
+        return float(np.median(bursts)) / burst / springs.vertex_count * 1e6
+
+    return CouplingTiming(
+        nodes=springs.vertex_count,
+        edges=len(springs.edges),
+        integrator=integrator,
+        timestep_s=timestep_s,
+        mujoco_us=run(apply=False, step=True),
+        coupled_us=run(apply=True, step=True),
+        kernel_us=run(apply=True, step=False),
+    )
