@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -302,7 +303,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``musclecell`` console script."""
+    """Entry point of the ``musclecell`` console script.
+
+    It chooses headless rendering (``MUJOCO_GL=egl`` unless set) before any handler imports
+    MuJoCo, which reads the variable at its own import.
+    """
+    os.environ.setdefault("MUJOCO_GL", "egl")
     args = build_parser().parse_args(argv)
     try:
         return args.handler(args)

@@ -13,7 +13,6 @@ Example:
 
 from gymnasium.envs.registration import register, registry
 
-import cell  # noqa: F401  (headless rendering is chosen before MuJoCo is imported)
 from envs.options import OPTION_KEYS, apply_options
 from envs.params import ActionLimits, RewardParams
 from envs.separation import (

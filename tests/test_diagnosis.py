@@ -15,8 +15,9 @@ from cell.rheology.causes import CAUSES, UNEXPLAINED
 from cell.rheology.diagnosis import DiagnosisParams
 from cell.rheology.synthetic import write_hidden_effect_set
 from cell.sim.episode import Episode
-from cell.sim.scenario import PROJECT_ROOT, load_scenario
+from cell.sim.scenario import load_scenario
 from cell.tissue.material import MassSpringMaterial, load_material
+from tests.paths import DEFAULT_SCENARIO
 from tests.test_episode import coarse
 
 
@@ -61,7 +62,7 @@ def test_extended_material_loads_into_the_default_scenario(diagnosed: tuple[dict
     material = load_material(material_path)
     assert isinstance(material, MassSpringMaterial)
     assert sum(material.relaxation_weights) > 0.2
-    default = (PROJECT_ROOT / "scenarios" / "default.toml").read_text()
+    default = DEFAULT_SCENARIO.read_text()
     line = next(x for x in default.splitlines() if x.startswith("file = "))
     scenario_path = tmp_path / "default_with_fitted_meat.toml"
     scenario_path.write_text(default.replace(line, f'file = "{material_path.as_posix()}"'))

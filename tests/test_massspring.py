@@ -8,7 +8,8 @@ import pytest
 
 from cell.errors import MaterialError
 from cell.tissue.geometry import MuscleShape, build_two_muscles
-from cell.tissue.massspring import MassSpringModel, lattice_moduli, spring_stiffness, tet_edges
+from cell.tissue.lattice import lattice_moduli, spring_stiffness, tet_edges
+from cell.tissue.massspring import MassSpringModel
 from cell.tissue.material import MassSpringMaterial, ModulusCurve
 from cell.tissue.tetmesh import TetMesh, structured_hex_tets
 

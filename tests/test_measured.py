@@ -14,8 +14,9 @@ from cell.rheology.measured import (
     Specimen,
     load_measurement_set,
 )
+from tests.paths import EXAMPLE_SET
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "assets" / "measured" / "beef_round_example"
+EXAMPLE = EXAMPLE_SET
 SPECIMEN = """[specimen]
 name = "cube"
 size_m = [0.010, 0.010, 0.010]

@@ -25,11 +25,10 @@ from cell.perception.registration import AffineFit, predict_interface
 from cell.robots.camera import CameraRig
 from cell.robots.names import CAMERA, KNIFE_TIP
 from cell.sim.episode import Episode
-from cell.sim.scenario import PROJECT_ROOT, Scenario
+from cell.sim.scenario import Scenario
 from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
 from controllers.knife import plan_cut
-
-DEFAULT_SCENARIO = PROJECT_ROOT / "scenarios" / "default.toml"
+from tests.paths import DEFAULT_SCENARIO
 
 
 @pytest.fixture(scope="module")

@@ -10,8 +10,9 @@ import pytest
 from cell.cli import main
 from cell.errors import ScenarioError
 from cell.sim.scenario import Scenario, load_scenario
+from tests.paths import DEFAULT_SCENARIO
 
-DEFAULT = Path(__file__).resolve().parents[1] / "scenarios" / "default.toml"
+DEFAULT = DEFAULT_SCENARIO
 
 #: A file text and the dotted key its error must name.
 BAD_SCENARIOS = [

@@ -2,7 +2,6 @@
 spring law, and against the fine, slow reference (the meshed specimen in MuJoCo)."""
 
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,9 +11,10 @@ from cell.rheology.measured import MechanicalTest, Specimen, load_measurement_se
 from cell.rheology.specimen import fibre_direction, simulate_set, simulate_test, specimen_mesh
 from cell.tissue.material import MassSpringMaterial, ModulusCurve
 from cell.tissue.springlaw import LATTICE_STIFFENING
+from tests.paths import EXAMPLE_SET
 from tests.specimen_reference import SpecimenSimParams, simulate_meshed
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "assets" / "measured" / "beef_round_example"
+EXAMPLE = EXAMPLE_SET
 CUBE = Specimen("cube", (0.01, 0.01, 0.01))
 # Springs as the diagnosis fits them: the lattice's geometric stiffening compensated.
 ISOTROPIC = MassSpringMaterial.isotropic(1e4, geometric_compensation=LATTICE_STIFFENING)

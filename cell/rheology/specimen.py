@@ -45,7 +45,7 @@ from numba import njit
 
 from cell.errors import DivergenceError
 from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
-from cell.tissue.massspring import calibrated_law, tet_edges
+from cell.tissue.lattice import calibrated_law, tet_edges
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.springlaw import SpringLaw, spring_stress
 from cell.tissue.tetmesh import TetMesh, structured_hex_tets

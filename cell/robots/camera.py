@@ -29,7 +29,7 @@ class CameraRig:
         except Exception as exc:  # MuJoCo raises plain errors for a missing GL platform
             raise PerceptionError(
                 f"cannot render headless ({exc}); set MUJOCO_GL=egl (or osmesa) before "
-                "mujoco is imported, or import cell first") from exc
+                "mujoco is imported") from exc
 
     @property
     def focal_px(self) -> float:

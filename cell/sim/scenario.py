@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Literal
 
+from cell.assets import asset_path
 from cell.config import from_table, read_toml, require_non_negative, require_positive
 from cell.errors import InputError, MaterialError, ScenarioError
 from cell.perception.pipeline import PerceptionParams
@@ -31,8 +32,8 @@ from cell.tissue.material import (
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
 
-#: The project's root: ``assets/...`` paths in scenario files are read from here.
-PROJECT_ROOT = Path(__file__).resolve().parent.parent
+#: Data files named ``assets/...`` in a scenario that are not beside it come from the package.
+_ASSETS_PREFIX = "assets/"
 
 
 @dataclass(frozen=True)
@@ -70,7 +71,7 @@ class AponeurosisParams:
     ``tearing_force_n``: a pull-off strength that tears it too (0: none).
     ``knife_margin_m``: how far beyond the blade box a binding counts as under the blade.
     ``force_curve``: the measured knife cutting force against time since the cut began (CSV,
-    path relative to the scenario file, or to the project root for ``assets/...``);
+    path relative to the scenario file, or ``assets/...`` for the package's own data);
     ``force_share``: the fraction of that force one binding under the blade must carry to be
     cut (the knife force also shears muscle and overcomes friction).
     """
@@ -84,7 +85,7 @@ class AponeurosisParams:
     timeconst_s: float = 0.01
     dampratio: float = 1.0
     knife_margin_m: float = 0.003
-    force_curve: str = str(PROJECT_ROOT / "assets/cutting_force/boning_knife_synthetic.csv")
+    force_curve: str = str(asset_path("cutting_force/boning_knife_synthetic.csv"))
     force_share: float = 0.1
 
     def __post_init__(self) -> None:
@@ -247,10 +248,11 @@ def _read_material(scenario_file: Path, table: object
 
 
 def _resolve(scenario_file: Path, name: str, key: str) -> str:
-    """A data file named in a scenario: absolute, relative to the scenario file, or relative
-    to the project root; it must exist."""
-    candidates = [Path(name)] if Path(name).is_absolute() else [
-        scenario_file.parent / name, PROJECT_ROOT / name]
+    """A data file named in a scenario: absolute, relative to the scenario file, or one of the
+    package's own (``assets/...``); it must exist."""
+    candidates = [Path(name)] if Path(name).is_absolute() else [scenario_file.parent / name]
+    if name.startswith(_ASSETS_PREFIX):
+        candidates.append(asset_path(name.removeprefix(_ASSETS_PREFIX)))
     for candidate in candidates:
         if candidate.is_file():
             return str(candidate)

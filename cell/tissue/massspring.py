@@ -11,22 +11,8 @@ r = l / l0 (:class:`~cell.tissue.material.ModulusCurve`); K uses their secant va
 ``sigma(r) / (r - 1)``, so that a spring's force follows the measured stress curve
 (a conservative spring) instead of the tangent modulus times the extension.
 
-Calibration: a spring lattice is not the continuum whose moduli set its springs. The affine
-(homogeneous strain) stiffness of the lattice, ``C = sum(K l0**2 u u u u) / V``, gives its
-Young's moduli along and across the fibres; for the mirrored Kuhn split of cubic cells with
-Eq. 8 it is ``42/31 E = 1.355 E`` (Poisson's ratio 5/31 = 0.16), and Eq. 10 compresses the
-anisotropy (El/Et = 0.42 comes out as 0.55). :class:`MassSpringModel` therefore feeds Eq. 10
-with the moduli ``(alpha El, beta Et)`` for which the affine lattice of its own mesh has the
-material's small-strain moduli El and Et along and across the fibres: alpha = beta = 31/42 for
-isotropic cubic cells, alpha = 0.47 and beta = 0.78 for the paper's El = 0.25 MPa, Et = 0.6 MPa
-with fibres along a cell axis. On cells that are not cubes alpha and beta differ even for an
-isotropic material: they also undo the cells' own anisotropy along and across the fibres. A
-central-force lattice reaches a limited anisotropy (El/Et about 0.16 to 9 on the muscle meshes,
-depending on the fibre direction); beyond it the model refuses the material. The factors are
-constant over the stretch, exact while the curves keep their small-strain ratio El/Et; at large
-stretch the springs off the load axis see less of the strain than the material does, so a curve
-that stiffens fourfold over its range is followed within 8% (isotropic) to 16% (El != Et) at
-r = 1.3, one that stiffens twofold within 5%.
+Calibration: the moduli fed to Eq. 10 are those for which the lattice of the muscle's own
+mesh has the material's moduli (:mod:`cell.tissue.lattice`).
 
 Forces go into ``data.qfrc_applied`` at the vertex dofs (3 slide joints per vertex body); the
 kernel is compiled with numba. Positions are the vertex bodies' rest positions plus their slide
@@ -55,225 +41,24 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 from numba import njit
-from scipy.optimize import brentq
 
-from cell.errors import MaterialError
 from cell.tissue.flexcomp import flexcomp_xml
 from cell.tissue.geometry import MuscleShape, build_two_muscles
+from cell.tissue.lattice import (
+    AffineLattice,
+    calibrated_law,
+    directional_modulus,
+    oblique_gain,
+    tet_edges,
+)
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import SpringLaw, spring_stress
-from cell.tissue.tetmesh import _TET_EDGES, TetMesh, signed_volumes_m3
+from cell.tissue.springlaw import spring_stress
+from cell.tissue.tetmesh import TetMesh
 
-# Voigt order of the symmetric index pairs of a strain.
-_VOIGT = np.array([[0, 0], [1, 1], [2, 2], [1, 2], [0, 2], [0, 1]])
 _INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
 }
-# Bracket of log(El / Et) searched by the calibration.
-_LOG_RATIO_BOUND = math.log(1e4)
-
-
-def tet_edges(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unique edges of a tet mesh and, per edge, the volume of the tets that share it.
-
-    Args:
-        points: (N, 3) vertex positions, m.
-        tets: (M, 4) int vertex indices.
-
-    Returns:
-        ``edges`` (E, 2) int64 vertex pairs, lower index first, and ``edge_volume_m3`` (E,):
-        the sum of the volumes of the tets holding each edge (their sum is 6 times the mesh
-        volume: a tet has six edges).
-
-    Example:
-        >>> p = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [0, 0, 1]], float)
-        >>> edges, volume = tet_edges(p, np.array([[0, 1, 2, 3]]))
-        >>> len(edges), round(float(volume.sum()), 6)
-        (6, 1.0)
-    """
-    volume = np.abs(signed_volumes_m3(points, tets))
-    pairs = np.sort(np.asarray(tets, dtype=np.int64)[:, _TET_EDGES].reshape(-1, 2), axis=1)
-    key = pairs[:, 0] * len(points) + pairs[:, 1]
-    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
-    return pairs[first], np.bincount(inverse, weights=np.repeat(volume, len(_TET_EDGES)))
-
-
-def spring_stiffness(
-    points: np.ndarray,
-    edges: np.ndarray,
-    edge_volume_m3: np.ndarray,
-    el_pa: float | np.ndarray,
-    et_pa: float | np.ndarray,
-    fibre: np.ndarray | Sequence[float],
-) -> np.ndarray:
-    """Eq. 10: stiffness (N/m) of each edge spring, ``||E u|| sum(V) / l**2``.
-
-    Args:
-        points: (N, 3) vertex positions, m (the lengths and directions are taken here).
-        edges: (E, 2) vertex pairs.
-        edge_volume_m3: (E,) volume of the tets sharing each edge, m^3.
-        el_pa: modulus along the fibres, Pa (a scalar or one per edge).
-        et_pa: modulus across the fibres (Et = Er), Pa.
-        fibre: fibre direction, any length.
-
-    Returns:
-        (E,) stiffness, N/m; equal to Eq. 8, ``E sum(V) / l**2``, when ``el_pa == et_pa == E``.
-
-    Example:
-        >>> p = np.array([[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0]])
-        >>> spring_stiffness(p, np.array([[0, 1], [0, 2]]), np.full(2, 1e-6), 2e5, 6e5, (1, 0, 0))
-        array([2000., 6000.])
-    """
-    d = points[edges[:, 1]] - points[edges[:, 0]]
-    length_sq = np.einsum("ij,ij->i", d, d)
-    f = np.asarray(fibre, dtype=float)
-    cos_sq = (d @ f) ** 2 / (length_sq * (f @ f))
-    return _directional_modulus(el_pa, et_pa, cos_sq) * edge_volume_m3 / length_sq
-
-
-def _directional_modulus(
-    el_pa: float | np.ndarray, et_pa: float | np.ndarray, cos_sq: np.ndarray
-) -> np.ndarray:
-    """``||E u||`` of Eq. 10 (Pa) for edges at squared cosine ``cos_sq`` to the fibres."""
-    # Et**2 + (El**2 - Et**2) c**2 keeps El == Et exact: sqrt(E**2) == E in IEEE arithmetic.
-    return np.sqrt(et_pa**2 + (el_pa**2 - et_pa**2) * cos_sq)
-
-
-def oblique_gain(oblique: float, cos_sq: np.ndarray) -> np.ndarray:
-    """Factor on Eq. 10's modulus of springs at squared cosine ``cos_sq`` to the fibres:
-    ``1 + oblique * 4 c**2 (1 - c**2)``, 1 along and across them, ``1 + oblique`` at 45 degrees
-    (:attr:`~cell.tissue.material.MassSpringMaterial.oblique`)."""
-    return 1.0 + oblique * 4.0 * cos_sq * (1.0 - cos_sq)
-
-
-def _fibre_frame(fibre: np.ndarray) -> np.ndarray:
-    """(3, 3) rows: the unit fibre direction and two unit vectors across it."""
-    a = np.asarray(fibre, dtype=float) / np.linalg.norm(fibre)
-    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
-    t = np.cross(a, helper)
-    t /= np.linalg.norm(t)
-    return np.stack([a, t, np.cross(a, t)])
-
-
-class _AffineLattice:
-    """Affine (homogeneous strain) stiffness of a spring lattice, in the fibre frame."""
-
-    def __init__(
-        self, points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
-        fibre: np.ndarray, oblique: float = 0.0
-    ) -> None:
-        d = points[edges[:, 1]] - points[edges[:, 0]]
-        u = d / np.linalg.norm(d, axis=1, keepdims=True) @ _fibre_frame(fibre).T
-        self.cos_sq = u[:, 0] ** 2
-        self.oblique_gain = oblique_gain(oblique, self.cos_sq)
-        self.quartic = u[:, _VOIGT[:, 0]] * u[:, _VOIGT[:, 1]]
-        self.edge_volume_m3 = edge_volume_m3
-        self.volume_m3 = float(edge_volume_m3.sum()) / len(_TET_EDGES)
-
-    def moduli(self, el_pa: float, et_pa: float) -> tuple[float, float]:
-        """Young's moduli (Pa) of the lattice along and across the fibres, Eq. 10 springs."""
-        # K l**2 = ||E u|| sum(V), so C = sum(||E u|| sum(V) u u u u) / V.
-        weight = (_directional_modulus(el_pa, et_pa, self.cos_sq) * self.oblique_gain
-                  * self.edge_volume_m3)
-        stiffness = (self.quartic * weight[:, None]).T @ self.quartic / self.volume_m3
-        compliance = np.diag(np.linalg.inv(stiffness))
-        return float(1.0 / compliance[0]), float(0.5 * (1.0 / compliance[1] + 1.0 / compliance[2]))
-
-    def calibrated(self, el_pa: float, et_pa: float) -> tuple[float, float]:
-        """Eq. 10 moduli (Pa) for which the lattice's moduli are ``el_pa`` and ``et_pa``."""
-        target = math.log(el_pa / et_pa)
-
-        def mismatch(log_ratio: float) -> float:
-            el, et = self.moduli(math.exp(log_ratio), 1.0)
-            return math.log(el / et) - target
-
-        lo, hi = mismatch(-_LOG_RATIO_BOUND), mismatch(_LOG_RATIO_BOUND)
-        if lo > 0 or hi < 0:
-            reachable = (math.exp(lo + target), math.exp(hi + target))
-            raise MaterialError(
-                None,
-                "longitudinal",
-                f"El/Et = {el_pa / et_pa:.4g} is outside what this mesh's springs can give "
-                f"({reachable[0]:.3g} to {reachable[1]:.3g})",
-            )
-        ratio = math.exp(brentq(mismatch, -_LOG_RATIO_BOUND, _LOG_RATIO_BOUND, xtol=1e-12))
-        scale = et_pa / self.moduli(ratio, 1.0)[1]
-        return ratio * scale, scale
-
-
-def calibration_factors(
-    points: np.ndarray,
-    edges: np.ndarray,
-    edge_volume_m3: np.ndarray,
-    material: MassSpringMaterial,
-    along: np.ndarray | Sequence[float],
-) -> tuple[float, float]:
-    """(alpha, beta): the factors on El and Et for which the affine lattice of Eq. 10 springs
-    has the material's small-strain moduli along and across fibres lying ``along``.
-
-    Raises:
-        MaterialError: ``longitudinal`` when the lattice cannot give the anisotropy.
-
-    Example:
-        >>> calibration_factors(points, edges, volume, MassSpringMaterial(), (1, 0, 0))
-        ...  # doctest: +SKIP
-        (0.738, 0.738)
-    """
-    lattice = _AffineLattice(points, edges, edge_volume_m3, np.asarray(along, dtype=float),
-                             material.oblique)
-    el = material.longitudinal.small_strain_modulus_pa
-    et = material.transverse.small_strain_modulus_pa
-    el_in, et_in = lattice.calibrated(el, et)
-    return el_in / el, et_in / et
-
-
-def calibrated_law(
-    points: np.ndarray,
-    edges: np.ndarray,
-    edge_volume_m3: np.ndarray,
-    material: MassSpringMaterial,
-    along: np.ndarray | Sequence[float],
-) -> tuple[SpringLaw, tuple[float, float], tuple[float, float]]:
-    """``material``'s spring law on this lattice and its (alpha, beta) in tension and in
-    compression: each pair of curves calibrated (:func:`calibration_factors`) for fibres lying
-    ``along``.
-
-    Raises:
-        MaterialError: ``longitudinal`` when the lattice cannot give an anisotropy.
-    """
-    tension = calibration_factors(points, edges, edge_volume_m3, material, along)
-    symmetric = material.longitudinal_compression is material.transverse_compression is None
-    compression = (tension if symmetric else
-                   calibration_factors(points, edges, edge_volume_m3, material.in_compression(),
-                                       along))
-    return SpringLaw.of(material, tension, compression), tension, compression
-
-
-def lattice_moduli(
-    points: np.ndarray,
-    edges: np.ndarray,
-    edge_volume_m3: np.ndarray,
-    el_pa: float,
-    et_pa: float,
-    fibre: np.ndarray | Sequence[float],
-) -> tuple[float, float]:
-    """Young's moduli (Pa) along and across the fibres of a lattice of Eq. 10 springs.
-
-    From the lattice's affine stiffness: every edge strained as the mesh is. Exact for a
-    uniform strain of a periodic lattice; a finite block relaxes about 2% softer.
-
-    Example:
-        >>> from cell.tissue.tetmesh import structured_hex_tets
-        >>> g = np.stack(np.meshgrid(*[np.linspace(0, 0.1, 5)] * 3, indexing="ij"), -1)
-        >>> mesh = TetMesh.from_arrays(g.reshape(-1, 3), structured_hex_tets((4, 4, 4)), "c")
-        >>> edges, volume = tet_edges(mesh.points, mesh.tets)
-        >>> [round(e / 3e4, 3) for e in lattice_moduli(mesh.points, edges, volume, 3e4, 3e4,
-        ...                                            (1, 0, 0))]
-        [1.355, 1.355]
-    """
-    lattice = _AffineLattice(points, edges, edge_volume_m3, np.asarray(fibre, dtype=float))
-    return lattice.moduli(el_pa, et_pa)
 
 
 @njit(cache=True, fastmath=False)
@@ -437,7 +222,7 @@ class MassSpringModel:
         self._law, self.calibration, self._compression_calibration = calibrated_law(
             self._points, self.edges, self.edge_volume_m3, material, along)
         self.material = material
-        self._cos_sq = _AffineLattice(self._points, self.edges, self.edge_volume_m3,
+        self._cos_sq = AffineLattice(self._points, self.edges, self.edge_volume_m3,
                                       fibre).cos_sq
         self.fibre_cosine = np.sqrt(self._cos_sq)
         if not hasattr(self, "_history"):
@@ -451,7 +236,7 @@ class MassSpringModel:
         self._history[:] = 0.0
 
     def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
-        return (self._gain * _directional_modulus(el_pa, et_pa, self._cos_sq)
+        return (self._gain * directional_modulus(el_pa, et_pa, self._cos_sq)
                 * oblique_gain(self.material.oblique, self._cos_sq))
 
     def apply(self, data: mujoco.MjData) -> None:

@@ -1,22 +1,22 @@
-"""Shared test set-up.
+"""Shared test set-up, for the tests and the docstring examples alike.
 
-``import cell`` selects headless rendering (``MUJOCO_GL=egl`` unless set), but only if it runs
-before MuJoCo's own import; pytest imports this file before any test module, whose imports put
-``mujoco`` ahead of ``cell``.
+Headless rendering is chosen here (``MUJOCO_GL=egl`` unless set): MuJoCo reads the variable
+at its own import, and pytest imports this file before any test module.
 """
 
+import os
 from collections.abc import Iterator
 
 import pytest
 
-import cell  # noqa: F401
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 @pytest.fixture(autouse=True)
 def _mujoco_warnings() -> Iterator[list[str]]:
     """Keep MuJoCo's warnings (such as a flex without elasticity) out of the MUJOCO_LOG.TXT
     its default handler writes."""
-    import mujoco  # here, not above: ``import cell`` must come first (module docstring)
+    import mujoco  # here, not above: MUJOCO_GL must be set first (module docstring)
 
     caught: list[str] = []
     mujoco.set_mju_user_warning(caught.append)
