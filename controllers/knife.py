@@ -9,6 +9,7 @@ import numpy as np
 
 from cell.config import require_non_negative, require_positive
 from cell.errors import InputError
+from cell.polyline import truncate
 from controllers.trajectory import CartesianTrajectory, Waypoint
 
 #: Speed of free moves between poses (m/s) and of vertical approach moves.
@@ -55,16 +56,6 @@ def blade_rotation(tangent: np.ndarray, down: np.ndarray = (0.0, 0.0, -1.0)) -> 
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def truncate_path(path_m: np.ndarray, fraction: float) -> np.ndarray:
-    """The first ``fraction`` of a polyline's arc length (m)."""
-    steps = np.linalg.norm(np.diff(path_m, axis=0), axis=1)
-    arc = np.concatenate([[0.0], np.cumsum(steps)])
-    end = fraction * arc[-1]
-    keep = arc < end - 1e-9
-    tail = np.array([np.interp(end, arc, path_m[:, k]) for k in range(3)])
-    return np.vstack([path_m[keep], tail])
-
-
 def _tangents(path_m: np.ndarray) -> np.ndarray:
     tangents = np.gradient(path_m, axis=0)
     return tangents / np.linalg.norm(tangents, axis=1, keepdims=True)
@@ -94,7 +85,7 @@ def plan_cut(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float
         The trajectory, the planned tip path while cutting (N, 3) m, and the cutting window
         (start, end) in s.
     """
-    path = truncate_path(np.asarray(path_m, float), plan.cut_fraction)
+    path = truncate(np.asarray(path_m, float), plan.cut_fraction)
     tangents = _tangents(path)
     above_entry, _ = ready_pose(path, plan)
     cut = [above_entry - [0.0, 0.0, plan.approach_height_m], *path]

@@ -10,6 +10,7 @@ from cell.errors import InputError, PerceptionError
 from cell.perception.curvature import Curvature, surface_curvature
 from cell.perception.guideline import GuidelineParams, find_cut_path
 from cell.perception.pointcloud import SensorNoise, SurfaceMesh, capture, depth_mesh
+from cell.polyline import closest_on, length
 from cell.robots.camera import CameraRig
 from cell.robots.names import CAMERA
 from cell.sim.episode import Episode
@@ -22,14 +23,6 @@ LENGTH_M = 0.4
 def _valley_y(x: np.ndarray) -> np.ndarray:
     """The synthetic valley's bottom line: a gentle bow."""
     return 0.01 * np.cos(np.pi * x / LENGTH_M)
-
-
-def _distance_xy(points: np.ndarray, line: np.ndarray) -> np.ndarray:
-    """Distance in the xy-plane from each point to the polyline ``line``."""
-    a, chord = line[:-1, :2], np.diff(line[:, :2], axis=0)
-    t = np.clip(np.einsum("kij,ij->ki", points[:, None, :2] - a, chord)
-                / np.sum(chord**2, axis=1), 0.0, 1.0)
-    return np.linalg.norm(points[:, None, :2] - (a + t[..., None] * chord), axis=2).min(axis=1)
 
 
 @pytest.fixture(scope="module")
@@ -149,8 +142,7 @@ def test_guideline_on_the_default_cell_follows_the_interface(episode: Episode, s
     # A marker in the valley 1 cm in from the meat's end, placed 3 mm off the line.
     start = top_line[0] + np.array([0.01, 0.003, 0.0])
     path = find_cut_path(mesh, surface_curvature(mesh, CURVATURE_RADIUS_M), start)
-    distance = _distance_xy(path.points_m, top_line)
+    distance = closest_on(path.points_m[:, :2], top_line[:, :2]).distance_m
     assert distance.mean() <= 5e-3
     assert distance.max() <= 15e-3
-    line_length = np.linalg.norm(np.diff(top_line, axis=0), axis=1).sum()
-    assert path.length_m >= 0.9 * line_length
+    assert path.length_m >= 0.9 * length(top_line)

@@ -35,6 +35,7 @@ from scipy.spatial import cKDTree
 from cell.errors import InputError, PerceptionError
 from cell.perception.curvature import Curvature
 from cell.perception.pointcloud import SurfaceMesh
+from cell.polyline import arc_lengths, length, segment_lengths
 
 # A sample's normal averages this many nearest vertices' normals: on the crease of the valley
 # that takes in both walls.
@@ -114,7 +115,7 @@ class CutPath:
     @property
     def length_m(self) -> float:
         """Length of the sampled path (the polyline through ``points_m``), m."""
-        return float(np.linalg.norm(np.diff(self.points_m, axis=0), axis=1).sum())
+        return length(self.points_m)
 
 
 def _walk_valley(
@@ -201,13 +202,13 @@ def find_cut_path(
     nodes = _walk_valley(vertices, tree, curvature, start_m, params)
     points = vertices[nodes]
     # Repeated positions (fused views can overlap) would give a zero chord.
-    keep = np.concatenate([[True], np.linalg.norm(np.diff(points, axis=0), axis=1) > 0.0])
+    keep = np.concatenate([[True], segment_lengths(points) > 0.0])
     points = points[keep]
     degree = min(3, len(points) - 1)
     spline, u = make_splprep(points.T, k=degree, s=len(points) * params.smoothing_m**2)
     dense_u = np.linspace(u[0], u[-1], 20 * len(points))
     dense = spline(dense_u).T
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0), axis=1))])
+    arc = arc_lengths(dense)
     samples = max(2, round(arc[-1] / params.spacing_m) + 1)
     sample_u = np.interp(np.linspace(0.0, arc[-1], samples), arc, dense_u)
     path = spline(sample_u).T

@@ -53,6 +53,7 @@ from cell.perception.registration import (
     fit_generic_model,
     predict_interface,
 )
+from cell.polyline import closest_on, length, point_at
 from cell.robots.camera import CameraRig
 from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
 
@@ -333,9 +334,7 @@ def marker_position(truth: TwoMuscleMesh, inset_m: float) -> np.ndarray:
         >>> marker_position(build_two_muscles(MuscleShape()), 0.0)
         array([-0.225   , -0.014375,  0.05625 ])
     """
-    line = truth.top_line
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
-    return np.array([np.interp(inset_m, arc, line[:, k]) for k in range(3)])
+    return point_at(truth.top_line, inset_m)
 
 
 def _seen_marker(view: DepthView, marker_m: np.ndarray, bin_px: int,
@@ -367,16 +366,6 @@ def _seen_marker(view: DepthView, marker_m: np.ndarray, bin_px: int,
             f"surface at its pixel is {seen_depth - depth:+.3f} m from it along the view "
             f"(tolerance {tolerance_m} m), so it is hidden or not on the meat")
     return view.position_m + view.rotation @ (camera * seen_depth / depth)
-
-
-def _distance_xy(points_m: np.ndarray, line_m: np.ndarray) -> np.ndarray:
-    """(K,) distance in the xy-plane from each of ``points_m`` (K, 3) to the polyline
-    ``line_m`` (L, 3), m."""
-    start, chord = line_m[:-1, :2], np.diff(line_m[:, :2], axis=0)
-    offsets = points_m[:, None, :2] - start
-    along = np.clip(np.einsum("kij,ij->ki", offsets, chord) / np.sum(chord * chord, axis=1),
-                    0.0, 1.0)
-    return np.linalg.norm(offsets - along[..., None] * chord, axis=2).min(axis=1)
 
 
 def perceive(
@@ -452,13 +441,12 @@ def perceive(
     timings["total"] = sum(timings.values())
     scores: dict[str, Any] = {}
     if truth is not None:
-        line_length = float(np.linalg.norm(np.diff(truth.top_line, axis=0), axis=1).sum())
         true_surface = predict_interface(
             AffineFit(np.eye(3), np.zeros(3), np.zeros(3), 0.0), truth).surface_m.reshape(-1, 3)
         scores = {
-            "guideline_distance_m": Deviation.of(_distance_xy(guideline.points_m,
-                                                              truth.top_line)),
-            "coverage": guideline.length_m / line_length,
+            "guideline_distance_m": Deviation.of(
+                closest_on(guideline.points_m[:, :2], truth.top_line[:, :2]).distance_m),
+            "coverage": guideline.length_m / length(truth.top_line),
             "interface_error_m": Deviation.of(np.abs(
                 interface_y(true_surface[:, 0], true_surface[:, 2]) - true_surface[:, 1])),
         }

@@ -34,6 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from cell.errors import InputError, PerceptionError
 from cell.perception.pointcloud import SurfaceMesh
+from cell.polyline import closest_on
 from cell.tissue.geometry import TwoMuscleMesh
 
 # Closest triangles are sought among those whose centroids are nearest a point; the model's
@@ -250,15 +251,8 @@ class InterfacePrediction:
         along the muscles (the point projected onto the top line in the xy-plane), which is
         how deep a cut from that point must go to part the muscles there."""
         points = np.asarray(points_m, dtype=float).reshape(-1, 3)
-        top, bottom = self.top_line_m[:, :2], self.bottom_line_m
-        start, chord = top[:-1], np.diff(top, axis=0)
-        along = np.clip(
-            np.einsum("kij,ij->ki", points[:, None, :2] - start, chord)
-            / np.sum(chord * chord, axis=1), 0.0, 1.0,
-        )
-        offsets = points[:, None, :2] - (start + along[..., None] * chord)
-        segment = np.argmin(np.einsum("kij,kij->ki", offsets, offsets), axis=1)
-        fraction = along[np.arange(len(points)), segment]
+        closest = closest_on(points[:, :2], self.top_line_m[:, :2])
+        segment, fraction, bottom = closest.segment, closest.fraction, self.bottom_line_m
         floor = (1.0 - fraction) * bottom[segment, 2] + fraction * bottom[segment + 1, 2]
         return points[:, 2] - floor
 
