@@ -55,12 +55,9 @@ def _plan(args: argparse.Namespace) -> int:
     scenario = _load(args)
     episode = Episode(scenario)
     truth = episode.scene.mesh
-    rig = CameraRig(episode.scene.model, CAMERA, scenario.camera.width_px,
-                    scenario.camera.height_px)
-    try:
+    with CameraRig(episode.scene.model, CAMERA, scenario.camera.width_px,
+                   scenario.camera.height_px) as rig:
         plan = episode.perceive(rig)  # what the episode would see with this seed
-    finally:
-        rig.close()
     tip_m, tip_rotation = episode.ik.site_pose(KNIFE_TIP)
     _, tip_path, window_s = plan_cut(
         plan.guideline.points_m, scenario.cut, scenario.layout.table_height_m,

@@ -133,12 +133,9 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         self.episode = episode = Episode(scenario)
         perceived = None
         if scenario.perception.enabled:
-            rig = CameraRig(episode.sim.model, CAMERA, scenario.camera.width_px,
-                            scenario.camera.height_px)
-            try:
+            with CameraRig(episode.sim.model, CAMERA, scenario.camera.width_px,
+                           scenario.camera.height_px) as rig:
                 perceived = episode.perceive(rig)
-            finally:
-                rig.close()
         self.plan = plan = episode.plan(perceived)
         self._dt_s = episode.control_dt_s
         self._knife = KnifeCommand(plan.knife, plan.cut_window_s, scenario.cut.speed_m_s,

@@ -130,11 +130,8 @@ def episode() -> Episode:
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_guideline_on_the_default_cell_follows_the_interface(episode: Episode, seed: int) -> None:
-    rig = CameraRig(episode.scene.model, CAMERA, 320, 240)
-    try:
+    with CameraRig(episode.scene.model, CAMERA, 320, 240) as rig:
         view = capture(rig, episode.sim.data, SensorNoise(), np.random.default_rng(seed))
-    finally:
-        rig.close()
     # 4 x 4 bins: about the paper's mesh (1376 nodes, 2662 triangles).
     mesh = depth_mesh(view, bin_px=4)
     assert 1200 < len(mesh.vertices_m) < 1600

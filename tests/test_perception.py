@@ -38,9 +38,8 @@ def episode() -> Episode:
 
 @pytest.fixture(scope="module")
 def rig(episode: Episode) -> Iterator[CameraRig]:
-    camera = CameraRig(episode.scene.model, CAMERA, 320, 240)
-    yield camera
-    camera.close()
+    with CameraRig(episode.scene.model, CAMERA, 320, 240) as camera:
+        yield camera
 
 
 @pytest.fixture(scope="module")

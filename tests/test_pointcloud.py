@@ -158,12 +158,9 @@ def episode() -> Episode:
 
 
 def test_capture_of_the_default_cell_lies_on_the_meat(episode: Episode) -> None:
-    rig = CameraRig(episode.scene.model, CAMERA, 320, 240)
-    try:
+    with CameraRig(episode.scene.model, CAMERA, 320, 240) as rig:
         view = capture(rig, episode.sim.data)
         noisy = capture(rig, episode.sim.data, SensorNoise(), np.random.default_rng(0))
-    finally:
-        rig.close()
     mesh = episode.scene.mesh
     vertices = np.concatenate([mesh.round.points, mesh.shank.points])
     points = view.points_m()
@@ -176,9 +173,6 @@ def test_capture_of_the_default_cell_lies_on_the_meat(episode: Episode) -> None:
 
 
 def test_capture_without_a_generator_for_the_noise_is_refused(episode: Episode) -> None:
-    rig = CameraRig(episode.scene.model, CAMERA, 64, 48)
-    try:
-        with pytest.raises(InputError, match="rng"):
-            capture(rig, episode.sim.data, SensorNoise())
-    finally:
-        rig.close()
+    with CameraRig(episode.scene.model, CAMERA, 64, 48) as rig, \
+            pytest.raises(InputError, match="rng"):
+        capture(rig, episode.sim.data, SensorNoise())

@@ -234,13 +234,11 @@ def bench_other_shape(scenario: Scenario, seed: int) -> dict[str, Any]:
     other = replace(scenario, tissue=OTHER_SHAPE, simulation=replace(
         scenario.simulation, timestep_s=_OTHER_SHAPE_TIMESTEP_S))
     episode = Episode(other)
-    rig = CameraRig(episode.scene.model, CAMERA, other.camera.width_px, other.camera.height_px)
-    try:
+    with CameraRig(episode.scene.model, CAMERA, other.camera.width_px,
+                   other.camera.height_px) as rig:
         plan = perceive(rig, episode.sim.data, episode.scene.mesh,
                         generic_model(other.layout.meat_origin_m), PerceptionParams(),
                         np.random.default_rng(seed))
-    finally:
-        rig.close()
     return {"value": plan.interface_error_m.mean_m, "unit": "m",
             "max_m": plan.interface_error_m.max_m,
             "guideline_distance_m": {"mean": plan.guideline_distance_m.mean_m,
@@ -255,10 +253,9 @@ def run_perception_bench(scenario_path: str | Path, quick: bool = False) -> dict
     """Run every entry on the scenario's cell; returns the JSON-ready report."""
     scenario = load_scenario(scenario_path)
     episode = Episode(scenario)
-    rig = CameraRig(episode.scene.model, CAMERA, scenario.camera.width_px,
-                    scenario.camera.height_px)
     params = PerceptionParams()
-    try:
+    with CameraRig(episode.scene.model, CAMERA, scenario.camera.width_px,
+                   scenario.camera.height_px) as rig:
         seeds = range(3 if quick else 5)
         entries = bench_guideline(episode, rig, seeds)
         plan = perceive(rig, episode.sim.data, episode.scene.mesh,
@@ -268,8 +265,6 @@ def run_perception_bench(scenario_path: str | Path, quick: bool = False) -> dict
                                    5 if quick else 20)
         noiseless = capture(rig, episode.sim.data).points_m(params.bin_px)
         entries |= bench_fit_recovery(noiseless, episode, 1 if quick else 3)
-    finally:
-        rig.close()
     entries["interface_y_error_other_shape_m"] = bench_other_shape(scenario, 0)
     return {
         "scenario": str(scenario_path),

@@ -73,3 +73,9 @@ class CameraRig:
     def close(self) -> None:
         """Free the GL context."""
         self.renderer.close()
+
+    def __enter__(self) -> CameraRig:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()

@@ -8,6 +8,7 @@ The summary splits into ``result`` (a function of the scenario and its seed alon
 from __future__ import annotations
 
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -158,12 +159,9 @@ class Episode:
         """
         scenario, model = self.scenario, self.sim.model
         rig = (CameraRig(model, CAMERA, scenario.camera.width_px, scenario.camera.height_px)
-               if scenario.perception.enabled or rerun_path is not None else None)
-        try:
-            return self._run(rig, rerun_path, progress)
-        finally:
-            if rig is not None:
-                rig.close()
+               if scenario.perception.enabled or rerun_path is not None else nullcontext())
+        with rig as camera:
+            return self._run(camera, rerun_path, progress)
 
     def _run(self, rig: CameraRig | None, rerun_path: str | Path | None,
              progress: bool) -> dict[str, Any]:
