@@ -8,7 +8,7 @@ import numpy as np
 
 from cell.config import require_non_negative, require_positive
 from cell.errors import InputError
-from controllers.knife import APPROACH_SPEED_M_S, TRANSIT_SPEED_M_S
+from controllers.knife import APPROACH_SPEED_M_S, TRANSIT_SPEED_M_S, CutWindow
 from controllers.trajectory import CartesianTrajectory, Waypoint
 
 #: Jaws pointing straight down, opening across the muscles (world y).
@@ -82,7 +82,7 @@ def ready_pose(grasp_point_m: np.ndarray, plan: PullPlan) -> tuple[np.ndarray, n
 
 
 def plan_pull(grasp_point_m: np.ndarray, plan: PullPlan, start_s: float,
-              cut_window_s: tuple[float, float], start_pos: np.ndarray,
+              cut_window_s: CutWindow, start_pos: np.ndarray,
               start_rot: np.ndarray) -> tuple[CartesianTrajectory, PullSchedule]:
     """Grasp-site trajectory: above the grasp point, down to it, hold while the jaws close,
     pull ``tension_m`` while the knife cuts (``cut_window_s``), then on to ``distance_m`` along

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,6 +48,14 @@ class CutPlan:
 SurfaceY = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
+class CutWindow(NamedTuple):
+    """When the knife cuts, s: from leaving the entry at depth (``start_s``) to reaching the
+    cut path's last point (``end_s``)."""
+
+    start_s: float
+    end_s: float
+
+
 def blade_rotation(tangent: np.ndarray, down: np.ndarray = (0.0, 0.0, -1.0)) -> np.ndarray:
     """Tool rotation with the tool axis (z) along ``down`` and the cutting edge (x) along
     ``tangent`` made orthogonal to it, so that the blade plane contains both."""
@@ -72,7 +81,7 @@ def ready_pose(path_m: np.ndarray, plan: CutPlan) -> tuple[np.ndarray, np.ndarra
 def plan_cut(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float,
              start_pos: np.ndarray, start_rot: np.ndarray,
              interface_y: SurfaceY | None = None,
-             ) -> tuple[CartesianTrajectory, np.ndarray, tuple[float, float]]:
+             ) -> tuple[CartesianTrajectory, np.ndarray, CutWindow]:
     """Knife tip trajectory for one cut along ``path_m`` (K, 3), the top line of the interface.
 
     The tip goes above the entry point (``lead_in_m`` before the path's start), down to
@@ -82,8 +91,7 @@ def plan_cut(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float
     it, so that the blade slides along the aponeurosis instead of pushing into the muscles.
 
     Returns:
-        The trajectory, the planned tip path while cutting (N, 3) m, and the cutting window
-        (start, end) in s.
+        The trajectory, the planned tip path while cutting (N, 3) m, and the cutting window.
     """
     path = truncate(np.asarray(path_m, float), plan.cut_fraction)
     tangents = _tangents(path)
@@ -104,15 +112,16 @@ def plan_cut(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float
     cut_rotations = [blade_rotation(t, c - p) for t, c, p in zip(cut_tangents, cut, top,
                                                                     strict=True)]
     above_entry = entry + (plan.depth_m + plan.approach_height_m) * -cut_rotations[0][:, 2]
-    waypoints = [
+    approach = [
         Waypoint(above_entry, cut_rotations[0], TRANSIT_SPEED_M_S, dwell_s=0.2),
         Waypoint(entry, cut_rotations[0], APPROACH_SPEED_M_S, dwell_s=0.2),
     ]
-    waypoints += [Waypoint(p, r, plan.speed_m_s) for p, r in zip(cut[1:], cut_rotations[1:],
-                                                                  strict=True)]
+    along = [Waypoint(p, r, plan.speed_m_s) for p, r in zip(cut[1:], cut_rotations[1:],
+                                                             strict=True)]
     exit_up = cut[-1] - (plan.depth_m + plan.approach_height_m) * cut_rotations[-1][:, 2]
-    waypoints.append(Waypoint(exit_up, cut_rotations[-1], APPROACH_SPEED_M_S))
-    trajectory = CartesianTrajectory(start_s, start_pos, start_rot, waypoints)
-    cut_start = float(trajectory.times_s[4])
-    cut_end = float(trajectory.times_s[-2])
-    return trajectory, cut, (cut_start, cut_end)
+    trajectory = CartesianTrajectory(start_s, start_pos, start_rot, [
+        *approach, *along, Waypoint(exit_up, cut_rotations[-1], APPROACH_SPEED_M_S)])
+    entry_index, last_cut_index = len(approach) - 1, len(approach) + len(along) - 1
+    window = CutWindow(float(trajectory.departures_s[entry_index]),
+                       float(trajectory.arrivals_s[last_cut_index]))
+    return trajectory, cut, window

@@ -29,6 +29,13 @@ class CartesianTrajectory:
 
     Rotation-only segments take ``min_segment_s`` or the time set by ``max_turn_rad_s``.
 
+    Attributes:
+        times_s: (M,) the knots' times, s: the start, then each waypoint's arrival and, where
+            it dwells, its departure.
+        positions_m: (M, 3) the positions at the knots, m.
+        arrivals_s: (K,) when each of the K waypoints is reached, s.
+        departures_s: (K,) when each waypoint is left, its dwell after its arrival, s.
+
     Example:
         >>> traj = CartesianTrajectory(start_s=0.0, start_pos=p0, start_rot=R0,
         ...                            waypoints=[Waypoint(p1, R1, speed_m_s=0.05)])
@@ -41,6 +48,7 @@ class CartesianTrajectory:
         times = [start_s]
         positions = [np.asarray(start_pos, float)]
         rotations = [np.asarray(start_rot, float)]
+        arrivals, departures = [], []
         for wp in waypoints:
             if not wp.speed_m_s > 0:
                 raise ControlError(f"waypoint speed must be > 0, got {wp.speed_m_s}")
@@ -51,11 +59,15 @@ class CartesianTrajectory:
             times.append(times[-1] + duration)
             positions.append(np.asarray(wp.position_m, float))
             rotations.append(np.asarray(wp.rotation, float))
+            arrivals.append(times[-1])
             if wp.dwell_s > 0:
                 times.append(times[-1] + wp.dwell_s)
                 positions.append(positions[-1])
                 rotations.append(rotations[-1])
+            departures.append(times[-1])
         self.times_s = np.array(times)
+        self.arrivals_s = np.array(arrivals)
+        self.departures_s = np.array(departures)
         self.positions_m = np.array(positions)
         self._slerp = Slerp(self.times_s, Rotation.from_matrix(np.array(rotations)))
 

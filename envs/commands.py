@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from controllers.knife import CutWindow
 from controllers.trajectory import CartesianTrajectory
 from envs.params import ActionLimits
 
@@ -27,7 +28,7 @@ class KnifeCommand:
 
     Args:
         trajectory: the planned knife trajectory (:attr:`cell.sim.episode.EpisodePlan.knife`).
-        window_s: its cutting window (start, end), s.
+        window_s: its cutting window, s.
         speed_m_s: the plan's cutting speed.
         limits: speeds and bounds.
 
@@ -36,13 +37,13 @@ class KnifeCommand:
         >>> position_m, rotation = command.advance(np.array([0.4, 0.0, 0.0, 0.0]), 0.02)[0]
     """
 
-    def __init__(self, trajectory: CartesianTrajectory, window_s: tuple[float, float],
+    def __init__(self, trajectory: CartesianTrajectory, window_s: CutWindow,
                  speed_m_s: float, limits: ActionLimits) -> None:
         self.trajectory = trajectory
         self.window_s = window_s
         self.speed_m_s = speed_m_s
         self.limits = limits
-        self.tau_s = window_s[0]
+        self.tau_s = window_s.start_s
         self.across_m = 0.0
         self.depth_m = 0.0
         self.yaw_rad = 0.0
@@ -73,9 +74,9 @@ class KnifeCommand:
                            self.across_m + action[1] * lim.knife_across_speed_m_s * dt_s,
                            self.depth_m + action[2] * lim.knife_depth_speed_m_s * dt_s,
                            self.yaw_rad + action[3] * lim.knife_yaw_rate_rad_s * dt_s])
-        low = np.array([self.window_s[0], -lim.knife_max_across_m, -lim.knife_max_depth_m,
+        low = np.array([self.window_s.start_s, -lim.knife_max_across_m, -lim.knife_max_depth_m,
                         -lim.knife_max_yaw_rad])
-        high = np.array([self.window_s[1], lim.knife_max_across_m, lim.knife_max_depth_m,
+        high = np.array([self.window_s.end_s, lim.knife_max_across_m, lim.knife_max_depth_m,
                          lim.knife_max_yaw_rad])
         bounded = np.clip(wanted, low, high)
         self.tau_s, self.across_m, self.depth_m, self.yaw_rad = map(float, bounded)

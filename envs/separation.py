@@ -149,7 +149,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         self._divergence = ""
         # The approach: both tools scripted until the knife is in at the entry and the jaws
         # hold the shank.
-        handover_s = max(plan.cut_window_s[0], plan.schedule.grasp_s)
+        handover_s = max(plan.cut_window_s.start_s, plan.schedule.grasp_s)
         try:
             while episode.sim.time_s < handover_s - 1e-9:
                 t_next = episode.sim.time_s + self._dt_s

@@ -35,6 +35,7 @@ from controllers import gripper, knife
 from controllers.camera import view_pose
 from controllers.gripper import PullSchedule
 from controllers.ik import CellIK, arm_joint_names, pose
+from controllers.knife import CutWindow
 from controllers.trajectory import CartesianTrajectory
 
 #: IK iterations that bring the arms from home to their ready poses before the episode starts.
@@ -54,20 +55,20 @@ class EpisodePlan:
     Attributes:
         knife: the knife tip's trajectory (world frame, m; times in s of simulated time).
         cut_path_m: (N, 3) planned tip path while cutting, from the entry at depth on, m.
-        cut_window_s: (start, end) of the cut, s: the knife is at the entry at depth at the
-            start and at the path's last point at the end.
+        cut_window_s: when the cut starts and ends, s: the knife is at the entry at depth at
+            the start and at the path's last point at the end.
         pull: the grasp site's trajectory.
         schedule: when the gripper closes, grasps and pulls.
         end_s: when the scripted episode stops, s.
 
     Example:
         >>> plan = Episode(scenario).plan()
-        >>> position_m, rotation = plan.knife.sample(plan.cut_window_s[0])
+        >>> position_m, rotation = plan.knife.sample(plan.cut_window_s.start_s)
     """
 
     knife: CartesianTrajectory
     cut_path_m: np.ndarray
-    cut_window_s: tuple[float, float]
+    cut_window_s: CutWindow
     pull: CartesianTrajectory
     schedule: PullSchedule
     end_s: float
