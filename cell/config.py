@@ -13,6 +13,7 @@ import math
 import tomllib
 import types
 import typing
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -95,9 +96,49 @@ def from_table(
     """Build dataclass ``cls`` from a TOML table; missing keys take the dataclass defaults.
 
     Example:
-        >>> from_table(MuscleShape, {"length_m": 0.4}, file="s.toml", section="tissue")
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> from_table(MuscleShape, {"length_m": 0.4}, file="s.toml", section="tissue").length_m
+        0.4
+        >>> from_table(MuscleShape, {"length_m": -0.4}, file="s.toml", section="tissue")
+        Traceback (most recent call last):
+        cell.errors.ScenarioError: s.toml, tissue.length_m: must be > 0, got -0.4
     """
     file = None if file is None else Path(file)
+    kwargs = _checked_fields(cls, table, file, section, error)
+    return _build(lambda: cls(**kwargs), file, section, error)
+
+
+def updated(
+    instance: T,
+    table: Mapping[str, Any],
+    *,
+    file: str | Path | None = None,
+    section: str = "",
+    error: type[InputError] = InputError,
+) -> T:
+    """``instance`` (a dataclass) with the fields in ``table`` replaced, checked as
+    :func:`from_table` checks a TOML table: unknown keys, wrong types and values out of range
+    raise ``error`` naming the dotted key.
+
+    Example:
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> updated(MuscleShape(cell_size_m=0.05), {"length_m": 0.4}).cell_size_m
+        0.05
+        >>> updated(MuscleShape(), {"length_m": "long"}, section="shape")
+        Traceback (most recent call last):
+        cell.errors.InputError: shape.length_m: expected a number, got str 'long'
+    """
+    file = None if file is None else Path(file)
+    if not isinstance(table, Mapping):
+        raise error(file, section or None, f"expected a table, got {type(table).__name__}")
+    kwargs = _checked_fields(type(instance), table, file, section, error)
+    return _build(lambda: dataclasses.replace(instance, **kwargs), file, section, error)
+
+
+def _checked_fields(cls: type, table: Mapping[str, Any], file: Path | None, section: str,
+                    error: type[InputError]) -> dict[str, Any]:
+    """``table``'s values checked against ``cls``'s field types (converted where the types
+    allow), by field name."""
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     kwargs: dict[str, Any] = {}
@@ -107,8 +148,14 @@ def from_table(
             known = ", ".join(sorted(fields))
             raise error(file, where, f"unknown key (known keys: {known})")
         kwargs[key] = _check_type(value, hints[key], where, file, error)
+    return kwargs
+
+
+def _build(make: Callable[[], T], file: Path | None, section: str,
+           error: type[InputError]) -> T:
+    """``make()``, its value checks re-raised as ``error`` naming file and dotted key."""
     try:
-        return cls(**kwargs)
+        return make()
     except InputError as exc:
         where = f"{section}.{exc.field}" if section and exc.field else (exc.field or section)
         raise error(file, where, exc.message) from None
@@ -121,7 +168,15 @@ def require_positive(owner: object, *names: str, error: type[InputError] = Input
     fields when none are named) that is not > 0. For ``__post_init__`` checks.
 
     Example:
-        >>> require_positive(KnifeParams(), "blade_length_m")
+        >>> from dataclasses import dataclass
+        >>> @dataclass
+        ... class Blade:
+        ...     length_m: float
+        ...     speed_m_s: float
+        >>> require_positive(Blade(0.1, 0.02))
+        >>> require_positive(Blade(0.1, -0.02), "speed_m_s")
+        Traceback (most recent call last):
+        cell.errors.InputError: speed_m_s: must be > 0, got -0.02
     """
     _require(owner, names, lambda value: value > 0, "> 0", error)
 

@@ -5,37 +5,44 @@ Keys (every one optional; SI units):
 - ``shape``: a mapping of :class:`~cell.tissue.geometry.MuscleShape` fields but ``cell_size_m`` (the
   resolution is the env's constructor argument),
 - ``material``: a material object or the path of a material TOML file,
-- ``fibre_direction``: the fibres' direction, world frame (a mass-spring material's),
+- ``fibre_direction``: the fibres' direction, world frame (a mass-spring material's), three
+  numbers,
 - ``binding_stiffness_n_m``, ``tearing_stretch_m``: the aponeurosis' strength,
 - ``force_noise_n``, ``torque_noise_nm``: the force/torque sensors' noise.
 
+Values are type-checked as a scenario file's are, and a bad one raises
+:class:`~cell.errors.InputError` naming the key.
+
 Example:
-    >>> apply_options(Scenario(), {"shape": {"length_m": 0.4}, "force_noise_n": 0.1})
+    >>> from cell.sim.scenario import Scenario
+    >>> scenario = apply_options(Scenario(), {"shape": {"length_m": 0.4}, "force_noise_n": 0.1})
+    >>> scenario.tissue.length_m, scenario.sensors.force_noise_n
+    (0.4, 0.1)
+    >>> apply_options(Scenario(), {"force_noise_n": "high"})
+    Traceback (most recent call last):
+    cell.errors.InputError: force_noise_n: expected a number, got str 'high'
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import fields, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from cell.config import updated
 from cell.errors import InputError, MaterialError
 from cell.sim.scenario import Scenario
-from cell.tissue.geometry import MuscleShape
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial, load_material
 
 
 def _shape(scenario: Scenario, value: Any) -> Scenario:
-    if not isinstance(value, Mapping):
-        raise InputError(None, "shape", f"expected a mapping of MuscleShape fields, got {value!r}")
-    known = {f.name for f in fields(MuscleShape)} - {"cell_size_m"}
-    for key in value:
-        if key not in known:
-            raise InputError(None, f"shape.{key}",
-                             f"not a shape option (known: {', '.join(sorted(known))}; the "
-                             "resolution is the env's cell_size_m argument)")
-    return replace(scenario, tissue=replace(scenario.tissue, **value))
+    if isinstance(value, Mapping) and "cell_size_m" in value:
+        raise InputError(None, "shape.cell_size_m",
+                         "not a shape option: the resolution is the env's cell_size_m argument")
+    return replace(scenario, tissue=updated(scenario.tissue, value, section="shape"))
 
 
 def _material(scenario: Scenario, value: Any) -> Scenario:
@@ -49,20 +56,19 @@ def _material(scenario: Scenario, value: Any) -> Scenario:
 def _fibre_direction(scenario: Scenario, value: Any) -> Scenario:
     if not isinstance(scenario.material, MassSpringMaterial):
         raise MaterialError(None, "fibre_direction", "the continuum materials have no fibres")
-    return replace(scenario, material=replace(scenario.material,
-                                              fibre_direction=tuple(map(float, value))))
+    if isinstance(value, np.ndarray):  # as a Gymnasium user may give it
+        value = value.tolist()
+    return replace(scenario, material=updated(scenario.material, {"fibre_direction": value},
+                                              error=MaterialError))
 
 
-def _aponeurosis(key: str) -> Callable[[Scenario, Any], Scenario]:
+def _field(part: str, name: str, key: str) -> Callable[[Scenario, Any], Scenario]:
+    """The option ``key``: the field ``name`` of the scenario's ``part``."""
     def apply(scenario: Scenario, value: Any) -> Scenario:
-        return replace(scenario, aponeurosis=replace(scenario.aponeurosis,
-                                                     **{key: float(value)}))
-    return apply
-
-
-def _sensors(key: str) -> Callable[[Scenario, Any], Scenario]:
-    def apply(scenario: Scenario, value: Any) -> Scenario:
-        return replace(scenario, sensors=replace(scenario.sensors, **{key: float(value)}))
+        try:
+            return replace(scenario, **{part: updated(getattr(scenario, part), {name: value})})
+        except InputError as exc:
+            raise InputError(None, key, exc.message) from None
     return apply
 
 
@@ -71,26 +77,32 @@ _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
     "shape": _shape,
     "material": _material,
     "fibre_direction": _fibre_direction,
-    "binding_stiffness_n_m": _aponeurosis("stiffness_n_m"),
-    "tearing_stretch_m": _aponeurosis("tearing_stretch_m"),
-    "force_noise_n": _sensors("force_noise_n"),
-    "torque_noise_nm": _sensors("torque_noise_nm"),
+    "binding_stiffness_n_m": _field("aponeurosis", "stiffness_n_m", "binding_stiffness_n_m"),
+    "tearing_stretch_m": _field("aponeurosis", "tearing_stretch_m", "tearing_stretch_m"),
+    "force_noise_n": _field("sensors", "force_noise_n", "force_noise_n"),
+    "torque_noise_nm": _field("sensors", "torque_noise_nm", "torque_noise_nm"),
 }
 #: Every key an env's options may hold.
 OPTION_KEYS = tuple(_OPTIONS)
 
 
-def apply_options(scenario: Scenario, options: Mapping[str, Any]) -> Scenario:
-    """``scenario`` with the variations in ``options`` applied.
+def apply_options(scenario: Scenario, *layers: Mapping[str, Any]) -> Scenario:
+    """``scenario`` with the variations in ``layers`` applied, later layers over earlier ones:
+    key by key in the order of :data:`OPTION_KEYS`, so that a shape updates the one before it
+    and a fibre direction from any layer turns the material from any layer.
+
+    Values are checked as a scenario file's are (:func:`cell.config.updated`).
 
     Raises:
         InputError: an unknown key or a bad value; ``field`` names the key.
     """
-    for key in options:
-        if key not in _OPTIONS:
-            raise InputError(None, key,
-                             f"unknown env option (known: {', '.join(OPTION_KEYS)})")
+    for options in layers:
+        for key in options:
+            if key not in _OPTIONS:
+                raise InputError(None, key,
+                                 f"unknown env option (known: {', '.join(OPTION_KEYS)})")
     for key, apply in _OPTIONS.items():
-        if key in options:
-            scenario = apply(scenario, options[key])
+        for options in layers:
+            if key in options:
+                scenario = apply(scenario, options[key])
     return scenario

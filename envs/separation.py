@@ -22,6 +22,7 @@ from cell.sim.assembly import grasp_point
 from cell.sim.episode import Episode, EpisodePlan
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import ReleaseRule
+from cell.tissue.geometry import MuscleShape
 from envs.commands import KnifeCommand, Pose, PullCommand
 from envs.observation import (
     OBSERVATION_BOUND,
@@ -67,12 +68,15 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
     plan's length plus 2 s).
 
     Args:
-        scenario: the base cell and plan (default :class:`Scenario`).
-        cell_size_m: tissue resolution, m (0.05 to train, 0.025 to evaluate).
+        scenario: the base cell and plan (default :class:`Scenario` at the training
+            resolution, ``COARSE_CELL_SIZE_M``).
+        cell_size_m: tissue resolution, m (0.05 to train, 0.025 to evaluate); None keeps
+            the scenario's.
         perception: plan from the camera (paper Sec. 5, 0.3-1 s per reset) instead of the
             generator's known interface.
         options: variations applied at every reset (see :mod:`envs.options`); a reset's own
-            ``options`` apply on top.
+            ``options`` apply on top, key by key (a reset's material keeps these options'
+            fibre direction, a reset's shape these options' other shape fields).
         limits, reward: action scaling and reward weights (defaults when None).
         time_limit_s: episode length after the approach, s of simulated time.
         driven: ``"both"``, ``"knife"`` or ``"pull"``.
@@ -87,7 +91,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 50}
 
     def __init__(self, scenario: Scenario | None = None,
-                 cell_size_m: float = COARSE_CELL_SIZE_M, perception: bool = False,
+                 cell_size_m: float | None = None, perception: bool = False,
                  options: Mapping[str, Any] | None = None,
                  limits: ActionLimits | None = None, reward: RewardParams | None = None,
                  time_limit_s: float | None = None, driven: Driven = "both",
@@ -99,11 +103,14 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
                              f"{render_mode!r}")
         if time_limit_s is not None and not time_limit_s > 0:
             raise InputError(None, "time_limit_s", f"must be > 0, got {time_limit_s}")
-        base = Scenario() if scenario is None else scenario
-        base = replace(base, tissue=replace(base.tissue, cell_size_m=cell_size_m),
-                       perception=replace(base.perception, enabled=perception))
+        if scenario is None:
+            scenario = Scenario(tissue=MuscleShape(cell_size_m=COARSE_CELL_SIZE_M))
+        if cell_size_m is not None:
+            scenario = replace(scenario, tissue=replace(scenario.tissue, cell_size_m=cell_size_m))
+        self.base = replace(scenario, perception=replace(scenario.perception,
+                                                         enabled=perception))
         self.options = dict(options or {})
-        self.base = apply_options(base, self.options)  # fail now, not at the first reset
+        apply_options(self.base, self.options)  # fail now, not at the first reset
         self.limits = ActionLimits() if limits is None else limits
         self.reward_params = RewardParams() if reward is None else reward
         self.time_limit_s = time_limit_s
@@ -127,7 +134,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         approach; the scenario's seed (sensor noise, camera noise) comes from the env's
         random generator."""
         super().reset(seed=seed)
-        scenario = apply_options(self.base, options or {})
+        scenario = apply_options(self.base, self.options, options or {})
         scenario = replace(scenario, seed=int(self.np_random.integers(2**31 - 1)))
         self.close()
         self.episode = episode = Episode(scenario)

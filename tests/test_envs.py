@@ -9,7 +9,9 @@ from gymnasium.utils.env_checker import check_env
 
 import envs
 from cell.errors import InputError
-from envs import CutEnv, MuscleSeparationEnv, PullEnv
+from cell.sim.scenario import Scenario
+from cell.tissue.geometry import MuscleShape
+from envs import CutEnv, MuscleSeparationEnv, PullEnv, apply_options
 
 IDS = ("musclecell/MuscleSeparation-v0", "musclecell/Cut-v0", "musclecell/Pull-v0")
 
@@ -68,6 +70,33 @@ def test_reset_options_change_the_cell() -> None:
     assert scenario.tissue.length_m == 0.35 and scenario.aponeurosis.stiffness_n_m == 80.0
     assert scenario.sensors.force_noise_n == 0.0
     assert scenario.material.fibre_direction == (0.0, 1.0, 0.0)
+
+
+def test_reset_options_keep_the_constructors() -> None:
+    # A reset's material keeps the constructor's fibre direction; a reset's shape its other
+    # shape fields.
+    scenario = apply_options(Scenario(), {"fibre_direction": (0.0, 1.0, 0.0),
+                                          "shape": {"length_m": 0.35}},
+                             {"material": "assets/materials/beef_default.toml",
+                              "shape": {"gap_m": 0.004}})
+    assert scenario.material.fibre_direction == (0.0, 1.0, 0.0)
+    assert (scenario.tissue.length_m, scenario.tissue.gap_m) == (0.35, 0.004)
+
+
+def test_constructor_keeps_the_scenarios_resolution() -> None:
+    scenario = Scenario(tissue=MuscleShape(cell_size_m=0.04))
+    assert CutEnv(scenario=scenario).base.tissue.cell_size_m == 0.04
+    assert CutEnv(scenario=scenario, cell_size_m=0.03).base.tissue.cell_size_m == 0.03
+    assert CutEnv().base.tissue.cell_size_m == envs.COARSE_CELL_SIZE_M
+
+
+def test_bad_option_values_are_refused_with_the_key() -> None:
+    with pytest.raises(InputError, match=r"shape\.length_m: expected a number"):
+        apply_options(Scenario(), {"shape": {"length_m": "long"}})
+    with pytest.raises(InputError, match="binding_stiffness_n_m: must be > 0"):
+        apply_options(Scenario(), {"binding_stiffness_n_m": -1.0})
+    with pytest.raises(InputError, match="fibre_direction: expected 3 values"):
+        apply_options(Scenario(), {"fibre_direction": [1.0, 0.0]})
 
 
 def test_divergence_ends_the_episode_with_a_finite_observation() -> None:
