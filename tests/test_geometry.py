@@ -14,11 +14,11 @@ from cell.errors import InputError, MeshError
 from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
 from cell.tissue.tetmesh import (
     TetMesh,
-    TetQuality,
     signed_volumes_m3,
     structured_hex_tets,
     validate_tet_mesh,
 )
+from tests.tetquality import TetQuality
 
 ORIGIN_M = (0.6, -0.1, 0.8)
 DENSITY_KG_M3 = 1050.0
@@ -59,7 +59,7 @@ def test_tets_positive_and_well_shaped(name: str, request: pytest.FixtureRequest
     mesh: TwoMuscleMesh = request.getfixturevalue(name)
     for muscle in _muscles(mesh):
         assert (signed_volumes_m3(muscle.points, muscle.tets) > 0.0).all()
-        quality = muscle.quality()
+        quality = TetQuality.of(muscle.points, muscle.tets)
         assert quality.min_dihedral_deg > 18.0
         assert quality.max_dihedral_deg < 135.0
         assert quality.min_radius_ratio > 0.35
@@ -68,7 +68,7 @@ def test_tets_positive_and_well_shaped(name: str, request: pytest.FixtureRequest
 def test_fine_mesh_has_no_slivers() -> None:
     mesh = build_two_muscles(MuscleShape(cell_size_m=0.0125))
     for muscle in _muscles(mesh):
-        assert muscle.quality().min_dihedral_deg > 15.0
+        assert TetQuality.of(muscle.points, muscle.tets).min_dihedral_deg > 15.0
 
 
 def test_boundaries_are_closed_volumes(default: TwoMuscleMesh) -> None:

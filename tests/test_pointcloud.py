@@ -107,16 +107,6 @@ def test_a_gentle_slope_stays_connected() -> None:
     assert len(mesh.triangles) == 2 * (HEIGHT_PX - 1) * (WIDTH_PX - 1)
 
 
-def test_fused_views_keep_both_meshes() -> None:
-    position, rotation = _look_down(0.6)
-    a = depth_mesh(DepthView(np.full((8, 8), 0.6), FOCAL_PX, position, rotation))
-    b = depth_mesh(DepthView(np.full((6, 6), 0.5), FOCAL_PX, position, rotation))
-    fused = SurfaceMesh.fuse([a, b])
-    assert len(fused.vertices_m) == len(a.vertices_m) + len(b.vertices_m)
-    np.testing.assert_array_equal(fused.triangles[len(a.triangles):],
-                                  b.triangles + len(a.vertices_m))
-
-
 def test_too_few_points_for_a_surface() -> None:
     depth = np.full((HEIGHT_PX, WIDTH_PX), np.nan)
     depth[0, :2] = 0.6

@@ -11,7 +11,8 @@ import pytest
 
 from cell.errors import InputError
 from cell.robots.arms import build_arm, torque_limits_nm
-from cell.robots.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription, forward_kinematics
+from cell.robots.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription
+from tests.kinematics import forward_kinematics
 
 ARMS = [VIPER_S1700D, KUKA_LWR4]
 TOOL_REACH_M = 0.2

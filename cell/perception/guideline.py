@@ -201,7 +201,7 @@ def find_cut_path(
     tree = cKDTree(vertices)
     nodes = _walk_valley(vertices, tree, curvature, start_m, params)
     points = vertices[nodes]
-    # Repeated positions (fused views can overlap) would give a zero chord.
+    # A repeated position (a mesh may hold a point twice) would give a zero chord.
     keep = np.concatenate([[True], segment_lengths(points) > 0.0])
     points = points[keep]
     degree = min(3, len(points) - 1)

@@ -169,10 +169,15 @@ class SurfaceMesh:
             from its camera, so their right-hand normals face the camera.
 
     Example:
-        >>> mesh = SurfaceMesh.fuse([depth_mesh(view_a), depth_mesh(view_b)])
-        >>> len(mesh.vertices_m) == len(depth_mesh(view_a).vertices_m) + len(
-        ...     depth_mesh(view_b).vertices_m)
-        True
+        >>> import numpy as np
+        >>> square = SurfaceMesh(np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]),
+        ...                      np.array([[0, 1, 2], [0, 2, 3]]))
+        >>> square.triangle_normals()
+        array([[0., 0., 1.],
+               [0., 0., 1.]])
+        >>> SurfaceMesh(np.zeros((2, 3)), np.array([[0, 1, 2]]))
+        Traceback (most recent call last):
+        cell.errors.InputError: triangles: index a vertex that does not exist
     """
 
     vertices_m: np.ndarray
@@ -189,23 +194,6 @@ class SurfaceMesh:
             self.triangles.min() >= 0 and self.triangles.max() < len(self.vertices_m)
         ):
             raise InputError(None, "triangles", "index a vertex that does not exist")
-
-    @classmethod
-    def fuse(cls, meshes: list[SurfaceMesh]) -> SurfaceMesh:
-        """One mesh holding all of ``meshes`` (e.g. several views), vertices not merged.
-
-        Raises:
-            InputError: no mesh given.
-        """
-        if not meshes:
-            raise InputError(None, "meshes", "fusing needs at least one mesh")
-        offsets = np.cumsum([0] + [len(m.vertices_m) for m in meshes[:-1]])
-        return cls(
-            np.concatenate([m.vertices_m for m in meshes]).reshape(-1, 3),
-            np.concatenate(
-                [m.triangles + offset for m, offset in zip(meshes, offsets, strict=True)]
-            ).reshape(-1, 3),
-        )
 
     def triangle_normals(self) -> np.ndarray:
         """(M, 3) right-hand normals of the triangles scaled by twice their area, m^2."""

@@ -5,11 +5,10 @@ convention, in metres and radians. Frame 0 is the arm's base frame (z up, along 
 axis); frame N is the flange frame, its z axis the tool axis pointing out of the flange.
 
 Example:
-    >>> import numpy as np
-    >>> from cell.robots.dh import VIPER_S1700D, forward_kinematics
-    >>> pose = forward_kinematics(VIPER_S1700D, VIPER_S1700D.home_q_rad)
-    >>> pose.shape
-    (4, 4)
+    >>> from cell.robots.dh import VIPER_S1700D, dh_transform
+    >>> first = dh_transform(VIPER_S1700D.joints[0], VIPER_S1700D.home_q_rad[0])
+    >>> first.shape, float(first[2, 3])
+    ((4, 4), 0.505)
 """
 
 from __future__ import annotations
@@ -27,7 +26,6 @@ __all__ = [
     "ArmDescription",
     "DHJoint",
     "dh_transform",
-    "forward_kinematics",
 ]
 
 
@@ -123,29 +121,6 @@ def dh_transform(joint: DHJoint, q: float) -> np.ndarray:
             [0.0, 0.0, 0.0, 1.0],
         ]
     )
-
-
-def forward_kinematics(arm: ArmDescription, q: np.ndarray | tuple[float, ...]) -> np.ndarray:
-    """Pose of the flange frame (frame N) in the base frame (frame 0).
-
-    Args:
-        arm: the arm.
-        q: joint angles, in rad, one per joint.
-
-    Returns:
-        4x4 homogeneous transform, translation in m.
-
-    Example:
-        >>> forward_kinematics(KUKA_LWR4, np.zeros(7))[:3, 3]
-        array([0.    , 0.    , 1.1785])
-    """
-    q = np.asarray(q, dtype=float)
-    if q.shape != (arm.dof,):
-        raise InputError(None, "q", f"{arm.name} needs {arm.dof} joint angles, got shape {q.shape}")
-    pose = np.eye(4)
-    for joint, qi in zip(arm.joints, q, strict=True):
-        pose = pose @ dh_transform(joint, float(qi))
-    return pose
 
 
 def _deg(*angles: float) -> tuple[float, ...]:

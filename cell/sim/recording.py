@@ -9,7 +9,6 @@ tip paths, ``world/camera`` the camera with its RGB and depth images, ``forces/*
 
 from __future__ import annotations
 
-import os
 import uuid
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import mujoco
 import numpy as np
 import rerun as rr
 
+from cell.io import write_atomic
 from cell.perception.pipeline import PerceivedPlan
 from cell.robots.camera import CameraRig
 from cell.sim.assembly import Scene
@@ -43,6 +43,8 @@ def _entity(body_name: str) -> str:
 class EpisodeRecorder:
     """Writes one episode to a ``.rrd`` file; the file appears (atomically) at :meth:`close`.
 
+    The recording is held in memory until then, so that a failed episode leaves no file.
+
     Args:
         path: the ``.rrd`` file to write.
         scene: the compiled cell.
@@ -56,13 +58,11 @@ class EpisodeRecorder:
 
     def __init__(self, path: str | Path, scene: Scene, recording_id: str) -> None:
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
         self.scene = scene
         self.model = scene.model
         rid = uuid.uuid5(uuid.NAMESPACE_URL, f"musclecell/{recording_id}")
         self.stream = rr.RecordingStream("musclecell", recording_id=rid)
-        self.stream.save(self._tmp)
+        self._memory = self.stream.memory_recording()
         tissue = set(scene.round_bodies.tolist()) | set(scene.shank_bodies.tolist())
         self._bodies = [b for b in range(1, self.model.nbody)
                         if b not in tissue and self.model.body_geomnum[b] > 0]
@@ -178,13 +178,12 @@ class EpisodeRecorder:
         s.log("world/camera/depth", rr.DepthImage(rig.depth(data), meter=1.0))
 
     def close(self) -> Path:
-        """Flush and move the recording into place."""
+        """Flush and write the recording (atomically)."""
         self.stream.flush()
+        write_atomic(self.path, self._memory.drain_as_bytes())
         self.stream.disconnect()
-        os.replace(self._tmp, self.path)
         return self.path
 
     def abort(self) -> None:
         """Drop the partial recording (the episode failed)."""
         self.stream.disconnect()
-        self._tmp.unlink(missing_ok=True)
