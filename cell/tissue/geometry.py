@@ -186,7 +186,7 @@ class MuscleShape:
             return -1, self.round_width_m, self.round_height_m
         if muscle == "shank":
             return 1, self.shank_width_m, self.shank_height_m
-        raise ValueError(f"muscle must be 'round' or 'shank', got {muscle!r}")
+        raise InputError(None, "muscle", f"must be 'round' or 'shank', got {muscle!r}")
 
     def plan_width_m(self, muscle: Muscle, x_m: np.ndarray) -> np.ndarray:
         """Width of ``muscle`` at table level at x (local frame), interface face to outer wall.

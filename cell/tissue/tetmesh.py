@@ -68,13 +68,19 @@ def structured_hex_tets(cells: tuple[int, int, int]) -> np.ndarray:
         the map from grid indices (i, j, k) to space is right-handed; swap columns 1 and 2 for a
         left-handed map.
 
+    Raises:
+        MeshError: ``cells`` is not three integers >= 1.
+
     Example:
         >>> structured_hex_tets((1, 1, 1)).shape
         (6, 4)
+        >>> structured_hex_tets((1, 0, 1))
+        Traceback (most recent call last):
+        cell.errors.MeshError: cells: must be three integers >= 1, got (1, 0, 1)
     """
     n = np.asarray(cells, dtype=int)
     if n.shape != (3,) or (n < 1).any():
-        raise ValueError(f"cells must be three integers >= 1, got {cells}")
+        raise MeshError(None, "cells", f"must be three integers >= 1, got {cells}")
     ijk = np.stack(np.meshgrid(*(np.arange(c) for c in n), indexing="ij"), -1).reshape(-1, 3)
     parity = ijk % 2
     # Reflecting a corner bit along an odd axis mirrors the cell's split.
