@@ -368,6 +368,45 @@ def _seen_marker(view: DepthView, marker_m: np.ndarray, bin_px: int,
     return view.position_m + view.rotation @ (camera * seen_depth / depth)
 
 
+def _binned_cloud(view: DepthView, bin_px: int) -> np.ndarray:
+    """(N, 3) the view's cloud binned ``bin_px`` square, m; PerceptionError when it has too
+    few points for the chain."""
+    cloud = view.points_m(bin_px)
+    if len(cloud) < _MIN_CLOUD_POINTS:
+        raise PerceptionError(
+            f"the cloud has {len(cloud)} points after {bin_px} x {bin_px} binning; "
+            f"the surface and the fit need at least {_MIN_CLOUD_POINTS}")
+    return cloud
+
+
+def _refuse_leaning(interface_y: PredictedInterface, guideline_m: np.ndarray,
+                    max_lean: float) -> None:
+    """PerceptionError where the fitted interface leans more than ``max_lean`` (|dy/dz|)
+    below the guideline's points (K, 3), m."""
+    x, _, z = guideline_m.T
+    lean = (interface_y.fitted_y(x, z) - interface_y.fitted_y(x, z - _LEAN_STEP_M)) / _LEAN_STEP_M
+    if np.max(np.abs(lean)) > max_lean:
+        raise PerceptionError(
+            f"the fitted model's interface leans up to {np.max(np.abs(lean)):.2f} (|dy/dz|) "
+            f"below the guideline, more than {max_lean}: the view does not "
+            "pin down this meat's shape, and the knife would cut into a muscle")
+
+
+def _scores(truth: TwoMuscleMesh, guideline: CutPath,
+            interface_y: PredictedInterface) -> dict[str, Any]:
+    """The plan's scores against the generator's true meat: :class:`PerceivedPlan`'s
+    ``guideline_distance_m``, ``coverage`` and ``interface_error_m``."""
+    true_surface = predict_interface(
+        AffineFit(np.eye(3), np.zeros(3), np.zeros(3), 0.0), truth).surface_m.reshape(-1, 3)
+    return {
+        "guideline_distance_m": Deviation.of(
+            closest_on(guideline.points_m[:, :2], truth.top_line[:, :2]).distance_m),
+        "coverage": guideline.length_m / length(truth.top_line),
+        "interface_error_m": Deviation.of(np.abs(
+            interface_y(true_surface[:, 0], true_surface[:, 2]) - true_surface[:, 1])),
+    }
+
+
 def perceive(
     rig: CameraRig,
     data: mujoco.MjData,
@@ -413,11 +452,7 @@ def perceive(
         clock = now
 
     view = capture(rig, data, params.noise, rng)
-    cloud = view.points_m(params.bin_px)
-    if len(cloud) < _MIN_CLOUD_POINTS:
-        raise PerceptionError(
-            f"the cloud has {len(cloud)} points after {params.bin_px} x {params.bin_px} binning; "
-            f"the surface and the fit need at least {_MIN_CLOUD_POINTS}")
+    cloud = _binned_cloud(view, params.bin_px)
     lap("capture")
     mesh = depth_mesh(view, params.bin_px)
     lap("mesh")
@@ -430,25 +465,9 @@ def perceive(
     lap("fit")
     interface = predict_interface(fit, generic)
     interface_y = PredictedInterface(fit, generic, guideline.points_m)
-    x, _, z = guideline.points_m.T
-    lean = (interface_y.fitted_y(x, z) - interface_y.fitted_y(x, z - _LEAN_STEP_M)) / _LEAN_STEP_M
-    if np.max(np.abs(lean)) > params.max_interface_lean:
-        raise PerceptionError(
-            f"the fitted model's interface leans up to {np.max(np.abs(lean)):.2f} (|dy/dz|) "
-            f"below the guideline, more than {params.max_interface_lean}: the view does not "
-            "pin down this meat's shape, and the knife would cut into a muscle")
+    _refuse_leaning(interface_y, guideline.points_m, params.max_interface_lean)
     lap("predict")
     timings["total"] = sum(timings.values())
-    scores: dict[str, Any] = {}
-    if truth is not None:
-        true_surface = predict_interface(
-            AffineFit(np.eye(3), np.zeros(3), np.zeros(3), 0.0), truth).surface_m.reshape(-1, 3)
-        scores = {
-            "guideline_distance_m": Deviation.of(
-                closest_on(guideline.points_m[:, :2], truth.top_line[:, :2]).distance_m),
-            "coverage": guideline.length_m / length(truth.top_line),
-            "interface_error_m": Deviation.of(np.abs(
-                interface_y(true_surface[:, 0], true_surface[:, 2]) - true_surface[:, 1])),
-        }
+    scores = {} if truth is None else _scores(truth, guideline, interface_y)
     return PerceivedPlan(cloud, mesh, curvature, start, guideline, fit, interface, interface_y,
                          timings, **scores)

@@ -331,6 +331,88 @@ def _body_name(link: int) -> str:
     return "base" if link == 0 else f"link{link}"
 
 
+def _checked_look(arm: ArmDescription, look: ArmLook | None) -> ArmLook:
+    """``look``, or the arm's own from ``LOOKS`` when None, checked against the arm's links."""
+    if look is None:
+        if arm.name not in LOOKS:
+            raise InputError(None, "look", f"no look known for arm {arm.name!r}; pass one")
+        look = LOOKS[arm.name]
+    if len(look.segment_radius_m) != arm.dof or len(look.housing_radius_m) != arm.dof:
+        raise InputError(None, "look", f"{arm.name} has {arm.dof} links; the look has not")
+    return look
+
+
+def _add_base(spec: mujoco.MjSpec, arm: ArmDescription, look: ArmLook) -> mujoco.MjsBody:
+    """The fixed base: a column on the world frame's origin, carrying the base mass."""
+    base = spec.worldbody.add_body(name="base")
+    half_height = look.base_height_m / 2
+    base.add_geom(
+        name="base_column",
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[look.base_radius_m, half_height, 0.0],
+        pos=[0.0, 0.0, half_height],
+        mass=arm.base_mass_kg,
+        rgba=look.housing_rgba,
+    )
+    return base
+
+
+@dataclass(frozen=True)
+class _Servo:
+    """One joint's servo: stiffness kp (N m/rad), torque limit (N m) and the tuning."""
+
+    kp_nm_per_rad: float
+    torque_nm: float
+    tuning: ServoTuning
+
+
+def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, offset: np.ndarray,
+              arm: ArmDescription, look: ArmLook, i: int, servo: _Servo) -> mujoco.MjsBody:
+    """Link i + 1 at ``offset`` (4x4, the previous joint's DH transform) in ``parent``: its
+    hinge, its shapes carrying the link's mass by volume, and its position servo."""
+    joint, kp, torque, tuning = arm.joints[i], servo.kp_nm_per_rad, servo.torque_nm, servo.tuning
+    inertia_time_s2 = (tuning.timestep_s / tuning.omega_timestep) ** 2
+    body = parent.add_body(
+        name=f"link{i + 1}", pos=offset[:3, 3], quat=_quat(offset[:3, :3]), gravcomp=1.0
+    )
+    body.add_joint(
+        name=f"joint{i + 1}",
+        type=mujoco.mjtJoint.mjJNT_HINGE,
+        axis=[0.0, 0.0, 1.0],
+        range=[joint.lower_rad, joint.upper_rad],
+        limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        damping=kp * tuning.damping_time_s,
+        armature=kp * inertia_time_s2,
+        actgravcomp=True,
+        # Servo and gravity compensation come from one motor: clamp their sum.
+        actfrclimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        actfrcrange=[-torque, torque],
+    )
+    shapes = _link_shapes(arm, look, i)
+    total_volume = sum(s.volume_m3 for s in shapes)
+    for shape in shapes:
+        body.add_geom(
+            name=shape.name,
+            type=shape.kind,
+            size=[*shape.size, 0.0],
+            pos=shape.pos,
+            quat=shape.quat,
+            mass=arm.link_masses_kg[i] * shape.volume_m3 / total_volume,
+            rgba=shape.rgba,
+        )
+    actuator = spec.add_actuator(
+        name=f"joint{i + 1}",
+        target=f"joint{i + 1}",
+        trntype=mujoco.mjtTrn.mjTRN_JOINT,
+        ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        ctrlrange=[joint.lower_rad, joint.upper_rad],
+        forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        forcerange=[-torque, torque],
+    )
+    actuator.set_to_position(kp=kp, dampratio=tuning.dampratio)
+    return body
+
+
 def build_arm(
     arm: ArmDescription,
     *,
@@ -369,80 +451,21 @@ def build_arm(
         >>> parent.compile().actuator("camera_arm/joint7").trnid[0] > 0
         np.True_
     """
-    if look is None:
-        if arm.name not in LOOKS:
-            raise InputError(None, "look", f"no look known for arm {arm.name!r}; pass one")
-        look = LOOKS[arm.name]
-    if len(look.segment_radius_m) != arm.dof or len(look.housing_radius_m) != arm.dof:
-        raise InputError(None, "look", f"{arm.name} has {arm.dof} links; the look has not")
-
+    look = _checked_look(arm, look)
     if stiffness_nm_per_rad is None:
         kp = servo_stiffness_nm_per_rad(arm, tuning)
     else:
         kp = (stiffness_nm_per_rad,) * arm.dof
     torque = torque_limits_nm(arm, tuning)
-    inertia_time_s2 = (tuning.timestep_s / tuning.omega_timestep) ** 2
 
     spec = mujoco.MjSpec()
     spec.modelname = arm.name
     spec.compiler.degree = False
-
-    base = spec.worldbody.add_body(name="base")
-    half_height = look.base_height_m / 2
-    base.add_geom(
-        name="base_column",
-        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-        size=[look.base_radius_m, half_height, 0.0],
-        pos=[0.0, 0.0, half_height],
-        mass=arm.base_mass_kg,
-        rgba=look.housing_rgba,
-    )
-
-    parent = base
+    parent = _add_base(spec, arm, look)
     offset = np.eye(4)
     for i, joint in enumerate(arm.joints):
-        name = f"link{i + 1}"
-        body = parent.add_body(
-            name=name, pos=offset[:3, 3], quat=_quat(offset[:3, :3]), gravcomp=1.0
-        )
-        body.add_joint(
-            name=f"joint{i + 1}",
-            type=mujoco.mjtJoint.mjJNT_HINGE,
-            axis=[0.0, 0.0, 1.0],
-            range=[joint.lower_rad, joint.upper_rad],
-            limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            damping=kp[i] * tuning.damping_time_s,
-            armature=kp[i] * inertia_time_s2,
-            actgravcomp=True,
-            # Servo and gravity compensation come from one motor: clamp their sum.
-            actfrclimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            actfrcrange=[-torque[i], torque[i]],
-        )
-        shapes = _link_shapes(arm, look, i)
-        total_volume = sum(s.volume_m3 for s in shapes)
-        for shape in shapes:
-            body.add_geom(
-                name=shape.name,
-                type=shape.kind,
-                size=[*shape.size, 0.0],
-                pos=shape.pos,
-                quat=shape.quat,
-                mass=arm.link_masses_kg[i] * shape.volume_m3 / total_volume,
-                rgba=shape.rgba,
-            )
-        actuator = spec.add_actuator(
-            name=f"joint{i + 1}",
-            target=f"joint{i + 1}",
-            trntype=mujoco.mjtTrn.mjTRN_JOINT,
-            ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            ctrlrange=[joint.lower_rad, joint.upper_rad],
-            forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            forcerange=[-torque[i], torque[i]],
-        )
-        actuator.set_to_position(kp=kp[i], dampratio=tuning.dampratio)
+        parent = _add_link(spec, parent, offset, arm, look, i, _Servo(kp[i], torque[i], tuning))
         offset = dh_transform(joint, 0.0)
-        parent = body
-
     parent.add_site(name="flange", pos=offset[:3, 3], quat=_quat(offset[:3, :3]))
     for a, b in _excluded_pairs(arm, look):
         spec.add_exclude(bodyname1=_body_name(a), bodyname2=_body_name(b))
