@@ -21,7 +21,12 @@ class Collision:
     """A ``contype``/``conaffinity`` pair for one kind of body.
 
     Example:
-        >>> body.add_geom(contype=TABLE_TOP.contype, conaffinity=TABLE_TOP.conaffinity)
+        >>> import mujoco
+        >>> spec = mujoco.MjSpec()
+        >>> top = spec.worldbody.add_geom(size=[0.5, 0.5, 0.01], contype=TABLE_TOP.contype,
+        ...                               conaffinity=TABLE_TOP.conaffinity)
+        >>> bool(TABLE_TOP.contype & FEET.conaffinity), bool(TABLE_TOP.contype & JAWS.conaffinity)
+        (True, False)
     """
 
     contype: int

@@ -17,6 +17,8 @@ class InputError(MusclecellError):
 
     Example:
         >>> raise InputError("scenarios/x.toml", "tissue.young_pa", "must be > 0, got -3")
+        Traceback (most recent call last):
+        cell.errors.InputError: scenarios/x.toml, tissue.young_pa: must be > 0, got -3
     """
 
     def __init__(self, file: str | Path | None, field: str | None, message: str) -> None:

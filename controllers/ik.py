@@ -25,7 +25,8 @@ class IKParams:
     every joint's rated maximum speed; ``solver`` is a qpsolvers name.
 
     Example:
-        >>> CellIK(robot_model, IKParams(orientation_cost=0.5))
+        >>> IKParams(orientation_cost=0.2).solver
+        'daqp'
     """
 
     position_cost: float = 1.0
@@ -46,9 +47,15 @@ class CellIK:
         params: costs, limits and solver.
 
     Example:
-        >>> ik = CellIK(robot_model, q0)
-        >>> ik.knife.set_target(mink.SE3.from_rotation_and_translation(R, p))
-        >>> q = ik.solve(dt=0.02)
+        >>> from cell.sim.assembly import build_robot_spec
+        >>> from cell.sim.scenario import Scenario
+        >>> robot_model = build_robot_spec(Scenario()).compile()
+        >>> ik = CellIK(robot_model, robot_model.qpos0)
+        >>> position_m, rotation = ik.site_pose(KNIFE_TIP)
+        >>> ik.knife.set_target(pose(position_m + [0.0, 0.0, 0.01], rotation))
+        >>> q = ik.solve(0.02)
+        >>> bool(ik.site_pose(KNIFE_TIP)[0][2] > position_m[2])  # a step up towards it
+        True
     """
 
     def __init__(self, model: mujoco.MjModel, q0: np.ndarray,

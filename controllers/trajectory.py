@@ -37,9 +37,15 @@ class CartesianTrajectory:
         departures_s: (K,) when each waypoint is left, its dwell after its arrival, s.
 
     Example:
-        >>> traj = CartesianTrajectory(start_s=0.0, start_pos=p0, start_rot=R0,
-        ...                            waypoints=[Waypoint(p1, R1, speed_m_s=0.05)])
-        >>> position, rotation = traj.sample(1.0)
+        >>> import numpy as np
+        >>> traj = CartesianTrajectory(start_s=0.0, start_pos=np.zeros(3), start_rot=np.eye(3),
+        ...                            waypoints=[Waypoint(np.array([0.1, 0.0, 0.0]), np.eye(3),
+        ...                                                speed_m_s=0.05, dwell_s=0.5)])
+        >>> traj.arrivals_s, traj.departures_s, traj.end_s
+        (array([2.]), array([2.5]), 2.5)
+        >>> position_m, rotation = traj.sample(1.0)
+        >>> position_m
+        array([0.05, 0.  , 0.  ])
     """
 
     def __init__(self, start_s: float, start_pos: np.ndarray, start_rot: np.ndarray,

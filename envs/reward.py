@@ -15,7 +15,18 @@ def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: fl
     the reward is their sum (costs are negative).
 
     Example:
-        >>> sum(reward_terms(RewardParams(), before, after, torn=0.0, cut_advance=0.01).values())
+        >>> import numpy as np
+        >>> zero = np.zeros(3)
+        >>> before = Reading(zero, np.eye(3), zero, zero, zero, zero, released_fraction=0.5,
+        ...                  released_ahead=0.0, strain_near=0.0, strain_max=0.0,
+        ...                  blade_contacts=0, under_blade=0, interface_offset_m=0.0)
+        >>> from dataclasses import replace
+        >>> after = replace(before, released_fraction=0.52)
+        >>> terms = reward_terms(RewardParams(), before, after, torn=0.0, cut_advance=0.01)
+        >>> sorted(terms)
+        ['cut_progress', 'damage', 'force', 'progress', 'tearing', 'time']
+        >>> terms["damage"], terms["force"]
+        (-0.0, -0.0)
     """
     touching = after.blade_contacts > 0
     damage = 0.0

@@ -24,8 +24,15 @@ direction of the *other* principal curvature: T adds up bending across edges, an
 along the direction of least curvature are where the normals turn most.
 
 Example:
+    >>> import numpy as np
+    >>> from cell.perception.pointcloud import DepthView, depth_mesh
+    >>> rows_m = (np.arange(40) - 19.5) * 0.005  # a 2 cm deep groove along x, 0.5 m below
+    >>> depth_m = np.tile(0.5 + 0.02 * np.exp(-(rows_m / 0.02) ** 2), (80, 1)).T
+    >>> mesh = depth_mesh(DepthView(depth_m, 100.0, np.array([0.0, 0.0, 0.6]), np.eye(3)))
     >>> curv = surface_curvature(mesh, radius_m=0.015)
-    >>> valley = curv.mean_1_m < -7.0
+    >>> valley = curv.mean_1_m < -7.0  # concave: bent towards the camera
+    >>> bool(np.all(np.abs(mesh.vertices_m[valley, 1]) < 0.02))
+    True
 """
 
 from __future__ import annotations
@@ -61,8 +68,12 @@ class Curvature:
         max_directions: (N, 3) unit tangent direction of ``max_1_m``.
 
     Example:
-        >>> curv = surface_curvature(mesh, radius_m=0.2)
-        >>> curv.mean_1_m.mean(), curv.gaussian_1_m2.mean()
+        >>> import numpy as np
+        >>> from cell.perception.pointcloud import DepthView, depth_mesh
+        >>> flat = depth_mesh(DepthView(np.full((20, 20), 0.5), 100.0, np.zeros(3), np.eye(3)))
+        >>> curv = surface_curvature(flat, radius_m=0.015)
+        >>> float(np.abs(curv.mean_1_m).max()), curv.normals[0]
+        (0.0, array([0., 0., 1.]))
     """
 
     normals: np.ndarray

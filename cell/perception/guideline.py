@@ -19,9 +19,17 @@ tangents, and the surface normals (made orthogonal to the tangents) for the blad
 the end the second walk reached to the end the first one reached (from P0 when P0 is an end).
 
 Example:
-    >>> path = find_cut_path(mesh, surface_curvature(mesh, 0.015), start_m=marker_m)
-    >>> path.points_m.shape[1], round(float(np.linalg.norm(path.tangents[0])), 6)
-    (3, 1.0)
+    >>> import numpy as np
+    >>> from cell.perception.pointcloud import DepthView, depth_mesh
+    >>> rows_m = (np.arange(40) - 19.5) * 0.005  # a 2 cm deep groove along x, 0.5 m below
+    >>> depth_m = np.tile(0.5 + 0.02 * np.exp(-(rows_m / 0.02) ** 2), (80, 1)).T
+    >>> mesh = depth_mesh(DepthView(depth_m, 100.0, np.array([0.0, 0.0, 0.6]), np.eye(3)))
+    >>> from cell.perception.curvature import surface_curvature
+    >>> path = find_cut_path(mesh, surface_curvature(mesh, 0.015), np.array([-0.15, 0.0, 0.08]))
+    >>> path.points_m[[0, -1], 0].round(2), path.length_m  # the groove, end to end
+    (array([ 0.21, -0.21]), 0.41...)
+    >>> round(float(np.linalg.norm(path.tangents[0])), 6)
+    1.0
 """
 
 from __future__ import annotations
@@ -103,8 +111,11 @@ class CutPath:
         nodes: (J,) mesh vertex indices P0, ..., Pn the walk picked, in order.
 
     Example:
-        >>> path.length_m
-        0.43
+        >>> import numpy as np
+        >>> line = np.array([[0.0, 0.0, 0.0], [0.005, 0.0, 0.0], [0.01, 0.0, 0.0]])
+        >>> along = np.tile([1.0, 0.0, 0.0], (3, 1))
+        >>> CutPath(line, along, np.tile([0.0, 0.0, 1.0], (3, 1)), np.arange(3)).length_m
+        0.01
     """
 
     points_m: np.ndarray

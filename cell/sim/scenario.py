@@ -148,7 +148,10 @@ class Scenario:
     """One scripted episode: the cell, the meat, and the plan.
 
     Example:
-        >>> Scenario(name="quick", tissue=MuscleShape(cell_size_m=0.05))
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> quick = Scenario(name="quick", tissue=MuscleShape(cell_size_m=0.05))
+        >>> quick.tissue.cell_size_m, quick.cut.speed_m_s
+        (0.05, 0.03)
     """
 
     name: str = "default"
