@@ -22,14 +22,20 @@ The knife follows the interface at depth as :class:`PredictedInterface` gives it
 model's interface, shifted along y onto the seen valley. A fit whose interface leans more than
 any muscle pair's can (``max_interface_lean``) is refused rather than cut along.
 
-Example:
-    >>> episode = Episode(load_scenario("scenarios/default.toml"))
-    >>> rig = CameraRig(episode.scene.model, CAMERA, 320, 240)
-    >>> plan = perceive(rig, episode.sim.data, episode.scene.mesh,
-    ...                 generic_model(episode.scenario.layout.meat_origin_m), PerceptionParams(),
-    ...                 np.random.default_rng(0))
-    >>> plan.guideline_distance_m.mean_m < 0.005
-    True
+Example (on the coarse meat; 8 x 8 bins keep the example quick):
+    >>> from cell.robots.names import CAMERA
+    >>> from cell.sim.episode import Episode
+    >>> from cell.sim.scenario import Scenario
+    >>> from cell.tissue.geometry import MuscleShape
+    >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))  # camera on the meat
+    >>> with CameraRig(episode.scene.model, CAMERA, 320, 240) as rig:
+    ...     plan = perceive(rig, episode.sim.data, episode.scene.mesh,
+    ...                     generic_model(episode.scenario.layout.meat_origin_m),
+    ...                     PerceptionParams(bin_px=8), np.random.default_rng(0))
+    >>> plan.guideline_distance_m.mean_m < 0.005, plan.coverage > 0.9
+    (True, True)
+    >>> sorted(plan.summary())
+    ['fit', 'guideline', 'interface', 'mesh', 'timing_s']
 """
 
 from __future__ import annotations
@@ -179,8 +185,13 @@ class PredictedInterface:
         anchor_m: (K, 3) the guideline the surface passes through, m.
 
     Example:
-        >>> interface_y = PredictedInterface(plan.fit, generic, plan.guideline.points_m)
-        >>> interface_y(np.array([0.0]), np.array([0.62]))
+        >>> from cell.perception.registration import AffineFit
+        >>> generic = generic_model((0.0, 0.0, 0.6))
+        >>> unmoved = AffineFit(np.eye(3), np.zeros(3), np.zeros(3), 0.0)
+        >>> interface_y = PredictedInterface(unmoved, generic, generic.top_line + [0.0, 0.002, 0.0])
+        >>> x_m, z_m = np.array([0.0]), np.array([0.62])
+        >>> bool(np.isclose(interface_y(x_m, z_m) - interface_y.fitted_y(x_m, z_m), 0.002))
+        True
     """
 
     fit: AffineFit
@@ -251,8 +262,7 @@ class PerceivedPlan:
         interface_error_m: |predicted - true| interface y at the true interface's facing-pair
             midpoints (table to top, end to end), None without the truth.
 
-    Example:
-        >>> plan.guideline.length_m, plan.guideline_distance_m.max_m
+    :func:`perceive` returns one; the module's example shows it.
     """
 
     cloud_m: np.ndarray

@@ -9,10 +9,16 @@ gap wider than the binning smooths over) are left out, so the mesh breaks there 
 bridging it.
 
 Example:
-    >>> view = capture(rig, data, SensorNoise(), np.random.default_rng(0))
-    >>> mesh = depth_mesh(view, bin_px=4)
-    >>> mesh.vertices_m.shape[1], mesh.triangles.shape[1]
-    (3, 3)
+    >>> from cell.robots.names import CAMERA
+    >>> from cell.sim.episode import Episode
+    >>> from cell.sim.scenario import Scenario
+    >>> from cell.tissue.geometry import MuscleShape
+    >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))  # camera on the meat
+    >>> with CameraRig(episode.scene.model, CAMERA, 160, 120) as rig:
+    ...     view = capture(rig, episode.sim.data, SensorNoise(), np.random.default_rng(0))
+    >>> mesh = depth_mesh(view, bin_px=2)
+    >>> len(mesh.vertices_m) > 500, mesh.triangles.shape[1]
+    (True, 3)
 """
 
 from __future__ import annotations
@@ -44,7 +50,11 @@ class SensorNoise:
         InputError: a negative sigma or a dropout fraction outside [0, 1).
 
     Example:
+        >>> import numpy as np
+        >>> depth_m = np.full((100, 100), 0.5)
         >>> noisy_m = SensorNoise(sigma_at_1m_m=1e-3).apply(depth_m, np.random.default_rng(0))
+        >>> float(np.nanstd(noisy_m)) < 0.001, bool(np.isnan(noisy_m).any())  # 0.25 mm, dropouts
+        (True, True)
     """
 
     sigma_at_1m_m: float = 1.5e-3
@@ -78,9 +88,12 @@ class DepthView:
         rotation: (3, 3) world orientation of the camera frame (it looks along its -z).
 
     Example:
-        >>> view = DepthView(depth_m, rig.focal_px, *rig.pose(data))
-        >>> view.points_m(bin_px=4).shape[1]
-        3
+        >>> import numpy as np
+        >>> view = DepthView(np.full((4, 4), 0.5), 2.0, np.zeros(3), np.eye(3))  # looks down -z
+        >>> view.points_m()[0]  # the top left pixel's point, m
+        array([-0.375,  0.375, -0.5  ])
+        >>> view.points_m(bin_px=2).shape
+        (4, 3)
     """
 
     depth_m: np.ndarray

@@ -17,11 +17,17 @@ the linear weighted least-squares problem exactly (point-to-plane ICP with a Gau
 A robust (Cauchy) loss keeps stray points (the table, a tool) from pulling the fit.
 
 Example:
-    >>> model = build_two_muscles(MuscleShape(), origin_m=(0.0, 0.0, 0.6))
-    >>> fit = fit_generic_model(view.points_m(bin_px=2), model)
-    >>> fit.rms_m < 0.002
+    >>> import numpy as np
+    >>> from cell.tissue.geometry import MuscleShape, build_two_muscles
+    >>> model = build_two_muscles(MuscleShape(cell_size_m=0.05), origin_m=(0.0, 0.0, 0.6))
+    >>> cloud_m = model_surface(model).vertices_m + [0.01, -0.005, 0.0]  # the meat, moved
+    >>> fit = fit_generic_model(cloud_m, model)
+    >>> fit.translation_m.round(4) + 0.0  # the move, found
+    array([ 0.01 , -0.005,  0.   ])
+    >>> top_m = model.top_line + [0.01, -0.005, 0.0]
+    >>> depth_m = predict_interface(fit, model).depth_below(top_m)  # from the top to the table
+    >>> bool(np.allclose(depth_m, top_m[:, 2] - 0.6, atol=1e-5))  # the table is at 0.6 m
     True
-    >>> depth_m = predict_interface(fit, model).depth_below(path.points_m)
 """
 
 from __future__ import annotations
@@ -82,7 +88,13 @@ class AffineFit:
         rms_m: root-mean-square point-to-surface distance of the cloud in the last round, m.
 
     Example:
-        >>> fit.rotation_vector_rad, np.diag(fit.scale_shear)
+        >>> import numpy as np
+        >>> turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90 deg about z
+        >>> fit = AffineFit(turn * 2.0, np.zeros(3), np.zeros(3), rms_m=0.0)
+        >>> fit.rotation_vector_rad.round(4), np.diag(fit.scale_shear)
+        (array([0.    , 0.    , 1.5708]), array([2., 2., 2.]))
+        >>> fit.apply(np.array([1.0, 0.0, 0.0]))
+        array([0., 2., 0.])
     """
 
     matrix: np.ndarray
@@ -228,9 +240,13 @@ class InterfacePrediction:
             fit: U stations along the muscles, W levels from the table (0) to the top (W - 1).
 
     Example:
-        >>> prediction = predict_interface(fit, model)
-        >>> prediction.top_line_m.shape
-        (19, 3)
+        >>> import numpy as np
+        >>> from cell.tissue.geometry import MuscleShape, build_two_muscles
+        >>> model = build_two_muscles(MuscleShape(cell_size_m=0.05))
+        >>> prediction = predict_interface(AffineFit(np.eye(3), np.zeros(3), np.zeros(3), 0.0),
+        ...                                model)  # the model's own interface
+        >>> prediction.top_line_m.shape == model.top_line.shape
+        True
     """
 
     surface_m: np.ndarray

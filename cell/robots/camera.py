@@ -11,11 +11,21 @@ from cell.errors import PerceptionError
 
 
 class CameraRig:
-    """Renders one MuJoCo camera offscreen (EGL or OSMesa, see ``MUJOCO_GL``).
+    """Renders one MuJoCo camera offscreen (EGL or OSMesa, see ``MUJOCO_GL``); a context
+    manager that frees its GL context on leaving.
 
     Example:
-        >>> rig = CameraRig(model, "camera/camera", 320, 240)
-        >>> depth_m = rig.depth(data)
+        >>> import mujoco
+        >>> spec = mujoco.MjSpec()
+        >>> _ = spec.worldbody.add_camera(name="eye", pos=[0.0, 0.0, 1.0])  # looks down
+        >>> _ = spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1.0, 1.0, 0.01])
+        >>> model = spec.compile()
+        >>> data = mujoco.MjData(model)
+        >>> mujoco.mj_forward(model, data)
+        >>> with CameraRig(model, "eye", 64, 48) as rig:
+        ...     depth_m = rig.depth(data)
+        >>> depth_m.shape, round(float(depth_m[24, 32]), 3)  # the box's top, 0.01 m high
+        ((48, 64), 0.99)
     """
 
     def __init__(self, model: mujoco.MjModel, camera: str, width_px: int,
