@@ -33,8 +33,15 @@ class KnifeCommand:
         limits: speeds and bounds.
 
     Example:
+        >>> from cell.sim.episode import Episode
+        >>> from cell.sim.scenario import Scenario
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
+        >>> plan = episode.plan()
         >>> command = KnifeCommand(plan.knife, plan.cut_window_s, 0.03, ActionLimits())
-        >>> position_m, rotation = command.advance(np.array([0.4, 0.0, 0.0, 0.0]), 0.02)[0]
+        >>> (position_m, rotation), bounded = command.advance(np.array([0.4, 0, 0, 0]), 0.02)
+        >>> command.progress > 0.0, bounded
+        (True, 0)
     """
 
     def __init__(self, trajectory: CartesianTrajectory, window_s: CutWindow,
@@ -92,8 +99,10 @@ class PullCommand:
     integrates, within ``pull_max_distance_m`` of it and at most ``pull_max_sink_m`` below.
 
     Example:
-        >>> command = PullCommand(grasp_point_m, jaws_rotation, ActionLimits())
-        >>> target, hits = command.advance(np.array([0.0, 0.4, 0.2]), 0.02)
+        >>> command = PullCommand(np.zeros(3), np.eye(3), ActionLimits())
+        >>> (position_m, rotation), bounded = command.advance(np.array([0.0, 1.0, -1.0]), 0.02)
+        >>> position_m, bounded
+        (array([ 0.   ,  0.001, -0.001]), 0)
     """
 
     def __init__(self, origin_m: np.ndarray, rotation: np.ndarray,

@@ -61,8 +61,12 @@ class Reading:
         interface_offset_m: the tip's distance across from the true interface.
 
     Example:
-        >>> reading = Sensing(episode).read(command)
+        >>> zero = np.zeros(3)
+        >>> reading = Reading(zero, np.eye(3), zero, zero, zero, zero, released_fraction=0.5,
+        ...                   released_ahead=0.0, strain_near=0.0, strain_max=0.0,
+        ...                   blade_contacts=0, under_blade=0, interface_offset_m=0.0)
         >>> reading.released_fraction
+        0.5
     """
 
     tip_m: np.ndarray
@@ -84,8 +88,17 @@ class Sensing:
     """Reads :class:`Reading` from an episode's simulation.
 
     Example:
-        >>> sensing = Sensing(episode)
-        >>> reading = sensing.read(knife_command)
+        >>> from cell.sim.episode import Episode
+        >>> from cell.sim.scenario import Scenario
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
+        >>> from envs.commands import KnifeCommand
+        >>> from envs.params import ActionLimits
+        >>> plan = episode.plan()
+        >>> knife = KnifeCommand(plan.knife, plan.cut_window_s, 0.03, ActionLimits())
+        >>> reading = Sensing(episode).read(knife)
+        >>> reading.released_fraction, reading.blade_contacts  # before the cut
+        (0.0, 0)
     """
 
     def __init__(self, episode: Episode) -> None:

@@ -16,8 +16,13 @@ def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
     """The scripted episode's controllers as a policy of ``env`` (it reads the env's plan).
 
     Example:
+        >>> from envs import CutEnv
+        >>> env = CutEnv(time_limit_s=0.1)
+        >>> obs, info = env.reset(seed=0)
         >>> policy = scripted_policy(env)
-        >>> env.step(policy(obs))
+        >>> obs, reward, terminated, truncated, info = env.step(policy(obs))
+        >>> info["clipped_actions"]
+        0
     """
     inner: MuscleSeparationEnv = env.unwrapped
     return lambda _obs: inner.scripted_action()
@@ -29,7 +34,8 @@ class LinearPolicy:
 
     Example:
         >>> policy = LinearPolicy.from_vector(np.zeros(4 * 35), action_dims=4, obs_dims=34)
-        >>> policy(obs)
+        >>> policy(np.ones(34))
+        array([0., 0., 0., 0.], dtype=float32)
     """
 
     weights: np.ndarray
@@ -80,8 +86,11 @@ def cross_entropy_search(env: gym.Env, params: CrossEntropyParams, seed: int,
     population's mean return per iteration.
 
     Example:
-        >>> policy, curve = cross_entropy_search(CutEnv(time_limit_s=3.0),
-        ...                                      CrossEntropyParams(), seed=0)
+        >>> import gymnasium as gym
+        >>> search = CrossEntropyParams(iterations=2, population=4)
+        >>> policy, curve = cross_entropy_search(gym.make("Pendulum-v1"), search, seed=0)
+        >>> policy.weights.shape, len(curve)
+        ((1, 3), 2)
     """
     rng = np.random.default_rng(seed)
     obs_dims = env.observation_space.shape[0]

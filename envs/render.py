@@ -22,8 +22,17 @@ class CellRenderer:
         width_px, height_px: size of each of the two views.
 
     Example:
-        >>> renderer = CellRenderer(model, np.array([0.0, 0.0, 0.65]))
-        >>> frame = renderer.render(data)  # (240, 640, 3) uint8
+        >>> import mujoco
+        >>> from cell.sim.assembly import build_scene
+        >>> from cell.sim.scenario import Scenario
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> scene = build_scene(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
+        >>> data = mujoco.MjData(scene.model)
+        >>> mujoco.mj_forward(scene.model, data)
+        >>> renderer = CellRenderer(scene.model, np.array([0.0, 0.0, 0.65]))
+        >>> renderer.render(data).shape
+        (240, 640, 3)
+        >>> renderer.close()
     """
 
     def __init__(self, model: mujoco.MjModel, look_at_m: np.ndarray, width_px: int = 320,

@@ -62,8 +62,11 @@ class EpisodePlan:
         end_s: when the scripted episode stops, s.
 
     Example:
-        >>> plan = Episode(scenario).plan()
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> plan = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05))).plan()
         >>> position_m, rotation = plan.knife.sample(plan.cut_window_s.start_s)
+        >>> bool(np.allclose(position_m, plan.cut_path_m[0]))  # in at the entry, at depth
+        True
     """
 
     knife: CartesianTrajectory
@@ -90,9 +93,13 @@ class Episode:
     """One scripted episode over a freshly built scene.
 
     Example:
-        >>> episode = Episode(load_scenario("scenarios/default.toml"))
-        >>> summary = episode.run(rerun_path="out/default.rrd")
-        >>> summary["result"]["released_fraction"]
+        >>> from dataclasses import replace
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05), end_s=0.1)
+        >>> scenario = replace(scenario, perception=replace(scenario.perception, enabled=False))
+        >>> summary = Episode(scenario).run()  # a whole episode: leave end_s out
+        >>> summary["result"]["released_fraction"], summary["result"]["sim_time_s"]
+        (0.0, 0.1...)
     """
 
     def __init__(self, scenario: Scenario, scene: Scene | None = None) -> None:

@@ -51,9 +51,17 @@ class EpisodeRecorder:
         recording_id: fixed id, so that the same seed gives the same recording identity.
 
     Example:
-        >>> rec = EpisodeRecorder("out/episode.rrd", scene, recording_id="default-0")
-        >>> rec.log_frame(data)
-        >>> rec.close()
+        >>> import tempfile
+        >>> from cell.sim.assembly import build_scene
+        >>> from cell.sim.scenario import Scenario
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> scene = build_scene(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
+        >>> data = mujoco.MjData(scene.model)
+        >>> mujoco.mj_forward(scene.model, data)
+        >>> rec = EpisodeRecorder(Path(tempfile.mkdtemp()) / "episode.rrd", scene, "coarse-0")
+        >>> rec.log_frame(data, knife_tip_m=np.zeros(3), scalars={"progress/released": 0.0})
+        >>> rec.close().stat().st_size > 0
+        True
     """
 
     def __init__(self, path: str | Path, scene: Scene, recording_id: str) -> None:
