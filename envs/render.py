@@ -22,15 +22,12 @@ class CellRenderer:
         width_px, height_px: size of each of the two views.
 
     Example:
-        >>> import mujoco
-        >>> from cell.sim.assembly import build_scene
+        >>> from cell.sim.episode import Episode
         >>> from cell.sim.scenario import Scenario
         >>> from cell.tissue.geometry import MuscleShape
-        >>> scene = build_scene(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
-        >>> data = mujoco.MjData(scene.model)
-        >>> mujoco.mj_forward(scene.model, data)
-        >>> renderer = CellRenderer(scene.model, np.array([0.0, 0.0, 0.65]))
-        >>> renderer.render(data).shape
+        >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))  # arms ready
+        >>> renderer = CellRenderer(episode.sim.model, np.array([0.0, 0.0, 0.65]))
+        >>> renderer.render(episode.sim.data).shape
         (240, 640, 3)
         >>> renderer.close()
     """

@@ -8,17 +8,16 @@ the mesh its connectivity for free; triangles that straddle a depth jump (an occ
 gap wider than the binning smooths over) are left out, so the mesh breaks there instead of
 bridging it.
 
+:func:`capture` renders the view (:mod:`cell.perception.pipeline` shows it on the cell);
+a view given as an array meshes alike.
+
 Example:
-    >>> from cell.robots.names import CAMERA
-    >>> from cell.sim.episode import Episode
-    >>> from cell.sim.scenario import Scenario
-    >>> from cell.tissue.geometry import MuscleShape
-    >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))  # camera on the meat
-    >>> with CameraRig(episode.scene.model, CAMERA, 160, 120) as rig:
-    ...     view = capture(rig, episode.sim.data, SensorNoise(), np.random.default_rng(0))
-    >>> mesh = depth_mesh(view, bin_px=2)
-    >>> len(mesh.vertices_m) > 500, mesh.triangles.shape[1]
-    (True, 3)
+    >>> import numpy as np
+    >>> depth_m = np.full((6, 8), 0.5)
+    >>> depth_m[:, 4:] = 0.9  # a step 0.4 m down: an occlusion edge
+    >>> mesh = depth_mesh(DepthView(depth_m, 10.0, np.zeros(3), np.eye(3)))
+    >>> len(mesh.vertices_m), len(mesh.triangles)  # two patches of 6 x 4, none across the step
+    (48, 60)
 """
 
 from __future__ import annotations
