@@ -2,7 +2,7 @@
 
 The library, bottom to top (each layer imports only those below it):
 
-- ``errors``, ``io``, ``config``, ``collision``: the base;
+- ``errors``, ``io``, ``config``, ``collision``, ``polyline``: the base;
 - ``robots``, ``tissue``: the machines and the meat;
 - ``perception`` (uses both) and ``rheology`` (measured tests, the MuJoCo-free tissue);
 - :mod:`controllers` (top-level package): mink IK and the cut and pull plans;
