@@ -29,6 +29,13 @@ class PullPlan:
     frame, normalised) to open the cut, as a butcher does; once the knife is out it pulls on to
     ``distance_m`` at ``speed_m_s``. The jaws lean ``tilt_deg`` toward the interface, which
     keeps the gripper's wrist clear of the knife. ``enabled = false`` keeps the gripper still.
+
+    Example:
+        >>> PullPlan(tilt_deg=30.0).distance_m
+        0.16
+        >>> PullPlan(tension_m=0.2)
+        Traceback (most recent call last):
+        cell.errors.InputError: tension_m: must be in [0, distance_m)
     """
 
     enabled: bool = True
@@ -58,7 +65,12 @@ class PullPlan:
 
 @dataclass(frozen=True)
 class PullSchedule:
-    """When the gripper closes, grasps, starts and ends the pull (s)."""
+    """When the gripper closes, grasps, starts and ends the pull (s).
+
+    Example:
+        >>> PullSchedule(close_s=2.0, grasp_s=2.3, pull_start_s=4.0, pull_end_s=12.0).grasp_s
+        2.3
+    """
 
     close_s: float
     grasp_s: float

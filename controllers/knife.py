@@ -24,7 +24,15 @@ class CutPlan:
     (tip), never closer than ``table_clearance_m`` to the table, at ``speed_m_s``, entering
     ``lead_in_m`` before the meat's end and leaving ``lead_out_m`` after ``cut_fraction`` of
     the line (1 = the whole interface). ``enabled = false`` keeps the knife waiting above the
-    entry point."""
+    entry point.
+
+    Example:
+        >>> CutPlan(cut_fraction=0.5).depth_m
+        0.065
+        >>> CutPlan(cut_fraction=1.5)
+        Traceback (most recent call last):
+        cell.errors.InputError: cut_fraction: must be <= 1, got 1.5
+    """
 
     enabled: bool = True
     speed_m_s: float = 0.03
@@ -50,7 +58,13 @@ SurfaceY = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 class CutWindow(NamedTuple):
     """When the knife cuts, s: from leaving the entry at depth (``start_s``) to reaching the
-    cut path's last point (``end_s``)."""
+    cut path's last point (``end_s``).
+
+    Example:
+        >>> start_s, end_s = window = CutWindow(3.0, 19.5)
+        >>> window.end_s - window.start_s
+        16.5
+    """
 
     start_s: float
     end_s: float

@@ -16,6 +16,11 @@ class Waypoint:
     """A pose to reach, at ``speed_m_s`` along the straight segment leading to it.
 
     ``dwell_s`` holds the pose after arrival. Position in m (world), rotation as a 3x3 matrix.
+
+    Example:
+        >>> import numpy as np
+        >>> Waypoint(np.array([0.0, 0.0, 0.7]), np.eye(3), speed_m_s=0.05, dwell_s=0.2).dwell_s
+        0.2
     """
 
     position_m: np.ndarray

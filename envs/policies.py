@@ -68,7 +68,12 @@ class CrossEntropyParams:
     """Cross-entropy search: ``population`` samples per iteration from a diagonal Gaussian,
     refitted to the best ``elite``; it starts at zero with spread ``weight_std`` on the
     weights and ``bias_std`` on the biases (small weights keep the first policies from
-    saturating on the observation's larger entries), and ``min_std`` is its floor."""
+    saturating on the observation's larger entries), and ``min_std`` is its floor.
+
+    Example:
+        >>> CrossEntropyParams(iterations=2).population
+        8
+    """
 
     iterations: int = 8
     population: int = 8

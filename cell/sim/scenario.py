@@ -43,7 +43,15 @@ class SimulationParams:
     ``"auto"`` picks ``discrete`` for continuum materials (the only one MuJoCo runs them
     with) and ``implicitfast`` for the mass-spring model. ``muscle_contact`` lets the two
     muscles collide with each other (off by default: it more than doubles a step's cost, and
-    the bindings and the pull keep them apart)."""
+    the bindings and the pull keep them apart).
+
+    Example:
+        >>> SimulationParams(timestep_s=0.001).control_rate_hz
+        50.0
+        >>> SimulationParams(control_rate_hz=1000.0)
+        Traceback (most recent call last):
+        cell.errors.InputError: control_rate_hz: faster than the physics step
+    """
 
     timestep_s: float = 0.002
     control_rate_hz: float = 50.0
@@ -74,6 +82,13 @@ class AponeurosisParams:
     path relative to the scenario file, or ``assets/...`` for the package's own data);
     ``force_share``: the fraction of that force one binding under the blade must carry to be
     cut (the knife force also shears muscle and overcomes friction).
+
+    Example:
+        >>> AponeurosisParams(release_rules=("knife",)).tearing_stretch_m
+        0.01
+        >>> AponeurosisParams(law="constraint", release_rules=("force",))
+        Traceback (most recent call last):
+        cell.errors.InputError: release_rules: the force rule needs law = "spring" ...
     """
 
     law: Literal["spring", "constraint"] = "spring"
@@ -103,7 +118,12 @@ class AponeurosisParams:
 
 @dataclass(frozen=True)
 class LayoutParams:
-    """Where things stand in the cell (world frame, m; yaw about z in degrees)."""
+    """Where things stand in the cell (world frame, m; yaw about z in degrees).
+
+    Example:
+        >>> LayoutParams(table_height_m=0.7).meat_origin_m
+        (0.0, 0.0, 0.7)
+    """
 
     table_height_m: float = 0.6
     meat_x_m: float = 0.0
@@ -122,7 +142,12 @@ class LayoutParams:
 
 @dataclass(frozen=True)
 class SensorParams:
-    """Sensor noise (standard deviations), drawn from the scenario's seed."""
+    """Sensor noise (standard deviations), drawn from the scenario's seed.
+
+    Example:
+        >>> SensorParams(force_noise_n=0.0).torque_noise_nm
+        0.005
+    """
 
     force_noise_n: float = 0.05
     torque_noise_nm: float = 0.005
@@ -134,7 +159,12 @@ class SensorParams:
 @dataclass(frozen=True)
 class RecordingParams:
     """What the Rerun recording keeps: scene frames at ``rate_hz``, camera images at
-    ``camera_rate_hz``."""
+    ``camera_rate_hz``.
+
+    Example:
+        >>> RecordingParams(camera_rate_hz=5.0).rate_hz
+        20.0
+    """
 
     rate_hz: float = 20.0
     camera_rate_hz: float = 2.0
