@@ -108,11 +108,14 @@ class Aponeurosis:
         return len(self.pairs)
 
     def reset(self, data: mujoco.MjData) -> None:
-        """Bind every pair again (state and record)."""
+        """Bind every pair again (state and record), nothing hooked, the blade at its
+        initial guess."""
         data.eq_active[self.equality_ids] = 1
         self.hooked[:] = False
+        self.hook_local[:] = 0.0
         self.released_at_s[:] = np.nan
         self.released_by = [None] * len(self)
+        self.track_blade(np.zeros(3), np.eye(3))
 
     @property
     def bound(self) -> np.ndarray:
