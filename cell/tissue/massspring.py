@@ -40,7 +40,6 @@ import mujoco
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
-from numba import njit
 
 from cell.tissue.flexcomp import flexcomp_xml
 from cell.tissue.geometry import MuscleShape, build_two_muscles
@@ -52,77 +51,13 @@ from cell.tissue.lattice import (
     tet_edges,
 )
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import spring_stress
+from cell.tissue.springlaw import muscle_forces
 from cell.tissue.tetmesh import TetMesh
 
 _INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
 }
-
-
-@njit(cache=True, fastmath=False)
-def _apply_springs(
-    qpos: np.ndarray,
-    qvel: np.ndarray,
-    qfrc: np.ndarray,
-    qposadr: np.ndarray,
-    dofadr: np.ndarray,
-    rest_position: np.ndarray,
-    edges: np.ndarray,
-    rest_length: np.ndarray,
-    gain: np.ndarray,
-    cos_sq: np.ndarray,
-    curves: np.ndarray,
-    params: np.ndarray,
-    history: np.ndarray,
-    timestep_s: float,
-    damping_s: float,
-    position: np.ndarray,
-    velocity: np.ndarray,
-) -> None:
-    """Clear the vertex dofs of ``qfrc``, add every spring-damper's force to them and advance
-    the springs' history by ``timestep_s``."""
-    for i in range(position.shape[0]):
-        a = qposadr[i]
-        v = dofadr[i]
-        for k in range(3):
-            if a < 0:
-                position[i, k] = rest_position[i, k]
-                velocity[i, k] = 0.0
-            else:
-                position[i, k] = rest_position[i, k] + qpos[a + k]
-                velocity[i, k] = qvel[v + k]
-                qfrc[v + k] = 0.0
-    for e in range(edges.shape[0]):
-        i = edges[e, 0]
-        j = edges[e, 1]
-        dx = position[j, 0] - position[i, 0]
-        dy = position[j, 1] - position[i, 1]
-        dz = position[j, 2] - position[i, 2]
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if length == 0.0:  # a collapsed edge has no direction to push along
-            continue
-        stress, modulus = spring_stress(length / rest_length[e] - 1.0, cos_sq[e], curves,
-                                        params, history, e, timestep_s, True)
-        ux = dx / length
-        uy = dy / length
-        uz = dz / length
-        rate = (
-            (velocity[j, 0] - velocity[i, 0]) * ux
-            + (velocity[j, 1] - velocity[i, 1]) * uy
-            + (velocity[j, 2] - velocity[i, 2]) * uz
-        )
-        # Positive when stretched or stretching: pulls i towards j and j towards i.
-        tension = gain[e] * (rest_length[e] * stress + modulus * damping_s * rate)
-        if dofadr[i] >= 0:
-            qfrc[dofadr[i]] += tension * ux
-            qfrc[dofadr[i] + 1] += tension * uy
-            qfrc[dofadr[i] + 2] += tension * uz
-        if dofadr[j] >= 0:
-            qfrc[dofadr[j]] -= tension * ux
-            qfrc[dofadr[j] + 1] -= tension * uy
-            qfrc[dofadr[j] + 2] -= tension * uz
 
 
 class MassSpringModel:
@@ -241,7 +176,7 @@ class MassSpringModel:
 
     def apply(self, data: mujoco.MjData) -> None:
         """Write the springs' forces for the state in ``data`` into ``data.qfrc_applied``."""
-        _apply_springs(
+        muscle_forces(
             data.qpos,
             data.qvel,
             data.qfrc_applied,
