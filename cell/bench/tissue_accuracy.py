@@ -13,7 +13,7 @@ from scipy.optimize import brentq
 
 from cell.sim.assembly import integrator
 from cell.sim.scenario import Scenario
-from cell.tissue.flexcomp import flexcomp_xml
+from cell.tissue.flexcomp import flexcomp_xml, set_continuum_law
 from cell.tissue.massspring import MassSpringModel
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
 from cell.tissue.tetmesh import TetMesh, structured_hex_tets
@@ -61,9 +61,7 @@ def tension_force_n(material: ContinuumMaterial | MassSpringMaterial, cells: int
                         contact='contype="0" conaffinity="0"', pins=bottom.tolist())
     spec = mujoco.MjSpec.from_string(
         f'<mujoco><option gravity="0 0 0"/><worldbody>{flex}</worldbody></mujoco>')
-    if isinstance(material, ContinuumMaterial) and material.law == "neo_hookean":
-        for f in spec.flexes:
-            f.elastic3d = 1  # as build_scene does: the flag has no MJCF attribute
+    set_continuum_law(spec, material)
     spec.option.integrator = integrator(Scenario(material=material))
     model = spec.compile()
     springs = (MassSpringModel(model, ("cube",), material)

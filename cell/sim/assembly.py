@@ -24,7 +24,7 @@ from cell.robots.names import ARMS, GRIPPER_BODY
 from cell.robots.tools import build_camera, build_gripper, build_knife
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import Aponeurosis, BindingLaw
-from cell.tissue.flexcomp import flexcomp_xml
+from cell.tissue.flexcomp import flexcomp_xml, set_continuum_law
 from cell.tissue.geometry import TetMesh, TwoMuscleMesh, build_two_muscles
 from cell.tissue.material import ContinuumMaterial
 
@@ -211,10 +211,7 @@ def build_scene(scenario: Scenario, robots: bool = True) -> Scene:
     round_pins = np.flatnonzero(mesh.round.points[:, 2] <= origin[2] + _PIN_TOLERANCE_M)
     # flexcomp is the one element MjSpec cannot build from arrays: start from its MJCF.
     spec = mujoco.MjSpec.from_string(_tissue_spec(scenario, mesh, round_pins))
-    material = scenario.material
-    if isinstance(material, ContinuumMaterial) and material.law == "neo_hookean":
-        for flex in spec.flexes:
-            flex.elastic3d = 1  # MuJoCo's stable neo-Hookean; spec only, no MJCF attribute
+    set_continuum_law(spec, scenario.material)
     _add_feet(spec, mesh, origin[2])
     build_robot_spec(scenario, spec, robots)
 

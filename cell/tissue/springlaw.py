@@ -193,11 +193,6 @@ class SpringLaw:
         ])
         return cls(curves, params)
 
-    @property
-    def has_history(self) -> bool:
-        """Whether a spring's stress depends on more than its current strain."""
-        return bool(self.params[_YIELD] > 0.0 or self.params[_TERMS] > 0)
-
     def history(self, springs: int) -> np.ndarray:
         """A history at rest for ``springs`` springs."""
         return np.zeros((springs, _STATES + int(self.params[_TERMS])))
