@@ -56,12 +56,9 @@ def survives(sim: TissueSimulation, timestep_s: float, steps: int) -> bool:
     scenario's limit).
 
     Example:
-        >>> from cell.sim.assembly import build_scene
-        >>> from cell.sim.scenario import Scenario
-        >>> from cell.tissue.geometry import MuscleShape
-        >>> scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05))
-        >>> sim = TissueSimulation(build_scene(scenario, robots=False), scenario)
-        >>> survives(sim, 0.002, 5)
+        >>> from cell.bench.tissue_variants import bench_scenario, tissue_run
+        >>> from cell.tissue.material import default_meat
+        >>> survives(tissue_run(bench_scenario(default_meat(), 0.05)), 0.002, 5)
         True
     """
     sim.model.opt.timestep = timestep_s
