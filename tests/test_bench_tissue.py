@@ -8,10 +8,12 @@ from typing import Any
 
 import pytest
 
-from cell.bench.tissue import extrapolated_force_n, largest_stable_timestep_s, tissue_models
+from cell.bench.stability import largest_stable_timestep_s
+from cell.bench.tissue_accuracy import extrapolated_force_n
+from cell.bench.tissue_variants import tissue_variants
 from cell.cli import main
 
-_MODELS = {model.key for model in tissue_models()}
+_MODELS = {model.key for model in tissue_variants()}
 
 
 def _numbers(node: Any, path: str = "") -> Iterator[tuple[str, float]]:

@@ -8,10 +8,11 @@ import pytest
 
 from cell.errors import MaterialError
 from cell.tissue.geometry import MuscleShape, build_two_muscles
-from cell.tissue.lattice import lattice_moduli, spring_stiffness, tet_edges
+from cell.tissue.lattice import tet_edges
 from cell.tissue.massspring import MassSpringModel
 from cell.tissue.material import MassSpringMaterial, ModulusCurve
 from cell.tissue.tetmesh import TetMesh, structured_hex_tets
+from tests.lattice_helpers import lattice_moduli, spring_stiffness
 
 _CELLS = (4, 4, 8)
 _SIZE_M = (0.08, 0.08, 0.16)

@@ -17,7 +17,7 @@ from cell.sim.assembly import Scene, build_scene, export_mjcf
 from cell.sim.episode import Episode
 from cell.sim.scenario import AponeurosisParams, Scenario
 from cell.sim.simulation import Simulation
-from cell.tissue.aponeurosis import BindingLaw
+from cell.tissue.aponeurosis import BindingLaw, ReleaseRule
 from cell.tissue.geometry import MuscleShape
 
 SCENARIO = Scenario(tissue=MuscleShape(cell_size_m=0.05))
@@ -208,3 +208,23 @@ def test_runaway_tissue_speed_is_a_divergence(scene: Scene) -> None:
     assert caught.value.time_s == 0.0
     sim.data.qvel[:] = 0.5 * limit  # below the limit is no divergence
     sim.check_divergence()
+
+
+# --- reuse ---------------------------------------------------------------------------------------
+
+
+def test_two_simulations_on_one_scene_start_identical() -> None:
+    scene = build_scene(SCENARIO)
+    first = Simulation(scene, SCENARIO)
+    first.step(20)
+    rested = first.data.qpos.copy()
+    # What an episode leaves in the scene: grasp anchors in the model, a release record.
+    assert first.grasp(np.full(3, 10.0)) > 0
+    assert not np.array_equal(scene.model.eq_data, scene.eq_data0)
+    apo = scene.aponeurosis
+    apo.release(first.data, np.arange(len(apo)), first.time_s, ReleaseRule.KNIFE)
+    second = Simulation(scene, SCENARIO)
+    np.testing.assert_array_equal(scene.model.eq_data, scene.eq_data0)
+    assert apo.bound.all() and not apo.hooked.any()
+    second.step(20)
+    np.testing.assert_array_equal(second.data.qpos, rested)

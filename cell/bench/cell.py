@@ -25,24 +25,9 @@ import numpy as np
 
 from cell.robots.arms import build_arm
 from cell.robots.dh import VIPER_S1700D
-from cell.sim.assembly import build_scene
 from cell.sim.episode import Episode
 from cell.sim.scenario import Scenario, load_scenario
 from cell.tissue.material import ContinuumMaterial
-
-
-def tissue_only_model(scenario: Scenario) -> mujoco.MjModel:
-    """The scene's muscles, fixture and table without arms or tools."""
-    spec = build_scene(scenario).spec
-    for prefix in ("knife_arm/", "pull_arm/", "camera_arm/"):
-        spec.delete(spec.body(f"{prefix}base"))
-    for equality in list(spec.equalities):
-        if equality.name.startswith("grasp_"):
-            spec.delete(equality)
-    for sensor in list(spec.sensors):
-        if sensor.name != "fixture_force":
-            spec.delete(sensor)
-    return spec.compile()
 
 
 def _cell_step_us_per_node(scenario: Scenario, steps: int) -> tuple[float, int]:

@@ -41,21 +41,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from cell.errors import DivergenceError
 from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
 from cell.tissue.lattice import calibrated_law, tet_edges
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import SpringLaw, spring_stress
+from cell.tissue.springlaw import SpringLaw
+from cell.tissue.springlaw import uniaxial_stress as _uniaxial
 from cell.tissue.tetmesh import TetMesh, structured_hex_tets
 
 # Cells along the specimen's longest edge; the homogeneous lattice only needs their shape.
 _CELLS = 2
 _LOAD_AXIS = (0.0, 0.0, 1.0)
-_NEWTON_ITERATIONS = 30
-_NEWTON_TOLERANCE = 1e-8
-_PROBE = 1e-7
 
 
 def specimen_mesh(specimen: Specimen, cells: int) -> TetMesh:
@@ -153,131 +150,6 @@ class SimulatedTest:
     time_s: np.ndarray
     force_N: np.ndarray
     lateral_stretch: np.ndarray
-
-
-@njit(cache=True, fastmath=False)
-def _kirchhoff(state: np.ndarray, stretch: float, directions: np.ndarray, weights: np.ndarray,
-               cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray, history: np.ndarray,
-               timestep_s: float, commit: bool, out: np.ndarray) -> bool:
-    """Kirchhoff stress (xx, yy, xz, zz; Pa) of F(a, b, c; stretch); False once a spring has
-    collapsed."""
-    a, b, c = state[0], state[1], state[2]
-    out[:] = 0.0
-    for j in range(directions.shape[0]):
-        dx, dy, dz = directions[j, 0], directions[j, 1], directions[j, 2]
-        vx = a * dx + c * dz
-        vy = b * dy
-        vz = stretch * dz
-        length = math.sqrt(vx * vx + vy * vy + vz * vz)
-        if not length > 0.0:
-            return False
-        stress, _ = spring_stress(length - 1.0, cos_sq[j], curves, params, history, j,
-                                  timestep_s, commit)
-        scale = weights[j] * stress / length
-        out[0] += scale * vx * vx
-        out[1] += scale * vy * vy
-        out[2] += scale * vx * vz
-        out[3] += scale * vz * vz
-    return True
-
-
-@njit(cache=True, fastmath=False)
-def _jacobian(state: np.ndarray, tau: np.ndarray, stretch: float, directions: np.ndarray,
-              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
-              history: np.ndarray, timestep_s: float, jacobian: np.ndarray) -> bool:
-    """Forward differences of the lateral stresses in (a, b, c) into ``jacobian``."""
-    trial = np.empty(3)
-    probe = np.empty(4)
-    for i in range(3):
-        trial[:] = state
-        trial[i] += _PROBE
-        if not _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params, history,
-                          timestep_s, False, probe):
-            return False
-        for r in range(3):
-            jacobian[r, i] = (probe[r] - tau[r]) / _PROBE
-    return True
-
-
-@njit(cache=True, fastmath=False)
-def _uniaxial(time_s: np.ndarray, strain: np.ndarray, directions: np.ndarray,
-              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
-              history: np.ndarray, stress_out: np.ndarray, lateral_out: np.ndarray) -> int:
-    """Nominal axial stress (Pa) at every sample into ``stress_out``; returns the index of the
-    first sample without an equilibrium, or -1.
-
-    Newton's method with a Jacobian kept from sample to sample and refreshed when it stops
-    converging fast, and a backtracking line search (the plastic law has kinks).
-    """
-    state = np.array([1.0, 1.0, 0.0])
-    previous = state.copy()
-    trial = np.empty(3)
-    tau = np.empty(4)
-    probe = np.empty(4)
-    jacobian = np.zeros((3, 3))
-    fresh = False
-    # Stresses below this are round-off: the small-strain modulus times a micro-strain.
-    floor = 1e-6 * max(abs(curves[0, 0]), abs(curves[1, 0]))
-    for k in range(time_s.shape[0]):
-        timestep = time_s[k] - time_s[k - 1] if k > 0 else 0.0
-        stretch = 1.0 + strain[k]
-        # Predict the lateral state by extrapolating along the strain from the last two.
-        if k > 1 and strain[k - 1] != strain[k - 2]:
-            slope = (strain[k] - strain[k - 1]) / (strain[k - 1] - strain[k - 2])
-            if abs(slope) <= 4.0:
-                step_back = state - previous
-                previous[:] = state
-                state += slope * step_back
-            else:
-                previous[:] = state
-        else:
-            previous[:] = state
-        if not _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
-                          timestep, False, tau):
-            return k
-        norm = abs(tau[0]) + abs(tau[1]) + abs(tau[2])
-        converged = False
-        for _ in range(_NEWTON_ITERATIONS):
-            if norm <= _NEWTON_TOLERANCE * max(abs(tau[3]) + norm, floor):
-                converged = True
-                break
-            if (k == 0 and not fresh) or (not fresh and jacobian[0, 0] == 0.0):
-                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
-                                  params, history, timestep, jacobian)
-                if not fresh:
-                    return k
-            step = np.linalg.solve(jacobian, tau[:3])
-            length = 1.0
-            improved = False
-            for _ in range(8):
-                trial[:] = state - length * step
-                if _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params,
-                              history, timestep, False, probe):
-                    trial_norm = abs(probe[0]) + abs(probe[1]) + abs(probe[2])
-                    if trial_norm < norm:
-                        improved = True
-                        break
-                length *= 0.5
-            if (improved and trial_norm < 0.25 * norm) or (improved and fresh):
-                state[:] = trial
-                tau[:] = probe
-                norm = trial_norm
-                fresh = False
-            elif fresh:
-                return k
-            else:
-                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
-                                  params, history, timestep, jacobian)
-                if not fresh:
-                    return k
-        if not converged:
-            return k
-        _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
-                   timestep, True, tau)
-        stress_out[k] = tau[3] / stretch
-        lateral_out[k, 0] = state[0]
-        lateral_out[k, 1] = state[1]
-    return -1
 
 
 def simulate_test(

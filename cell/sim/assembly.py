@@ -24,7 +24,7 @@ from cell.robots.names import ARMS, GRIPPER_BODY
 from cell.robots.tools import build_camera, build_gripper, build_knife
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import Aponeurosis, BindingLaw
-from cell.tissue.flexcomp import flexcomp_xml
+from cell.tissue.flexcomp import flexcomp_xml, set_continuum_law
 from cell.tissue.geometry import TetMesh, TwoMuscleMesh, build_two_muscles
 from cell.tissue.material import ContinuumMaterial
 
@@ -45,13 +45,19 @@ class Scene:
         mesh: the two muscles' tetrahedral meshes in world coordinates, m.
         round_bodies, shank_bodies: body id of each mesh vertex (the holding plate's id for
             pinned round vertices).
-        aponeurosis: the bindings and their release record.
-        grasp_equalities: ids of the inactive gripper-to-vertex ``connect`` equalities.
+        aponeurosis: the bindings; their release record belongs to the episode on the scene
+            and :meth:`restore` clears it.
+        grasp_equalities: ids of the inactive gripper-to-vertex ``connect`` equalities (none
+            in a scene without robots).
         grasp_vertices: shank vertex index of each grasp equality.
+        eq_data0: ``model.eq_data`` as built, for :meth:`restore`.
 
     Example:
-        >>> scene = build_scene(load_scenario("scenarios/default.toml"))
-        >>> scene.model.nflexvert
+        >>> from cell.sim.scenario import Scenario
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> scene = build_scene(Scenario(tissue=MuscleShape(cell_size_m=0.05)), robots=False)
+        >>> scene.node_count, scene.model.nflexvert
+        (240, 240)
     """
 
     scenario: Scenario
@@ -63,11 +69,24 @@ class Scene:
     aponeurosis: Aponeurosis
     grasp_equalities: np.ndarray
     grasp_vertices: np.ndarray
+    eq_data0: np.ndarray
 
     @property
     def node_count(self) -> int:
         """Number of tissue vertices (both muscles)."""
         return len(self.round_bodies) + len(self.shank_bodies)
+
+    @property
+    def tissue_bodies(self) -> np.ndarray:
+        """Body id of every tissue vertex, round then shank."""
+        return np.concatenate([self.round_bodies, self.shank_bodies])
+
+    def restore(self, data: mujoco.MjData) -> None:
+        """Undo what an episode wrote into the scene, so that the next starts as the first:
+        every binding bound again (``data``'s binding equalities and the release record),
+        the grasp anchors back as built (a grasp writes them into ``model.eq_data``)."""
+        self.aponeurosis.reset(data)
+        self.model.eq_data[:] = self.eq_data0
 
 
 def _yaw_quat(yaw_deg: float) -> list[float]:
@@ -87,9 +106,10 @@ def integrator(scenario: Scenario) -> mujoco.mjtIntegrator:
             "euler": mujoco.mjtIntegrator.mjINT_EULER}[choice]
 
 
-def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None) -> mujoco.MjSpec:
-    """World, floor, table and the three arms with their tools, added to ``spec`` (a new one
-    by default, which then holds no tissue).
+def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None,
+                     robots: bool = True) -> mujoco.MjSpec:
+    """World, floor, table and the three arms with their tools (not with ``robots=False``),
+    added to ``spec`` (a new one by default, which then holds no tissue).
 
     The tissue-free spec serves as the IK model, whose joints match the full scene by name.
     """
@@ -118,6 +138,15 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None) -> m
                    pos=[layout.meat_x_m, 0.0, layout.table_height_m / 2],
                    rgba=[0.75, 0.76, 0.78, 1], contype=TABLE_TOP.contype,
                    conaffinity=TABLE_TOP.conaffinity, friction=[0.6, 0.005, 0.0001])
+    if robots:
+        _add_arms(scenario, spec)
+    return spec
+
+
+def _add_arms(scenario: Scenario, spec: mujoco.MjSpec) -> None:
+    """The three arms on their bases, each with its tool on its flange."""
+    layout = scenario.layout
+    world = spec.worldbody
     tools = {
         "knife_arm": ("knife/", build_knife(scenario.knife)),
         "pull_arm": ("gripper/", build_gripper(scenario.gripper)),
@@ -134,7 +163,6 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None) -> m
         spec.attach(build_arm(description), frame=frame, prefix=f"{prefix}/")
         tool_prefix, tool = tools[prefix]
         spec.attach(tool, site=spec.site(f"{prefix}/flange"), prefix=tool_prefix)
-    return spec
 
 
 def _muscle_xml(name: str, mesh: TetMesh, scenario: Scenario, pins: np.ndarray,
@@ -170,20 +198,22 @@ def _tissue_spec(scenario: Scenario, mesh: TwoMuscleMesh, round_pins: np.ndarray
 </mujoco>"""
 
 
-def build_scene(scenario: Scenario) -> Scene:
-    """Compose and compile the whole cell for ``scenario``."""
+def build_scene(scenario: Scenario, robots: bool = True) -> Scene:
+    """Compose and compile the whole cell for ``scenario``; with ``robots=False`` only the
+    muscles, the fixture and the table (no arms, tools, grasp or tool sensors).
+
+    The tissue comes first in the model, so its body ids are the same with and without the
+    robots.
+    """
     layout = scenario.layout
     origin = np.array([layout.meat_x_m, 0.0, layout.table_height_m])
     mesh = build_two_muscles(scenario.tissue, origin_m=tuple(origin))
     round_pins = np.flatnonzero(mesh.round.points[:, 2] <= origin[2] + _PIN_TOLERANCE_M)
     # flexcomp is the one element MjSpec cannot build from arrays: start from its MJCF.
     spec = mujoco.MjSpec.from_string(_tissue_spec(scenario, mesh, round_pins))
-    material = scenario.material
-    if isinstance(material, ContinuumMaterial) and material.law == "neo_hookean":
-        for flex in spec.flexes:
-            flex.elastic3d = 1  # MuJoCo's stable neo-Hookean; spec only, no MJCF attribute
+    set_continuum_law(spec, scenario.material)
     _add_feet(spec, mesh, origin[2])
-    build_robot_spec(scenario, spec)
+    build_robot_spec(scenario, spec, robots)
 
     apo = scenario.aponeurosis
     law = BindingLaw(apo.law)
@@ -197,7 +227,8 @@ def build_scene(scenario: Scenario) -> Scene:
                               objtype=mujoco.mjtObj.mjOBJ_BODY, name1=body,
                               name2=f"shank_{s}", data=[*anchor, *np.zeros(9)],
                               solref=[apo.timeconst_s, apo.dampratio])
-    grasp_vertices = _grasp_candidates(scenario, mesh)
+    grasp_vertices = (_grasp_candidates(scenario, mesh) if robots
+                      else np.zeros(0, dtype=int))
     for v in grasp_vertices:
         spec.add_equality(name=f"grasp_{v}", type=mujoco.mjtEq.mjEQ_CONNECT,
                           objtype=mujoco.mjtObj.mjOBJ_BODY, name1=GRIPPER_BODY,
@@ -218,7 +249,7 @@ def build_scene(scenario: Scenario) -> Scene:
                               stiffness_n_m=apo.stiffness_n_m,
                               damping_n_s_m=apo.damping_n_s_m, equality_ids=binding_ids)
     return Scene(scenario, spec, model, mesh, round_bodies, shank_bodies, aponeurosis,
-                 grasp_ids, grasp_vertices)
+                 grasp_ids, grasp_vertices, model.eq_data.copy())
 
 
 def _add_feet(spec: mujoco.MjSpec, mesh: TwoMuscleMesh, table_z_m: float) -> None:

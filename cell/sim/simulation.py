@@ -1,4 +1,5 @@
-"""Stepping the cell: physics, binding release rules, the grasp, sensors, divergence checks."""
+"""Stepping the cell: physics, binding release rules, the grasp, sensors, divergence checks;
+and the same physics step on the muscles alone (:class:`TissueSimulation`)."""
 
 from __future__ import annotations
 
@@ -11,8 +12,8 @@ from cell.sim.assembly import Scene
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import ReleaseRule
 from cell.tissue.forcecurve import ForceCurve
+from cell.tissue.forces import TissueForces
 from cell.tissue.massspring import MassSpringModel
-from cell.tissue.material import MassSpringMaterial
 
 #: Warnings after which MuJoCo's state is no longer a solution of the model.
 FATAL_WARNINGS = (
@@ -22,16 +23,29 @@ FATAL_WARNINGS = (
 )
 
 
-class Simulation:
-    """The scene's physics with the episode's rules applied between control steps.
+class TissueSimulation:
+    """The physics step of the two muscles: the tissue forces MuJoCo does not compute
+    (:class:`~cell.tissue.forces.TissueForces`), ``mj_step``, and the divergence check.
 
-    Sensor readings are tared at :meth:`tare` (the tool's own weight) and carry the noise of
-    ``scenario.sensors``, drawn from the scenario's seed.
+    It runs on a scene without robots (``build_scene(scenario, robots=False)``: the tissue
+    bench) and is the base of the cell's :class:`Simulation`, which adds the knife, the
+    grasp and the sensors. A new simulation restores the scene (:meth:`Scene.restore`), so
+    a scene serves one episode after another.
+
+    Attributes:
+        scene: the compiled scene.
+        model: its model.
+        data: the state.
+        tissue: the tissue forces.
 
     Example:
-        >>> sim = Simulation(build_scene(scenario), scenario)
+        >>> from cell.sim.assembly import build_scene
+        >>> from cell.sim.scenario import Scenario
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05))
+        >>> sim = TissueSimulation(build_scene(scenario, robots=False), scenario)
         >>> sim.step(10)
-        >>> sim.apply_release_rules()
+        >>> sim.reset()  # back to rest, the springs' history too
     """
 
     def __init__(self, scene: Scene, scenario: Scenario) -> None:
@@ -39,45 +53,30 @@ class Simulation:
         self.scenario = scenario
         self.model = scene.model
         self.data = mujoco.MjData(self.model)
-        self.rng = np.random.default_rng(scenario.seed)
-        self._sensor = {name: self._sensor_slice(name) for name in (
-            "knife/force", "knife/torque", "gripper/force", "gripper/torque", "fixture_force")}
-        self._tare = {name: np.zeros(3) for name in self._sensor}
-        tissue = np.concatenate([scene.round_bodies, scene.shank_bodies])
-        tissue = np.unique(tissue[self.model.body_dofnum[tissue] > 0])
-        self._tissue_dofs = np.concatenate([
-            np.arange(self.model.body_dofadr[b], self.model.body_dofadr[b]
-                      + self.model.body_dofnum[b]) for b in tissue])
-        self._blade = self.model.geom(KNIFE_BLADE_GEOM).id
-        self._knife = self.model.geom_bodyid[self._blade]
-        self._gripper = self.model.body(GRIPPER_BODY).id
-        self._grasp_site = self.model.site(GRASP_SITE).id
+        scene.restore(self.data)
+        self.tissue = TissueForces(self.model, scenario.material, scene.aponeurosis,
+                                   scene.tissue_bodies)
         self._warnings = np.zeros(len(FATAL_WARNINGS), dtype=int)
-        self.grasped = np.zeros(0, dtype=int)
-        # One spring model per muscle, so that each has its own fibre field.
-        self.springs: dict[str, MassSpringModel] = (
-            {muscle: MassSpringModel(self.model, (muscle,), scenario.material)
-             for muscle in ("round", "shank")}
-            if isinstance(scenario.material, MassSpringMaterial) else {})
-        if self.springs:
-            stable = min(model.stable_timestep_s() for model in self.springs.values())
-            if self.model.opt.timestep > stable:
-                raise ScenarioError(None, "simulation.timestep_s",
-                                    f"{self.model.opt.timestep} s is above the stable step "
-                                    f"{stable:.3g} s of this mass-spring material and mesh")
-        rules = scenario.aponeurosis.release_rules
-        self.force_curve = (ForceCurve.from_csv(scenario.aponeurosis.force_curve)
-                            if ReleaseRule.FORCE.value in rules else None)
 
     @property
     def time_s(self) -> float:
         """Simulated time, s."""
         return float(self.data.time)
 
-    def _sensor_slice(self, name: str) -> slice:
-        sensor = self.model.sensor(name)
-        start = int(sensor.adr[0])
-        return slice(start, start + int(sensor.dim[0]))
+    @property
+    def springs(self) -> dict[str, MassSpringModel]:
+        """The mass-spring model of each muscle (none for a continuum material)."""
+        return self.tissue.springs
+
+    def reset(self, state: mujoco.MjData | None = None) -> None:
+        """Back to rest, or to a copy of ``state``: a new state (its warnings counted from
+        here), the springs' history at rest, the scene restored."""
+        self.data = mujoco.MjData(self.model)
+        self.scene.restore(self.data)
+        if state is not None:
+            mujoco.mj_copyData(self.data, self.model, state)
+        self.tissue.reset()
+        self._warnings = self._warning_counts()
 
     def step(self, count: int = 1) -> None:
         """Advance ``count`` physics steps, then check for divergence.
@@ -94,15 +93,81 @@ class Simulation:
         self.check_divergence(start + count * self.model.opt.timestep)
 
     def _apply_forces(self) -> None:
+        self.tissue.apply(self.data)
+
+    def _warning_counts(self) -> np.ndarray:
+        return np.array([self.data.warning[w].number for w in FATAL_WARNINGS])
+
+    def check_divergence(self, time_s: float | None = None) -> None:
+        """Raise :class:`DivergenceError` on NaN, a fatal MuJoCo warning since the last check
+        or runaway tissue.
+
+        ``time_s`` is the time the step should have reached: after a fatal warning MuJoCo
+        resets the state, time included, so ``data.time`` no longer tells.
+        """
         data = self.data
-        if not self.springs:
-            data.qfrc_applied[self._tissue_dofs] = 0.0
-        for springs in self.springs.values():
-            springs.apply(data)  # rewrites its muscle's dofs' entries
-        apo = self.scene.aponeurosis
+        counts = self._warning_counts()
+        fired = counts > self._warnings
+        if fired.any():
+            names = [w.name for w, f in zip(FATAL_WARNINGS, fired, strict=True) if f]
+            self._warnings = counts
+            when = self.time_s if time_s is None else time_s
+            raise DivergenceError(when, f"MuJoCo warning {', '.join(names)}")
+        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+            raise DivergenceError(self.time_s, "non-finite position or velocity")
+        speed = np.abs(data.qvel[self.tissue.dofs]).max(initial=0.0)
+        limit = self.scenario.simulation.max_tissue_speed_m_s
+        if speed > limit:
+            raise DivergenceError(self.time_s, f"tissue speed {speed:.3g} m/s above {limit} m/s")
+
+
+class Simulation(TissueSimulation):
+    """The scene's physics with the episode's rules applied between control steps.
+
+    Sensor readings are tared at :meth:`tare` (the tool's own weight) and carry the noise of
+    ``scenario.sensors``, drawn from the scenario's seed.
+
+    Example:
+        >>> from cell.sim.assembly import build_scene
+        >>> from cell.sim.scenario import Scenario
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05))
+        >>> sim = Simulation(build_scene(scenario), scenario)
+        >>> sim.step(10)
+        >>> {rule.value: len(i) for rule, i in sim.apply_release_rules().items()}
+        {'knife': 0, 'tearing': 0}
+    """
+
+    def __init__(self, scene: Scene, scenario: Scenario) -> None:
+        super().__init__(scene, scenario)
+        self.rng = np.random.default_rng(scenario.seed)
+        self._sensor = {name: self._sensor_slice(name) for name in (
+            "knife/force", "knife/torque", "gripper/force", "gripper/torque", "fixture_force")}
+        self._tare = {name: np.zeros(3) for name in self._sensor}
+        self._blade = self.model.geom(KNIFE_BLADE_GEOM).id
+        self._knife = self.model.geom_bodyid[self._blade]
+        self._gripper = self.model.body(GRIPPER_BODY).id
+        self._grasp_site = self.model.site(GRASP_SITE).id
+        self.grasped = np.zeros(0, dtype=int)
+        stable = self.tissue.stable_timestep_s()
+        if stable is not None and self.model.opt.timestep > stable:
+            raise ScenarioError(None, "simulation.timestep_s",
+                                f"{self.model.opt.timestep} s is above the stable step "
+                                f"{stable:.3g} s of this mass-spring material and mesh")
+        rules = scenario.aponeurosis.release_rules
+        self.force_curve = (ForceCurve.from_csv(scenario.aponeurosis.force_curve)
+                            if ReleaseRule.FORCE.value in rules else None)
+
+    def _sensor_slice(self, name: str) -> slice:
+        sensor = self.model.sensor(name)
+        start = int(sensor.adr[0])
+        return slice(start, start + int(sensor.dim[0]))
+
+    def _apply_forces(self) -> None:
+        data = self.data
         blade_pos = data.geom_xpos[self._blade]
-        apo.track_blade(blade_pos, data.geom_xmat[self._blade])
-        force, moment = apo.apply_forces(data)
+        self.scene.aponeurosis.track_blade(blade_pos, data.geom_xmat[self._blade])
+        force, moment = self.tissue.apply(data)
         if force.any() or data.xfrc_applied[self._knife].any():
             # xfrc_applied acts at the knife's centre of mass, the hooks' moment is about
             # the blade centre.
@@ -122,27 +187,6 @@ class Simulation:
                                 f"no mass-spring muscle named {muscle!r} (the continuum "
                                 "materials are isotropic)")
         self.springs[muscle].set_fibre_direction(direction)
-
-    def check_divergence(self, time_s: float | None = None) -> None:
-        """Raise :class:`DivergenceError` on NaN, a fatal MuJoCo warning or runaway tissue.
-
-        ``time_s`` is the time the step should have reached: after a fatal warning MuJoCo
-        resets the state, time included, so ``data.time`` no longer tells.
-        """
-        data = self.data
-        counts = np.array([data.warning[w].number for w in FATAL_WARNINGS])
-        fired = counts > self._warnings
-        if fired.any():
-            names = [w.name for w, f in zip(FATAL_WARNINGS, fired, strict=True) if f]
-            self._warnings = counts
-            when = self.time_s if time_s is None else time_s
-            raise DivergenceError(when, f"MuJoCo warning {', '.join(names)}")
-        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
-            raise DivergenceError(self.time_s, "non-finite position or velocity")
-        speed = np.abs(data.qvel[self._tissue_dofs]).max(initial=0.0)
-        limit = self.scenario.simulation.max_tissue_speed_m_s
-        if speed > limit:
-            raise DivergenceError(self.time_s, f"tissue speed {speed:.3g} m/s above {limit} m/s")
 
     def apply_release_rules(self, knife_time_s: float | None = None
                             ) -> dict[ReleaseRule, np.ndarray]:
@@ -189,11 +233,6 @@ class Simulation:
             data.eq_active[eq] = 1
         self.grasped = scene.grasp_equalities[inside]
         return int(inside.sum())
-
-    def ungrasp(self) -> None:
-        """Let go of everything the gripper holds."""
-        self.data.eq_active[self.grasped] = 0
-        self.grasped = np.zeros(0, dtype=int)
 
     def tare(self, *names: str) -> None:
         """Zero sensors (all by default) at the present load, such as a tool's own weight."""

@@ -2,7 +2,8 @@
 the mass-spring forces, the aponeurosis bindings and the measured cutting force.
 
 Owns: ``geometry``, ``tetmesh``, ``flexcomp``, ``material``, ``springlaw``, ``lattice``,
-``massspring``, ``aponeurosis``, ``forcecurve``.
+``massspring``, ``aponeurosis``, ``forces`` (the two together, as the simulation applies
+them), ``forcecurve``.
 May import: the base modules of :mod:`cell`. The modules that the rheology side uses
 (``material``, ``springlaw``, ``lattice``, ``tetmesh``) do not import MuJoCo.
 """

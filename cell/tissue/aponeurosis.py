@@ -59,8 +59,19 @@ class Aponeurosis:
         equality_ids: (P,) ids of the binding ``connect`` equalities (constraint law only).
 
     Example:
-        >>> apo = scene.aponeurosis
-        >>> apo.release_by_tearing(data, time_s=1.0, stretch_m=0.01)
+        >>> import mujoco
+        >>> from cell.sim.assembly import build_scene
+        >>> from cell.sim.scenario import Scenario
+        >>> from cell.tissue.geometry import MuscleShape
+        >>> scene = build_scene(Scenario(tissue=MuscleShape(cell_size_m=0.05)), robots=False)
+        >>> apo, data = scene.aponeurosis, mujoco.MjData(scene.model)
+        >>> mujoco.mj_forward(scene.model, data)
+        >>> apo.release_by_tearing(data, time_s=1.0, stretch_m=0.01).tolist()  # all at rest
+        []
+        >>> apo.release(data, [0, 1], 2.0, ReleaseRule.KNIFE).tolist()
+        [0, 1]
+        >>> apo.released_counts()
+        {'knife': 2, 'tearing': 0, 'force': 0}
     """
 
     def __init__(
@@ -108,11 +119,14 @@ class Aponeurosis:
         return len(self.pairs)
 
     def reset(self, data: mujoco.MjData) -> None:
-        """Bind every pair again (state and record)."""
+        """Bind every pair again (state and record), nothing hooked, the blade at its
+        initial guess."""
         data.eq_active[self.equality_ids] = 1
         self.hooked[:] = False
+        self.hook_local[:] = 0.0
         self.released_at_s[:] = np.nan
         self.released_by = [None] * len(self)
+        self.track_blade(np.zeros(3), np.eye(3))
 
     @property
     def bound(self) -> np.ndarray:

@@ -31,7 +31,11 @@ def flexcomp_xml(name: str, points_m: np.ndarray, tets: np.ndarray,
     ``<contact>`` element, and the vertices pinned to the parent body.
 
     Example:
-        >>> flexcomp_xml("cube", points, tets, default_meat(), 1e-3, radius_m=1e-4)
+        >>> from cell.tissue.material import default_meat
+        >>> points = 0.01 * np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+        >>> flexcomp_xml("tet", points, np.array([[0, 1, 2, 3]]), default_meat(), 1e-3,
+        ...              radius_m=1e-4)[:46]
+        '<flexcomp name="tet" type="direct" dim="3" poi'
     """
     point = " ".join(f"{v:.9g}" for v in np.asarray(points_m, float).ravel())
     element = " ".join(str(i) for i in np.asarray(tets).ravel())

@@ -6,6 +6,7 @@ start with ``#``; extra columns are ignored. Times must increase.
 Example:
     >>> curve = ForceCurve.from_csv("assets/cutting_force/boning_knife_synthetic.csv")
     >>> curve.at(1.5)
+    10.587
 """
 
 from __future__ import annotations

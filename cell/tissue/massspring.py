@@ -20,10 +20,17 @@ kernel is compiled with numba. Positions are the vertex bodies' rest positions p
 welded to it): the current state, with no kinematics pass and no lag.
 
 Example:
+    >>> import mujoco
+    >>> from cell.tissue.flexcomp import flexcomp_xml
+    >>> from cell.tissue.material import MassSpringMaterial
+    >>> from cell.tissue.tetmesh import structured_hex_tets
     >>> material = MassSpringMaterial()
-    >>> model = two_muscle_model(MuscleShape(cell_size_m=0.05), material)
+    >>> corners = 0.02 * np.stack(np.meshgrid(*[[0.0, 1.0]] * 3, indexing="ij"), -1)
+    >>> flex = flexcomp_xml("cube", corners.reshape(-1, 3), structured_hex_tets((1, 1, 1)),
+    ...                     material, 1e-2, radius_m=1e-4, pins=[0, 2, 4, 6])
+    >>> model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{flex}</worldbody></mujoco>")
     >>> data = mujoco.MjData(model)
-    >>> springs = MassSpringModel(model, ("round", "shank"), material)
+    >>> springs = MassSpringModel(model, ("cube",), material)
     >>> springs.apply(data)  # before every step
     >>> mujoco.mj_step(model, data)
 """
@@ -31,19 +38,14 @@ Example:
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
-from typing import Literal
+from dataclasses import replace
 
 import mujoco
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
-from numba import njit
 
-from cell.tissue.flexcomp import flexcomp_xml
-from cell.tissue.geometry import MuscleShape, build_two_muscles
 from cell.tissue.lattice import (
     AffineLattice,
     calibrated_law,
@@ -52,77 +54,12 @@ from cell.tissue.lattice import (
     tet_edges,
 )
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import spring_stress
-from cell.tissue.tetmesh import TetMesh
+from cell.tissue.springlaw import muscle_forces
 
 _INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
 }
-
-
-@njit(cache=True, fastmath=False)
-def _apply_springs(
-    qpos: np.ndarray,
-    qvel: np.ndarray,
-    qfrc: np.ndarray,
-    qposadr: np.ndarray,
-    dofadr: np.ndarray,
-    rest_position: np.ndarray,
-    edges: np.ndarray,
-    rest_length: np.ndarray,
-    gain: np.ndarray,
-    cos_sq: np.ndarray,
-    curves: np.ndarray,
-    params: np.ndarray,
-    history: np.ndarray,
-    timestep_s: float,
-    damping_s: float,
-    position: np.ndarray,
-    velocity: np.ndarray,
-) -> None:
-    """Clear the vertex dofs of ``qfrc``, add every spring-damper's force to them and advance
-    the springs' history by ``timestep_s``."""
-    for i in range(position.shape[0]):
-        a = qposadr[i]
-        v = dofadr[i]
-        for k in range(3):
-            if a < 0:
-                position[i, k] = rest_position[i, k]
-                velocity[i, k] = 0.0
-            else:
-                position[i, k] = rest_position[i, k] + qpos[a + k]
-                velocity[i, k] = qvel[v + k]
-                qfrc[v + k] = 0.0
-    for e in range(edges.shape[0]):
-        i = edges[e, 0]
-        j = edges[e, 1]
-        dx = position[j, 0] - position[i, 0]
-        dy = position[j, 1] - position[i, 1]
-        dz = position[j, 2] - position[i, 2]
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if length == 0.0:  # a collapsed edge has no direction to push along
-            continue
-        stress, modulus = spring_stress(length / rest_length[e] - 1.0, cos_sq[e], curves,
-                                        params, history, e, timestep_s, True)
-        ux = dx / length
-        uy = dy / length
-        uz = dz / length
-        rate = (
-            (velocity[j, 0] - velocity[i, 0]) * ux
-            + (velocity[j, 1] - velocity[i, 1]) * uy
-            + (velocity[j, 2] - velocity[i, 2]) * uz
-        )
-        # Positive when stretched or stretching: pulls i towards j and j towards i.
-        tension = gain[e] * (rest_length[e] * stress + modulus * damping_s * rate)
-        if dofadr[i] >= 0:
-            qfrc[dofadr[i]] += tension * ux
-            qfrc[dofadr[i] + 1] += tension * uy
-            qfrc[dofadr[i] + 2] += tension * uz
-        if dofadr[j] >= 0:
-            qfrc[dofadr[j]] -= tension * ux
-            qfrc[dofadr[j] + 1] -= tension * uy
-            qfrc[dofadr[j] + 2] -= tension * uz
 
 
 class MassSpringModel:
@@ -151,9 +88,16 @@ class MassSpringModel:
         vertex_mass_kg: (N,) mass of each vertex body, kg (0 for pinned vertices).
 
     Example:
+        >>> import mujoco
+        >>> from cell.tissue.flexcomp import flexcomp_xml
+        >>> from cell.tissue.tetmesh import structured_hex_tets
         >>> material = MassSpringMaterial.transversely_isotropic(0.25e6, 0.6e6)
-        >>> model = two_muscle_model(MuscleShape(cell_size_m=0.05), material)
-        >>> springs = MassSpringModel(model, ("round", "shank"), material)
+        >>> grid = 0.01 * np.stack(np.meshgrid(*[[0.0, 1.0, 2.0]] * 3, indexing="ij"), -1)
+        >>> flex = flexcomp_xml("block", grid.reshape(-1, 3), structured_hex_tets((2, 2, 2)),
+        ...                     material, 1e-2, radius_m=1e-4)
+        >>> model = mujoco.MjModel.from_xml_string(
+        ...     f"<mujoco><worldbody>{flex}</worldbody></mujoco>")
+        >>> springs = MassSpringModel(model, ("block",), material)
         >>> model.opt.timestep = springs.stable_timestep_s()
         >>> springs.set_fibre_direction((0.0, 1.0, 0.0))  # the vision module's update
     """
@@ -241,7 +185,7 @@ class MassSpringModel:
 
     def apply(self, data: mujoco.MjData) -> None:
         """Write the springs' forces for the state in ``data`` into ``data.qfrc_applied``."""
-        _apply_springs(
+        muscle_forces(
             data.qpos,
             data.qvel,
             data.qfrc_applied,
@@ -340,120 +284,3 @@ def _flex_vertices(
     rest[free] -= model.qpos0[qposadr[free][:, None] + np.arange(3)]
     mass = np.where(free, model.body_mass[bodies], 0.0)
     return qposadr, dofadr, rest, mass
-
-
-@dataclass(frozen=True)
-class CouplingTiming:
-    """Wall time of the two muscles on a table, per node and step, in microseconds.
-
-    Attributes:
-        nodes: tissue vertices, pinned ones included.
-        edges: springs.
-        integrator: MuJoCo integrator.
-        timestep_s: MuJoCo time step, s.
-        mujoco_us: ``mj_step`` alone, the spring forces frozen in ``qfrc_applied``.
-        coupled_us: :meth:`MassSpringModel.apply` then ``mj_step``.
-        kernel_us: :meth:`MassSpringModel.apply` alone.
-    """
-
-    nodes: int
-    edges: int
-    integrator: str
-    timestep_s: float
-    mujoco_us: float
-    coupled_us: float
-    kernel_us: float
-
-
-def two_muscle_model(
-    shape: MuscleShape,
-    material: MassSpringMaterial,
-    integrator: Literal["implicitfast", "euler"] = "implicitfast",
-    timestep_s: float = 0.002,
-) -> mujoco.MjModel:
-    """The two muscles of ``shape`` as elasticity-free flexcomps for :class:`MassSpringModel`.
-
-    As in the cell: on a plane at z = 0, the round's bottom vertices (but those of the
-    interface) pinned to a static ``fixture`` body, one ``connect`` per facing pair, CG with
-    elliptic cones. Vertex masses are the density times the volume, shared evenly.
-
-    Example:
-        >>> model = two_muscle_model(MuscleShape(cell_size_m=0.05), MassSpringMaterial())
-        >>> model.nflex, model.neq
-        (2, 30)
-    """
-    mesh = build_two_muscles(shape)
-    low = mesh.round.points[:, 2] <= 1e-9
-    pins = np.setdiff1d(np.flatnonzero(low), mesh.pairs[:, 0])
-    connects = "".join(
-        f'<connect body1="round_{r}" body2="shank_{s}" anchor="0 0 0" solref="0.01 1"/>'
-        for r, s in mesh.pairs
-    )
-    model = mujoco.MjModel.from_xml_string(
-        f"""<mujoco><option timestep="{timestep_s}" solver="CG" cone="elliptic"/>
-        <worldbody><geom name="floor" type="plane" size="1 1 0.1"/>
-        <body name="fixture">{_muscle("round", mesh.round, material, pins)}</body>
-        {_muscle("shank", mesh.shank, material, ())}
-        </worldbody><equality>{connects}</equality></mujoco>"""
-    )
-    model.opt.integrator = _INTEGRATORS[integrator]
-    return model
-
-
-def _muscle(name: str, mesh: TetMesh, material: MassSpringMaterial, pins: Sequence[int]) -> str:
-    return flexcomp_xml(name, mesh.points, mesh.tets, material,
-                        material.density_kg_m3 * mesh.volume_m3, radius_m=0.0005,
-                        contact='selfcollide="none" condim="3" solref="0.005 1"', pins=pins)
-
-
-def bench_coupling(
-    cell_size_m: float = 0.025,
-    integrator: Literal["implicitfast", "euler"] = "implicitfast",
-    timestep_s: float = 0.002,
-    steps: int = 500,
-    burst: int = 25,
-    material: MassSpringMaterial | None = None,
-) -> CouplingTiming:
-    """Time MuJoCo with and without the spring kernel on :func:`two_muscle_model`.
-
-    The muscles first settle for ``steps`` steps so that contacts and bindings are loaded;
-    each timing then runs ``steps`` steps in bursts of ``burst`` from that state (frozen spring
-    forces would let the muscles drift away from it) and keeps the median burst.
-
-    Example:
-        >>> timing = bench_coupling(0.025, "implicitfast")  # doctest: +SKIP
-        >>> round(timing.coupled_us / timing.mujoco_us, 1)  # doctest: +SKIP
-        1.1
-    """
-    material = MassSpringMaterial() if material is None else material
-    model = two_muscle_model(MuscleShape(cell_size_m=cell_size_m), material, integrator, timestep_s)
-    settled = mujoco.MjData(model)
-    springs = MassSpringModel(model, ("round", "shank"), material)
-    for _ in range(steps):
-        springs.apply(settled)
-        mujoco.mj_step(model, settled)
-    data = mujoco.MjData(model)
-
-    def run(apply: bool, step: bool) -> float:
-        bursts = []
-        for _ in range(max(1, steps // burst)):
-            mujoco.mj_copyData(data, model, settled)
-            start = time.perf_counter()
-            for _ in range(burst):
-                if apply:
-                    springs.apply(data)
-                if step:
-                    mujoco.mj_step(model, data)
-            bursts.append(time.perf_counter() - start)
-        # The median burst drops the ones another process on the machine slowed down.
-        return float(np.median(bursts)) / burst / springs.vertex_count * 1e6
-
-    return CouplingTiming(
-        nodes=springs.vertex_count,
-        edges=len(springs.edges),
-        integrator=integrator,
-        timestep_s=timestep_s,
-        mujoco_us=run(apply=False, step=True),
-        coupled_us=run(apply=True, step=True),
-        kernel_us=run(apply=True, step=False),
-    )

@@ -21,6 +21,13 @@ modulus): ``tension = K0 * l0 * s``.
 The history of E springs is an (E, 2 + K) array, one row per spring: plastic strain, last
 elastic stress, then the K relaxation states. Everything starts at rest (zeros).
 
+Every compiled kernel that calls :func:`spring_stress` lives in this module: the muscles'
+(:func:`muscle_forces`) and the specimen's (:func:`uniaxial_stress`). numba's on-disk cache
+(``cache=True``) checks only the source file of the kernel it loads, not those of the functions
+it calls, so a kernel in another module would keep running the law it was compiled with after
+the law changed; here one file's stamp covers the law and all its callers
+(``tests/test_kernel_cache.py``).
+
 Example:
     >>> from cell.tissue.material import MassSpringMaterial
     >>> law = SpringLaw.of(MassSpringMaterial.isotropic(3e4, relaxation_weights=(0.5,),
@@ -53,6 +60,10 @@ _YIELD, _BACK, _GEOMETRY, _OBLIQUE, _G_INF, _TERMS = range(6)
 # Layout of a history row.
 _PLASTIC, _LAST = 0, 1
 _STATES = 2
+# The specimen's Newton solve: iterations, relative tolerance, finite-difference probe.
+_NEWTON_ITERATIONS = 30
+_NEWTON_TOLERANCE = 1e-8
+_PROBE = 1e-7
 
 
 def pack_curve(curve: ModulusCurve, scale: float) -> np.ndarray:
@@ -182,11 +193,197 @@ class SpringLaw:
         ])
         return cls(curves, params)
 
-    @property
-    def has_history(self) -> bool:
-        """Whether a spring's stress depends on more than its current strain."""
-        return bool(self.params[_YIELD] > 0.0 or self.params[_TERMS] > 0)
-
     def history(self, springs: int) -> np.ndarray:
         """A history at rest for ``springs`` springs."""
         return np.zeros((springs, _STATES + int(self.params[_TERMS])))
+
+
+@njit(cache=True, fastmath=False)
+def muscle_forces(
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    qfrc: np.ndarray,
+    qposadr: np.ndarray,
+    dofadr: np.ndarray,
+    rest_position: np.ndarray,
+    edges: np.ndarray,
+    rest_length: np.ndarray,
+    gain: np.ndarray,
+    cos_sq: np.ndarray,
+    curves: np.ndarray,
+    params: np.ndarray,
+    history: np.ndarray,
+    timestep_s: float,
+    damping_s: float,
+    position: np.ndarray,
+    velocity: np.ndarray,
+) -> None:
+    """The muscles' kernel (:class:`~cell.tissue.massspring.MassSpringModel`): clear the
+    vertex dofs of ``qfrc``, add every spring-damper's force to them and advance the springs'
+    history by ``timestep_s``."""
+    for i in range(position.shape[0]):
+        a = qposadr[i]
+        v = dofadr[i]
+        for k in range(3):
+            if a < 0:
+                position[i, k] = rest_position[i, k]
+                velocity[i, k] = 0.0
+            else:
+                position[i, k] = rest_position[i, k] + qpos[a + k]
+                velocity[i, k] = qvel[v + k]
+                qfrc[v + k] = 0.0
+    for e in range(edges.shape[0]):
+        i = edges[e, 0]
+        j = edges[e, 1]
+        dx = position[j, 0] - position[i, 0]
+        dy = position[j, 1] - position[i, 1]
+        dz = position[j, 2] - position[i, 2]
+        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if length == 0.0:  # a collapsed edge has no direction to push along
+            continue
+        stress, modulus = spring_stress(length / rest_length[e] - 1.0, cos_sq[e], curves,
+                                        params, history, e, timestep_s, True)
+        ux = dx / length
+        uy = dy / length
+        uz = dz / length
+        rate = (
+            (velocity[j, 0] - velocity[i, 0]) * ux
+            + (velocity[j, 1] - velocity[i, 1]) * uy
+            + (velocity[j, 2] - velocity[i, 2]) * uz
+        )
+        # Positive when stretched or stretching: pulls i towards j and j towards i.
+        tension = gain[e] * (rest_length[e] * stress + modulus * damping_s * rate)
+        if dofadr[i] >= 0:
+            qfrc[dofadr[i]] += tension * ux
+            qfrc[dofadr[i] + 1] += tension * uy
+            qfrc[dofadr[i] + 2] += tension * uz
+        if dofadr[j] >= 0:
+            qfrc[dofadr[j]] -= tension * ux
+            qfrc[dofadr[j] + 1] -= tension * uy
+            qfrc[dofadr[j] + 2] -= tension * uz
+
+
+@njit(cache=True, fastmath=False)
+def _kirchhoff(state: np.ndarray, stretch: float, directions: np.ndarray, weights: np.ndarray,
+               cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray, history: np.ndarray,
+               timestep_s: float, commit: bool, out: np.ndarray) -> bool:
+    """Kirchhoff stress (xx, yy, xz, zz; Pa) of F(a, b, c; stretch); False once a spring has
+    collapsed."""
+    a, b, c = state[0], state[1], state[2]
+    out[:] = 0.0
+    for j in range(directions.shape[0]):
+        dx, dy, dz = directions[j, 0], directions[j, 1], directions[j, 2]
+        vx = a * dx + c * dz
+        vy = b * dy
+        vz = stretch * dz
+        length = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if not length > 0.0:
+            return False
+        stress, _ = spring_stress(length - 1.0, cos_sq[j], curves, params, history, j,
+                                  timestep_s, commit)
+        scale = weights[j] * stress / length
+        out[0] += scale * vx * vx
+        out[1] += scale * vy * vy
+        out[2] += scale * vx * vz
+        out[3] += scale * vz * vz
+    return True
+
+
+@njit(cache=True, fastmath=False)
+def _jacobian(state: np.ndarray, tau: np.ndarray, stretch: float, directions: np.ndarray,
+              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
+              history: np.ndarray, timestep_s: float, jacobian: np.ndarray) -> bool:
+    """Forward differences of the lateral stresses in (a, b, c) into ``jacobian``."""
+    trial = np.empty(3)
+    probe = np.empty(4)
+    for i in range(3):
+        trial[:] = state
+        trial[i] += _PROBE
+        if not _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params, history,
+                          timestep_s, False, probe):
+            return False
+        for r in range(3):
+            jacobian[r, i] = (probe[r] - tau[r]) / _PROBE
+    return True
+
+
+@njit(cache=True, fastmath=False)
+def uniaxial_stress(time_s: np.ndarray, strain: np.ndarray, directions: np.ndarray,
+              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
+              history: np.ndarray, stress_out: np.ndarray, lateral_out: np.ndarray) -> int:
+    """The specimen's kernel (:mod:`cell.rheology.specimen`): nominal axial stress (Pa) of the
+    homogeneous lattice at every sample into ``stress_out``; returns the index of the first
+    sample without an equilibrium, or -1.
+
+    Newton's method with a Jacobian kept from sample to sample and refreshed when it stops
+    converging fast, and a backtracking line search (the plastic law has kinks).
+    """
+    state = np.array([1.0, 1.0, 0.0])
+    previous = state.copy()
+    trial = np.empty(3)
+    tau = np.empty(4)
+    probe = np.empty(4)
+    jacobian = np.zeros((3, 3))
+    fresh = False
+    # Stresses below this are round-off: the small-strain modulus times a micro-strain.
+    floor = 1e-6 * max(abs(curves[0, 0]), abs(curves[1, 0]))
+    for k in range(time_s.shape[0]):
+        timestep = time_s[k] - time_s[k - 1] if k > 0 else 0.0
+        stretch = 1.0 + strain[k]
+        # Predict the lateral state by extrapolating along the strain from the last two.
+        if k > 1 and strain[k - 1] != strain[k - 2]:
+            slope = (strain[k] - strain[k - 1]) / (strain[k - 1] - strain[k - 2])
+            if abs(slope) <= 4.0:
+                step_back = state - previous
+                previous[:] = state
+                state += slope * step_back
+            else:
+                previous[:] = state
+        else:
+            previous[:] = state
+        if not _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
+                          timestep, False, tau):
+            return k
+        norm = abs(tau[0]) + abs(tau[1]) + abs(tau[2])
+        converged = False
+        for _ in range(_NEWTON_ITERATIONS):
+            if norm <= _NEWTON_TOLERANCE * max(abs(tau[3]) + norm, floor):
+                converged = True
+                break
+            if (k == 0 and not fresh) or (not fresh and jacobian[0, 0] == 0.0):
+                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
+                                  params, history, timestep, jacobian)
+                if not fresh:
+                    return k
+            step = np.linalg.solve(jacobian, tau[:3])
+            length = 1.0
+            improved = False
+            for _ in range(8):
+                trial[:] = state - length * step
+                if _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params,
+                              history, timestep, False, probe):
+                    trial_norm = abs(probe[0]) + abs(probe[1]) + abs(probe[2])
+                    if trial_norm < norm:
+                        improved = True
+                        break
+                length *= 0.5
+            if (improved and trial_norm < 0.25 * norm) or (improved and fresh):
+                state[:] = trial
+                tau[:] = probe
+                norm = trial_norm
+                fresh = False
+            elif fresh:
+                return k
+            else:
+                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
+                                  params, history, timestep, jacobian)
+                if not fresh:
+                    return k
+        if not converged:
+            return k
+        _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
+                   timestep, True, tau)
+        stress_out[k] = tau[3] / stretch
+        lateral_out[k, 0] = state[0]
+        lateral_out[k, 1] = state[1]
+    return -1
