@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from cell.cli import main
+from cell.errors import DiagnosisError
 from cell.rheology.causes import CAUSES, UNEXPLAINED
 from cell.rheology.diagnosis import DiagnosisParams
 from cell.rheology.synthetic import write_hidden_effect_set
@@ -89,7 +90,7 @@ def test_a_bad_set_writes_nothing(tmp_path: Path) -> None:
 
 
 def test_params_are_checked() -> None:
-    with pytest.raises(ValueError, match="fit_samples"):
+    with pytest.raises(DiagnosisError, match="fit_samples"):
         DiagnosisParams(fit_samples=2)
-    with pytest.raises(ValueError, match="workers"):
+    with pytest.raises(DiagnosisError, match="workers"):
         DiagnosisParams(workers=0)

@@ -41,6 +41,7 @@ from typing import Literal
 
 import numpy as np
 
+from cell.errors import DiagnosisError
 from cell.tissue.material import MassSpringMaterial, ModulusCurve
 from cell.tissue.springlaw import LATTICE_STIFFENING
 
@@ -71,7 +72,7 @@ class MaterialModel:
             of compressed springs apart (else by one factor).
 
     Raises:
-        ValueError: an unknown cause.
+        DiagnosisError: an unknown cause.
 
     Example:
         >>> MaterialModel(("plasticity",), relaxation_times_s=(1.0,)).parameter_names
@@ -88,7 +89,8 @@ class MaterialModel:
     def __post_init__(self) -> None:
         unknown = set(self.causes) - set(CAUSES)
         if unknown:
-            raise ValueError(f"unknown causes {sorted(unknown)}; the catalogue is {CAUSES}")
+            raise DiagnosisError(None, "causes",
+                                 f"unknown causes {sorted(unknown)}; the catalogue is {CAUSES}")
         object.__setattr__(self, "causes", tuple(c for c in CAUSES if c in self.causes))
 
     @property

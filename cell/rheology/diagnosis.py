@@ -40,7 +40,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import find_peaks
 
-from cell.errors import DivergenceError, MaterialError
+from cell.errors import DiagnosisError, DivergenceError, MaterialError
 from cell.rheology.causes import CAUSES, UNEXPLAINED, MaterialModel
 from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
 from cell.rheology.specimen import SpecimenLattice, simulate_test
@@ -78,6 +78,9 @@ class DiagnosisParams:
         max_evaluations: cap on a fit's simulations of the set.
         fold_evaluations: cap on a held-out refit's, which starts from the full fit.
 
+    Raises:
+        DiagnosisError: ``fit_samples`` < 8 or ``workers`` < 1.
+
     Example:
         >>> DiagnosisParams(workers=2).fit_samples
         32
@@ -96,9 +99,9 @@ class DiagnosisParams:
 
     def __post_init__(self) -> None:
         if self.fit_samples < 8:
-            raise ValueError(f"fit_samples must be >= 8, got {self.fit_samples}")
+            raise DiagnosisError(None, "fit_samples", f"must be >= 8, got {self.fit_samples}")
         if self.workers < 1:
-            raise ValueError(f"workers must be >= 1, got {self.workers}")
+            raise DiagnosisError(None, "workers", f"must be >= 1, got {self.workers}")
 
 
 @dataclass(frozen=True, eq=False)
