@@ -23,7 +23,8 @@ from typing import Any
 from cell.errors import InputError, MaterialError
 from cell.sim.scenario import Scenario
 from cell.tissue.geometry import MuscleShape
-from cell.tissue.material import ContinuumMaterial, MassSpringMaterial, load_material
+from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
+from cell.tissue.materialfile import load_material
 
 
 def _shape(scenario: Scenario, value: Any) -> Scenario:

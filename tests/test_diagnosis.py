@@ -17,7 +17,8 @@ from cell.rheology.diagnosis import DiagnosisParams
 from cell.rheology.synthetic import write_hidden_effect_set
 from cell.sim.episode import Episode
 from cell.sim.scenario import load_scenario
-from cell.tissue.material import MassSpringMaterial, load_material
+from cell.tissue.material import MassSpringMaterial
+from cell.tissue.materialfile import load_material
 from tests.paths import DEFAULT_SCENARIO
 from tests.test_episode import coarse
 

@@ -1,7 +1,7 @@
 """Diagnosis of a measurement set: where the simulation is wrong, the cause, the extended
 material, the gain on held-out tests.
 
-1. The baseline (:class:`~cell.rheology.causes.MaterialModel` with no cause: linear, isotropic,
+1. The baseline (:class:`~cell.rheology.causes.CandidateMaterial` with no cause: linear, isotropic,
    rate-independent springs) is fitted to every test, each simulated by
    :func:`~cell.rheology.specimen.simulate_test` with the muscles' own spring law.
 2. Each cause of the catalogue is added to the current model and fitted; its error is measured
@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from scipy.signal import find_peaks
 
 from cell.errors import DiagnosisError, DivergenceError, MaterialError
-from cell.rheology.causes import CAUSES, UNEXPLAINED, MaterialModel
+from cell.rheology.causes import CAUSES, UNEXPLAINED, CandidateMaterial
 from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
 from cell.rheology.specimen import SpecimenLattice, simulate_test
 from cell.tissue.material import MassSpringMaterial
@@ -121,7 +121,7 @@ class ModelFit:
         heldout_force_n: per test, the force predicted by the fit without that test, N.
     """
 
-    model: MaterialModel
+    model: CandidateMaterial
     shape: np.ndarray
     modulus_pa: float
     offset_n: float
@@ -239,7 +239,7 @@ class _Problem:
     thinned: tuple[MechanicalTest, ...]
     lattice: SpecimenLattice
 
-    def unit_forces(self, model: MaterialModel, shape: np.ndarray,
+    def unit_forces(self, model: CandidateMaterial, shape: np.ndarray,
                     tests: tuple[MechanicalTest, ...]) -> list[np.ndarray] | None:
         """Each test's force at modulus ``_REFERENCE_PA``, N; None when the lattice cannot give
         the material or a run has no equilibrium."""
@@ -260,7 +260,7 @@ def _scale_and_offset(unit: np.ndarray, measured: np.ndarray,
     return scale, float(solution[1]) if with_offset else 0.0
 
 
-def _fit(problem: _Problem, model: MaterialModel, tests: list[int], start: np.ndarray,
+def _fit(problem: _Problem, model: CandidateMaterial, tests: list[int], start: np.ndarray,
          max_evaluations: int) -> tuple[np.ndarray, float, float, float, int]:
     """Fit ``model`` to ``tests`` (indices, thinned samples): shape, E (Pa), offset (N),
     residual sum of squares and sample count."""
@@ -287,7 +287,7 @@ def _fit(problem: _Problem, model: MaterialModel, tests: list[int], start: np.nd
     return shape, scale * _REFERENCE_PA, offset, float(residual @ residual), len(measured)
 
 
-def _predict(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus_pa: float,
+def _predict(problem: _Problem, model: CandidateMaterial, shape: np.ndarray, modulus_pa: float,
              offset_n: float, test: MechanicalTest) -> np.ndarray:
     """Force of ``test`` at every sample, N (a failed run predicts zero force)."""
     units = problem.unit_forces(model, shape, (test,))
@@ -295,7 +295,7 @@ def _predict(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus
     return unit * modulus_pa / _REFERENCE_PA + offset_n
 
 
-def fit_model(problem: _Problem, models: list[MaterialModel], params: DiagnosisParams,
+def fit_model(problem: _Problem, models: list[CandidateMaterial], params: DiagnosisParams,
               start: Start = None) -> ModelFit:
     """Fit each of ``models`` (variants of one candidate) to every test and keep the best:
     between stiffening laws, the lowest residual; between variants with other parameters, the
@@ -312,7 +312,7 @@ def fit_model(problem: _Problem, models: list[MaterialModel], params: DiagnosisP
                key=lambda fit: fit.heldout_rmse_n)
 
 
-def _hold_out(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus: float,
+def _hold_out(problem: _Problem, model: CandidateMaterial, shape: np.ndarray, modulus: float,
               offset: float, rss: float, count: int, params: DiagnosisParams) -> ModelFit:
     """The fit of ``model`` on every test, and each test predicted by a refit without it."""
     everything = list(range(len(problem.tests)))
@@ -339,7 +339,7 @@ def _hold_out(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulu
     )
 
 
-def _start(previous: Start, model: MaterialModel) -> np.ndarray:
+def _start(previous: Start, model: CandidateMaterial) -> np.ndarray:
     """A start for ``model`` from the (names, values) of a fit with one cause fewer: its values
     where the names match, ``model.initial`` elsewhere (everywhere when None)."""
     if previous is None:
@@ -353,14 +353,14 @@ def _start(previous: Start, model: MaterialModel) -> np.ndarray:
 
 
 def _variants(causes: tuple[str, ...], times: tuple[float, ...],
-              stretch_range: tuple[float, float]) -> list[MaterialModel]:
+              stretch_range: tuple[float, float]) -> list[CandidateMaterial]:
     """The models for ``causes``: both stiffening laws when stiffening is among them, Eq. 10
     with and without its oblique factor when anisotropy is, one compression factor or two when
     the asymmetry is."""
     laws = ("exponential", "polynomial") if "strain_stiffening" in causes else ("exponential",)
     obliques = (False, True) if "anisotropy" in causes else (False,)
     apart = (False, True) if "tension_compression_asymmetry" in causes else (False,)
-    return [MaterialModel(causes, law, times, stretch_range, oblique, split)
+    return [CandidateMaterial(causes, law, times, stretch_range, oblique, split)
             for law in laws for oblique in obliques for split in apart]
 
 
