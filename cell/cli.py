@@ -93,7 +93,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     from cell.io import write_atomic, write_json
     from cell.rheology.diagnosis import DiagnosisParams, diagnose
     from cell.rheology.measured import load_measurement_set
-    from cell.tissue.material import material_to_toml
+    from cell.tissue.materialfile import material_to_toml
 
     if args.workers < 1:
         raise InputError(None, "--workers", f"must be >= 1, got {args.workers}")

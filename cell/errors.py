@@ -41,6 +41,18 @@ class MaterialError(InputError):
     """A material definition with a missing, negative or inconsistent parameter."""
 
 
+class CsvError(InputError):
+    """A CSV table that cannot be read: missing column, a cell that is not a finite number."""
+
+
+class MeasurementError(InputError):
+    """A measurement set, or a request for one, with a wrong value (an unknown effect, no seed)."""
+
+
+class DiagnosisError(InputError):
+    """Diagnosis settings out of range, or a cause the catalogue does not have."""
+
+
 class MeshError(InputError):
     """A mesh that cannot be simulated: not a volume, inverted or degenerate elements."""
 

@@ -35,7 +35,8 @@ import numpy as np
 from cell.config import updated
 from cell.errors import InputError, MaterialError
 from cell.sim.scenario import Scenario
-from cell.tissue.material import ContinuumMaterial, MassSpringMaterial, load_material
+from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
+from cell.tissue.materialfile import load_material
 
 
 def _shape(scenario: Scenario, value: Any) -> Scenario:

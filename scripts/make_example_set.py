@@ -17,7 +17,9 @@ Every test is a displacement path (the machine's input), linear between its samp
 The force is the truth along that path plus N(0, 1 mN); the written displacement is the
 path plus N(0, 0.3 um), except the first sample of each test, which is exactly 0. One
 generator, seeded once, draws the noise test by test in the order of ``TESTS``: force
-noise, then displacement noise.
+noise, then displacement noise. The generator itself (test plans, QLV integral, noise,
+writers) is the library's, :mod:`cell.rheology.synthetic`; this script holds the example's
+truth, tests and header.
 
 Usage::
 
@@ -27,17 +29,28 @@ Usage::
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from cell.io import write_atomic
+from cell.rheology.synthetic import (
+    Digits,
+    Noise,
+    TestPlan,
+    csv_text,
+    cyclic,
+    measure,
+    qlv_stress_pa,
+    ramp,
+    relaxation,
+    specimen_toml,
+    true_force_n,
+    write_set,
+)
 
 SEED = 20240607
 SIZE_M = 0.010  # cube edge; the load axis is z
 AREA_M2 = SIZE_M * SIZE_M
-DENSITY_KG_M3 = 1060.0
 FORCE_NOISE_N = 1.0e-3
 DISPLACEMENT_NOISE_M = 0.3e-6
 
@@ -55,52 +68,7 @@ MODULI_COMPRESSION_PA = (4.85e3, 3.75e3, 2.11e3)
 
 # Substeps of the fine grid per sample interval, for the QLV integral.
 SUBSTEPS = 50
-
-
-@dataclass(frozen=True)
-class TestPlan:
-    """One test: its id, mode, fibre angle, displacement path (knots), sample times and a
-    line saying what it is."""
-
-    test_id: str
-    mode: str
-    angle_deg: int
-    knots_s: tuple[float, ...]
-    knots_strain: tuple[float, ...]
-    time_s: np.ndarray
-    description: str
-
-
-def ramp(test_id: str, mode: str, angle_deg: int, strain: float, rate_per_s: float,
-         samples: int) -> TestPlan:
-    """A ramp from 0 to ``strain`` at constant ``rate_per_s``, evenly sampled."""
-    end = abs(strain) / rate_per_s
-    return TestPlan(test_id, mode, angle_deg, (0.0, end), (0.0, strain),
-                    np.linspace(0.0, end, samples),
-                    f"{mode} to {strain:+.2f} at {rate_per_s * 100:g} %/s")
-
-
-def relaxation(test_id: str, angle_deg: int, strain: float, rate_per_s: float, hold_s: float,
-               ramp_samples: int, hold_samples: int) -> TestPlan:
-    """A ramp to ``strain``, then a hold sampled on a logarithmic clock (0.2 s to ``hold_s``)."""
-    end = abs(strain) / rate_per_s
-    time = np.concatenate([np.linspace(0.0, end, ramp_samples),
-                           end + np.geomspace(0.2, hold_s, hold_samples)])
-    return TestPlan(test_id, "relaxation", angle_deg, (0.0, end, end + hold_s),
-                    (0.0, strain, strain), time,
-                    f"ramp to {strain:+.2f} at {rate_per_s * 100:g} %/s, "
-                    f"then a {hold_s:.0f} s hold")
-
-
-def cyclic(test_id: str, angle_deg: int, amplitude: float, rate_per_s: float, cycles: int,
-           samples: int) -> TestPlan:
-    """Triangle cycles 0 -> ``amplitude`` -> 0 at constant ``rate_per_s``, evenly sampled."""
-    half = abs(amplitude) / rate_per_s
-    knots = tuple(half * k for k in range(2 * cycles + 1))
-    strains = tuple(amplitude * (k % 2) for k in range(2 * cycles + 1))
-    return TestPlan(test_id, "cyclic", angle_deg, knots, strains,
-                    np.linspace(0.0, knots[-1], samples),
-                    f"{cycles} cycles 0 to {amplitude:+.2f} and back at {rate_per_s * 100:g} %/s")
+DIGITS = Digits(time_s=3, displacement_m=7, force_n=5, size_m=3)
 
 
 # Published magnitudes (1 %/s unless said): compression to -0.3 peaks at 1.84 kPa (c00) and
@@ -132,11 +100,6 @@ TESTS: tuple[TestPlan, ...] = (
 )
 
 
-def commanded_strain(plan: TestPlan) -> np.ndarray:
-    """The noise-free nominal strain at the plan's sample times."""
-    return np.interp(plan.time_s, plan.knots_s, plan.knots_strain)
-
-
 def modulus_pa(moduli: tuple[float, float, float], angle_deg: float) -> float:
     """Transversely isotropic modulus at ``angle_deg`` to the fibres."""
     along, across, shear = moduli
@@ -155,48 +118,19 @@ def elastic_stress_pa(strain: np.ndarray, angle_deg: float) -> np.ndarray:
     return tension + compression
 
 
-def qlv_stress_pa(time_s: np.ndarray, strain: np.ndarray, angle_deg: float) -> np.ndarray:
-    """QLV stress along a strain history that starts at rest (exact for Pe linear in time
-    between points)."""
-    elastic = elastic_stress_pa(strain, angle_deg)
-    stress = G_INF * elastic
-    d_elastic = np.diff(elastic)
-    dt = np.diff(time_s)
-    for tau, g in zip(TAU_S, G_K, strict=True):
-        decay = np.exp(-dt / tau)
-        # Share of a linear increment that survives the interval it happens in.
-        kept = np.where(dt > 0, tau / np.where(dt > 0, dt, 1.0) * -np.expm1(-dt / tau), 1.0)
-        state = np.zeros_like(elastic)
-        for i in range(len(dt)):
-            state[i + 1] = decay[i] * state[i] + kept[i] * d_elastic[i]
-        stress = stress + g * state
-    return stress
+def stress_pa(time_s: np.ndarray, strain: np.ndarray, angle_deg: float) -> np.ndarray:
+    """The truth: QLV over the exponential, anisotropic elastic law, Pa."""
+    return qlv_stress_pa(time_s, elastic_stress_pa(strain, angle_deg), G_INF,
+                         tuple(zip(G_K, TAU_S, strict=True)))
 
 
-def true_force_n(plan: TestPlan) -> np.ndarray:
-    """The truth model's force at the plan's sample times, N.
-
-    The machine drives the displacement linearly between the sample times (the history a
-    reader of ``tests.csv`` reconstructs); the QLV integral runs on a grid ``SUBSTEPS`` times
-    finer.
-    """
-    fine = np.unique(np.linspace(plan.time_s[:-1], plan.time_s[1:], SUBSTEPS + 1))
-    strain = np.interp(fine, plan.time_s, commanded_strain(plan))
-    return np.interp(plan.time_s, fine, qlv_stress_pa(fine, strain, plan.angle_deg)) * AREA_M2
-
-
-def tests_csv(tests: tuple[TestPlan, ...], seed: int = SEED) -> str:
-    """The tests.csv text: truth plus seeded noise, compact fixed-point numbers."""
-    rng = np.random.default_rng(seed)
-    lines = ["test_id,mode,angle_deg,time_s,displacement_m,force_N"]
-    for plan in tests:
-        force = true_force_n(plan) + rng.normal(0.0, FORCE_NOISE_N, len(plan.time_s))
-        noise = rng.normal(0.0, DISPLACEMENT_NOISE_M, len(plan.time_s))
-        displacement = commanded_strain(plan) * SIZE_M + noise
-        displacement[0] = 0.0
-        lines += [f"{plan.test_id},{plan.mode},{plan.angle_deg},{t:.3f},{u:.7f},{f:.5f}"
-                  for t, u, f in zip(plan.time_s, displacement, force, strict=True)]
-    return "\n".join(lines) + "\n"
+def example_csv(tests: tuple[TestPlan, ...], seed: int = SEED) -> str:
+    """The tests.csv text: the truth on a grid ``SUBSTEPS`` times finer than the samples (the
+    machine drives the displacement linearly between them), plus seeded noise."""
+    forces = [true_force_n(plan, stress_pa, AREA_M2, SUBSTEPS) for plan in tests]
+    noise = Noise(FORCE_NOISE_N, DISPLACEMENT_NOISE_M)
+    return csv_text(tests, measure(tests, forces, SIZE_M, noise, np.random.default_rng(seed)),
+                     DIGITS)
 
 
 def _kpa(moduli: tuple[float, float, float]) -> str:
@@ -204,10 +138,10 @@ def _kpa(moduli: tuple[float, float, float]) -> str:
     return f"A_L = {along} kPa, A_T = {across} kPa, A_S = {shear} kPa"
 
 
-def specimen_toml(tests: tuple[TestPlan, ...]) -> str:
-    """The specimen.toml text: a header saying what the set is and how it was made."""
+def header(tests: tuple[TestPlan, ...]) -> str:
+    """The comment lines on top of specimen.toml: what the set is and how it was made."""
     width = max(len(plan.test_id) for plan in tests)
-    listing = [f"#   {plan.test_id:<{width}} {plan.angle_deg:>2} deg  {plan.description}, "
+    listing = [f"#   {plan.test_id:<{width}} {plan.angle_deg:>2g} deg  {plan.description}, "
                f"{len(plan.time_s)} samples" for plan in tests]
     taus = ", ".join(f"{t:g}" for t in TAU_S)
     gs = ", ".join(f"{g:.3g}" for g in G_K)
@@ -254,19 +188,6 @@ def specimen_toml(tests: tuple[TestPlan, ...]) -> str:
         "# Effects present, for a diagnosis to find: strain_stiffening, anisotropy,"
         " viscoelasticity,",
         "# tension_compression_asymmetry. Absent: plasticity, force_offset.",
-        "",
-        "[specimen]",
-        "name = \"beef-round-example (synthetic)\"",
-        f"size_m = [{SIZE_M:.3f}, {SIZE_M:.3f}, {SIZE_M:.3f}]",
-        f"density_kg_m3 = {DENSITY_KG_M3:.1f}",
-        "# The load axis is specimen z; the fibres lie in the x-z plane at each test's"
-        " angle_deg.",
-        "",
-        "[rig]",
-        "machine = \"uniaxial tester, platens bonded to the specimen (synthetic)\"",
-        "load_cell_N = 10.0",
-        f"force_noise_N = {FORCE_NOISE_N:g}",
-        "",
     ])
 
 
@@ -275,8 +196,10 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("folder", type=Path, help="the measurement set's folder")
     folder = parser.parse_args(argv).folder
-    write_atomic(folder / "specimen.toml", specimen_toml(TESTS))
-    write_atomic(folder / "tests.csv", tests_csv(TESTS))
+    rig = {"machine": "uniaxial tester, platens bonded to the specimen (synthetic)",
+           "load_cell_N": 10.0, "force_noise_N": FORCE_NOISE_N}
+    write_set(folder, specimen_toml(header(TESTS), "beef-round-example (synthetic)",
+                                    (SIZE_M,) * 3, rig, DIGITS), example_csv(TESTS))
     print(f"wrote {len(TESTS)} tests to {folder}")
 
 

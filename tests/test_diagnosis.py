@@ -11,12 +11,14 @@ from pathlib import Path
 import pytest
 
 from cell.cli import main
+from cell.errors import DiagnosisError
 from cell.rheology.causes import CAUSES, UNEXPLAINED
 from cell.rheology.diagnosis import DiagnosisParams
 from cell.rheology.synthetic import write_hidden_effect_set
 from cell.sim.episode import Episode
 from cell.sim.scenario import load_scenario
-from cell.tissue.material import MassSpringMaterial, load_material
+from cell.tissue.material import MassSpringMaterial
+from cell.tissue.materialfile import load_material
 from tests.paths import DEFAULT_SCENARIO
 from tests.test_episode import coarse
 
@@ -89,7 +91,7 @@ def test_a_bad_set_writes_nothing(tmp_path: Path) -> None:
 
 
 def test_params_are_checked() -> None:
-    with pytest.raises(ValueError, match="fit_samples"):
+    with pytest.raises(DiagnosisError, match="fit_samples"):
         DiagnosisParams(fit_samples=2)
-    with pytest.raises(ValueError, match="workers"):
+    with pytest.raises(DiagnosisError, match="workers"):
         DiagnosisParams(workers=0)

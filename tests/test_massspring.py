@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from cell.errors import MaterialError
+from cell.tissue.curves import ModulusCurve
 from cell.tissue.geometry import MuscleShape, build_two_muscles
 from cell.tissue.lattice import tet_edges
 from cell.tissue.massspring import MassSpringModel
-from cell.tissue.material import MassSpringMaterial, ModulusCurve
+from cell.tissue.material import MassSpringMaterial
 from cell.tissue.tetmesh import TetMesh, structured_hex_tets
 from tests.lattice_helpers import lattice_moduli, spring_stiffness
 

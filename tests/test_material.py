@@ -6,12 +6,9 @@ import numpy as np
 import pytest
 
 from cell.errors import MaterialError
-from cell.tissue.material import (
-    ContinuumMaterial,
-    MassSpringMaterial,
-    ModulusCurve,
-    load_material,
-)
+from cell.tissue.curves import ModulusCurve
+from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
+from cell.tissue.materialfile import load_material
 
 # Stiffening in tension, softening in compression; positive over [0.75, 1.3].
 _KNOWN = (3.0e4, 1.2e5, 4.0e5, -3.0e5, 2.0e5, 1.0e5)

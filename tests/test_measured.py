@@ -223,3 +223,49 @@ def test_empty_set_is_refused(tmp_path: Path, tests: str) -> None:
         load_measurement_set(folder)
     assert error.value.file == str(folder / TESTS_FILE)
     assert "no header" in error.value.message or "no tests" in error.value.message
+
+
+SPREADSHEET_CASES = [
+    ("byte-order mark", "\ufeff" + "\n".join([HEADER, *ROWS]) + "\n"),
+    ("crlf line ends", "\r\n".join([HEADER, *ROWS]) + "\r\n"),
+    ("extra columns", "\n".join([f"note,{HEADER},operator"]
+                                + [f"x,{row},someone" for row in ROWS]) + "\n"),
+]
+
+
+@pytest.mark.parametrize("text", [c[1] for c in SPREADSHEET_CASES],
+                         ids=[c[0] for c in SPREADSHEET_CASES])
+def test_spreadsheet_csv_reads_like_the_plain_one(tmp_path: Path, text: str) -> None:
+    plain = load_measurement_set(_write_set(tmp_path / "plain")).tests[0]
+    folder = _write_set(tmp_path / "set")
+    (folder / TESTS_FILE).write_bytes(text.encode("utf-8"))
+    (test,) = load_measurement_set(folder).tests
+    assert (test.test_id, test.mode, test.angle_deg) == ("a", "tension", 0.0)
+    for name in ("time_s", "displacement_m", "force_N"):
+        np.testing.assert_array_equal(getattr(test, name), getattr(plain, name))
+
+
+@pytest.mark.parametrize("text", [c[1] for c in SPREADSHEET_CASES],
+                         ids=[c[0] for c in SPREADSHEET_CASES])
+def test_force_curve_reads_spreadsheet_csv(tmp_path: Path, text: str) -> None:
+    from cell.tissue.forcecurve import ForceCurve
+
+    path = tmp_path / "curve.csv"
+    path.write_bytes(text.replace("force_N", "force_n")
+                     .encode("utf-8"))
+    curve = ForceCurve.from_csv(path)
+    np.testing.assert_array_equal(curve.time_s, [0.0, 0.5, 1.0])
+    np.testing.assert_array_equal(curve.force_n, [0.0, 0.01, 0.02])
+
+
+def test_csv_errors_are_csv_errors_naming_line_and_column(tmp_path: Path) -> None:
+    from cell.errors import CsvError
+    from cell.io import read_csv
+
+    path = tmp_path / "t.csv"
+    path.write_text("\ufeffa,b\r\n1,2\r\n3,x\r\n")
+    table = read_csv(path, ["b"])
+    assert table.lines == (2, 3)
+    with pytest.raises(CsvError) as error:
+        table.numbers("b")
+    assert (error.value.file, error.value.field) == (str(path), "line 3, column b")

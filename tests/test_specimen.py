@@ -9,7 +9,8 @@ import pytest
 from cell.errors import DivergenceError
 from cell.rheology.measured import MechanicalTest, Specimen, load_measurement_set
 from cell.rheology.specimen import fibre_direction, simulate_set, simulate_test, specimen_mesh
-from cell.tissue.material import MassSpringMaterial, ModulusCurve
+from cell.tissue.curves import ModulusCurve
+from cell.tissue.material import MassSpringMaterial
 from cell.tissue.springlaw import LATTICE_STIFFENING
 from tests.paths import EXAMPLE_SET
 from tests.specimen_reference import SpecimenSimParams, simulate_meshed

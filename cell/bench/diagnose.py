@@ -19,6 +19,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from cell.errors import MeasurementError
 from cell.rheology import synthetic as generator
 
 #: Target: wall time of one diagnosis of a ten-test set, s (the slowest set counts).
@@ -60,10 +61,10 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int = 2,
         progress: called with one line per set.
 
     Raises:
-        ValueError: no seed.
+        MeasurementError: no seed.
     """
     if not seeds:
-        raise ValueError("the diagnose bench needs at least one seed")
+        raise MeasurementError(None, "seeds", "the diagnose bench needs at least one seed")
     from cell.rheology.diagnosis import CAUSES, DiagnosisParams, diagnose
     from cell.rheology.measured import load_measurement_set
 

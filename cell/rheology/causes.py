@@ -1,7 +1,7 @@
 """The catalogue of causes: each one a change to the mass-spring material, with the parameters
 a fit varies.
 
-A :class:`MaterialModel` is the baseline (linear, isotropic, rate-independent springs of
+A :class:`CandidateMaterial` is the baseline (linear, isotropic, rate-independent springs of
 modulus E, their lattice's geometric stiffening compensated so that "linear" means a linear
 nominal stress-strain curve, as measured data reads) plus some causes of the catalogue; it
 maps a vector of *shape* parameters, E and a load-cell offset to a
@@ -26,7 +26,7 @@ cause                            change to the material (shape parameters)
 ===============================  ==============================================================
 
 Example:
-    >>> model = MaterialModel(("anisotropy",), relaxation_times_s=(1.0, 10.0, 100.0))
+    >>> model = CandidateMaterial(("anisotropy",), relaxation_times_s=(1.0, 10.0, 100.0))
     >>> model.parameter_names
     ('log_el_over_et',)
     >>> model.material(model.initial, 1e4, 1060.0).longitudinal.small_strain_modulus_pa
@@ -41,7 +41,9 @@ from typing import Literal
 
 import numpy as np
 
-from cell.tissue.material import MassSpringMaterial, ModulusCurve
+from cell.errors import DiagnosisError
+from cell.tissue.curves import ModulusCurve
+from cell.tissue.material import MassSpringMaterial
 from cell.tissue.springlaw import LATTICE_STIFFENING
 
 CAUSES = (
@@ -57,7 +59,7 @@ Stiffening = Literal["exponential", "polynomial"]
 
 
 @dataclass(frozen=True)
-class MaterialModel:
+class CandidateMaterial:
     """The baseline springs plus ``causes`` (module docstring).
 
     Attributes:
@@ -71,10 +73,10 @@ class MaterialModel:
             of compressed springs apart (else by one factor).
 
     Raises:
-        ValueError: an unknown cause.
+        DiagnosisError: an unknown cause.
 
     Example:
-        >>> MaterialModel(("plasticity",), relaxation_times_s=(1.0,)).parameter_names
+        >>> CandidateMaterial(("plasticity",), relaxation_times_s=(1.0,)).parameter_names
         ('yield_strain', 'hardening')
     """
 
@@ -88,7 +90,8 @@ class MaterialModel:
     def __post_init__(self) -> None:
         unknown = set(self.causes) - set(CAUSES)
         if unknown:
-            raise ValueError(f"unknown causes {sorted(unknown)}; the catalogue is {CAUSES}")
+            raise DiagnosisError(None, "causes",
+                                 f"unknown causes {sorted(unknown)}; the catalogue is {CAUSES}")
         object.__setattr__(self, "causes", tuple(c for c in CAUSES if c in self.causes))
 
     @property

@@ -1,7 +1,7 @@
 """Diagnosis of a measurement set: where the simulation is wrong, the cause, the extended
 material, the gain on held-out tests.
 
-1. The baseline (:class:`~cell.rheology.causes.MaterialModel` with no cause: linear, isotropic,
+1. The baseline (:class:`~cell.rheology.causes.CandidateMaterial` with no cause: linear, isotropic,
    rate-independent springs) is fitted to every test, each simulated by
    :func:`~cell.rheology.specimen.simulate_test` with the muscles' own spring law.
 2. Each cause of the catalogue is added to the current model and fitted; its error is measured
@@ -20,11 +20,19 @@ Fits search the shape parameters with ``scipy.optimize.least_squares`` on up to
 ``fit_samples`` samples per test (picked evenly along time and displacement, turning points
 kept) and solve for E and the offset in closed form; held-out errors use every sample.
 
+A diagnosis takes minutes (``musclecell diagnose`` runs one); the examples here show its
+cheap parts. Usage::
+
+    result = diagnose(load_measurement_set("assets/measured/beef_round_example"))
+    result.causes  # ('tension_compression_asymmetry', 'anisotropy', 'unexplained')
+
 Example:
     >>> from cell.rheology.measured import load_measurement_set
-    >>> result = diagnose(load_measurement_set("assets/measured/beef_round_example"))
-    >>> result.causes  # doctest: +SKIP
-    ('tension_compression_asymmetry', 'anisotropy', 'unexplained')
+    >>> data = load_measurement_set("assets/measured/beef_round_example")
+    >>> round(noise_n(data) * 1e3, 1)  # mN: the set's stated force noise is 1 mN
+    1.0
+    >>> len(fit_samples(data.test("c00"), 32))
+    32
 """
 
 from __future__ import annotations
@@ -38,10 +46,9 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import find_peaks
 
-from cell.errors import DivergenceError, MaterialError
-from cell.rheology.causes import CAUSES, UNEXPLAINED, MaterialModel
+from cell.errors import DiagnosisError, DivergenceError, MaterialError
+from cell.rheology.causes import CAUSES, UNEXPLAINED, CandidateMaterial
 from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
 from cell.rheology.specimen import SpecimenLattice, simulate_test
 from cell.tissue.material import MassSpringMaterial
@@ -78,6 +85,9 @@ class DiagnosisParams:
         max_evaluations: cap on a fit's simulations of the set.
         fold_evaluations: cap on a held-out refit's, which starts from the full fit.
 
+    Raises:
+        DiagnosisError: ``fit_samples`` < 8 or ``workers`` < 1.
+
     Example:
         >>> DiagnosisParams(workers=2).fit_samples
         32
@@ -96,9 +106,9 @@ class DiagnosisParams:
 
     def __post_init__(self) -> None:
         if self.fit_samples < 8:
-            raise ValueError(f"fit_samples must be >= 8, got {self.fit_samples}")
+            raise DiagnosisError(None, "fit_samples", f"must be >= 8, got {self.fit_samples}")
         if self.workers < 1:
-            raise ValueError(f"workers must be >= 1, got {self.workers}")
+            raise DiagnosisError(None, "workers", f"must be >= 1, got {self.workers}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,7 +128,7 @@ class ModelFit:
         heldout_force_n: per test, the force predicted by the fit without that test, N.
     """
 
-    model: MaterialModel
+    model: CandidateMaterial
     shape: np.ndarray
     modulus_pa: float
     offset_n: float
@@ -153,9 +163,7 @@ class Diagnosis:
         extended: the final model (the baseline when no cause is accepted).
         causes: accepted causes, most important first, then ``unexplained`` if it applies.
 
-    Example:
-        >>> result.to_json()["gain"]  # doctest: +SKIP
-        0.87
+    ``to_json()`` is the JSON that ``musclecell diagnose --json`` writes.
     """
 
     measurements: MeasurementSet
@@ -206,6 +214,10 @@ def noise_n(measurements: MeasurementSet) -> float:
 def fit_samples(test: MechanicalTest, count: int) -> np.ndarray:
     """Indices of about ``count`` samples spread evenly along time and displacement, the first,
     the last and the displacement's turning points included."""
+    # Imported here: only the parent picks samples, and scipy.signal would be half of every
+    # spawned worker's start-up.
+    from scipy.signal import find_peaks
+
     n = len(test.time_s)
     if n <= count:
         return np.arange(n)
@@ -236,7 +248,7 @@ class _Problem:
     thinned: tuple[MechanicalTest, ...]
     lattice: SpecimenLattice
 
-    def unit_forces(self, model: MaterialModel, shape: np.ndarray,
+    def unit_forces(self, model: CandidateMaterial, shape: np.ndarray,
                     tests: tuple[MechanicalTest, ...]) -> list[np.ndarray] | None:
         """Each test's force at modulus ``_REFERENCE_PA``, N; None when the lattice cannot give
         the material or a run has no equilibrium."""
@@ -257,7 +269,7 @@ def _scale_and_offset(unit: np.ndarray, measured: np.ndarray,
     return scale, float(solution[1]) if with_offset else 0.0
 
 
-def _fit(problem: _Problem, model: MaterialModel, tests: list[int], start: np.ndarray,
+def _fit(problem: _Problem, model: CandidateMaterial, tests: list[int], start: np.ndarray,
          max_evaluations: int) -> tuple[np.ndarray, float, float, float, int]:
     """Fit ``model`` to ``tests`` (indices, thinned samples): shape, E (Pa), offset (N),
     residual sum of squares and sample count."""
@@ -284,7 +296,7 @@ def _fit(problem: _Problem, model: MaterialModel, tests: list[int], start: np.nd
     return shape, scale * _REFERENCE_PA, offset, float(residual @ residual), len(measured)
 
 
-def _predict(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus_pa: float,
+def _predict(problem: _Problem, model: CandidateMaterial, shape: np.ndarray, modulus_pa: float,
              offset_n: float, test: MechanicalTest) -> np.ndarray:
     """Force of ``test`` at every sample, N (a failed run predicts zero force)."""
     units = problem.unit_forces(model, shape, (test,))
@@ -292,7 +304,7 @@ def _predict(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus
     return unit * modulus_pa / _REFERENCE_PA + offset_n
 
 
-def fit_model(problem: _Problem, models: list[MaterialModel], params: DiagnosisParams,
+def fit_model(problem: _Problem, models: list[CandidateMaterial], params: DiagnosisParams,
               start: Start = None) -> ModelFit:
     """Fit each of ``models`` (variants of one candidate) to every test and keep the best:
     between stiffening laws, the lowest residual; between variants with other parameters, the
@@ -309,7 +321,7 @@ def fit_model(problem: _Problem, models: list[MaterialModel], params: DiagnosisP
                key=lambda fit: fit.heldout_rmse_n)
 
 
-def _hold_out(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulus: float,
+def _hold_out(problem: _Problem, model: CandidateMaterial, shape: np.ndarray, modulus: float,
               offset: float, rss: float, count: int, params: DiagnosisParams) -> ModelFit:
     """The fit of ``model`` on every test, and each test predicted by a refit without it."""
     everything = list(range(len(problem.tests)))
@@ -336,7 +348,7 @@ def _hold_out(problem: _Problem, model: MaterialModel, shape: np.ndarray, modulu
     )
 
 
-def _start(previous: Start, model: MaterialModel) -> np.ndarray:
+def _start(previous: Start, model: CandidateMaterial) -> np.ndarray:
     """A start for ``model`` from the (names, values) of a fit with one cause fewer: its values
     where the names match, ``model.initial`` elsewhere (everywhere when None)."""
     if previous is None:
@@ -350,14 +362,14 @@ def _start(previous: Start, model: MaterialModel) -> np.ndarray:
 
 
 def _variants(causes: tuple[str, ...], times: tuple[float, ...],
-              stretch_range: tuple[float, float]) -> list[MaterialModel]:
+              stretch_range: tuple[float, float]) -> list[CandidateMaterial]:
     """The models for ``causes``: both stiffening laws when stiffening is among them, Eq. 10
     with and without its oblique factor when anisotropy is, one compression factor or two when
     the asymmetry is."""
     laws = ("exponential", "polynomial") if "strain_stiffening" in causes else ("exponential",)
     obliques = (False, True) if "anisotropy" in causes else (False,)
     apart = (False, True) if "tension_compression_asymmetry" in causes else (False,)
-    return [MaterialModel(causes, law, times, stretch_range, oblique, split)
+    return [CandidateMaterial(causes, law, times, stretch_range, oblique, split)
             for law in laws for oblique in obliques for split in apart]
 
 
@@ -404,12 +416,7 @@ def _task(args: tuple) -> ModelFit:
 
 
 def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None) -> Diagnosis:
-    """Diagnose ``measurements`` (module docstring).
-
-    Example:
-        >>> diagnose(data, DiagnosisParams(workers=2)).causes  # doctest: +SKIP
-        ('viscoelasticity',)
-    """
+    """Diagnose ``measurements`` (module docstring: its usage; minutes on a ten-test set)."""
     params = DiagnosisParams() if params is None else params
     problem = _Problem(
         specimen=measurements.specimen,
@@ -421,8 +428,10 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     times = _relaxation_times_s(measurements)
     stretch = _stretch_range(measurements)
     noise = noise_n(measurements)
-    # Forked workers inherit the compiled spring law instead of compiling it again.
-    pool = (ProcessPoolExecutor(params.workers, mp_context=get_context("fork"))
+    # Spawned, not forked: a fork of a process whose numba (and MuJoCo, in the CLI) has
+    # started threads can deadlock. The workers load the compiled spring law from numba's
+    # on-disk cache rather than compiling it again.
+    pool = (ProcessPoolExecutor(params.workers, mp_context=get_context("spawn"))
             if params.workers > 1 else nullcontext())
     with pool:
 

@@ -15,7 +15,6 @@ Example:
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +24,7 @@ import numpy as np
 
 from cell.config import from_table, read_toml
 from cell.errors import InputError
+from cell.io import CsvTable, read_csv
 
 Mode = Literal["tension", "compression", "relaxation", "cyclic"]
 MODES: tuple[str, ...] = get_args(Mode)
@@ -190,19 +190,12 @@ def load_specimen(path: str | Path) -> Specimen:
     return Specimen(table.name, table.size_m, table.density_kg_m3, raw.get("rig", {}))
 
 
-@dataclass(frozen=True)
-class _Rows:
-    """The rows of one test as read: line numbers and the raw text of each column."""
-
-    lines: list[int]
-    cells: dict[str, list[str]]
-
-
 def load_tests(path: str | Path) -> tuple[MechanicalTest, ...]:
     """Read ``tests.csv``: a header line, then one row per sample (see the module docstring).
 
-    Blank lines and lines starting with ``#`` are skipped; extra columns are ignored; the rows
-    of a test need not be contiguous but must be in time order.
+    Read by :func:`cell.io.read_csv`: blank lines and lines starting with ``#`` are skipped,
+    extra columns are ignored; the rows of a test need not be contiguous but must be in time
+    order.
 
     Raises:
         InputError: naming the file and ``line N, column C``: missing file or column, a
@@ -211,51 +204,27 @@ def load_tests(path: str | Path) -> tuple[MechanicalTest, ...]:
             than 3 samples, no test at all.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise InputError(path, None, "file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(path, None, f"cannot read: {exc}") from None
-    numbered = [
-        (n, line)
-        for n, line in enumerate(text.splitlines(), start=1)
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    if not numbered:
-        raise InputError(path, None, "no header line")
-    header_line, header = numbered[0]
-    columns = [c.strip() for c in next(csv.reader([header]))]
-    for name in _COLUMNS:
-        if name not in columns:
-            raise InputError(path, f"line {header_line}, column {name}", "missing column")
-    index = {name: columns.index(name) for name in _COLUMNS}
-    groups: dict[str, _Rows] = {}
-    rows = csv.reader(line for _, line in numbered[1:])
-    for (number, _), row in zip(numbered[1:], rows, strict=True):
-        short = [name for name in _COLUMNS if index[name] >= len(row)]
-        if short:
-            raise InputError(path, f"line {number}, column {short[0]}",
-                             f"missing value: the row has {len(row)} fields")
-        test_id = row[index["test_id"]].strip()
+    table = read_csv(path, _COLUMNS)
+    groups: dict[str, list[int]] = {}
+    for row, test_id in enumerate(table.cells["test_id"]):
         if not test_id:
-            raise InputError(path, f"line {number}, column test_id", "empty test id")
-        group = groups.setdefault(test_id, _Rows([], {name: [] for name in _COLUMNS}))
-        group.lines.append(number)
-        for name, col in index.items():
-            group.cells[name].append(row[col].strip())
+            raise InputError(path, table.where(row, "test_id"), "empty test id")
+        groups.setdefault(test_id, []).append(row)
     if not groups:
         raise InputError(path, None, "no tests: the set needs at least one")
-    return tuple(_test(path, test_id, group) for test_id, group in groups.items())
+    values = {name: table.numbers(name) for name in _NUMBERS}
+    return tuple(_test(table, values, test_id, rows) for test_id, rows in groups.items())
 
 
-def _test(path: Path, test_id: str, rows: _Rows) -> MechanicalTest:
-    """Validate and convert the rows of one test."""
+def _test(table: CsvTable, values: dict[str, np.ndarray], test_id: str,
+          rows: list[int]) -> MechanicalTest:
+    """Validate and convert the rows of one test (``rows``: indices into ``table``)."""
+    path = table.path
 
     def where(row: int, column: str) -> str:
-        return f"line {rows.lines[row]}, column {column}"
+        return table.where(rows[row], column)
 
-    modes = rows.cells["mode"]
+    modes = [table.cells["mode"][row] for row in rows]
     for row, mode in enumerate(modes):
         if mode not in MODES:
             raise InputError(path, where(row, "mode"),
@@ -263,8 +232,7 @@ def _test(path: Path, test_id: str, rows: _Rows) -> MechanicalTest:
         if mode != modes[0]:
             raise InputError(path, where(row, "mode"),
                              f"test {test_id!r} changes mode from {modes[0]!r} to {mode!r}")
-    values = {name: _numbers(path, rows, name) for name in _NUMBERS}
-    angle = values["angle_deg"]
+    angle, time = values["angle_deg"][rows], values["time_s"][rows]
     changed = np.flatnonzero(angle != angle[0])
     if changed.size:
         raise InputError(path, where(changed[0], "angle_deg"),
@@ -274,7 +242,6 @@ def _test(path: Path, test_id: str, rows: _Rows) -> MechanicalTest:
         raise InputError(path, where(0, "test_id"),
                          f"test {test_id!r} has {len(angle)} samples, needs at least "
                          f"{_MIN_SAMPLES}")
-    time = values["time_s"]
     back = np.flatnonzero(np.diff(time) < 0)
     if back.size:
         row = back[0] + 1
@@ -282,23 +249,7 @@ def _test(path: Path, test_id: str, rows: _Rows) -> MechanicalTest:
                          f"time goes backwards in test {test_id!r}: {time[row]:g} s after "
                          f"{time[row - 1]:g} s")
     return MechanicalTest(test_id, cast(Mode, modes[0]), float(angle[0]), time,
-                          values["displacement_m"], values["force_N"])
-
-
-def _numbers(path: Path, rows: _Rows, name: str) -> np.ndarray:
-    """Column ``name`` of a test's rows as finite floats; errors name the first bad cell."""
-    values = np.empty(len(rows.lines))
-    for row, cell in enumerate(rows.cells[name]):
-        try:
-            values[row] = float(cell)
-        except ValueError:
-            raise InputError(path, f"line {rows.lines[row]}, column {name}",
-                             f"not a number: {cell!r}") from None
-    bad = np.flatnonzero(~np.isfinite(values))
-    if bad.size:
-        raise InputError(path, f"line {rows.lines[bad[0]]}, column {name}",
-                         f"not finite: {rows.cells[name][bad[0]]!r}")
-    return values
+                          values["displacement_m"][rows], values["force_N"][rows])
 
 
 def load_measurement_set(folder: str | Path) -> MeasurementSet:

@@ -11,10 +11,10 @@ the extended model changes.
   model's parameters, with links to the two figures.
 
 Plots need matplotlib (the ``report`` extra); it is imported only when a report is written.
+Usage (a diagnosis takes minutes, so this is not run as an example)::
 
-Example:
-    >>> write_report(diagnose(load_measurement_set("assets/measured/beef_round_example")),
-    ...              Path("out/diagnosis"))  # doctest: +SKIP
+    write_report(diagnose(load_measurement_set("assets/measured/beef_round_example")),
+                 Path("out/diagnosis"))
 """
 
 from __future__ import annotations

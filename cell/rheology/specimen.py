@@ -143,7 +143,14 @@ class SimulatedTest:
         lateral_stretch: (n, 2) a and b of the deformation gradient (x and y stretch).
 
     Example:
-        >>> run.force_N[-1]  # doctest: +SKIP
+        >>> from cell.rheology.measured import MechanicalTest, Specimen
+        >>> from cell.tissue.material import MassSpringMaterial
+        >>> t = np.linspace(0.0, 10.0, 11)
+        >>> test = MechanicalTest("t00", "tension", 0.0, t, 1e-5 * t, 0.0 * t)
+        >>> cube = Specimen("cube", (0.01, 0.01, 0.01))
+        >>> run = simulate_test(test, cube, MassSpringMaterial.isotropic(1e4))
+        >>> round(float(run.force_N[-1]), 4)  # 10 kPa at 1 % strain on 1 cm^2: 0.01 N
+        0.01
     """
 
     test_id: str
@@ -168,7 +175,12 @@ def simulate_test(
         DivergenceError: no equilibrium at some sample (a spring collapsed).
 
     Example:
-        >>> run = simulate_test(test, specimen, MassSpringMaterial())  # doctest: +SKIP
+        >>> from cell.rheology.measured import load_measurement_set
+        >>> from cell.tissue.material import MassSpringMaterial
+        >>> data = load_measurement_set("assets/measured/beef_round_example")
+        >>> run = simulate_test(data.test("c00"), data.specimen, MassSpringMaterial.isotropic(6e3))
+        >>> run.force_N.shape
+        (250,)
     """
     lattice = SpecimenLattice.of(specimen) if lattice is None else lattice
     law = lattice.law(material)
@@ -192,7 +204,11 @@ def simulate_set(measurements: MeasurementSet,
     """Simulate every test of a set, in its order, on one lattice.
 
     Example:
-        >>> runs = simulate_set(data, MassSpringMaterial.isotropic(6e3))  # doctest: +SKIP
+        >>> from cell.rheology.measured import load_measurement_set
+        >>> from cell.tissue.material import MassSpringMaterial
+        >>> data = load_measurement_set("assets/measured/beef_round_example")
+        >>> len(simulate_set(data, MassSpringMaterial.isotropic(6e3)))
+        20
     """
     lattice = SpecimenLattice.of(measurements.specimen)
     return tuple(simulate_test(test, measurements.specimen, material, lattice)

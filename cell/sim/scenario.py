@@ -22,13 +22,8 @@ from cell.perception.pipeline import PerceptionParams
 from cell.robots.tools import CameraParams, GripperParams, KnifeParams
 from cell.tissue.aponeurosis import ReleaseRule
 from cell.tissue.geometry import MuscleShape
-from cell.tissue.material import (
-    ContinuumMaterial,
-    MassSpringMaterial,
-    default_meat,
-    load_material,
-    material_from_table,
-)
+from cell.tissue.material import ContinuumMaterial, MassSpringMaterial, default_meat
+from cell.tissue.materialfile import load_material, material_from_table
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
 

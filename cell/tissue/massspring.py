@@ -7,7 +7,7 @@ unit rest direction, sum(V) the volume of the tets sharing the edge and E = diag
 the modulus matrix in the fibre frame (Et = Er), so that ``||E u|| = sqrt(El**2 c**2 +
 Et**2 (1 - c**2))`` with c the cosine between the edge and the fibres; with El = Et = E it is
 Eq. 8, ``K = E sum(V) / l0**2``. Both moduli are updated every step from the spring's stretch
-r = l / l0 (:class:`~cell.tissue.material.ModulusCurve`); K uses their secant values
+r = l / l0 (:class:`~cell.tissue.curves.ModulusCurve`); K uses their secant values
 ``sigma(r) / (r - 1)``, so that a spring's force follows the measured stress curve
 (a conservative spring) instead of the tangent modulus times the extension.
 

@@ -7,7 +7,7 @@ over ``K0 l0`` where ``K0 = sum(V) / l0**2`` is the spring's geometric gain (Eq.
 modulus): ``tension = K0 * l0 * s``.
 
 - Elastic stress (Eq. 10 with secant moduli): ``s_e = w ||E(x_e) u|| x_e / (1 + k x)``, El and
-  Et the material's curves at the elastic strain x_e (:class:`~cell.tissue.material.ModulusCurve`),
+  Et the material's curves at the elastic strain x_e (:class:`~cell.tissue.curves.ModulusCurve`),
   its compression curves while x_e < 0; k is the material's ``geometric_compensation``
   (:data:`LATTICE_STIFFENING` cancels the lattice's own geometric stiffening) and w =
   ``1 + oblique 4 c**2 (1 - c**2)`` weighs springs oblique to the fibres.
@@ -49,7 +49,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from cell.tissue.material import MassSpringMaterial, ModulusCurve
+from cell.tissue.curves import ModulusCurve
+from cell.tissue.material import MassSpringMaterial
 
 # The mirrored Kuhn lattice's geometric stiffening: linear springs give a uniaxial nominal
 # secant modulus of about E (1 + 0.28 strain); a compensation of 0.33 makes it E within 0.3% over

@@ -1,0 +1,159 @@
+"""Material files: a material as TOML, read (:func:`load_material`, or a scenario's
+``[material]`` table through :func:`material_from_table`) and written back
+(:func:`material_to_toml`), every fault a :class:`~cell.errors.MaterialError` naming the file
+and the dotted key.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from cell.config import from_table, read_toml
+from cell.errors import MaterialError
+from cell.tissue.curves import DEFAULT_R_MAX, DEFAULT_R_MIN, ModulusCurve
+from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
+
+
+@dataclass(frozen=True)
+class _CurveTable:
+    """A modulus curve as written in a material file: a constant or polynomial coefficients."""
+
+    modulus_pa: float | None = None
+    coefficients: tuple[float, float, float, float, float, float] | None = None
+    r_min: float = DEFAULT_R_MIN
+    r_max: float = DEFAULT_R_MAX
+    exponent: float = 0.0
+
+    def __post_init__(self) -> None:
+        if (self.modulus_pa is None) == (self.coefficients is None):
+            raise MaterialError(
+                None, "modulus_pa", "give either modulus_pa = <Pa> or coefficients = [6 values]"
+            )
+        if self.modulus_pa is not None and not self.modulus_pa > 0:
+            raise MaterialError(None, "modulus_pa", f"must be > 0, got {self.modulus_pa}")
+        # Built here so that from_table names the file and key of a bad polynomial.
+        self.curve()
+
+    def curve(self) -> ModulusCurve:
+        if self.coefficients is None:
+            return ModulusCurve.exponential(float(self.modulus_pa), self.exponent, self.r_min,
+                                            self.r_max)
+        return ModulusCurve(self.coefficients, self.r_min, self.r_max, self.exponent)
+
+
+_CURVES = ("longitudinal", "transverse")
+_COMPRESSION_CURVES = ("longitudinal_compression", "transverse_compression")
+
+
+def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
+    """Read a material TOML file.
+
+    The file names its ``model`` and gives the fields of :class:`ContinuumMaterial` or
+    :class:`MassSpringMaterial`; missing fields take the defaults, except that a mass-spring
+    file must give both curves, each as a table with ``modulus_pa`` (a constant) or
+    ``coefficients`` (six, Pa) and optionally ``r_min``, ``r_max`` and ``exponent`` (the
+    exponential law on ``modulus_pa``)::
+
+        model = "mass_spring"
+        damping_s = 2e-4
+        fibre_direction = [1.0, 0.0, 0.0]
+        relaxation_weights = [0.3, 0.2]
+        relaxation_times_s = [1.0, 30.0]
+        [longitudinal]
+        coefficients = [2.5e5, 1e6, 0, 0, 0, 0]
+        r_min = 0.8
+        r_max = 1.3
+        [transverse]
+        modulus_pa = 6e5
+        exponent = 8.0
+        [transverse_compression]   # optional, as the two above
+        modulus_pa = 3e5
+
+    Raises:
+        MaterialError: naming the file and the dotted key at fault (unknown key, wrong type,
+            missing or non-positive modulus, modulus not positive over its range, zero fibre).
+
+    Example:
+        >>> load_material("assets/materials/beef_default.toml").transverse.small_strain_modulus_pa
+        16000.0
+    """
+    path = Path(path)
+    return material_from_table(read_toml(path, MaterialError), file=path)
+
+
+def material_from_table(table: dict[str, Any], *, file: str | Path | None = None,
+                        section: str = "") -> ContinuumMaterial | MassSpringMaterial:
+    """A material from a parsed TOML table (a material file's body, or a scenario's
+    ``[material]`` table named ``section``), as :func:`load_material` describes."""
+
+    def key(name: str) -> str:
+        return f"{section}.{name}" if section else name
+
+    raw = dict(table)
+    model = raw.pop("model", None)
+    if model == "continuum":
+        return from_table(ContinuumMaterial, raw, file=file, section=section, error=MaterialError)
+    if model != "mass_spring":
+        raise MaterialError(file, key("model"),
+                            f"must be 'continuum' or 'mass_spring', got {model!r}")
+    for name in _CURVES + _COMPRESSION_CURVES:
+        if name not in raw:
+            if name in _COMPRESSION_CURVES:
+                continue
+            raise MaterialError(file, key(name), "missing table: give modulus_pa = <Pa> or "
+                                "coefficients = [6 values]")
+        if not isinstance(raw[name], dict):
+            raise MaterialError(file, key(name),
+                                f"expected a table, got {type(raw[name]).__name__}")
+        curve = from_table(
+            _CurveTable, raw[name], file=file, section=key(name), error=MaterialError
+        ).curve()
+        raw[name] = {
+            "coefficients": list(curve.coefficients),
+            "r_min": curve.r_min,
+            "r_max": curve.r_max,
+            "exponent": curve.exponent,
+        }
+    return from_table(MassSpringMaterial, raw, file=file, section=section, error=MaterialError)
+
+
+def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
+    """``material`` as a material file that :func:`load_material` reads back unchanged,
+    ``comment`` (lines) on top.
+
+    Example:
+        >>> from cell.tissue.material import default_meat
+        >>> text = material_to_toml(default_meat(), "beef")
+        >>> text.splitlines()[:2]
+        ['# beef', 'model = "mass_spring"']
+    """
+
+    def number(value: float) -> str:
+        return repr(float(value))
+
+    def numbers(values: tuple[float, ...]) -> str:
+        return "[" + ", ".join(number(v) for v in values) + "]"
+
+    lines = [f"# {line}".rstrip() for line in comment.splitlines()]
+    lines += [
+        'model = "mass_spring"',
+        f"density_kg_m3 = {number(material.density_kg_m3)}",
+        f"damping_s = {number(material.damping_s)}",
+        f"fibre_direction = {numbers(material.fibre_direction)}",
+        f"relaxation_weights = {numbers(material.relaxation_weights)}",
+        f"relaxation_times_s = {numbers(material.relaxation_times_s)}",
+        f"yield_strain = {number(material.yield_strain)}",
+        f"hardening = {number(material.hardening)}",
+        f"geometric_compensation = {number(material.geometric_compensation)}",
+        f"oblique = {number(material.oblique)}",
+    ]
+    for name in _CURVES + _COMPRESSION_CURVES:
+        curve: ModulusCurve | None = getattr(material, name)
+        if curve is None:
+            continue
+        lines += ["", f"[{name}]", f"coefficients = {numbers(curve.coefficients)}",
+                  f"r_min = {number(curve.r_min)}", f"r_max = {number(curve.r_max)}",
+                  f"exponent = {number(curve.exponent)}"]
+    return "\n".join(lines) + "\n"
