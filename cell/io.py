@@ -99,29 +99,60 @@ def read_csv(path: str | Path, columns: Sequence[str]) -> CsvTable:
     return CsvTable(path, tuple(n for n, _ in numbered[1:]), cells)
 
 
+class AtomicFile:
+    """A file that appears at ``path`` whole or not at all: it is written at ``temporary`` (in
+    the same folder), then renamed into place by :meth:`commit`; :meth:`discard` drops it.
+
+    For writers that stream (a Rerun recording); :func:`write_atomic` for content in hand.
+
+    Example:
+        >>> import tempfile
+        >>> target = AtomicFile(Path(tempfile.mkdtemp()) / "log.txt")
+        >>> _ = target.temporary.write_text("done")
+        >>> target.commit().read_text()
+        'done'
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd, name = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp",
+                                    dir=self.path.parent)
+        os.close(fd)
+        self.temporary = Path(name)
+
+    def commit(self) -> Path:
+        """Rename the temporary file to ``path`` (replacing what was there) and return it."""
+        # mkstemp makes the file private; give it the mode a plain open() would.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(self.temporary, 0o666 & ~umask)
+        os.replace(self.temporary, self.path)
+        return self.path
+
+    def discard(self) -> None:
+        """Remove the temporary file; ``path`` keeps what it had."""
+        self.temporary.unlink(missing_ok=True)
+
+
 def write_atomic(path: str | Path, content: str | bytes) -> Path:
     """Write ``content`` to ``path`` through a temporary file in the same folder and a rename.
 
     Example:
-        >>> write_atomic("out/summary.json", "{}").read_text()
+        >>> import tempfile
+        >>> write_atomic(Path(tempfile.mkdtemp()) / "summary.json", "{}").read_text()
         '{}'
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    mode = "wb" if isinstance(content, bytes) else "w"
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    target = AtomicFile(path)
     try:
-        with os.fdopen(fd, mode) as handle:
-            handle.write(content)
-        # mkstemp makes the file private; give it the mode a plain open() would.
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
+        if isinstance(content, bytes):
+            target.temporary.write_bytes(content)
+        else:
+            target.temporary.write_text(content)
+        return target.commit()
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        target.discard()
         raise
-    return path
 
 
 def write_json(path: str | Path, payload: Any) -> Path:

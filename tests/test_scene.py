@@ -228,3 +228,20 @@ def test_two_simulations_on_one_scene_start_identical() -> None:
     assert apo.bound.all() and not apo.hooked.any()
     second.step(20)
     np.testing.assert_array_equal(second.data.qpos, rested)
+
+
+def test_a_reset_simulation_runs_as_a_new_one() -> None:
+    scene = build_scene(SCENARIO)
+    fresh = Simulation(scene, SCENARIO)
+    fresh.step(20)
+    expected = (fresh.data.qpos.copy(), fresh.read("knife/force"))
+    sim = Simulation(scene, SCENARIO)
+    sim.step(20)
+    sim.tare("knife/force")
+    assert sim.grasp(np.full(3, 10.0)) > 0
+    sim.read("knife/force")  # draws noise
+    sim.reset()
+    assert len(sim.grasped) == 0
+    sim.step(20)
+    np.testing.assert_array_equal(sim.data.qpos, expected[0])
+    np.testing.assert_array_equal(sim.read("knife/force"), expected[1])

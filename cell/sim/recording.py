@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from cell.io import write_atomic
+from cell.io import AtomicFile
 from cell.perception.pipeline import PerceivedPlan
 from cell.robots.camera import CameraRig
 from cell.sim.assembly import Scene
@@ -43,7 +43,8 @@ def _entity(body_name: str) -> str:
 class EpisodeRecorder:
     """Writes one episode to a ``.rrd`` file; the file appears (atomically) at :meth:`close`.
 
-    The recording is held in memory until then, so that a failed episode leaves no file.
+    The recording streams to a temporary file beside it (:class:`~cell.io.AtomicFile`), so that
+    a long episode does not grow in memory and a failed one (:meth:`abort`) leaves no file.
 
     Args:
         path: the ``.rrd`` file to write.
@@ -70,7 +71,8 @@ class EpisodeRecorder:
         self.model = scene.model
         rid = uuid.uuid5(uuid.NAMESPACE_URL, f"musclecell/{recording_id}")
         self.stream = rr.RecordingStream("musclecell", recording_id=rid)
-        self._memory = self.stream.memory_recording()
+        self._file = AtomicFile(self.path)
+        self.stream.save(self._file.temporary)
         tissue = set(scene.round_bodies.tolist()) | set(scene.shank_bodies.tolist())
         self._bodies = [b for b in range(1, self.model.nbody)
                         if b not in tissue and self.model.body_geomnum[b] > 0]
@@ -186,12 +188,12 @@ class EpisodeRecorder:
         s.log("world/camera/depth", rr.DepthImage(rig.depth(data), meter=1.0))
 
     def close(self) -> Path:
-        """Flush and write the recording (atomically)."""
+        """Flush and move the recording into place."""
         self.stream.flush()
-        write_atomic(self.path, self._memory.drain_as_bytes())
         self.stream.disconnect()
-        return self.path
+        return self._file.commit()
 
     def abort(self) -> None:
         """Drop the partial recording (the episode failed)."""
         self.stream.disconnect()
+        self._file.discard()

@@ -158,6 +158,14 @@ class Simulation(TissueSimulation):
         self.force_curve = (ForceCurve.from_csv(scenario.aponeurosis.force_curve)
                             if ReleaseRule.FORCE.value in rules else None)
 
+    def reset(self, state: mujoco.MjData | None = None) -> None:
+        """Back to rest (or to a copy of ``state``) as a new simulation starts: the tissue's
+        reset, no grasp, the sensors untared and their noise drawn again from the seed."""
+        super().reset(state)
+        self.rng = np.random.default_rng(self.scenario.seed)
+        self._tare = {name: np.zeros(3) for name in self._sensor}
+        self.grasped = np.zeros(0, dtype=int)
+
     def _sensor_slice(self, name: str) -> slice:
         sensor = self.model.sensor(name)
         start = int(sensor.adr[0])
