@@ -127,10 +127,13 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         self.options = dict(options or {})
         apply_options(self.base, self.options)  # fail now, not at the first reset
         self.randomize = randomize
+        # Ranges are checked on this env's cell where it draws (a continuum material, say,
+        # has no fibres to turn), on the default cell otherwise.
+        checked_on = self.base if randomize else Scenario()
         if isinstance(randomization, Randomization):
-            check_ranges(randomization, self.base)
+            check_ranges(randomization, checked_on)
         else:
-            randomization = load_randomization(randomization, self.base)
+            randomization = load_randomization(randomization, checked_on)
         self.randomization = randomization
         self.limits = ActionLimits() if limits is None else limits
         self.reward_params = RewardParams() if reward is None else reward
@@ -164,17 +167,18 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
             raise InputError(None, "randomize", f"expected true or false, got {randomize!r}")
         apply_options(self.base, self.options, options)  # a bad option is no bad draw
         self.redraws = []
-        while True:
+        for attempt in range(1, MAX_DRAWS + 1):
+            last = not randomize or attempt == MAX_DRAWS
             drawn = draw(self.randomization, self.np_random) if randomize else {}
             self.world = merge_options(drawn, self.options, options)
             try:
                 self._start(apply_options(self.base, self.world))
             except MusclecellError as exc:
-                if not randomize or len(self.redraws) + 1 >= MAX_DRAWS:
+                if last:
                     raise
                 self.redraws.append(str(exc))
                 continue
-            if not (self.diverged and randomize and len(self.redraws) + 1 < MAX_DRAWS):
+            if last or not self.diverged:
                 break
             self.redraws.append(self._divergence)
         return self._obs, self._info({})
@@ -184,6 +188,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         episode: ``self.diverged``)."""
         scenario = replace(scenario, seed=int(self.np_random.integers(2**31 - 1)))
         self.close()
+        self.episode = self.plan = None  # until this cell is built
         self.episode = episode = Episode(scenario)
         perceived = None
         if scenario.perception.enabled:

@@ -9,7 +9,11 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from cell.errors import InputError, RandomizationError
-from envs import CutEnv, PullEnv
+from cell.sim.assembly import build_scene
+from cell.sim.scenario import Scenario
+from cell.sim.simulation import Simulation
+from cell.tissue.geometry import MuscleShape
+from envs import CutEnv, PullEnv, apply_options
 from envs.randomization import Distribution, Randomization, draw, load_randomization
 
 DEFAULT = load_randomization()
@@ -95,6 +99,8 @@ def test_the_env_applies_the_drawn_world() -> None:
     assert scenario.tissue.length_m == info["world"]["shape"]["length_m"] != 0.45
     assert scenario.aponeurosis.stiffness_n_m == info["world"]["binding_stiffness_n_m"]
     assert scenario.sensors.force_bias_n == tuple(info["world"]["force_bias_n"])
+    table = env.episode.sim.model.geom("table")
+    assert table.friction[0] == pytest.approx(info["world"]["table_friction"])
     first = env.episode.scene.mesh.shank.points.copy()
     env.reset(seed=1)
     assert env.episode.scene.mesh.shank.points.shape != first.shape or not np.allclose(
@@ -105,6 +111,19 @@ def test_the_env_applies_the_drawn_world() -> None:
     assert info["world"]["force_scale"] == 1.0 and "round_width_m" in info["world"]["shape"]
     _, info = env.reset(seed=0, options={"randomize": False})
     assert info["world"] == {} and env.episode.scenario.tissue.length_m == 0.45
+
+
+def test_a_sensor_bias_survives_the_tare() -> None:
+    scenario = apply_options(Scenario(tissue=MuscleShape(cell_size_m=0.05)),
+                             {"force_bias_n": [0.2, 0.0, -0.1], "force_noise_n": 0.0})
+    sim = Simulation(build_scene(scenario), scenario)
+    sim.tare()
+    np.testing.assert_allclose(sim.read("knife/force"), [0.2, 0.0, -0.1])
+
+
+def test_randomize_must_be_a_bool() -> None:
+    with pytest.raises(InputError, match="randomize"):
+        CutEnv().reset(seed=0, options={"randomize": "no"})
 
 
 def test_check_env_passes_with_randomisation() -> None:
