@@ -11,7 +11,10 @@ holds one table per varied option of :mod:`envs.options` (the muscle shape's fie
     high = 65.0
 
 Every range is checked where it is loaded: its bounds (all corners of the shape's ranges
-together) must make a valid scenario, so a draw never holds a value its parameter refuses.
+together; a choice's smallest and largest values) must make a valid scenario, so a draw holds
+no value its parameter refuses (the shape's checks are bounds on sums of its fields, which
+hold inside a box when they hold at its corners). A shape can still fail as a mesh, or a world
+diverge; the envs draw again then.
 
 Example:
     >>> import numpy as np
@@ -151,8 +154,8 @@ def load_randomization(path: str | Path | None = None,
         elif key in OPTION_KEYS and key not in _NOT_DRAWN:
             entries.append((key, _distribution(path, key, table)))
         else:
-            drawn = [k for k in OPTION_KEYS if k not in _NOT_DRAWN[1:]]
-            raise RandomizationError(path, key, f"unknown key (known: {', '.join(drawn)})")
+            known = ("shape", *(k for k in OPTION_KEYS if k not in _NOT_DRAWN))
+            raise RandomizationError(path, key, f"unknown key (known: {', '.join(known)})")
     randomization = Randomization(tuple(entries), str(path))
     check_ranges(randomization, Scenario() if scenario is None else scenario)
     return randomization
