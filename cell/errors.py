@@ -53,6 +53,10 @@ class DiagnosisError(InputError):
     """Diagnosis settings out of range, or a cause the catalogue does not have."""
 
 
+class RandomizationError(InputError):
+    """A domain randomisation file with a wrong key, type, distribution or range."""
+
+
 class MeshError(InputError):
     """A mesh that cannot be simulated: not a volume, inverted or degenerate elements."""
 

@@ -15,6 +15,7 @@ from gymnasium.envs.registration import register, registry
 
 from envs.options import OPTION_KEYS, apply_options
 from envs.params import ActionLimits, RewardParams
+from envs.randomization import Randomization, draw, load_randomization
 from envs.separation import (
     COARSE_CELL_SIZE_M,
     MAX_TORN_FRACTION,
@@ -49,7 +50,10 @@ __all__ = [
     "CutEnv",
     "MuscleSeparationEnv",
     "PullEnv",
+    "Randomization",
     "RewardParams",
     "apply_options",
+    "draw",
+    "load_randomization",
     "register_envs",
 ]

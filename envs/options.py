@@ -5,19 +5,36 @@ Keys (every one optional; SI units):
 - ``shape``: a mapping of :class:`~cell.tissue.geometry.MuscleShape` fields but ``cell_size_m`` (the
   resolution is the env's constructor argument),
 - ``material``: a material object or the path of a material TOML file,
+- ``longitudinal_scale``, ``transverse_scale``: factors on a mass-spring material's modulus
+  curves along and across the fibres (tension and compression), ``stiffening_scale`` a factor
+  on their strain stiffening (every coefficient but the small-strain modulus, and an
+  exponential law's exponent),
 - ``fibre_direction``: the fibres' direction, world frame (a mass-spring material's), three
-  numbers,
-- ``binding_stiffness_n_m``, ``tearing_stretch_m``: the aponeurosis' strength,
-- ``force_noise_n``, ``torque_noise_nm``: the force/torque sensors' noise.
+  numbers; ``fibre_yaw_rad`` turns it about the vertical, then ``fibre_pitch_rad`` tilts it
+  up out of the table's plane,
+- ``binding_stiffness_n_m``, ``tearing_stretch_m``, ``tearing_force_n``: the aponeurosis'
+  stiffness and strength; ``force_scale``: a factor on the measured cutting-force curve,
+- ``table_friction``, ``tissue_friction``: the contact friction coefficients of the table
+  and of the muscles' surface (:class:`~cell.sim.scenario.SimulationParams`),
+- ``force_noise_n``, ``torque_noise_nm``: the force/torque sensors' noise; ``force_bias_n``,
+  ``torque_bias_nm``: their bias, three numbers each,
+- ``camera_noise_at_1m_m``: the depth camera's noise at 1 m,
+- ``grasp_x_offset``, ``grasp_inset_offset_m``: offsets added to the pull plan's grasp point
+  (fraction of the shank's length, and m in from its outer side).
 
 Values are type-checked as a scenario file's are, and a bad one raises
-:class:`~cell.errors.InputError` naming the key.
+:class:`~cell.errors.InputError` naming the key. Of several layers of options the last that
+holds a key gives its value (a shape merges field by field), so a factor or an offset applies
+once.
 
 Example:
     >>> from cell.sim.scenario import Scenario
     >>> scenario = apply_options(Scenario(), {"shape": {"length_m": 0.4}, "force_noise_n": 0.1})
     >>> scenario.tissue.length_m, scenario.sensors.force_noise_n
     (0.4, 0.1)
+    >>> apply_options(Scenario(), {"grasp_x_offset": 0.1}, {"grasp_x_offset": -0.1}
+    ...               ).pull.grasp_x_fraction
+    0.4
     >>> apply_options(Scenario(), {"force_noise_n": "high"})
     Traceback (most recent call last):
     cell.errors.InputError: force_noise_n: expected a number, got str 'high'
@@ -25,6 +42,7 @@ Example:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -35,6 +53,7 @@ import numpy as np
 from cell.config import updated
 from cell.errors import InputError, MaterialError
 from cell.sim.scenario import Scenario
+from cell.tissue.curves import ModulusCurve
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
 from cell.tissue.materialfile import load_material
 
@@ -54,13 +73,74 @@ def _material(scenario: Scenario, value: Any) -> Scenario:
     return replace(scenario, material=value)
 
 
-def _fibre_direction(scenario: Scenario, value: Any) -> Scenario:
+def _mass_spring(scenario: Scenario, key: str) -> MassSpringMaterial:
     if not isinstance(scenario.material, MassSpringMaterial):
-        raise MaterialError(None, "fibre_direction", "the continuum materials have no fibres")
+        raise MaterialError(None, key, "the continuum materials have no fibres")
+    return scenario.material
+
+
+def _fibre_direction(scenario: Scenario, value: Any) -> Scenario:
+    material = _mass_spring(scenario, "fibre_direction")
     if isinstance(value, np.ndarray):  # as a Gymnasium user may give it
         value = value.tolist()
-    return replace(scenario, material=updated(scenario.material, {"fibre_direction": value},
+    return replace(scenario, material=updated(material, {"fibre_direction": value},
                                               error=MaterialError))
+
+
+def _number(key: str, value: Any, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(None, key, f"expected a finite number, got {value!r}")
+    if positive and not value > 0:
+        raise InputError(None, key, f"must be > 0, got {value}")
+    return float(value)
+
+
+def _turn_fibres(key: str) -> Callable[[Scenario, Any], Scenario]:
+    """The option ``key``: the fibres turned by an angle about the vertical (yaw) or up out of
+    the table's plane (pitch)."""
+    def apply(scenario: Scenario, value: Any) -> Scenario:
+        angle = _number(key, value)
+        d = np.array(_mass_spring(scenario, key).fibre_direction)
+        if key == "fibre_yaw_rad":
+            c, s = math.cos(angle), math.sin(angle)
+            turned = [c * d[0] - s * d[1], s * d[0] + c * d[1], d[2]]
+        else:
+            up = np.array([0.0, 0.0, 1.0]) - d[2] * d  # up, square to the fibres
+            norm = np.linalg.norm(up)
+            up = up / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+            turned = (math.cos(angle) * d + math.sin(angle) * up).tolist()
+        return _fibre_direction(scenario, turned)
+    return apply
+
+
+def _scaled(curve: ModulusCurve | None, factor: float, stiffening: bool) -> ModulusCurve | None:
+    if curve is None:
+        return None
+    if stiffening:
+        return replace(curve, coefficients=(curve.coefficients[0],
+                                            *(c * factor for c in curve.coefficients[1:])),
+                       exponent=curve.exponent * factor)
+    return replace(curve, coefficients=tuple(c * factor for c in curve.coefficients))
+
+
+def _scale_moduli(key: str) -> Callable[[Scenario, Any], Scenario]:
+    """The option ``key``: a factor on the longitudinal or transverse curves, or on both
+    curves' stiffening."""
+    names = {"longitudinal_scale": ("longitudinal", "longitudinal_compression"),
+             "transverse_scale": ("transverse", "transverse_compression")}
+    def apply(scenario: Scenario, value: Any) -> Scenario:
+        factor = _number(key, value, positive=True)
+        material = _mass_spring(scenario, key)
+        stiffening = key == "stiffening_scale"
+        curves = (names["longitudinal_scale"] + names["transverse_scale"] if stiffening
+                  else names[key])
+        try:
+            material = replace(material, **{name: _scaled(getattr(material, name), factor,
+                                                          stiffening) for name in curves})
+        except InputError as exc:
+            raise InputError(None, key, exc.message) from None
+        return replace(scenario, material=material)
+    return apply
 
 
 def _field(part: str, name: str, key: str) -> Callable[[Scenario, Any], Scenario]:
@@ -73,37 +153,77 @@ def _field(part: str, name: str, key: str) -> Callable[[Scenario, Any], Scenario
     return apply
 
 
-# Applied in this order, so that a fibre direction turns the material given beside it.
+def _offset(part: str, name: str, key: str) -> Callable[[Scenario, Any], Scenario]:
+    """The option ``key``: an offset added to the field ``name`` of the scenario's ``part``."""
+    set_field = _field(part, name, key)
+    def apply(scenario: Scenario, value: Any) -> Scenario:
+        return set_field(scenario, getattr(getattr(scenario, part), name) + _number(key, value))
+    return apply
+
+
+# Applied in this order, so that factors, a fibre direction and its turns act on the material
+# given beside them.
 _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
     "shape": _shape,
     "material": _material,
+    "longitudinal_scale": _scale_moduli("longitudinal_scale"),
+    "transverse_scale": _scale_moduli("transverse_scale"),
+    "stiffening_scale": _scale_moduli("stiffening_scale"),
     "fibre_direction": _fibre_direction,
+    "fibre_yaw_rad": _turn_fibres("fibre_yaw_rad"),
+    "fibre_pitch_rad": _turn_fibres("fibre_pitch_rad"),
     "binding_stiffness_n_m": _field("aponeurosis", "stiffness_n_m", "binding_stiffness_n_m"),
     "tearing_stretch_m": _field("aponeurosis", "tearing_stretch_m", "tearing_stretch_m"),
+    "tearing_force_n": _field("aponeurosis", "tearing_force_n", "tearing_force_n"),
+    "force_scale": _field("aponeurosis", "force_scale", "force_scale"),
+    "table_friction": _field("simulation", "table_friction", "table_friction"),
+    "tissue_friction": _field("simulation", "tissue_friction", "tissue_friction"),
     "force_noise_n": _field("sensors", "force_noise_n", "force_noise_n"),
     "torque_noise_nm": _field("sensors", "torque_noise_nm", "torque_noise_nm"),
+    "force_bias_n": _field("sensors", "force_bias_n", "force_bias_n"),
+    "torque_bias_nm": _field("sensors", "torque_bias_nm", "torque_bias_nm"),
+    "camera_noise_at_1m_m": _field("perception", "noise_sigma_at_1m_m", "camera_noise_at_1m_m"),
+    "grasp_x_offset": _offset("pull", "grasp_x_fraction", "grasp_x_offset"),
+    "grasp_inset_offset_m": _offset("pull", "grasp_inset_m", "grasp_inset_offset_m"),
 }
 #: Every key an env's options may hold.
 OPTION_KEYS = tuple(_OPTIONS)
 
 
+def merge_options(*layers: Mapping[str, Any]) -> dict[str, Any]:
+    """One set of options from ``layers``, later ones over earlier ones key by key (a shape
+    field by field).
+
+    Example:
+        >>> merge_options({"shape": {"length_m": 0.4}, "force_noise_n": 0.1},
+        ...               {"shape": {"gap_m": 0.004}, "force_noise_n": 0.0})
+        {'shape': {'length_m': 0.4, 'gap_m': 0.004}, 'force_noise_n': 0.0}
+    """
+    merged: dict[str, Any] = {}
+    for options in layers:
+        for key, value in options.items():
+            before = merged.get(key)
+            if key == "shape" and isinstance(before, Mapping) and isinstance(value, Mapping):
+                value = {**before, **value}
+            merged[key] = value
+    return merged
+
+
 def apply_options(scenario: Scenario, *layers: Mapping[str, Any]) -> Scenario:
-    """``scenario`` with the variations in ``layers`` applied, later layers over earlier ones:
-    key by key in the order of :data:`OPTION_KEYS`, so that a shape updates the one before it
-    and a fibre direction from any layer turns the material from any layer.
+    """``scenario`` with the variations in ``layers`` applied: merged by
+    :func:`merge_options`, then key by key in the order of :data:`OPTION_KEYS`, so that a
+    fibre direction from any layer turns the material from any layer.
 
     Values are checked as a scenario file's are (:func:`cell.config.updated`).
 
     Raises:
         InputError: an unknown key or a bad value; ``field`` names the key.
     """
-    for options in layers:
-        for key in options:
-            if key not in _OPTIONS:
-                raise InputError(None, key,
-                                 f"unknown env option (known: {', '.join(OPTION_KEYS)})")
+    options = merge_options(*layers)
+    for key in options:
+        if key not in _OPTIONS:
+            raise InputError(None, key, f"unknown env option (known: {', '.join(OPTION_KEYS)})")
     for key, apply in _OPTIONS.items():
-        for options in layers:
-            if key in options:
-                scenario = apply(scenario, options[key])
+        if key in options:
+            scenario = apply(scenario, options[key])
     return scenario

@@ -8,14 +8,16 @@ depth, jaws closed on the shank) before the policy takes over.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from dataclasses import replace
+from pathlib import Path
 from typing import Any, ClassVar, Literal
 
 import gymnasium as gym
 import numpy as np
 
-from cell.errors import DivergenceError, InputError
+from cell.errors import DivergenceError, InputError, MusclecellError
 from cell.robots.camera import CameraRig
 from cell.robots.names import CAMERA
 from cell.sim.assembly import grasp_point
@@ -30,8 +32,9 @@ from envs.observation import (
     Sensing,
     observe,
 )
-from envs.options import apply_options
+from envs.options import apply_options, merge_options
 from envs.params import ActionLimits, RewardParams
+from envs.randomization import Randomization, check_ranges, draw, load_randomization
 from envs.render import CellRenderer
 from envs.reward import reward_terms
 
@@ -46,6 +49,9 @@ SEPARATED_FRACTION = 0.95
 MAX_TORN_FRACTION = 0.5
 #: Simulated time past the scripted plan's end the default time limit allows, s.
 _TIME_MARGIN_S = 2.0
+#: Draws a reset makes before it gives up on a randomised world that fails to build or
+#: diverges on the approach.
+MAX_DRAWS = 5
 
 Driven = Literal["both", "knife", "pull"]
 _KNIFE_DIMS = 4
@@ -77,6 +83,14 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         options: variations applied at every reset (see :mod:`envs.options`); a reset's own
             ``options`` apply on top, key by key (a reset's material keeps these options'
             fibre direction, a reset's shape these options' other shape fields).
+        randomize: draw a world from ``randomization`` at every reset, from the env's random
+            generator (so the reset's seed fixes it), under ``options`` and the reset's own
+            options key by key; ``reset(options={"randomize": False})`` evaluates on the
+            nominal world. ``info["world"]`` holds the variations applied. A drawn world that
+            fails to build or diverges before the policy takes over is drawn again (up to
+            ``MAX_DRAWS`` times; ``info["redraws"]`` says why).
+        randomization: the distribution (see :mod:`envs.randomization`): a file, or None for
+            the package's default.
         limits, reward: action scaling and reward weights (defaults when None).
         time_limit_s: episode length after the approach, s of simulated time.
         driven: ``"both"``, ``"knife"`` or ``"pull"``.
@@ -95,7 +109,8 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
                  options: Mapping[str, Any] | None = None,
                  limits: ActionLimits | None = None, reward: RewardParams | None = None,
                  time_limit_s: float | None = None, driven: Driven = "both",
-                 render_mode: str | None = None) -> None:
+                 render_mode: str | None = None, randomize: bool = True,
+                 randomization: str | Path | Randomization | None = None) -> None:
         if driven not in ("both", "knife", "pull"):
             raise InputError(None, "driven", f"must be both, knife or pull, got {driven!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
@@ -111,6 +126,15 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
                                                          enabled=perception))
         self.options = dict(options or {})
         apply_options(self.base, self.options)  # fail now, not at the first reset
+        self.randomize = randomize
+        # Ranges are checked on this env's cell where it draws (a continuum material, say,
+        # has no fibres to turn), on the default cell otherwise.
+        checked_on = self.base if randomize else Scenario()
+        if isinstance(randomization, Randomization):
+            check_ranges(randomization, checked_on)
+        else:
+            randomization = load_randomization(randomization, checked_on)
+        self.randomization = randomization
         self.limits = ActionLimits() if limits is None else limits
         self.reward_params = RewardParams() if reward is None else reward
         self.time_limit_s = time_limit_s
@@ -124,19 +148,47 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
                                                 (len(OBSERVATION_NAMES),), np.float32)
         self.episode: Episode | None = None
         self.plan: EpisodePlan | None = None
+        self.world: dict[str, Any] = {}
+        self.redraws: list[str] = []
         self._renderer: CellRenderer | None = None
 
     # -- episode --------------------------------------------------------------------------
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Build a fresh cell (with ``options`` over the constructor's), plan, play the
-        approach; the scenario's seed (sensor noise, camera noise) comes from the env's
-        random generator."""
+        """Draw a world (unless ``options["randomize"]`` is False or the env does not
+        randomise), build a fresh cell with it (``options`` over the constructor's over the
+        draw), plan, play the approach; the draw and the scenario's seed (sensor noise,
+        camera noise) come from the env's random generator."""
         super().reset(seed=seed)
-        scenario = apply_options(self.base, self.options, options or {})
+        options = dict(options or {})
+        randomize = options.pop("randomize", self.randomize)
+        if not isinstance(randomize, bool):
+            raise InputError(None, "randomize", f"expected true or false, got {randomize!r}")
+        apply_options(self.base, self.options, options)  # a bad option is no bad draw
+        self.redraws = []
+        for attempt in range(1, MAX_DRAWS + 1):
+            last = not randomize or attempt == MAX_DRAWS
+            drawn = draw(self.randomization, self.np_random) if randomize else {}
+            self.world = merge_options(drawn, self.options, options)
+            try:
+                self._start(apply_options(self.base, self.world))
+            except MusclecellError as exc:
+                if last:
+                    raise
+                self.redraws.append(str(exc))
+                continue
+            if last or not self.diverged:
+                break
+            self.redraws.append(self._divergence)
+        return self._obs, self._info({})
+
+    def _start(self, scenario: Scenario) -> None:
+        """Build the cell of ``scenario``, plan, play the approach (a divergence in it ends the
+        episode: ``self.diverged``)."""
         scenario = replace(scenario, seed=int(self.np_random.integers(2**31 - 1)))
         self.close()
+        self.episode = self.plan = None  # until this cell is built
         self.episode = episode = Episode(scenario)
         perceived = None
         if scenario.perception.enabled:
@@ -169,7 +221,6 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
                                  plan.pull.sample(self._start_s)[1], self.limits)
         self._reading = self._sensing.read(self._knife)
         self._obs = self._observe()
-        return self._obs, self._info({})
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """One control step (20 ms by default) of the policy's action."""
@@ -233,6 +284,8 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
             "bounded_actions": self.bounded_actions,
             "sim_time_s": self.episode.sim.time_s,
             "reward_terms": terms,
+            "world": copy.deepcopy(self.world),  # the caller keeps each step's info
+            "redraws": list(self.redraws),
         }
         if self.diverged:
             info["divergence"] = self._divergence

@@ -137,7 +137,8 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None,
     world.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=table_half,
                    pos=[layout.meat_x_m, 0.0, layout.table_height_m / 2],
                    rgba=[0.75, 0.76, 0.78, 1], contype=TABLE_TOP.contype,
-                   conaffinity=TABLE_TOP.conaffinity, friction=[0.6, 0.005, 0.0001])
+                   conaffinity=TABLE_TOP.conaffinity,
+                   friction=[sim.table_friction, 0.005, 0.0001])
     if robots:
         _add_arms(scenario, spec)
     return spec
@@ -172,7 +173,8 @@ def _muscle_xml(name: str, mesh: TetMesh, scenario: Scenario, pins: np.ndarray,
     round_bits, shank_bits = muscles(scenario.simulation.muscle_contact)
     bits = round_bits if name == "round" else shank_bits
     contact = (f'contype="{bits.contype}" conaffinity="{bits.conaffinity}" selfcollide="none" '
-               'condim="3" friction="0.5 0.005 0.0001" solref="0.005 1"')
+               f'condim="3" friction="{scenario.simulation.tissue_friction} 0.005 0.0001" '
+               'solref="0.005 1"')
     return flexcomp_xml(name, mesh.points + offset_m, mesh.tets, material,
                         material.density_kg_m3 * mesh.volume_m3, radius_m=0.0005,
                         contact=contact, pins=pins.tolist(),
@@ -212,7 +214,7 @@ def build_scene(scenario: Scenario, robots: bool = True) -> Scene:
     # flexcomp is the one element MjSpec cannot build from arrays: start from its MJCF.
     spec = mujoco.MjSpec.from_string(_tissue_spec(scenario, mesh, round_pins))
     set_continuum_law(spec, scenario.material)
-    _add_feet(spec, mesh, origin[2])
+    _add_feet(spec, mesh, origin[2], scenario.simulation.table_friction)
     build_robot_spec(scenario, spec, robots)
 
     apo = scenario.aponeurosis
@@ -252,15 +254,17 @@ def build_scene(scenario: Scenario, robots: bool = True) -> Scene:
                  grasp_ids, grasp_vertices, model.eq_data.copy())
 
 
-def _add_feet(spec: mujoco.MjSpec, mesh: TwoMuscleMesh, table_z_m: float) -> None:
+def _add_feet(spec: mujoco.MjSpec, mesh: TwoMuscleMesh, table_z_m: float,
+              friction: float) -> None:
     """A small sphere under every bottom vertex of the shank, resting on the table (see
-    :data:`cell.collision.FEET`). Its bottom touches the vertex, so the rest pose is kept."""
+    :data:`cell.collision.FEET`). Its bottom touches the vertex, so the rest pose is kept;
+    it has the table's ``friction`` (a contact takes the larger of the two)."""
     bottom = np.flatnonzero(mesh.shank.points[:, 2] <= table_z_m + _PIN_TOLERANCE_M)
     for i in bottom:
         spec.body(f"shank_{i}").add_geom(
             name=f"shank_foot_{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[_FOOT_RADIUS_M, 0, 0],
             pos=[0, 0, _FOOT_RADIUS_M], mass=1e-9, contype=FEET.contype,
-            conaffinity=FEET.conaffinity, friction=[0.6, 0.005, 0.0001], group=3)
+            conaffinity=FEET.conaffinity, friction=[friction, 0.005, 0.0001], group=3)
 
 
 def _vertex_bodies(model: mujoco.MjModel, flex: str, count: int, pin_body: str | None

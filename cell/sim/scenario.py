@@ -54,10 +54,12 @@ class SimulationParams:
     muscle_contact: bool = False
     solver_iterations: int = 100
     max_tissue_speed_m_s: float = 20.0
+    table_friction: float = 0.6
+    tissue_friction: float = 0.5
 
     def __post_init__(self) -> None:
         require_positive(self, "timestep_s", "control_rate_hz", "solver_iterations",
-                  "max_tissue_speed_m_s")
+                  "max_tissue_speed_m_s", "table_friction", "tissue_friction")
         if self.control_rate_hz * self.timestep_s > 1.0:
             raise InputError(None, "control_rate_hz", "faster than the physics step")
 
@@ -76,7 +78,8 @@ class AponeurosisParams:
     ``force_curve``: the measured knife cutting force against time since the cut began (CSV,
     path relative to the scenario file, or ``assets/...`` for the package's own data);
     ``force_share``: the fraction of that force one binding under the blade must carry to be
-    cut (the knife force also shears muscle and overcomes friction).
+    cut (the knife force also shears muscle and overcomes friction); ``force_scale``
+    multiplies the curve (a duller or sharper knife, a tougher or weaker aponeurosis).
 
     Example:
         >>> AponeurosisParams(release_rules=("knife",)).tearing_stretch_m
@@ -97,6 +100,7 @@ class AponeurosisParams:
     knife_margin_m: float = 0.003
     force_curve: str = str(asset_path("cutting_force/boning_knife_synthetic.csv"))
     force_share: float = 0.1
+    force_scale: float = 1.0
 
     def __post_init__(self) -> None:
         known = sorted(rule.value for rule in ReleaseRule)
@@ -104,7 +108,7 @@ class AponeurosisParams:
             if rule not in known:
                 raise InputError(None, "release_rules", f"unknown rule {rule!r}; known: {known}")
         require_positive(self, "stiffness_n_m", "tearing_stretch_m", "timeconst_s", "dampratio",
-                  "force_share")
+                  "force_share", "force_scale")
         require_non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m")
         if "force" in self.release_rules and self.law != "spring":
             raise InputError(None, "release_rules",
@@ -137,15 +141,20 @@ class LayoutParams:
 
 @dataclass(frozen=True)
 class SensorParams:
-    """Sensor noise (standard deviations), drawn from the scenario's seed.
+    """Sensor noise (standard deviations, drawn from the scenario's seed) and bias (what taring
+    leaves: a drift added to every force reading, N, or torque reading, N m, sensor frame).
 
     Example:
         >>> SensorParams(force_noise_n=0.0).torque_noise_nm
         0.005
+        >>> SensorParams(force_bias_n=(0.2, 0.0, -0.1)).torque_bias_nm
+        (0.0, 0.0, 0.0)
     """
 
     force_noise_n: float = 0.05
     torque_noise_nm: float = 0.005
+    force_bias_n: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    torque_bias_nm: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         require_non_negative(self, "force_noise_n", "torque_noise_nm")

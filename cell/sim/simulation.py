@@ -215,7 +215,8 @@ class Simulation(TissueSimulation):
                                                                under_blade)
         if self.force_curve is not None and knife_time_s is not None:
             apo.hook(self.data, under_blade)
-            threshold = params.force_share * self.force_curve.at(knife_time_s)
+            threshold = (params.force_share * params.force_scale
+                         * self.force_curve.at(knife_time_s))
             released[ReleaseRule.FORCE] = apo.release_by_force(self.data, self.time_s,
                                                                under_blade, threshold)
         if ReleaseRule.TEARING.value in rules:
@@ -248,9 +249,12 @@ class Simulation(TissueSimulation):
             self._tare[name] = self.data.sensordata[self._sensor[name]].copy()
 
     def read(self, name: str) -> np.ndarray:
-        """A tared, noisy 3-vector sensor reading: ``knife/force``, ``knife/torque``,
-        ``gripper/force``, ``gripper/torque`` (N, N m, sensor frame) or ``fixture_force``."""
-        noise = self.scenario.sensors
-        sigma = noise.torque_noise_nm if name.endswith("torque") else noise.force_noise_n
+        """A tared 3-vector sensor reading with the sensors' bias and noise: ``knife/force``,
+        ``knife/torque``, ``gripper/force``, ``gripper/torque`` (N, N m, sensor frame) or
+        ``fixture_force``."""
+        params = self.scenario.sensors
+        torque = name.endswith("torque")
+        sigma = params.torque_noise_nm if torque else params.force_noise_n
+        bias = np.asarray(params.torque_bias_nm if torque else params.force_bias_n)
         value = self.data.sensordata[self._sensor[name]] - self._tare[name]
-        return value + self.rng.normal(0.0, sigma, 3)
+        return value + bias + self.rng.normal(0.0, sigma, 3)
