@@ -13,8 +13,8 @@ holds one table per varied option of :mod:`envs.options` (the muscle shape's fie
 Every range is checked where it is loaded: its bounds (all corners of the shape's ranges
 together; a choice's smallest and largest values) must make a valid scenario, so a draw holds
 no value its parameter refuses (the shape's checks bound convex or multilinear functions of
-its fields, whose worst case over a box lies at a corner). A shape can still fail as a mesh, or a world
-diverge; the envs draw again then.
+its fields, whose worst case over a box lies at a corner). A shape can still fail as a mesh, or a
+world diverge; the envs draw again then.
 
 Example:
     >>> import numpy as np
