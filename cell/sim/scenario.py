@@ -77,6 +77,9 @@ class AponeurosisParams:
     path relative to the scenario file, or ``assets/...`` for the package's own data);
     ``force_share``: the fraction of that force one binding under the blade must carry to be
     cut (the knife force also shears muscle and overcomes friction).
+    ``edge_share``: the fraction of that force the blade's edge meets in the flesh while the
+    knife cuts (fracture and friction that neither the hooked bindings nor the flex contacts
+    make: :class:`~cell.tissue.cutting.EdgeResistance`), under any release rule; 0: none.
 
     Example:
         >>> AponeurosisParams(release_rules=("knife",)).tearing_stretch_m
@@ -97,6 +100,7 @@ class AponeurosisParams:
     knife_margin_m: float = 0.003
     force_curve: str = str(asset_path("cutting_force/boning_knife_synthetic.csv"))
     force_share: float = 0.1
+    edge_share: float = 0.8
 
     def __post_init__(self) -> None:
         known = sorted(rule.value for rule in ReleaseRule)
@@ -105,7 +109,8 @@ class AponeurosisParams:
                 raise InputError(None, "release_rules", f"unknown rule {rule!r}; known: {known}")
         require_positive(self, "stiffness_n_m", "tearing_stretch_m", "timeconst_s", "dampratio",
                   "force_share")
-        require_non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m")
+        require_non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m",
+                             "edge_share")
         if "force" in self.release_rules and self.law != "spring":
             raise InputError(None, "release_rules",
                              "the force rule needs law = \"spring\" (a binding force in N)")
