@@ -92,14 +92,14 @@ class AponeurosisParams:
     law: Literal["spring", "constraint"] = "spring"
     stiffness_n_m: float = 50.0
     damping_n_s_m: float = 0.5
-    release_rules: tuple[str, ...] = ("knife", "tearing")
+    release_rules: tuple[str, ...] = ("force", "tearing")
     tearing_stretch_m: float = 0.01
     tearing_force_n: float = 0.0
     timeconst_s: float = 0.01
     dampratio: float = 1.0
     knife_margin_m: float = 0.003
     force_curve: str = str(asset_path("cutting_force/boning_knife_synthetic.csv"))
-    force_share: float = 0.1
+    force_share: float = 0.05
     edge_share: float = 0.8
 
     def __post_init__(self) -> None:

@@ -135,8 +135,10 @@ class Simulation(TissueSimulation):
         >>> scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05))
         >>> sim = Simulation(build_scene(scenario), scenario)
         >>> sim.step(10)
-        >>> {rule.value: len(i) for rule, i in sim.apply_release_rules().items()}
-        {'knife': 0, 'tearing': 0}
+        >>> {rule.value: len(i) for rule, i in sim.apply_release_rules().items()}  # no cut yet
+        {'tearing': 0}
+        >>> sim.knife_load_n()
+        {'bindings': 0.0, 'flesh': 0.0, 'edge': 0.0}
     """
 
     def __init__(self, scene: Scene, scenario: Scenario) -> None:
