@@ -137,7 +137,7 @@ class Simulation(TissueSimulation):
         >>> sim.step(10)
         >>> {rule.value: len(i) for rule, i in sim.apply_release_rules().items()}  # no cut yet
         {'tearing': 0}
-        >>> sim.knife_load_n()
+        >>> sim.knife_load_n()  # the knife is far from the meat
         {'bindings': 0.0, 'flesh': 0.0, 'edge': 0.0}
     """
 
@@ -254,7 +254,10 @@ class Simulation(TissueSimulation):
         contacts = np.zeros(3)
         geoms = data.contact.geom[: data.ncon]
         wrench = np.zeros(6)
-        for i in np.flatnonzero((geoms == blade).any(axis=1)):
+        # The blade against a flex (the muscles), not against the table or a tool.
+        flexes = data.contact.flex[: data.ncon]
+        with_flesh = (geoms == blade).any(axis=1) & (flexes >= 0).any(axis=1)
+        for i in np.flatnonzero(with_flesh):
             mujoco.mj_contactForce(self.model, data, i, wrench)
             # The contact frame's first row is the normal, from geom 1 to geom 2.
             world = data.contact.frame[i].reshape(3, 3).T @ wrench[:3]
