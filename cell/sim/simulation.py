@@ -162,7 +162,7 @@ class Simulation(TissueSimulation):
                             if ReleaseRule.FORCE.value in params.release_rules
                             or params.edge_share > 0 else None)
         self.edge = EdgeResistance(self.model)
-        self._edge_force_n = 0.0
+        self._edge_force_n = 0.0  # what the edge meets until the next release check, N
         self._on_blade = {"bindings": np.zeros(3), "edge": np.zeros(3)}
 
     def reset(self, state: mujoco.MjData | None = None) -> None:
@@ -174,6 +174,7 @@ class Simulation(TissueSimulation):
         self.grasped = np.zeros(0, dtype=int)
         self.edge.reset()
         self._edge_force_n = 0.0
+        self._on_blade = {"bindings": np.zeros(3), "edge": np.zeros(3)}
 
     def _sensor_slice(self, name: str) -> slice:
         sensor = self.model.sensor(name)
