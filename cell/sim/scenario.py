@@ -82,7 +82,7 @@ class AponeurosisParams:
     make: :class:`~cell.tissue.cutting.EdgeResistance`), under any release rule; 0: none.
     The defaults were measured on the default episode, seeds 1 to 5: with ``force_share`` 0.05
     the force rule cuts 73-74 of 95 bindings and the pull tears 21-22 (those below the
-    blade's reach; 0.1 tears 24 without the edge and 43 with it); hooked bindings and flesh
+    blade's reach; 0.1 tears 24, seed 1, without the edge); hooked bindings and flesh
     contacts then make about 1.7 N of the curve's 12 N mean, the edge the rest (0.8), so the
     knife reads a 10 N mean and a 16 N peak while cutting.
 
