@@ -45,8 +45,21 @@ def test_cut_and_pull_separate_the_muscles(full_episode: dict) -> None:
     assert full_episode["released_fraction"] >= 0.95
     assert full_episode["muscles_apart"]
     assert full_episode["gap_m"]["median"] > 0.05
-    assert full_episode["released_by_rule"]["knife"] > 0
+    assert full_episode["released_by_rule"]["force"] > 0
     assert full_episode["grasped_vertices"] > 0
+
+
+def test_the_knife_feels_the_measured_cutting_force(full_episode: dict) -> None:
+    # The default releases by force: the F/T sensor reads the measured order (5 to 20 N,
+    # not the 1 N of knife release), most bindings are cut by the rule, and the load splits
+    # into hooked bindings, flesh on the blade and the edge's resistance.
+    assert full_episode["knife_force_peak_n"] > 3.0
+    released = full_episode["released_by_rule"]
+    assert released["force"] > released["tearing"]
+    split = full_episode["knife_force_split_n"]
+    assert set(split) == {"bindings", "flesh", "edge"}
+    assert split["bindings"]["peak"] > 0.0 and split["edge"]["mean"] > 1.0
+    assert full_episode["knife_force_cutting_mean_n"] > 1.0
 
 
 def test_knife_tip_tracks_the_path_with_physics_on(full_episode: dict) -> None:
@@ -58,10 +71,12 @@ def test_camera_arm_holds_its_pose_while_the_others_work(full_episode: dict) -> 
 
 
 def test_cut_over_half_the_interface_releases_only_that_half_by_knife() -> None:
-    # The knife rule alone, on the generator's interface: the coarse test mesh's facets are
-    # too rough for the perceived interface to keep the blade off the muscles.
+    # The knife rule (a scenario option), on the generator's interface: the coarse test
+    # mesh's facets are too rough for the perceived interface to keep the blade off the
+    # muscles.
     scenario = coarse(cut=CutPlan(speed_m_s=0.06, cut_fraction=0.5),
-                      pull=PullPlan(enabled=False), perception=PerceptionParams(enabled=False))
+                      pull=PullPlan(enabled=False), perception=PerceptionParams(enabled=False),
+                      aponeurosis=AponeurosisParams(release_rules=("knife", "tearing")))
     episode = Episode(scenario)
     summary = episode.run()["result"]
     apo = episode.scene.aponeurosis
@@ -78,7 +93,7 @@ def test_cut_over_half_the_interface_releases_only_that_half_by_knife() -> None:
 def test_pulling_with_the_knife_away_releases_by_tearing_only() -> None:
     scenario = coarse(cut=CutPlan(enabled=False), pull=PullPlan(speed_m_s=0.04))
     summary = Episode(scenario).run()["result"]
-    assert summary["released_by_rule"]["knife"] == 0
+    assert summary["released_by_rule"]["knife"] == summary["released_by_rule"]["force"] == 0
     assert summary["released_by_rule"]["tearing"] > 0
     assert summary["held_arm_drift_m"]["knife"] < 0.002
 
@@ -124,11 +139,13 @@ def test_tracking_errors_are_measured_during_the_cut_only(full_episode: dict) ->
     assert np.isfinite(full_episode["knife_force_peak_n"])
 
 
-def test_force_rule_cuts_with_the_measured_force_and_the_knife_feels_it() -> None:
-    scenario = coarse(aponeurosis=AponeurosisParams(release_rules=("force",)),
+def test_force_rule_alone_cuts_with_the_hooked_bindings() -> None:
+    # No edge resistance: hooked bindings resist the blade until they are cut, and the F/T
+    # sensor reads them.
+    scenario = coarse(aponeurosis=AponeurosisParams(release_rules=("force",), edge_share=0.0),
                       pull=PullPlan(enabled=False))
     summary = Episode(scenario).run()["result"]
     assert summary["released_by_rule"]["force"] > 0
     assert summary["released_by_rule"]["knife"] == summary["released_by_rule"]["tearing"] == 0
-    # Hooked bindings resist the blade until they fail: the F/T sensor reads the cutting force.
+    assert summary["knife_force_split_n"]["edge"]["peak"] == 0.0
     assert summary["knife_force_peak_n"] > 1.0

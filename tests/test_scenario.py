@@ -76,7 +76,7 @@ def test_default_scenario_loads() -> None:
     assert scenario.name == "default"
     assert scenario.cut.speed_m_s == pytest.approx(0.03)
     assert scenario.tissue.length_m == pytest.approx(0.45)
-    assert scenario.aponeurosis.release_rules == ("knife", "tearing")
+    assert scenario.aponeurosis.release_rules == ("force", "tearing")
     assert scenario.aponeurosis.tearing_stretch_m == pytest.approx(0.01)
 
 

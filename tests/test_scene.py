@@ -70,7 +70,8 @@ def test_spring_bindings_need_no_equalities(scene: Scene) -> None:
 
 
 def test_one_binding_per_pair_and_inactive_grasp_equalities() -> None:
-    scene = build_scene(replace(SCENARIO, aponeurosis=AponeurosisParams(law="constraint")))
+    scene = build_scene(replace(SCENARIO, aponeurosis=AponeurosisParams(
+        law="constraint", release_rules=("knife", "tearing"))))
     model, apo = scene.model, scene.aponeurosis
     pairs = scene.mesh.pairs
     assert len(scene.grasp_equalities) > 0

@@ -83,6 +83,8 @@ class _Trace:
 
     tracking_error_m: list[float] = field(default_factory=list)
     knife_force_n: list[float] = field(default_factory=list)
+    cutting_force_n: list[float] = field(default_factory=list)
+    knife_load_n: dict[str, list[float]] = field(default_factory=dict)
     knife_torque_nm: list[float] = field(default_factory=list)
     pull_force_n: list[float] = field(default_factory=list)
     fixture_force_n: list[float] = field(default_factory=list)
@@ -205,10 +207,13 @@ class Episode:
                 self.control_step(plan, knife_target, grasp_target)
                 t = sim.time_s
                 tip = data.site_xpos[tip_site]
+                self._measure(trace, self._knife_tared, self._gripper_tared)
                 if knife_target is not None and cut_start <= t <= cut_end:
                     trace.tracking_error_m.append(
                         float(np.linalg.norm(tip - knife_target[0])))
-                self._measure(trace, self._knife_tared, self._gripper_tared)
+                    trace.cutting_force_n.append(trace.knife_force_n[-1])
+                    for part, force_n in sim.knife_load_n().items():
+                        trace.knife_load_n.setdefault(part, []).append(force_n)
                 for name, start in held.items():
                     site = _HELD_SITES[name]
                     drift = float(np.linalg.norm(data.site_xpos[model.site(site).id] - start))
@@ -336,6 +341,9 @@ class Episode:
         def peak(series: list[float]) -> float:
             return float(max(series)) if series else 0.0
 
+        def mean(series: list[float]) -> float:
+            return float(np.mean(series)) if series else 0.0
+
         result = {
             "scenario": self.scenario.name,
             "seed": self.scenario.seed,
@@ -349,6 +357,11 @@ class Episode:
                                   and float(np.median(gap)) >= APART_GAP_M),
             "grasped_vertices": len(sim.grasped),
             "knife_force_peak_n": peak(trace.knife_force_n),
+            "knife_force_cutting_mean_n": mean(trace.cutting_force_n),
+            # While the knife cuts: bindings hooked on its edge, flesh pushing on the blade
+            # (contacts), the edge's cutting resistance.
+            "knife_force_split_n": {part: {"peak": peak(series), "mean": mean(series)}
+                                    for part, series in trace.knife_load_n.items()},
             "knife_torque_peak_nm": peak(trace.knife_torque_nm),
             "pull_force_peak_n": peak(trace.pull_force_n),
             "fixture_force_peak_n": peak(trace.fixture_force_n),

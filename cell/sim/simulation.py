@@ -11,6 +11,7 @@ from cell.robots.names import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM
 from cell.sim.assembly import Scene
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import ReleaseRule
+from cell.tissue.cutting import EdgeResistance
 from cell.tissue.forcecurve import ForceCurve
 from cell.tissue.forces import TissueForces
 from cell.tissue.massspring import MassSpringModel
@@ -134,8 +135,10 @@ class Simulation(TissueSimulation):
         >>> scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05))
         >>> sim = Simulation(build_scene(scenario), scenario)
         >>> sim.step(10)
-        >>> {rule.value: len(i) for rule, i in sim.apply_release_rules().items()}
-        {'knife': 0, 'tearing': 0}
+        >>> {rule.value: len(i) for rule, i in sim.apply_release_rules().items()}  # no cut yet
+        {'tearing': 0}
+        >>> sim.knife_load_n()  # the knife is far from the meat
+        {'bindings': 0.0, 'flesh': 0.0, 'edge': 0.0}
     """
 
     def __init__(self, scene: Scene, scenario: Scenario) -> None:
@@ -154,9 +157,13 @@ class Simulation(TissueSimulation):
             raise ScenarioError(None, "simulation.timestep_s",
                                 f"{self.model.opt.timestep} s is above the stable step "
                                 f"{stable:.3g} s of this mass-spring material and mesh")
-        rules = scenario.aponeurosis.release_rules
-        self.force_curve = (ForceCurve.from_csv(scenario.aponeurosis.force_curve)
-                            if ReleaseRule.FORCE.value in rules else None)
+        params = scenario.aponeurosis
+        self.force_curve = (ForceCurve.from_csv(params.force_curve)
+                            if ReleaseRule.FORCE.value in params.release_rules
+                            or params.edge_share > 0 else None)
+        self.edge = EdgeResistance(self.model)
+        self._edge_force_n = 0.0  # what the edge meets until the next release check, N
+        self._on_blade = {"bindings": np.zeros(3), "edge": np.zeros(3)}
 
     def reset(self, state: mujoco.MjData | None = None) -> None:
         """Back to rest (or to a copy of ``state``) as a new simulation starts: the tissue's
@@ -165,6 +172,9 @@ class Simulation(TissueSimulation):
         self.rng = np.random.default_rng(self.scenario.seed)
         self._tare = {name: np.zeros(3) for name in self._sensor}
         self.grasped = np.zeros(0, dtype=int)
+        self.edge.reset()
+        self._edge_force_n = 0.0
+        self._on_blade = {"bindings": np.zeros(3), "edge": np.zeros(3)}
 
     def _sensor_slice(self, name: str) -> slice:
         sensor = self.model.sensor(name)
@@ -175,10 +185,19 @@ class Simulation(TissueSimulation):
         data = self.data
         blade_pos = data.geom_xpos[self._blade]
         self.scene.aponeurosis.track_blade(blade_pos, data.geom_xmat[self._blade])
-        force, moment = self.tissue.apply(data)
+        hooks, moment = self.tissue.apply(data)
+        velocity = np.zeros(6)
+        if self._edge_force_n:
+            mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_GEOM, self._blade,
+                                     velocity, 0)
+        edge, edge_moment = self.edge.apply(
+            data, self._edge_force_n, blade_pos, data.geom_xmat[self._blade],
+            self.model.geom_size[self._blade], velocity[3:])
+        self._on_blade = {"bindings": hooks, "edge": edge}
+        force, moment = hooks + edge, moment + edge_moment
         if force.any() or data.xfrc_applied[self._knife].any():
-            # xfrc_applied acts at the knife's centre of mass, the hooks' moment is about
-            # the blade centre.
+            # xfrc_applied acts at the knife's centre of mass, the hooks' and the edge's
+            # moments are about the blade centre.
             lever = blade_pos - data.xipos[self._knife]
             data.xfrc_applied[self._knife, :3] = force
             data.xfrc_applied[self._knife, 3:] = moment + np.cross(lever, force)
@@ -200,8 +219,9 @@ class Simulation(TissueSimulation):
                             ) -> dict[ReleaseRule, np.ndarray]:
         """Release bindings by the scenario's rules; returns the indices released per rule.
 
-        ``knife_time_s`` is the time since the knife began cutting (None before): the force
-        rule reads the measured cutting force at that time.
+        ``knife_time_s`` is the time since the knife began cutting (None when it does not
+        cut): the force rule reads the measured cutting force at that time, and the blade's
+        edge meets its ``edge_share`` until the next call (:class:`EdgeResistance`).
         """
         params = self.scenario.aponeurosis
         apo = self.scene.aponeurosis
@@ -213,10 +233,12 @@ class Simulation(TissueSimulation):
         if ReleaseRule.KNIFE.value in rules:
             released[ReleaseRule.KNIFE] = apo.release_by_knife(self.data, self.time_s,
                                                                under_blade)
-        if self.force_curve is not None and knife_time_s is not None:
+        cutting_n = (params.force_scale * self.force_curve.at(knife_time_s)
+                     if self.force_curve is not None and knife_time_s is not None else 0.0)
+        self._edge_force_n = params.edge_share * cutting_n
+        if ReleaseRule.FORCE.value in rules and knife_time_s is not None:
             apo.hook(self.data, under_blade)
-            threshold = (params.force_share * params.force_scale
-                         * self.force_curve.at(knife_time_s))
+            threshold = params.force_share * cutting_n
             released[ReleaseRule.FORCE] = apo.release_by_force(self.data, self.time_s,
                                                                under_blade, threshold)
         if ReleaseRule.TEARING.value in rules:
@@ -224,6 +246,26 @@ class Simulation(TissueSimulation):
                 self.data, self.time_s, params.tearing_stretch_m,
                 params.tearing_force_n or None)
         return released
+
+    def knife_load_n(self) -> dict[str, float]:
+        """How the force on the knife splits, N (norms of world-frame vectors): ``bindings``
+        hooked on the edge, ``flesh`` pushing on the blade (its contacts), and the ``edge``'s
+        cutting resistance (:class:`EdgeResistance`)."""
+        data, blade = self.data, self._blade
+        contacts = np.zeros(3)
+        geoms = data.contact.geom[: data.ncon]
+        wrench = np.zeros(6)
+        # The blade against a flex (the muscles), not against the table or a tool.
+        flexes = data.contact.flex[: data.ncon]
+        with_flesh = (geoms == blade).any(axis=1) & (flexes >= 0).any(axis=1)
+        for i in np.flatnonzero(with_flesh):
+            mujoco.mj_contactForce(self.model, data, i, wrench)
+            # The contact frame's first row is the normal, from geom 1 to geom 2.
+            world = data.contact.frame[i].reshape(3, 3).T @ wrench[:3]
+            contacts += world if geoms[i, 1] == blade else -world
+        return {"bindings": float(np.linalg.norm(self._on_blade["bindings"])),
+                "flesh": float(np.linalg.norm(contacts)),
+                "edge": float(np.linalg.norm(self._on_blade["edge"]))}
 
     def grasp(self, jaw_half_size_m: np.ndarray) -> int:
         """Bind the shank vertices inside the jaw box (centred on the grasp site, in its frame)
