@@ -20,11 +20,12 @@ the end the second walk reached to the end the first one reached (from P0 when P
 
 Example:
     >>> import numpy as np
-    >>> from cell.perception.pointcloud import DepthView, depth_mesh
-    >>> rows_m = (np.arange(40) - 19.5) * 0.005  # a 2 cm deep groove along x, 0.5 m below
-    >>> depth_m = np.tile(0.5 + 0.02 * np.exp(-(rows_m / 0.02) ** 2), (80, 1)).T
-    >>> mesh = depth_mesh(DepthView(depth_m, 100.0, np.array([0.0, 0.0, 0.6]), np.eye(3)))
     >>> from cell.perception.curvature import surface_curvature
+    >>> from cell.perception.pointcloud import DepthView, depth_mesh
+    >>> y_m = (np.arange(40)[:, None] - 19.5) * 0.005 + np.zeros((1, 80))  # groove along x
+    >>> view = DepthView(0.5 + 0.02 * np.exp(-(y_m / 0.02) ** 2), 100.0,
+    ...                  np.array([0.0, 0.0, 0.6]), np.eye(3))  # 2 cm deep, 0.5 m below
+    >>> mesh = depth_mesh(view)
     >>> path = find_cut_path(mesh, surface_curvature(mesh, 0.015), np.array([-0.15, 0.0, 0.08]))
     >>> path.points_m[[0, -1], 0].round(2), path.length_m  # the groove, end to end
     (array([ 0.21, -0.21]), 0.41...)

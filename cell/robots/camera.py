@@ -59,21 +59,20 @@ class CameraRig:
 
     def depth(self, data: mujoco.MjData) -> np.ndarray:
         """(H, W) float32 depth along the optical axis, m."""
-        self.renderer.enable_depth_rendering()
-        try:
-            self.renderer.update_scene(data, self.camera_id)
-            return self.renderer.render()
-        finally:
-            self.renderer.disable_depth_rendering()
+        return self._render_in_mode(data, "depth")
 
     def segmentation(self, data: mujoco.MjData) -> np.ndarray:
         """(H, W, 2) int32 object id and :class:`mujoco.mjtObj` type per pixel (-1: none)."""
-        self.renderer.enable_segmentation_rendering()
+        return self._render_in_mode(data, "segmentation")
+
+    def _render_in_mode(self, data: mujoco.MjData, mode: str) -> np.ndarray:
+        """Render with the renderer switched to ``mode`` and back, even on an error."""
+        getattr(self.renderer, f"enable_{mode}_rendering")()
         try:
             self.renderer.update_scene(data, self.camera_id)
             return self.renderer.render()
         finally:
-            self.renderer.disable_segmentation_rendering()
+            getattr(self.renderer, f"disable_{mode}_rendering")()
 
     def tissue_mask(self, data: mujoco.MjData) -> np.ndarray:
         """(H, W) bool: pixels that see one of the muscles (a flex)."""
