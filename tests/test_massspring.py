@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from cell.errors import MaterialError
+from cell.errors import MaterialError, MeshError
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.geometry import MuscleShape, build_two_muscles
 from cell.tissue.lattice import tet_edges
@@ -289,5 +289,5 @@ def test_moving_parent_is_refused() -> None:
           point="0 0 0  0.01 0 0  0 0.01 0  0 0 0.01" element="0 2 1 3"><pin id="0"/>
         </flexcomp></body></worldbody></mujoco>"""
     )
-    with pytest.raises(ValueError, match="static"):
+    with pytest.raises(MeshError, match="static"):
         MassSpringModel(model, ("block",), MassSpringMaterial())

@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from cell.collision import FEET, TABLE_TOP, muscles
-from cell.errors import MaterialError
+from cell.errors import MaterialError, MeshError
 from cell.io import write_atomic
 from cell.robots.arms import build_arm
 from cell.robots.names import ARMS, GRIPPER_BODY
@@ -276,7 +276,7 @@ def _vertex_bodies(model: mujoco.MjModel, flex: str, count: int, pin_body: str |
         body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"{flex}_{i}")
         ids[i] = body if body >= 0 else fallback
     if (ids < 0).any():
-        raise RuntimeError(f"flex {flex!r} has vertices without bodies")
+        raise MeshError(None, f"flex {flex}", "vertices without bodies")
     return ids
 
 

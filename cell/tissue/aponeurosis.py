@@ -17,6 +17,8 @@ import mujoco
 import numpy as np
 from numba import njit
 
+from cell.errors import InputError
+
 
 class ReleaseRule(StrEnum):
     """Why a binding let go."""
@@ -89,7 +91,8 @@ class Aponeurosis:
     ) -> None:
         self.law = BindingLaw(law)
         if self.law is BindingLaw.CONSTRAINT and equality_ids is None:
-            raise ValueError("the constraint law needs the bindings' equality ids")
+            raise InputError(None, "equality_ids",
+                             "the constraint law needs the bindings' equality ids")
         self.equality_ids = np.asarray([] if equality_ids is None else equality_ids, dtype=int)
         self.round_vertices = np.asarray(round_vertices, dtype=int)
         self.shank_vertices = np.asarray(shank_vertices, dtype=int)

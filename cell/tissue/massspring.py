@@ -46,6 +46,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
+from cell.errors import MeshError
 from cell.tissue.lattice import (
     AffineLattice,
     calibrated_law,
@@ -119,7 +120,7 @@ class MassSpringModel:
         for name in flexes:
             flex = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_FLEX, name)
             if flex < 0 or model.flex_dim[flex] != 3:
-                raise ValueError(f"no 3D (tetrahedral) flex named {name!r}")
+                raise MeshError(None, f"flex {name}", "no 3D (tetrahedral) flex of that name")
             first, n = int(model.flex_vertadr[flex]), int(model.flex_vertnum[flex])
             world = data.flexvert_xpos[first : first + n].copy()
             bodies = model.flex_vertbodyid[first : first + n]
@@ -261,10 +262,11 @@ def _flex_vertices(
     free = model.body_dofnum[bodies] > 0
     parents = np.unique(np.concatenate([model.body_parentid[bodies[free]], bodies[~free]]))
     if len(parents) != 1:
-        raise ValueError(f"flex {name!r}: vertices hang from several bodies {parents.tolist()}")
+        raise MeshError(None, f"flex {name}",
+                        f"vertices hang from several bodies {parents.tolist()}")
     parent = int(parents[0])
     if model.body_weldid[parent] != 0 or model.body_mocapid[parent] >= 0:
-        raise ValueError(f"flex {name!r}: parent body {parent} moves; it must be static")
+        raise MeshError(None, f"flex {name}", f"parent body {parent} moves; it must be static")
     for body in bodies[free]:
         joints = slice(model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body])
         if (
@@ -273,7 +275,7 @@ def _flex_vertices(
             or not np.array_equal(model.jnt_axis[joints], np.eye(3))
             or not np.array_equal(model.body_quat[body], [1.0, 0.0, 0.0, 0.0])
         ):
-            raise ValueError(f"flex {name!r}: body {body} lacks slide joints along x, y, z")
+            raise MeshError(None, f"flex {name}", f"body {body} lacks slide joints along x, y, z")
     rotation = data.xmat[parent].reshape(3, 3)
     rest = (world - data.xpos[parent]) @ rotation
     qposadr = np.full(len(bodies), -1, dtype=np.int64)
