@@ -89,6 +89,11 @@ class KnifeCommand:
         self.tau_s, self.across_m, self.depth_m, self.yaw_rad = map(float, bounded)
         return self.target(), int(np.count_nonzero(bounded != wanted))
 
+    def follow(self, t_s: float) -> None:
+        """Put the path's parameter where the scripted knife is at ``t_s`` (within the window),
+        so that a policy of the pull sees the knife's progress."""
+        self.tau_s = float(np.clip(t_s, *self.window_s))
+
     def offsets(self) -> np.ndarray:
         """(across m, depth m, yaw rad) now."""
         return np.array([self.across_m, self.depth_m, self.yaw_rad])

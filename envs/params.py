@@ -58,7 +58,8 @@ class RewardParams:
     would otherwise outweigh everything else); tearing is ``tearing`` times the fraction of the
     bindings torn rather than cut (most of what tearing gains as progress: separating by
     pulling alone is the damage the knife is there to avoid). A diverged simulation costs
-    ``divergence``, a protective stop (:class:`TaskParams`) ``protective_stop``.
+    ``divergence``, a protective stop (:class:`TaskParams`) ``protective_stop``; the step that
+    succeeds earns ``success``.
 
     Example:
         >>> RewardParams(time_per_step=0.0).progress
@@ -78,6 +79,7 @@ class RewardParams:
     time_per_step: float = 0.002
     divergence: float = 10.0
     protective_stop: float = 5.0
+    success: float = 5.0
 
     def __post_init__(self) -> None:
         require_non_negative(self)

@@ -260,6 +260,8 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
                              self._knife.progress - progress)
         self._watch(terms)
         self._obs = self._observe()
+        if self.success:
+            terms["success"] = self.reward_params.success
         terminated = (self.success or self.protective_stop
                       or self.torn_fraction > self.task.max_torn_fraction)
         truncated = not terminated and self.elapsed_s >= self._limit_s - 1e-9
@@ -285,6 +287,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
             self.bounded_actions += hits
         else:
             knife_target = plan.knife.sample(t_next)
+            self._knife.follow(t_next)
         if self._drives_pull:
             grasp_target, hits = self._pull.advance(action[-_PULL_DIMS:], self._dt_s)
             self.bounded_actions += hits
