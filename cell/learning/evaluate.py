@@ -15,7 +15,9 @@ import json
 import multiprocessing
 import os
 import time
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -139,13 +141,29 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
     return {**row, "wall_s": time.perf_counter() - started}
 
 
-def run_episodes(tasks: list[EpisodeTask], workers: int) -> list[dict[str, Any]]:
-    """The rows of ``tasks``, in their order, played by ``workers`` processes."""
-    if workers == 1 or len(tasks) == 1:
-        return [run_episode(task) for task in tasks]
+def _one_thread() -> None:
+    """Worker set-up: episodes run side by side, a core each, so torch's own threads (it
+    reads the variable at its import, in the worker's first learned episode) would only
+    compete with them."""
+    os.environ["OMP_NUM_THREADS"] = "1"
+
+
+@contextmanager
+def episode_runner(workers: int) -> Iterator[Callable[[list[EpisodeTask]], list[dict[str, Any]]]]:
+    """A function that plays a list of tasks and returns their rows in the tasks' order, on
+    ``workers`` processes (started once, for every list) or in this process for one.
+
+    Example:
+        >>> with episode_runner(1) as run:
+        ...     run([])
+        []
+    """
+    if workers == 1:
+        yield lambda tasks: [run_episode(task) for task in tasks]
+        return
     context = multiprocessing.get_context(START_METHOD)
-    with ProcessPoolExecutor(min(workers, len(tasks)), mp_context=context) as pool:
-        return list(pool.map(run_episode, tasks))
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_one_thread) as pool:
+        yield lambda tasks: list(pool.map(run_episode, tasks))
 
 
 def _check_policy(folder: Path, env: gym.Env) -> None:
@@ -199,14 +217,14 @@ def evaluate(policy_path: str | Path, env_id: str, env_kwargs: dict[str, Any],
     others = [EpisodeTask(env_id, kwargs_json, PolicySpec(name, folder=str(folder)), seed)
               for name in POLICIES if name != "best-constant" for seed in settings.seeds]
     # Tuning and the policies that need no tuning share one pool, then the chosen constant.
-    rows = run_episodes(tuning + others, settings.workers)
-    tuned = [{**row, "action": task.policy.action}
-             for row, task in zip(rows[:len(tuning)], tuning, strict=True)]
-    constant = _choose_constant(grid, tuned)
-    chosen = PolicySpec("best-constant", tuple(constant["chosen"]["action"]))
-    rows = rows[len(tuning):] + run_episodes(
-        [EpisodeTask(env_id, kwargs_json, chosen, seed) for seed in settings.seeds],
-        settings.workers)
+    with episode_runner(settings.workers) as run:
+        rows = run(tuning + others)
+        tuned = [{**row, "action": task.policy.action}
+                 for row, task in zip(rows[:len(tuning)], tuning, strict=True)]
+        constant = _choose_constant(grid, tuned)
+        chosen = PolicySpec("best-constant", tuple(constant["chosen"]["action"]))
+        rows = rows[len(tuning):] + run(
+            [EpisodeTask(env_id, kwargs_json, chosen, seed) for seed in settings.seeds])
     rows.sort(key=lambda row: (POLICIES.index(row["policy"]), row["seed"]))
     return {"env_id": env_id, "env_kwargs": env_kwargs, "policy": str(folder),
             "seeds": [settings.seed_start, settings.seed_start + settings.episodes - 1],

@@ -133,8 +133,8 @@ def learn(settings: LearnSettings, hyper: PPOHyper, out: Path) -> LearnResult:
     return _train(_Run(out, settings, hyper, None), None)
 
 
-def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None
-           ) -> LearnResult:
+def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None,
+           checkpoint_every: int) -> LearnResult:
     """Continue the run in ``out`` from its latest checkpoint up to ``steps`` env steps in
     all, with its own env kwargs, seed and hyper-parameters; ``envs`` new envs start at the
     training seeds after those already used.
@@ -149,7 +149,7 @@ def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None
     if state["env_id"] != env_id:
         raise LearningError(out, "ENV", f"the run trains {state['env_id']}, not {env_id}")
     settings = LearnSettings(env_id, state["env_kwargs"], state["seed"], envs, steps,
-                             minutes, state["checkpoint_every"])
+                             minutes, checkpoint_every)
     hyper = PPOHyper().with_overrides(state["hyper"])
     return _train(_Run(out, settings, hyper, state), folder)
 
