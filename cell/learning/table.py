@@ -35,7 +35,7 @@ def mean_interval(values: Sequence[float]) -> dict[str, float | None]:
 
     Example:
         >>> mean_interval([1.0, 2.0, 3.0])
-        {'mean': 2.0, 'low': 0.515..., 'high': 3.484...}
+        {'mean': 2.0, 'low': -0.484..., 'high': 4.484...}
     """
     data = np.asarray(values, dtype=float)
     mean = float(data.mean())
