@@ -14,12 +14,11 @@ Example:
 from gymnasium.envs.registration import register, registry
 
 from envs.options import OPTION_KEYS, apply_options
-from envs.params import ActionLimits, RewardParams
+from envs.params import ActionLimits, RewardParams, TaskParams
 from envs.randomization import Randomization, draw, load_randomization
 from envs.separation import (
     COARSE_CELL_SIZE_M,
-    MAX_TORN_FRACTION,
-    SEPARATED_FRACTION,
+    CUT_TASK,
     CutEnv,
     MuscleSeparationEnv,
     PullEnv,
@@ -43,15 +42,15 @@ register_envs()
 
 __all__ = [
     "COARSE_CELL_SIZE_M",
-    "MAX_TORN_FRACTION",
+    "CUT_TASK",
     "OPTION_KEYS",
-    "SEPARATED_FRACTION",
     "ActionLimits",
     "CutEnv",
     "MuscleSeparationEnv",
     "PullEnv",
     "Randomization",
     "RewardParams",
+    "TaskParams",
     "apply_options",
     "draw",
     "load_randomization",

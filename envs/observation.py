@@ -29,7 +29,8 @@ _FORCE_SCALE_N = 10.0
 _PULL_SCALE_M = 0.1
 
 OBSERVATION_NAMES = (
-    "tip_along_cm", "tip_across_cm", "tip_depth_cm", "blade_yaw_rad", "path_progress",
+    "tip_along_cm", "tip_across_cm", "tip_depth_cm", "tip_height_cm", "blade_yaw_rad",
+    "path_progress",
     "command_across_cm", "command_depth_cm", "command_yaw_rad",
     *(f"path_{d * 100:.0f}cm_{axis}_cm" for d in LOOKAHEAD_M
       for axis in ("along", "across", "depth")),
@@ -46,6 +47,8 @@ class Reading:
 
     Attributes:
         tip_m: the knife tip's position.
+        tip_height_m: the tip's height above the table's top (a cell knows its table: the
+            one absolute the knife may not cross).
         blade_rotation: the blade's rotation (x along the edge, z down its axis).
         knife_force_n, knife_torque_nm: the tared, noisy F/T sensor (sensor frame).
         grasp_m: the grasp site's position.
@@ -62,7 +65,7 @@ class Reading:
 
     Example:
         >>> zero = np.zeros(3)
-        >>> reading = Reading(zero, np.eye(3), zero, zero, zero, zero, released_fraction=0.5,
+        >>> reading = Reading(zero, 0.01, np.eye(3), zero, zero, zero, zero, released_fraction=0.5,
         ...                   released_ahead=0.0, strain_near=0.0, strain_max=0.0,
         ...                   blade_contacts=0, under_blade=0, interface_offset_m=0.0)
         >>> reading.released_fraction
@@ -70,6 +73,7 @@ class Reading:
     """
 
     tip_m: np.ndarray
+    tip_height_m: float
     blade_rotation: np.ndarray
     knife_force_n: np.ndarray
     knife_torque_nm: np.ndarray
@@ -107,6 +111,7 @@ class Sensing:
         self._tip = model.site(KNIFE_TIP).id
         self._grasp = model.site(GRASP_SITE).id
         self._blade = model.geom(KNIFE_BLADE_GEOM).id
+        self._table_z_m = episode.scenario.layout.table_height_m
 
     def read(self, knife: KnifeCommand) -> Reading:
         """The cell now; ``knife`` gives the path the tip is measured along."""
@@ -129,6 +134,7 @@ class Sensing:
         interface_y = float(scene.mesh.interface_y(tip[:1], tip[2:])[0])
         return Reading(
             tip_m=tip,
+            tip_height_m=float(tip[2]) - self._table_z_m,
             blade_rotation=blade_mat.reshape(3, 3).copy(),
             knife_force_n=sim.read("knife/force"),
             knife_torque_nm=sim.read("knife/torque"),
@@ -155,7 +161,7 @@ def observe(reading: Reading, knife: KnifeCommand, pull: PullCommand,
              * _CM for d in LOOKAHEAD_M]
     command = knife.offsets() * np.array([_CM, _CM, 1.0])
     values = np.concatenate([
-        tip, [yaw, knife.progress], command, *ahead,
+        tip, [reading.tip_height_m * _CM, yaw, knife.progress], command, *ahead,
         reading.knife_force_n / _FORCE_SCALE_N, reading.knife_torque_nm,
         (reading.grasp_m - pull.origin_m) / _PULL_SCALE_M, reading.pull_force_n / _FORCE_SCALE_N,
         [reading.released_fraction, reading.released_ahead, reading.strain_near,

@@ -20,7 +20,10 @@ Keys (every one optional; SI units):
   ``torque_bias_nm``: their bias, three numbers each,
 - ``camera_noise_at_1m_m``: the depth camera's noise at 1 m,
 - ``grasp_x_offset``, ``grasp_inset_offset_m``: offsets added to the pull plan's grasp point
-  (fraction of the shank's length, and m in from its outer side).
+  (fraction of the shank's length, and m in from its outer side),
+- ``cut_speed_m_s``: the planned (and scripted) knife's speed; ``cut_table_clearance_m``: the
+  planned cut's clearance above the table (:class:`~controllers.knife.CutPlan`), which a
+  planner sets from the interface's depth it believes, so it differs from carcass to carcass.
 
 Values are type-checked as a scenario file's are, and a bad one raises
 :class:`~cell.errors.InputError` naming the key. Of several layers of options the last that
@@ -185,6 +188,8 @@ _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
     "camera_noise_at_1m_m": _field("perception", "noise_sigma_at_1m_m", "camera_noise_at_1m_m"),
     "grasp_x_offset": _offset("pull", "grasp_x_fraction", "grasp_x_offset"),
     "grasp_inset_offset_m": _offset("pull", "grasp_inset_m", "grasp_inset_offset_m"),
+    "cut_speed_m_s": _field("cut", "speed_m_s", "cut_speed_m_s"),
+    "cut_table_clearance_m": _field("cut", "table_clearance_m", "cut_table_clearance_m"),
 }
 #: Every key an env's options may hold.
 OPTION_KEYS = tuple(_OPTIONS)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from cell.config import require_non_negative, require_positive
+from cell.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -57,7 +58,7 @@ class RewardParams:
     would otherwise outweigh everything else); tearing is ``tearing`` times the fraction of the
     bindings torn rather than cut (most of what tearing gains as progress: separating by
     pulling alone is the damage the knife is there to avoid). A diverged simulation costs
-    ``divergence``.
+    ``divergence``, a protective stop (:class:`TaskParams`) ``protective_stop``.
 
     Example:
         >>> RewardParams(time_per_step=0.0).progress
@@ -76,6 +77,37 @@ class RewardParams:
     tearing: float = 8.0
     time_per_step: float = 0.002
     divergence: float = 10.0
+    protective_stop: float = 5.0
 
     def __post_init__(self) -> None:
         require_non_negative(self)
+
+
+@dataclass(frozen=True)
+class TaskParams:
+    """When an episode succeeds, and when the cell stops it (SI units).
+
+    It succeeds when ``separated_fraction`` of the bindings are released with no more than
+    ``max_torn_fraction`` of them torn (rather than cut) since the policy took over: tearing
+    the muscles apart is the damage the knife is there to avoid. It fails, and ends at once,
+    when more than ``max_torn_fraction`` have torn (it can no longer succeed), on a protective
+    stop (the knife's force/torque sensor reads more than ``knife_stop_force_n`` or the
+    gripper's more than ``pull_stop_force_n``, as a real cell's force limits stop the arms:
+    a blade driven into the table reads hundreds of newtons, a cut 9 to 19 N) or when the
+    simulation diverges; it is truncated at the time limit.
+
+    Example:
+        >>> TaskParams(max_torn_fraction=0.25).separated_fraction
+        0.95
+    """
+
+    separated_fraction: float = 0.95
+    max_torn_fraction: float = 0.5
+    knife_stop_force_n: float = 35.0
+    pull_stop_force_n: float = 80.0
+
+    def __post_init__(self) -> None:
+        require_positive(self)
+        for name in ("separated_fraction", "max_torn_fraction"):
+            if getattr(self, name) > 1.0:
+                raise InputError(None, name, f"must be in (0, 1], got {getattr(self, name)}")

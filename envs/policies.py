@@ -4,12 +4,16 @@ the cross-entropy search that tunes it."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import gymnasium as gym
 import numpy as np
 
+from envs.observation import OBSERVATION_NAMES
+from envs.params import ActionLimits
 from envs.separation import MuscleSeparationEnv
+
+_TIP_HEIGHT = OBSERVATION_NAMES.index("tip_height_cm")
 
 
 def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
@@ -26,6 +30,29 @@ def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
     """
     inner: MuscleSeparationEnv = env.unwrapped
     return lambda _obs: inner.scripted_action()
+
+
+@dataclass(frozen=True)
+class TableSkimmingKnife:
+    """A hand-written feedback policy of ``Cut-v0``'s observation: the knife at full speed
+    along its path, its tip servoed to ``height_m`` above the table (the lowest bindings hold
+    until the tip is within about 3 mm of it; the table stops the cell below about 0.5 mm).
+
+    Example:
+        >>> obs = np.zeros(len(OBSERVATION_NAMES), np.float32)
+        >>> obs[_TIP_HEIGHT] = 1.0  # cm above the table
+        >>> TableSkimmingKnife()(obs)  # down, at full speed
+        array([1., 0., 1., 0.], dtype=float32)
+    """
+
+    height_m: float = 0.002
+    limits: ActionLimits = field(default_factory=ActionLimits)
+    dt_s: float = 0.02
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        error_m = float(obs[_TIP_HEIGHT]) / 100.0 - self.height_m
+        depth = np.clip(error_m / (self.limits.knife_depth_speed_m_s * self.dt_s), -1.0, 1.0)
+        return np.array([1.0, 0.0, depth, 0.0], dtype=np.float32)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: fl
     Example:
         >>> import numpy as np
         >>> zero = np.zeros(3)
-        >>> before = Reading(zero, np.eye(3), zero, zero, zero, zero, released_fraction=0.5,
+        >>> before = Reading(zero, 0.01, np.eye(3), zero, zero, zero, zero, released_fraction=0.5,
         ...                  released_ahead=0.0, strain_near=0.0, strain_max=0.0,
         ...                  blade_contacts=0, under_blade=0, interface_offset_m=0.0)
         >>> from dataclasses import replace

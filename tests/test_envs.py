@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -12,6 +14,7 @@ from cell.errors import InputError
 from cell.sim.scenario import Scenario
 from cell.tissue.geometry import MuscleShape
 from envs import CutEnv, MuscleSeparationEnv, PullEnv, apply_options
+from envs.policies import TableSkimmingKnife
 
 IDS = ("musclecell/MuscleSeparation-v0", "musclecell/Cut-v0", "musclecell/Pull-v0")
 
@@ -108,33 +111,52 @@ def test_divergence_ends_the_episode_with_a_finite_observation() -> None:
     assert np.isfinite(obs).all() and np.isfinite(reward)
 
 
-def _run(env: MuscleSeparationEnv, policy: str) -> tuple[bool, bool, dict]:
+def _run(env: MuscleSeparationEnv, policy: str | Callable[[np.ndarray], np.ndarray]
+         ) -> tuple[bool, bool, dict]:
     """One episode on the nominal coarse tissue, seed 0, the full default time limit."""
-    env.reset(seed=0)
+    obs, _ = env.reset(seed=0)
     env.action_space.seed(0)
     terminated = truncated = False
     while not (terminated or truncated):
-        action = env.scripted_action() if policy == "scripted" else env.action_space.sample()
-        _, _, terminated, truncated, info = env.step(action)
+        if policy == "scripted":
+            action = env.scripted_action()
+        elif policy == "random":
+            action = env.action_space.sample()
+        else:
+            action = policy(obs)
+        obs, _, terminated, truncated, info = env.step(action)
     return terminated, truncated, info
 
 
-@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, CutEnv])
+@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, PullEnv])
 def test_scripted_policy_separates_the_muscles(env_class: type[MuscleSeparationEnv]) -> None:
     terminated, _, info = _run(env_class(randomize=False), "scripted")
-    assert terminated and not info["diverged"]
-    assert info["released_fraction"] >= envs.SEPARATED_FRACTION
-    assert info["torn_fraction"] <= envs.MAX_TORN_FRACTION
+    assert terminated and info["success"] and not info["diverged"]
+    assert info["torn_fraction"] <= envs.TaskParams().max_torn_fraction
+
+
+def test_cut_needs_the_knife_down_to_the_lowest_bindings() -> None:
+    # The plan's 15 mm above the table leaves the lowest bindings to the pull, which tears
+    # them: too many for Cut-v0. A knife that skims the table cuts them.
+    terminated, _, planned = _run(CutEnv(randomize=False), "scripted")
+    assert terminated and not planned["success"]
+    assert planned["torn_fraction"] > envs.CUT_TASK.max_torn_fraction
+    terminated, _, skimming = _run(CutEnv(randomize=False), TableSkimmingKnife())
+    assert terminated and skimming["success"] and not skimming["protective_stop"]
+    assert skimming["torn_fraction"] < 0.5 * planned["torn_fraction"]
+
+
+def test_a_knife_driven_into_the_table_stops_the_cell() -> None:
+    terminated, _, info = _run(CutEnv(randomize=False), lambda _obs: np.array(
+        [0.5, 0.0, 1.0, 0.0], np.float32))
+    assert terminated and info["protective_stop"] and not info["success"]
+    assert info["knife_force_peak_n"] > envs.CUT_TASK.knife_stop_force_n
 
 
 @pytest.mark.parametrize("env_class", [MuscleSeparationEnv, CutEnv])
 def test_random_policy_does_not_separate(env_class: type[MuscleSeparationEnv]) -> None:
-    # The scripted pull (Cut-v0) or the random one tears the muscles apart within the full
-    # time limit; that is no separation.
-    terminated, truncated, info = _run(env_class(randomize=False), "random")
-    assert truncated and not terminated and not info["diverged"]
-    assert (info["released_fraction"] < envs.SEPARATED_FRACTION
-            or info["torn_fraction"] > envs.MAX_TORN_FRACTION)
+    _, _, info = _run(env_class(randomize=False), "random")
+    assert not info["success"] and not info["diverged"]
 
 
 @pytest.mark.parametrize("mode", ["sync", "async"])
