@@ -13,8 +13,11 @@ from cell.cli import main
 from cell.learning.baselines import PolicySpec, load_learned
 from cell.learning.evaluate import EpisodeTask, episode_runner
 from cell.learning.table import MEAN_COLUMNS
-from tests.learning_env import ENV_ID, ENV_KWARGS
+from envs.observation import OBSERVATION_NAMES
 
+ENV_ID = "musclecell/Cut-v0"
+#: Short, coarse episodes: 10 control steps on a short muscle pair.
+ENV_KWARGS = {"time_limit_s": 0.2, "cell_size_m": 0.08, "options": {"shape": {"length_m": 0.3}}}
 HYPER = {"n_steps": 16, "batch_size": 16, "n_epochs": 2}
 LEARN = ["learn", ENV_ID, "--envs", "1", "--checkpoint-every", "16"]
 
@@ -48,7 +51,8 @@ def test_a_run_writes_its_policy_checkpoints_logs_and_curve(run: Path) -> None:
 
 
 def test_a_checkpoint_acts_as_the_saved_model(run: Path) -> None:
-    observations = np.random.default_rng(0).normal(size=(5, 34)).astype(np.float32)
+    rng = np.random.default_rng(0)
+    observations = rng.normal(size=(5, len(OBSERVATION_NAMES))).astype(np.float32)
     final = load_learned(str(run))
     checkpoint = load_learned(str(run / "checkpoints" / "steps_000000032"))
     earlier = load_learned(str(run / "checkpoints" / "steps_000000016"))

@@ -3,7 +3,6 @@ monitored and normalised envs of training."""
 
 from __future__ import annotations
 
-import importlib
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
@@ -23,24 +22,17 @@ START_METHOD = "forkserver"
 
 
 def resolve_env_id(name: str) -> str:
-    """The registered Gymnasium id that ``name`` names: a bare name gets the project's
-    namespace, and ``package.module:Id-v0`` (Gymnasium's form for an env that its module
-    registers on import) imports the module first.
+    """The registered Gymnasium id that ``name`` names (a bare name gets the project's
+    namespace).
 
     Example:
         >>> resolve_env_id("Cut-v0")
         'musclecell/Cut-v0'
     """
     envs.register_envs()
-    module, _, env_name = name.rpartition(":")
-    if module:
-        try:
-            importlib.import_module(module)
-        except ImportError as exc:
-            raise LearningError(None, "ENV", f"cannot import {module}: {exc}") from None
-    for candidate in (env_name, f"{NAMESPACE}/{env_name}"):
+    for candidate in (name, f"{NAMESPACE}/{name}"):
         if candidate in gym.registry:
-            return f"{module}:{candidate}" if module else candidate
+            return candidate
     ours = sorted(key for key in gym.registry if key.startswith(NAMESPACE + "/"))
     raise LearningError(None, "ENV", f"unknown env {name!r}; the project's: {', '.join(ours)}")
 
