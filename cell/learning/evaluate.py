@@ -30,6 +30,7 @@ from cell.errors import LearningError
 from cell.io import write_atomic, write_json
 from cell.learning.baselines import (
     POLICIES,
+    POLICY_FILE,
     PolicySpec,
     constant_grid,
     make_policy,
@@ -170,7 +171,7 @@ def _check_policy(folder: Path, env: gym.Env) -> None:
     """The learned policy must act in ``env``'s action space."""
     from stable_baselines3 import PPO
 
-    model = PPO.load(folder / "policy.zip", device="cpu")
+    model = PPO.load(folder / POLICY_FILE, device="cpu")
     for name in ("observation_space", "action_space"):
         trained, wanted = getattr(model, name).shape, getattr(env, name).shape
         if trained != wanted:
