@@ -27,7 +27,7 @@ import gymnasium as gym
 import numpy as np
 
 from cell.errors import LearningError
-from cell.io import write_atomic, write_json
+from cell.io import write_atomic, write_json, write_rows
 from cell.learning.baselines import (
     POLICIES,
     POLICY_FILE,
@@ -38,7 +38,6 @@ from cell.learning.baselines import (
 )
 from cell.learning.environments import START_METHOD, make_env
 from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
-from cell.learning.logs import write_rows
 from cell.learning.table import markdown, summarize
 from envs.policies import episode_return
 

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.logger import KVWriter
 
-from cell.io import write_atomic
+from cell.io import write_atomic, write_rows
 
 #: Columns of the episodes table: env steps of the run when the episode ended, its return and
 #: length (env steps), and the final step's outcome.
@@ -21,23 +21,6 @@ EPISODE_COLUMNS = ("steps", "return", "length", "success", "released_fraction",
                    "torn_fraction")
 #: Episodes per point of the learning curve's moving average.
 CURVE_WINDOW = 20
-
-
-def write_rows(path: str | Path, columns: Sequence[str], rows: Sequence[Mapping[str, Any]]
-               ) -> Path:
-    """Write ``rows`` as CSV with a header of ``columns`` (a missing cell is blank).
-
-    Example:
-        >>> import tempfile
-        >>> path = write_rows(Path(tempfile.mkdtemp()) / "t.csv", ["a", "b"], [{"a": 1}])
-        >>> path.read_text().splitlines()
-        ['a,b', '1,']
-    """
-    text = io.StringIO()
-    writer = csv.DictWriter(text, fieldnames=list(columns), lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(rows)
-    return write_atomic(path, text.getvalue())
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
