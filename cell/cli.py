@@ -1,4 +1,5 @@
-"""The ``musclecell`` command line: run episodes, export the scene, benchmark."""
+"""The ``musclecell`` command line: run episodes, export the scene, benchmark, train and
+evaluate policies."""
 
 from __future__ import annotations
 
@@ -9,7 +10,13 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from cell.errors import DivergenceError, InputError, MusclecellError, ScenarioError
+from cell.errors import (
+    DivergenceError,
+    InputError,
+    LearningError,
+    MusclecellError,
+    ScenarioError,
+)
 
 if TYPE_CHECKING:
     from cell.sim.scenario import Scenario
@@ -234,6 +241,118 @@ def _bench_diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _require_learn_extra() -> None:
+    """Stable-Baselines3 (and torch) are the ``learn`` extra, not a dependency."""
+    import importlib.util
+
+    if importlib.util.find_spec("stable_baselines3") is None:
+        raise LearningError(None, None, "training and evaluation need the learn extra: "
+                            "pip install -e '.[learn]' (see README)")
+
+
+def _learn(args: argparse.Namespace) -> int:
+    _require_learn_extra()
+    from cell.learning import ppo
+    from cell.learning.environments import resolve_env_id
+    from cell.learning.hyper import LearnSettings, PPOHyper, parse_json_object
+
+    env_id = resolve_env_id(args.env)
+    envs = args.envs if args.envs is not None else os.cpu_count() or 1
+    if args.resume:
+        if args.env_kwargs is not None or args.hyper is not None:
+            raise LearningError(None, "--resume", "continues with the run's own env kwargs "
+                                "and hyper-parameters: drop --env-kwargs and --hyper")
+        result = ppo.resume(args.out, env_id, args.steps, envs, args.minutes,
+                            args.checkpoint_every)
+    else:
+        settings = LearnSettings(env_id, parse_json_object(args.env_kwargs, "--env-kwargs"),
+                                 args.seed, envs, args.steps, args.minutes,
+                                 args.checkpoint_every)
+        hyper = PPOHyper().with_overrides(parse_json_object(args.hyper, "--hyper"))
+        result = ppo.learn(settings, hyper, args.out)
+    print(f"trained {result.steps} env steps in {result.wall_s:.1f} s (stopped by "
+          f"{result.stopped_by}); wrote {result.out}")
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    _require_learn_extra()
+    from cell.learning.baselines import policy_folder
+    from cell.learning.environments import resolve_env_id
+    from cell.learning.evaluate import (
+        EvaluationSettings,
+        evaluate,
+        parse_constant_actions,
+        report_markdown,
+        write_report,
+    )
+    from cell.learning.hyper import parse_json_object
+
+    settings = EvaluationSettings(
+        args.episodes, args.seed_start, args.workers or os.cpu_count() or 1,
+        args.constant_search_seeds, parse_constant_actions(args.constant_actions))
+    out = args.out or policy_folder(args.policy) / "evaluation"
+    report = evaluate(args.policy, resolve_env_id(args.env),
+                      parse_json_object(args.env_kwargs, "--env-kwargs"), settings)
+    json_path = args.json or out / "evaluation.json"
+    markdown_path = args.markdown or out / "evaluation.md"
+    write_report(report, json_path, markdown_path, out / "episodes.csv")
+    print(report_markdown(report), end="")
+    print(f"wrote {json_path}, {markdown_path} and {out / 'episodes.csv'}")
+    return 0
+
+
+def _add_learning(commands: argparse._SubParsersAction) -> None:
+    """The ``learn`` and ``evaluate`` subcommands."""
+    from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
+
+    learn = commands.add_parser(
+        "learn", help="train a PPO policy on an env (needs the learn extra)")
+    learn.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v0 (or Cut-v0)")
+    learn.add_argument("--algo", choices=("ppo",), default="ppo", help="algorithm (ppo)")
+    learn.add_argument("--steps", type=int, required=True,
+                       help="env steps of the whole run, those before a --resume included")
+    learn.add_argument("--out", type=Path, required=True, help="folder of the run")
+    learn.add_argument("--seed", type=int, default=0,
+                       help=f"env i starts at seed SEED + i (training seeds < "
+                       f"{EVAL_SEED_START}); default 0")
+    learn.add_argument("--envs", type=int, help="envs side by side (default: one per core)")
+    learn.add_argument("--minutes", type=float, help="stop after this wall time, min")
+    learn.add_argument("--checkpoint-every", type=int, default=50_000,
+                       help="env steps between checkpoints (default 50000)")
+    learn.add_argument("--resume", action="store_true",
+                       help="continue the run in --out from its latest checkpoint")
+    learn.add_argument("--env-kwargs", help='JSON keyword arguments of the env, e.g. '
+                       '\'{"time_limit_s": 3.0}\'')
+    learn.add_argument("--hyper", help='JSON overrides of the PPO hyper-parameters, e.g. '
+                       '\'{"n_steps": 512}\'')
+    learn.set_defaults(handler=_learn)
+
+    evaluation = commands.add_parser(
+        "evaluate", help="evaluate a learned policy beside the random, best constant and "
+        "scripted policies on the same seeds")
+    evaluation.add_argument("policy", type=Path,
+                            help="learn output folder, or its policy.zip")
+    evaluation.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v0")
+    evaluation.add_argument("--episodes", type=int, default=50, help="per policy (default 50)")
+    evaluation.add_argument("--seed-start", type=int, default=EVAL_SEED_START,
+                            help=f"first evaluation seed (default {EVAL_SEED_START})")
+    evaluation.add_argument("--out", type=Path,
+                            help="folder of evaluation.json, evaluation.md and episodes.csv "
+                            "(default: POLICY's folder/evaluation)")
+    evaluation.add_argument("--json", type=Path, help="the report JSON here instead")
+    evaluation.add_argument("--markdown", type=Path, help="the Markdown table here instead")
+    evaluation.add_argument("--workers", type=int, help="processes (default: one per core)")
+    evaluation.add_argument("--env-kwargs", help="JSON keyword arguments of the env")
+    evaluation.add_argument("--constant-search-seeds", type=int, default=10,
+                            help=f"tuning episodes per constant action, seeds "
+                            f"{TUNING_SEED_START} on (default 10)")
+    evaluation.add_argument("--constant-actions",
+                            help="JSON list of the constant actions to choose from (default: "
+                            "zero and each axis alone at +-0.5 and +-1)")
+    evaluation.set_defaults(handler=_evaluate)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``musclecell``."""
     parser = argparse.ArgumentParser(prog="musclecell", description=__doc__)
@@ -296,6 +415,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="fewer repetitions and a short episode; tissue: the smallest "
                        "mesh only (for smoke tests)")
     bench.set_defaults(handler=_bench)
+    _add_learning(commands)
     return parser
 
 

@@ -57,6 +57,12 @@ class RandomizationError(InputError):
     """A domain randomisation file with a wrong key, type, distribution or range."""
 
 
+class LearningError(InputError):
+    """A training or evaluation request that cannot run: an unknown env, a bad
+    hyper-parameter, a seed in the evaluation range, no policy or checkpoint where one is
+    named."""
+
+
 class MeshError(InputError):
     """A mesh that cannot be simulated: not a volume, inverted or degenerate elements."""
 

@@ -4,10 +4,11 @@ sees half of one (a temporary file, then a rename)."""
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -153,6 +154,24 @@ def write_atomic(path: str | Path, content: str | bytes) -> Path:
     except BaseException:
         target.discard()
         raise
+
+
+def write_rows(path: str | Path, columns: Sequence[str], rows: Sequence[Mapping[str, Any]]
+               ) -> Path:
+    """Write ``rows`` as CSV with a header of ``columns`` (a missing cell is blank),
+    atomically.
+
+    Example:
+        >>> import tempfile
+        >>> path = write_rows(Path(tempfile.mkdtemp()) / "t.csv", ["a", "b"], [{"a": 1}])
+        >>> path.read_text().splitlines()
+        ['a,b', '1,']
+    """
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=list(columns), lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return write_atomic(path, text.getvalue())
 
 
 def write_json(path: str | Path, payload: Any) -> Path:

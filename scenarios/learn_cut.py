@@ -3,10 +3,8 @@ search over a linear policy. Prints the population's mean return per iteration.
 
     python scenarios/learn_cut.py --iterations 8 --population 8 --json out/learn_cut.json
 
-With Stable-Baselines3 instead (``pip install stable-baselines3``)::
-
-    python -c "import envs, gymnasium as gym; from stable_baselines3 import PPO; \\
-PPO('MlpPolicy', gym.make('musclecell/Cut-v0', time_limit_s=3.0)).learn(50_000)"
+With PPO instead (the ``learn`` extra): ``musclecell learn Cut-v0 --steps 50000 --out
+out/cut`` (see README).
 """
 
 from __future__ import annotations

@@ -24,7 +24,15 @@ stamp=".venv/.musclecell-$(sha256sum pyproject.toml | cut -c1-16)"
 if [ ! -f "$stamp" ]; then
   echo "setup: installing musclecell and its dependencies into .venv"
   .venv/bin/python -m pip install -q --upgrade pip
-  .venv/bin/python -m pip install -q -e '.[test]'
+  # torch first, for the learn extra: left to stable-baselines3's requirement, pip would
+  # take the newest CUDA build from PyPI (several GB); the pin matches the CPU wheel that
+  # pip's find-links offer on the project's machines (elsewhere, PyTorch's CPU index:
+  # pip install torch --index-url https://download.pytorch.org/whl/cpu).
+  if ! .venv/bin/python -c "import torch" >/dev/null 2>&1; then
+    echo "setup: installing torch (CPU)"
+    .venv/bin/python -m pip install -q "torch==2.13.0"
+  fi
+  .venv/bin/python -m pip install -q -e '.[test,learn]'
   rm -f .venv/.musclecell-*
   touch "$stamp"
 fi

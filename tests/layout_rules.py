@@ -21,10 +21,12 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "controllers": (*BASE, "cell.robots", "cell.tissue", "cell.perception"),
     "cell.sim": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "controllers"),
     "envs": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "controllers", "cell.sim"),
+    "cell.learning": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "controllers",
+                      "cell.sim", "envs"),
     "cell.bench": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "cell.rheology",
-                   "controllers", "cell.sim", "envs"),
+                   "controllers", "cell.sim", "envs", "cell.learning"),
     "cell.cli": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "cell.rheology",
-                 "controllers", "cell.sim", "envs", "cell.bench"),
+                 "controllers", "cell.sim", "envs", "cell.learning", "cell.bench"),
 }
 #: Modules that must not import a module they would otherwise be allowed: the diagnosis side
 #: never reads the synthetic generator, its answer key.

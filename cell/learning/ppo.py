@@ -1,0 +1,191 @@
+"""PPO training (Stable-Baselines3, ``MlpPolicy``) with checkpoints, a resume from the latest
+one and a wall-clock limit.
+
+A run's folder holds, at the end: ``policy.zip`` (the model), ``vecnormalize.pkl`` (the
+observation and reward statistics of ``VecNormalize``, which the policy's inputs need),
+``learn.json`` (env, kwargs, seeds, steps, wall time, hyper-parameters), ``progress.csv``
+(PPO's values per update), ``episodes.csv`` (one row per training episode),
+``learning_curve.png`` and ``checkpoints/steps_NNNNNNNNN/`` (model, statistics, state). This
+module imports Stable-Baselines3 and torch: the command line imports it when it trains.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import pickle
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import HumanOutputFormat, Logger
+from stable_baselines3.common.vec_env import VecNormalize
+
+from cell.errors import LearningError
+from cell.io import write_atomic, write_json
+from cell.learning.baselines import NORMALIZE_FILE, POLICY_FILE
+from cell.learning.environments import make_training_envs
+from cell.learning.hyper import LearnSettings, PPOHyper, check_training_seeds
+from cell.learning.logs import EpisodeLog, ProgressCsv
+
+STATE_FILE = "state.json"
+LEARN_FILE = "learn.json"
+CHECKPOINTS = "checkpoints"
+
+
+@dataclass(frozen=True)
+class LearnResult:
+    """What a training invocation did: env ``steps`` of the run so far, its wall time over
+    every invocation (s), and why this one stopped (``"steps"`` or ``"minutes"``)."""
+
+    out: Path
+    steps: int
+    wall_s: float
+    stopped_by: str
+
+
+def save_checkpoint(directory: Path, model: PPO, normalize: VecNormalize,
+                    state: dict[str, Any], state_file: str = STATE_FILE) -> None:
+    """Write the model, the normalisation statistics and ``state`` in ``directory``."""
+    model_bytes = io.BytesIO()
+    model.save(model_bytes)
+    write_atomic(directory / POLICY_FILE, model_bytes.getvalue())
+    # VecNormalize pickles its statistics without its envs, as its own save() does.
+    write_atomic(directory / NORMALIZE_FILE, pickle.dumps(normalize))
+    write_json(directory / state_file, state)
+
+
+def latest_checkpoint(out: Path) -> Path | None:
+    """The checkpoint folder of ``out`` with the most steps (None when there is none)."""
+    found = [(json.loads(path.read_text())["steps"], path.parent)
+             for path in (out / CHECKPOINTS).glob(f"*/{STATE_FILE}")]
+    return max(found)[1] if found else None
+
+
+class _Progress(BaseCallback):
+    """Logs each ended episode, checkpoints every ``settings.checkpoint_every`` steps (at the
+    end of a rollout) and stops training at the wall-clock deadline."""
+
+    def __init__(self, run: _Run) -> None:
+        super().__init__()
+        self.run = run
+        self.last_checkpoint = run.steps_before
+
+    def _on_step(self) -> bool:
+        for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
+            if done:
+                self.run.episodes.add(self.num_timesteps, info)
+        return time.monotonic() < self.run.deadline
+
+    def _on_rollout_end(self) -> None:
+        if self.num_timesteps - self.last_checkpoint >= self.run.settings.checkpoint_every:
+            self.run.checkpoint(self.model)
+            self.last_checkpoint = self.num_timesteps
+
+
+class _Run:
+    """One training invocation's folder, settings and clocks."""
+
+    def __init__(self, out: Path, settings: LearnSettings, hyper: PPOHyper,
+                 previous: dict[str, Any] | None) -> None:
+        self.out, self.settings, self.hyper = out, settings, hyper
+        self.first_seed = settings.seed if previous is None else previous["next_seed"]
+        check_training_seeds(self.first_seed, settings.envs)
+        self.steps_before = 0 if previous is None else previous["steps"]
+        self.wall_before_s = 0.0 if previous is None else previous["wall_s"]
+        self.started = time.monotonic()
+        minutes = settings.minutes
+        self.deadline = self.started + (float("inf") if minutes is None else 60.0 * minutes)
+        self.episodes = EpisodeLog(out / "episodes.csv")
+        self.normalize: VecNormalize | None = None
+
+    def state(self, model: PPO) -> dict[str, Any]:
+        """The run's description and progress, as the checkpoints and learn.json hold it."""
+        return {"env_id": self.settings.env_id, "env_kwargs": self.settings.env_kwargs,
+                "seed": self.settings.seed, "envs": self.settings.envs,
+                "steps": int(model.num_timesteps), "steps_target": self.settings.steps,
+                "next_seed": self.first_seed + self.settings.envs,
+                "wall_s": self.wall_before_s + time.monotonic() - self.started,
+                "checkpoint_every": self.settings.checkpoint_every,
+                "hyper": asdict(self.hyper)}
+
+    def checkpoint(self, model: PPO) -> Path:
+        """Save a checkpoint and rewrite the logs and the learning curve."""
+        folder = self.out / CHECKPOINTS / f"steps_{model.num_timesteps:09d}"
+        save_checkpoint(folder, model, self.normalize, self.state(model))
+        self.episodes.write(self.out / "learning_curve.png")
+        return folder
+
+
+def learn(settings: LearnSettings, hyper: PPOHyper, out: Path) -> LearnResult:
+    """Train a new policy in ``out`` (which must hold no run yet).
+
+    Raises:
+        LearningError: ``out`` already holds a run.
+    """
+    if latest_checkpoint(out) is not None or (out / POLICY_FILE).exists():
+        raise LearningError(out, None, "already holds a training run: --resume it or choose "
+                            "another --out")
+    return _train(_Run(out, settings, hyper, None), None)
+
+
+def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None,
+           checkpoint_every: int) -> LearnResult:
+    """Continue the run in ``out`` from its latest checkpoint up to ``steps`` env steps in
+    all, with its own env kwargs, seed and hyper-parameters; ``envs`` new envs start at the
+    training seeds after those already used.
+
+    Raises:
+        LearningError: no checkpoint in ``out``, or ``env_id`` is not the run's env.
+    """
+    folder = latest_checkpoint(out)
+    if folder is None:
+        raise LearningError(out, None, "no checkpoint to resume")
+    state = json.loads((folder / STATE_FILE).read_text())
+    if state["env_id"] != env_id:
+        raise LearningError(out, "ENV", f"the run trains {state['env_id']}, not {env_id}")
+    settings = LearnSettings(env_id, state["env_kwargs"], state["seed"], envs, steps,
+                             minutes, checkpoint_every)
+    hyper = PPOHyper().with_overrides(state["hyper"])
+    return _train(_Run(out, settings, hyper, state), folder)
+
+
+def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
+    """Build the envs and the model (new, or from ``checkpoint``), train, write the final
+    files."""
+    settings = run.settings
+    venv = make_training_envs(settings.env_id, settings.env_kwargs, settings.envs)
+    try:
+        if checkpoint is None:
+            run.normalize = VecNormalize(venv, gamma=run.hyper.gamma)
+            model = PPO("MlpPolicy", run.normalize, seed=run.first_seed, device="cpu",
+                        **run.hyper.sb3_kwargs())
+        else:
+            run.normalize = VecNormalize.load(str(checkpoint / NORMALIZE_FILE), venv)
+            model = PPO.load(checkpoint / POLICY_FILE, env=run.normalize, device="cpu")
+            model.set_random_seed(run.first_seed)  # env i's first reset: first_seed + i
+        model.set_logger(Logger(None, [HumanOutputFormat(sys.stdout),
+                                       ProgressCsv(run.out / "progress.csv")]))
+        remaining = settings.steps - model.num_timesteps
+        if remaining > 0:
+            model.learn(remaining, callback=_Progress(run), reset_num_timesteps=False)
+        run.checkpoint(model)
+        state = run.state(model)
+        stopped_by = "steps" if state["steps"] >= settings.steps else "minutes"
+        save_checkpoint(run.out, model, run.normalize,
+                        {**state, "stopped_by": stopped_by, "versions": _versions()},
+                        state_file=LEARN_FILE)
+    finally:
+        venv.close()
+    return LearnResult(run.out, state["steps"], state["wall_s"], stopped_by)
+
+
+def _versions() -> dict[str, str]:
+    import stable_baselines3
+    import torch
+
+    return {"stable_baselines3": stable_baselines3.__version__, "torch": torch.__version__}
