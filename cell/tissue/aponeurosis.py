@@ -264,20 +264,28 @@ class Aponeurosis:
         return {rule.value: sum(r is rule for r in self.released_by) for rule in ReleaseRule}
 
 
+@njit(cache=True)
 def segments_cross_box(start: np.ndarray, end: np.ndarray, half_size: np.ndarray) -> np.ndarray:
     """(N,) bool: does segment ``start[i] -> end[i]`` meet the axis-aligned box
-    ``|x| <= half_size``? Points are in the box frame (slab test)."""
-    direction = end - start
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = (-half_size - start) / direction
-        t2 = (half_size - start) / direction
-    parallel = direction == 0
-    inside_slab = np.abs(start) <= half_size
-    t_low = np.where(parallel, np.where(inside_slab, -np.inf, np.inf), np.minimum(t1, t2))
-    t_high = np.where(parallel, np.where(inside_slab, np.inf, -np.inf), np.maximum(t1, t2))
-    enter = np.max(t_low, axis=1)
-    leave = np.min(t_high, axis=1)
-    return (enter <= leave) & (leave >= 0.0) & (enter <= 1.0)
+    ``|x| <= half_size``? Points are in the box frame (slab test). Compiled: the release rules
+    and the envs' sensing run it at every control step."""
+    crosses = np.zeros(len(start), dtype=np.bool_)
+    for i in range(len(start)):
+        enter, leave = -np.inf, np.inf
+        for k in range(3):
+            direction = end[i, k] - start[i, k]
+            if direction == 0.0:  # parallel to the slab: inside it or a miss
+                if not abs(start[i, k]) <= half_size[k]:
+                    break
+                continue
+            t1 = (-half_size[k] - start[i, k]) / direction
+            t2 = (half_size[k] - start[i, k]) / direction
+            if np.isnan(t1) or np.isnan(t2):
+                break
+            enter, leave = max(enter, min(t1, t2)), min(leave, max(t1, t2))
+        else:
+            crosses[i] = enter <= leave and leave >= 0.0 and enter <= 1.0
+    return crosses
 
 
 @njit(cache=True)

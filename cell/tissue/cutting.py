@@ -74,8 +74,10 @@ class EdgeResistance:
         ``blade_velocity`` is the blade centre's linear velocity, m/s (world frame).
         """
         # Added to, not written over: other external loads on the vertices stay.
-        data.xfrc_applied[self._loaded, :3] -= self._load
+        _add_rows(data.xfrc_applied, self._loaded, -self._load)
         self._loaded = np.zeros(0, dtype=int)
+        if force_n == 0.0:  # no resistance whatever the speed; the common case, made cheap
+            return np.zeros(3), np.zeros(3)
         rot = np.asarray(blade_mat, float).reshape(3, 3)
         edge, axis = rot[:, 0], rot[:, 2]
         magnitude = force_n * np.tanh(float(blade_velocity @ edge) / STALL_SPEED_M_S)
@@ -87,10 +89,11 @@ class EdgeResistance:
         near = np.argpartition(distance, count - 1)[:count]
         on_blade = -magnitude * edge
         self._loaded, self._load = self._bodies[near], -on_blade / count
-        data.xfrc_applied[self._loaded, :3] += self._load
+        _add_rows(data.xfrc_applied, self._loaded, self._load)
         # Applied on the edge (x) at the loaded vertices' mean height along the blade (z):
-        # z cross x is the blade's y.
-        return on_blade, -magnitude * float(along[near].mean()) * rot[:, 1]
+        # z cross x is the blade's y. sum / count is ndarray.mean's arithmetic, without its
+        # overhead.
+        return on_blade, -magnitude * float(along[near].sum() / count) * rot[:, 1]
 
 
 @njit(cache=True)
@@ -112,3 +115,12 @@ def _from_edge(xpos: np.ndarray, vertices: np.ndarray, edge_centre: np.ndarray,
         distance[i] = np.sqrt(squared)
         along[i] = t
     return distance, along
+
+
+@njit(cache=True)
+def _add_rows(target: np.ndarray, rows: np.ndarray, value: np.ndarray) -> None:
+    """``target[rows, :3] += value`` for distinct ``rows``, without numpy's fancy indexing
+    (10 us a call before every physics step)."""
+    for row in rows:
+        for k in range(3):
+            target[row, k] += value[k]
