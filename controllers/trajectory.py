@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from bisect import bisect_left, bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -85,7 +85,7 @@ class CartesianTrajectory:
         # Sampled at every control step: scipy's Slerp costs about 0.1 ms a call, so the
         # knots' quaternions and each segment's rotation vector are kept for _slerp_matrix.
         knots = Rotation.from_matrix(np.array(rotations))
-        self._quats = knots[:-1].as_quat()
+        self._quats = knots[:-1].as_quat(scalar_first=True)
         self._turns = (knots[:-1].inv() * knots[1:]).as_rotvec()
         self._times = self.times_s.tolist()
 
@@ -111,27 +111,13 @@ class CartesianTrajectory:
         return position, _slerp_matrix(self._quats[i], self._turns[i] * alpha)
 
 
-def _slerp_matrix(start: np.ndarray, turn: np.ndarray) -> np.ndarray:
-    """The rotation matrix of quaternion ``start`` (x, y, z, w) turned by the rotation vector
-    ``turn``: scipy's ``Rotation.from_quat(start) * Rotation.from_rotvec(turn)`` operation
-    for operation, in plain floats, so that Slerp's results stay bit for bit the same."""
-    rx, ry, rz = turn.tolist()
-    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
-    if angle <= 1e-3:  # scipy's Taylor series of sin(angle / 2) / angle
-        angle2 = angle * angle
-        scale = 0.5 - angle2 / 48 + angle2 * angle2 / 3840
-    else:
-        scale = math.sin(angle / 2) / angle
-    qx, qy, qz, qw = scale * rx, scale * ry, scale * rz, math.cos(angle / 2)
-    px, py, pz, pw = start.tolist()
-    x = pw * qx + qw * px + (py * qz - pz * qy)
-    y = pw * qy + qw * py + (pz * qx - px * qz)
-    z = pw * qz + qw * pz + (px * qy - py * qx)
-    w = pw * qw - px * qx - py * qy - pz * qz
-    norm = math.sqrt(x * x + y * y + z * z + w * w)
-    x, y, z, w = x / norm, y / norm, z / norm, w / norm
-    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
-    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
-    return np.array([[x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw)],
-                     [2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw)],
-                     [2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2]])
+
+def _slerp_matrix(start_wxyz: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """The rotation matrix of quaternion ``start_wxyz`` turned by the rotation vector ``turn``
+    (in its own frame), by MuJoCo's quaternion functions: a slerp step without the per-call
+    cost of scipy's Rotation objects."""
+    quat = start_wxyz.copy()
+    mujoco.mju_quatIntegrate(quat, turn, 1.0)
+    matrix = np.empty(9)
+    mujoco.mju_quat2Mat(matrix, quat)
+    return matrix.reshape(3, 3)

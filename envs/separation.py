@@ -12,11 +12,12 @@ import copy
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, TypeVar
 
 import gymnasium as gym
 import numpy as np
 
+from cell.config import updated
 from cell.errors import DivergenceError, InputError, MusclecellError
 from cell.robots.camera import CameraRig
 from cell.robots.names import CAMERA
@@ -55,6 +56,7 @@ _TIME_MARGIN_S = 2.0
 MAX_DRAWS = 5
 
 Driven = Literal["both", "knife", "pull"]
+Parameters = TypeVar("Parameters", ActionLimits, RewardParams, TaskParams)
 _KNIFE_DIMS = 4
 _PULL_DIMS = 3
 
@@ -96,8 +98,8 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
             ``MAX_DRAWS`` times; ``info["redraws"]`` says why).
         randomization: the distribution (see :mod:`envs.randomization`): a file, or None for
             the package's default.
-        limits, reward, task: action scaling, reward weights, success and stops (defaults
-            when None).
+        limits, reward, task: action scaling, reward weights, success and stops: objects, or
+            mappings of their fields over the defaults (as JSON keyword arguments give them).
         time_limit_s: episode length after the approach, s of simulated time.
         driven: ``"both"``, ``"knife"`` or ``"pull"``.
         render_mode: None or ``"rgb_array"``.
@@ -113,11 +115,12 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
     def __init__(self, scenario: Scenario | None = None,
                  cell_size_m: float | None = None, perception: bool = False,
                  options: Mapping[str, Any] | None = None,
-                 limits: ActionLimits | None = None, reward: RewardParams | None = None,
+                 limits: ActionLimits | Mapping[str, Any] | None = None,
+                 reward: RewardParams | Mapping[str, Any] | None = None,
                  time_limit_s: float | None = None, driven: Driven = "both",
                  render_mode: str | None = None, randomize: bool = True,
                  randomization: str | Path | Randomization | None = None,
-                 task: TaskParams | None = None) -> None:
+                 task: TaskParams | Mapping[str, Any] | None = None) -> None:
         if driven not in ("both", "knife", "pull"):
             raise InputError(None, "driven", f"must be both, knife or pull, got {driven!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
@@ -143,9 +146,9 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         else:
             randomization = load_randomization(randomization, checked_on)
         self.randomization = randomization
-        self.limits = ActionLimits() if limits is None else limits
-        self.reward_params = RewardParams() if reward is None else reward
-        self.task = TaskParams() if task is None else task
+        self.limits = _parameters(ActionLimits, limits, "limits")
+        self.reward_params = _parameters(RewardParams, reward, "reward")
+        self.task = _parameters(TaskParams, task, "task")
         self.time_limit_s = time_limit_s
         self.driven = driven
         self.render_mode = render_mode
@@ -396,6 +399,16 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
             self._renderer = None
 
 
+def _parameters(kind: type[Parameters], value: Parameters | Mapping[str, Any] | None,
+                name: str) -> Parameters:
+    """``value`` itself, the defaults for None, or the defaults with a mapping's fields."""
+    if value is None or isinstance(value, Mapping):
+        return updated(kind(), value or {}, section=name)
+    if not isinstance(value, kind):
+        raise InputError(None, name, f"expected {kind.__name__} or a mapping, got {value!r}")
+    return value
+
+
 class CutEnv(MuscleSeparationEnv):
     """:class:`MuscleSeparationEnv` with the policy on the knife only; the pull is scripted.
 
@@ -404,6 +417,8 @@ class CutEnv(MuscleSeparationEnv):
     """
 
     def __init__(self, **kwargs: Any) -> None:
+        if isinstance(kwargs.get("task"), Mapping):
+            kwargs["task"] = updated(CUT_TASK, kwargs["task"], section="task")
         kwargs.setdefault("task", CUT_TASK)
         super().__init__(driven="knife", **kwargs)
 

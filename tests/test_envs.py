@@ -169,3 +169,12 @@ def test_make_vec_steps(mode: str) -> None:
         obs, rewards, _, _, _ = vec.step(vec.action_space.sample())
     assert np.isfinite(obs).all() and rewards.shape == (2,)
     vec.close()
+
+
+def test_parameters_come_as_objects_or_json_mappings() -> None:
+    env = CutEnv(reward={"success": 2.0}, task={"knife_stop_force_n": 50.0})
+    assert env.reward_params.success == 2.0 and env.reward_params.progress == 10.0
+    assert env.task.knife_stop_force_n == 50.0
+    assert env.task.max_torn_fraction == envs.CUT_TASK.max_torn_fraction  # Cut-v0's own
+    with pytest.raises(InputError, match="reward.sucess"):
+        CutEnv(reward={"sucess": 2.0})

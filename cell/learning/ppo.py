@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import HumanOutputFormat, Logger
@@ -158,6 +159,9 @@ def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
     """Build the envs and the model (new, or from ``checkpoint``), train, write the final
     files."""
     settings = run.settings
+    # A 64x64 network gains nothing from torch's threads, which would take the cores the
+    # envs' physics needs.
+    torch.set_num_threads(1)
     venv = make_training_envs(settings.env_id, settings.env_kwargs, settings.envs)
     try:
         if checkpoint is None:

@@ -290,12 +290,15 @@ def _grasp_candidates(scenario: Scenario, mesh: TwoMuscleMesh) -> np.ndarray:
 def grasp_point(scenario: Scenario, mesh: TwoMuscleMesh) -> np.ndarray:
     """World point (m) where the jaws' centre goes: ``grasp_depth_m`` below the shank's top,
     ``grasp_inset_m`` in from its outer side, at ``grasp_x_fraction`` of its length, moved to
-    the nearest column of mesh vertices so that the jaws close on some."""
+    the nearest column of mesh vertices so that the jaws close on some. Only columns that
+    rise within ``grasp_depth_m`` of the shank's top count: on a coarse mesh the nearest may
+    stand on the rounded edge, so low that the tilted palm would meet the table."""
     pull = scenario.pull
     points = mesh.shank.points
     x = points[:, 0].min() + pull.grasp_x_fraction * np.ptp(points[:, 0])
     y = points[:, 1].max() - pull.grasp_inset_m
-    nearest = points[np.argmin(np.linalg.norm(points[:, :2] - [x, y], axis=1))]
+    high = points[points[:, 2] >= points[:, 2].max() - pull.grasp_depth_m]
+    nearest = high[np.argmin(np.linalg.norm(high[:, :2] - [x, y], axis=1))]
     column = np.linalg.norm(points[:, :2] - nearest[:2], axis=1) < 1e-9
     return np.array([nearest[0], nearest[1], points[column, 2].max() - pull.grasp_depth_m])
 
