@@ -58,8 +58,9 @@ class RewardParams:
     clear of them, as it must for a policy to learn that cutting pays), at most
     ``force_cap_per_step`` (a blade jammed on the table would otherwise outweigh everything
     else); tearing is ``tearing`` times the fraction of the
-    bindings torn rather than cut (most of what tearing gains as progress: separating by
-    pulling alone is the damage the knife is there to avoid). A diverged simulation costs
+    bindings torn rather than cut (more than tearing gains as progress, so that a torn
+    binding costs and a cut one pays: separating by pulling alone is the damage the knife is
+    there to avoid). A diverged simulation costs
     ``divergence``, a protective stop (:class:`TaskParams`) ``protective_stop``; the step that
     succeeds earns ``success``.
 
@@ -69,15 +70,15 @@ class RewardParams:
     """
 
     progress: float = 10.0
-    cut_progress: float = 2.0
+    cut_progress: float = 5.0
     contact_per_step: float = 0.005
-    off_interface_per_m: float = 10.0
+    off_interface_per_m: float = 2.0
     interface_tolerance_m: float = 0.003
     knife_force_limit_n: float = 28.0
     pull_force_limit_n: float = 64.0
     force_per_n: float = 0.01
-    force_cap_per_step: float = 0.2
-    tearing: float = 8.0
+    force_cap_per_step: float = 0.05
+    tearing: float = 12.0
     time_per_step: float = 0.002
     divergence: float = 10.0
     protective_stop: float = 5.0

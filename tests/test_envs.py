@@ -176,5 +176,5 @@ def test_parameters_come_as_objects_or_json_mappings() -> None:
     assert env.reward_params.success == 2.0 and env.reward_params.progress == 10.0
     assert env.task.knife_stop_force_n == 50.0
     assert env.task.max_torn_fraction == envs.CUT_TASK.max_torn_fraction  # Cut-v0's own
-    with pytest.raises(InputError, match="reward.sucess"):
+    with pytest.raises(InputError, match=r"reward\.sucess"):
         CutEnv(reward={"sucess": 2.0})
