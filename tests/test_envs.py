@@ -153,6 +153,7 @@ def test_a_knife_driven_into_the_table_stops_the_cell() -> None:
     assert info["knife_force_peak_n"] > envs.CUT_TASK.knife_stop_force_n
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env_class", [MuscleSeparationEnv, CutEnv])
 def test_random_policy_does_not_separate(env_class: type[MuscleSeparationEnv]) -> None:
     _, _, info = _run(env_class(randomize=False), "random")
