@@ -87,6 +87,22 @@ class Reading:
     under_blade: int
     interface_offset_m: float
 
+    @property
+    def knife_force_magnitude_n(self) -> float:
+        """The knife sensor's force magnitude, N."""
+        return float(np.linalg.norm(self.knife_force_n))
+
+    @property
+    def pull_force_magnitude_n(self) -> float:
+        """The gripper sensor's force magnitude, N."""
+        return float(np.linalg.norm(self.pull_force_n))
+
+    @property
+    def blade_in_flesh(self) -> bool:
+        """The blade touches muscle with no binding under it: it cuts flesh, not the
+        aponeurosis."""
+        return self.blade_contacts > 0 and self.under_blade == 0
+
 
 class Sensing:
     """Reads :class:`Reading` from an episode's simulation.

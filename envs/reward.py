@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from envs.observation import Reading
 from envs.params import RewardParams
 
@@ -29,17 +27,13 @@ def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: fl
         (-0.0, -0.0)
     """
     touching = after.blade_contacts > 0
-    damage = 0.0
-    if touching and after.under_blade == 0:
-        damage += params.contact_per_step
+    damage = params.contact_per_step if after.blade_in_flesh else 0.0
     if touching:
         damage += params.off_interface_per_m * max(
             0.0, after.interface_offset_m - params.interface_tolerance_m)
-    knife_n = float(np.linalg.norm(after.knife_force_n))
-    pull_n = float(np.linalg.norm(after.pull_force_n))
     force = min(params.force_cap_per_step, params.force_per_n * (
-        max(0.0, knife_n - params.knife_force_limit_n)
-        + max(0.0, pull_n - params.pull_force_limit_n)))
+        max(0.0, after.knife_force_magnitude_n - params.knife_force_limit_n)
+        + max(0.0, after.pull_force_magnitude_n - params.pull_force_limit_n)))
     return {
         "progress": params.progress * (after.released_fraction - before.released_fraction),
         "cut_progress": params.cut_progress * cut_advance,

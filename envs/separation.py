@@ -273,11 +273,10 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
     def _watch(self, terms: dict[str, float]) -> None:
         """Keep the episode's peaks and damage, and stop the cell past a force limit."""
         reading, task = self._reading, self.task
-        knife_n = float(np.linalg.norm(reading.knife_force_n))
-        pull_n = float(np.linalg.norm(reading.pull_force_n))
+        knife_n, pull_n = reading.knife_force_magnitude_n, reading.pull_force_magnitude_n
         self.knife_force_peak_n = max(self.knife_force_peak_n, knife_n)
         self.pull_force_peak_n = max(self.pull_force_peak_n, pull_n)
-        if reading.blade_contacts > 0 and reading.under_blade == 0:
+        if reading.blade_in_flesh:
             self.flesh_damage_s += self._dt_s
         if knife_n > task.knife_stop_force_n or pull_n > task.pull_stop_force_n:
             self.protective_stop = True
