@@ -19,6 +19,7 @@ import numpy as np
 
 from cell.config import updated
 from cell.errors import DivergenceError, InputError, MusclecellError
+from cell.memory import return_freed_memory
 from cell.robots.camera import CameraRig
 from cell.robots.names import CAMERA
 from cell.sim.assembly import grasp_point
@@ -236,6 +237,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
                                  plan.pull.sample(self._start_s)[1], self.limits)
         self._reading = self._sensing.read(self._knife)
         self._obs = self._observe()
+        return_freed_memory()  # the previous cell's heap, or RSS creeps up over many resets
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """One control step (20 ms by default) of the policy's action."""
