@@ -11,7 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 #: The project's packages that the rules know, bottom layer first.
-BASE = ("cell.errors", "cell.io", "cell.config", "cell.collision", "cell.polyline", "cell.assets")
+BASE = ("cell.errors", "cell.io", "cell.config", "cell.collision", "cell.polyline", "cell.assets",
+        "cell.extras")
 ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.robots": BASE,
     "cell.tissue": BASE,

@@ -25,8 +25,9 @@ from cell.robots.tools import build_camera, build_gripper, build_knife
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import Aponeurosis, BindingLaw
 from cell.tissue.flexcomp import flexcomp_xml, set_continuum_law
-from cell.tissue.geometry import TetMesh, TwoMuscleMesh, build_two_muscles
+from cell.tissue.geometry import TetMesh, TwoMuscleMesh
 from cell.tissue.material import ContinuumMaterial
+from cell.tissue.scan import build_tissue
 
 #: Rest height of the bottom layer: vertices within this of the table are pinned (round) or
 #: stand on feet (shank).
@@ -184,9 +185,11 @@ def _muscle_xml(name: str, mesh: TetMesh, scenario: Scenario, pins: np.ndarray,
 def _tissue_spec(scenario: Scenario, mesh: TwoMuscleMesh, round_pins: np.ndarray) -> str:
     layout = scenario.layout
     origin = np.array([layout.meat_x_m, 0.0, layout.table_height_m])
-    plate_half = [scenario.tissue.length_m / 2 + 0.03, scenario.tissue.round_width_m / 2 + 0.02,
-                  0.002]
-    plate_y = -scenario.tissue.round_width_m / 2
+    # Under the round: as long as the muscles and a little wider than the round.
+    length_m = np.ptp(mesh.round.points[:, 0])
+    width_m = origin[1] - mesh.round.points[:, 1].min()
+    plate_half = [length_m / 2 + 0.03, width_m / 2 + 0.02, 0.002]
+    plate_y = -width_m / 2
     return f"""<mujoco><worldbody>
   <body name="fixture" pos="{origin[0]} {origin[1]} {origin[2]}">
     <site name="dynamometer" size="0.01"/>
@@ -209,7 +212,7 @@ def build_scene(scenario: Scenario, robots: bool = True) -> Scene:
     """
     layout = scenario.layout
     origin = np.array([layout.meat_x_m, 0.0, layout.table_height_m])
-    mesh = build_two_muscles(scenario.tissue, origin_m=tuple(origin))
+    mesh = build_tissue(scenario.tissue, origin_m=tuple(origin))
     round_pins = np.flatnonzero(mesh.round.points[:, 2] <= origin[2] + _PIN_TOLERANCE_M)
     # flexcomp is the one element MjSpec cannot build from arrays: start from its MJCF.
     spec = mujoco.MjSpec.from_string(_tissue_spec(scenario, mesh, round_pins))

@@ -31,6 +31,7 @@ from cell.sim.recording import EpisodeRecorder
 from cell.sim.scenario import Scenario
 from cell.sim.simulation import Simulation
 from cell.tissue.aponeurosis import ReleaseRule
+from cell.tissue.geometry import TwoMuscleMesh
 from controllers import gripper, knife
 from controllers.camera import view_pose
 from controllers.gripper import PullSchedule
@@ -348,6 +349,7 @@ class Episode:
             "scenario": self.scenario.name,
             "seed": self.scenario.seed,
             "tissue_nodes": scene.node_count,
+            "tissue_mesh": _mesh_figures(scene.mesh),
             "bindings": len(apo),
             "released_by_rule": apo.released_counts(),
             "released_fraction": released_fraction,
@@ -383,3 +385,13 @@ class Episode:
             }
         timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s}
         return {"result": result, "timing": timing}
+
+
+def _mesh_figures(mesh: TwoMuscleMesh) -> dict[str, Any]:
+    """What the summary says of the muscles' mesh: its source (the scan's files or the
+    procedural shape), size, worst element and the bound interface's area (m^2)."""
+    return {"source": [Path(name).name for name in mesh.shape.surface_mesh] or "procedural",
+            "nodes": mesh.node_count,
+            "tets": len(mesh.round.tets) + len(mesh.shank.tets),
+            "min_dihedral_deg": mesh.min_dihedral_deg,
+            "interface_area_m2": mesh.interface_area_m2}

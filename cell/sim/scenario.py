@@ -256,6 +256,9 @@ def load_scenario(path: str | Path) -> Scenario:
     for name in _TABLES:
         if name in raw and name != "material":
             table[name] = raw[name]
+    tissue = table.get("tissue")
+    if isinstance(tissue, dict) and isinstance(tissue.get("surface_mesh"), str):
+        table["tissue"] = {**tissue, "surface_mesh": [tissue["surface_mesh"]]}
     scenario = from_table(Scenario, table, file=path, section="")
     if "material" in raw:
         scenario = replace(scenario, material=_material(path, raw["material"]))
@@ -264,7 +267,10 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ScenarioError(path, "simulation.integrator",
                             "MuJoCo runs flex continuum elasticity only with 'discrete'")
     curve = _resolve(path, scenario.aponeurosis.force_curve, "aponeurosis.force_curve")
-    return replace(scenario, aponeurosis=replace(scenario.aponeurosis, force_curve=curve))
+    scans = tuple(_resolve(path, name, "tissue.surface_mesh")
+                  for name in scenario.tissue.surface_mesh)
+    return replace(scenario, aponeurosis=replace(scenario.aponeurosis, force_curve=curve),
+                   tissue=replace(scenario.tissue, surface_mesh=scans))
 
 
 def _material(scenario_file: Path, table: object) -> ContinuumMaterial | MassSpringMaterial:
