@@ -108,7 +108,8 @@ class Episode:
     def __init__(self, scenario: Scenario, scene: Scene | None = None) -> None:
         self.scenario = scenario
         self.scene = build_scene(scenario) if scene is None else scene
-        self.robot_model = build_robot_spec(scenario).compile()
+        self.robot_model = build_robot_spec(
+            scenario, handle=self.scene.cad_parts.get("knife.handle_mesh")).compile()
         self.sim = Simulation(self.scene, scenario)
         model = self.scene.model
         names = [n for prefix, arm in ARMS.items() for n in arm_joint_names(prefix, arm)]
@@ -350,6 +351,7 @@ class Episode:
             "seed": self.scenario.seed,
             "tissue_nodes": scene.node_count,
             "tissue_mesh": _mesh_figures(scene.mesh),
+            "cad_parts": {key: part.figures() for key, part in scene.cad_parts.items()},
             "bindings": len(apo),
             "released_by_rule": apo.released_counts(),
             "released_fraction": released_fraction,
@@ -383,7 +385,8 @@ class Episode:
                 "cut_depth_m": {"min": float(perceived.cut_depth_m.min()),
                                 "max": float(perceived.cut_depth_m.max())},
             }
-        timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s}
+        timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s,
+                  "cad_parts": {key: part.timing() for key, part in scene.cad_parts.items()}}
         return {"result": result, "timing": timing}
 
 
