@@ -1,15 +1,22 @@
 """Shared test set-up, for the tests and the docstring examples alike.
 
 Headless rendering is chosen here (``MUJOCO_GL=egl`` unless set): MuJoCo reads the variable
-at its own import, and pytest imports this file before any test module.
+at its own import, and pytest imports this file before any test module. The CAD parts'
+decomposition cache goes to a folder of the test session's (``MUSCLECELL_CACHE_DIR``), never
+the user's.
 """
 
+import atexit
 import os
+import shutil
+import tempfile
 from collections.abc import Iterator
 
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ["MUSCLECELL_CACHE_DIR"] = tempfile.mkdtemp(prefix="musclecell-cache-")
+atexit.register(shutil.rmtree, os.environ["MUSCLECELL_CACHE_DIR"], ignore_errors=True)
 
 
 @pytest.fixture(autouse=True)

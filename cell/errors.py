@@ -67,6 +67,41 @@ class MeshError(InputError):
     """A mesh that cannot be simulated: not a volume, inverted or degenerate elements."""
 
 
+class NotWatertightError(MeshError):
+    """A surface mesh that still has holes or open edges after repair, so it bounds no
+    volume."""
+
+
+class SelfIntersectionError(MeshError):
+    """A surface mesh whose triangles cross each other, so it has no inside to fill."""
+
+
+class NoInterfaceError(MeshError):
+    """Two muscle surfaces that nowhere come within the interface tolerance of each other:
+    there is no aponeurosis to bind."""
+
+
+class TetrahedralisationError(MeshError):
+    """A closed surface that the tetrahedral mesher could not fill with valid tets."""
+
+
+class MissingExtraError(MusclecellError, ImportError):
+    """An optional library a feature needs is not installed; the message names the extra.
+
+    Example:
+        >>> raise MissingExtraError("tetgen", "mesh", "surface_mesh")
+        Traceback (most recent call last):
+        cell.errors.MissingExtraError: surface_mesh needs tetgen: pip install 'musclecell[mesh]'
+    """
+
+    def __init__(self, module: str, extra: str, feature: str) -> None:
+        self.module, self.extra, self.feature = module, extra, feature
+        super().__init__(f"{feature} needs {module}: pip install 'musclecell[{extra}]'")
+
+    def __reduce__(self) -> tuple:
+        return type(self), (self.module, self.extra, self.feature)
+
+
 class DivergenceError(MusclecellError):
     """The simulation blew up (NaN, MuJoCo warning, energy explosion); its state is not data.
 

@@ -44,7 +44,9 @@ from envs.options import OPTION_KEYS, apply_options
 DEFAULT_RANDOMIZATION = asset_path("randomization/default.toml")
 #: Options that are no single number and so are not drawn (a shape is drawn field by field).
 _NOT_DRAWN = ("shape", "material", "fibre_direction")
-_SHAPE_FIELDS = tuple(f.name for f in fields(MuscleShape) if f.name != "cell_size_m")
+#: A scan's files are no number to draw either.
+_SHAPE_FIELDS = tuple(f.name for f in fields(MuscleShape)
+                      if f.name not in ("cell_size_m", "surface_mesh"))
 
 
 @dataclass(frozen=True)

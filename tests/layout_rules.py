@@ -12,7 +12,7 @@ from pathlib import Path
 
 #: The project's packages that the rules know, bottom layer first.
 BASE = ("cell.errors", "cell.io", "cell.config", "cell.collision", "cell.polyline", "cell.memory",
-        "cell.assets")
+        "cell.assets", "cell.extras")
 ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.robots": BASE,
     "cell.tissue": BASE,

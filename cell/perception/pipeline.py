@@ -406,8 +406,7 @@ def _scores(truth: TwoMuscleMesh, guideline: CutPath,
             interface_y: PredictedInterface) -> dict[str, Any]:
     """The plan's scores against the generator's true meat: :class:`PerceivedPlan`'s
     ``guideline_distance_m``, ``coverage`` and ``interface_error_m``."""
-    true_surface = predict_interface(
-        AffineFit(np.eye(3), np.zeros(3), np.zeros(3), 0.0), truth).surface_m.reshape(-1, 3)
+    true_surface = truth.pair_midpoints_m
     return {
         "guideline_distance_m": Deviation.of(
             closest_on(guideline.points_m[:, :2], truth.top_line[:, :2]).distance_m),

@@ -275,7 +275,5 @@ class InterfacePrediction:
 
 def predict_interface(fit: AffineFit, model: TwoMuscleMesh) -> InterfacePrediction:
     """Map ``model``'s interface (its facing pairs' midpoints) with ``fit``."""
-    pairs = model.pairs
-    midpoints = 0.5 * (model.round.points[pairs[:, 0]] + model.shank.points[pairs[:, 1]])
     stations = len(model.top_line)
-    return InterfacePrediction(fit.apply(midpoints).reshape(stations, -1, 3))
+    return InterfacePrediction(fit.apply(model.pair_midpoints_m).reshape(stations, -1, 3))

@@ -13,8 +13,9 @@ import mujoco
 import numpy as np
 
 from cell.collision import JAWS, ROBOTS
-from cell.config import require_positive
+from cell.config import require_non_negative, require_positive
 from cell.errors import InputError
+from cell.robots.cad import ConvexParts, add_part, decompose
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,9 @@ class KnifeParams:
 
     The blade lies in the tool's x-z plane: its length runs along the tool axis z, its cutting
     edge faces tool +x and its thickness is along tool y. Lengths in m, masses in kg.
+    ``handle_mesh``: a CAD handle (STL or OBJ, m, z along the tool axis from the sensor's top
+    at z = 0, the edge's side +x) instead of the capsule: shown whole, colliding as its
+    convex pieces (:mod:`cell.robots.cad`); the blade starts ``handle_length_m`` up.
 
     Example:
         >>> spec = build_knife(KnifeParams(blade_length_m=0.2))
@@ -38,9 +42,11 @@ class KnifeParams:
     sensor_mass_kg: float = 0.25
     handle_mass_kg: float = 0.15
     blade_mass_kg: float = 0.04
+    handle_mesh: str = ""
 
     def __post_init__(self) -> None:
-        require_positive(self)
+        require_positive(self, *(name for name, value in vars(self).items()
+                                 if isinstance(value, float)))
 
     @property
     def tip_offset_m(self) -> float:
@@ -104,6 +110,28 @@ class CameraParams:
             raise InputError(None, "width_px", "image must be at least 8 x 8 pixels")
 
 
+@dataclass(frozen=True)
+class FixtureParams:
+    """What holds the round besides its pinned base: an optional CAD clamp.
+
+    ``clamp_mesh``: a clamp (STL or OBJ, m) standing on the table against the round's outer
+    wall: its frame goes to the middle of the wall's foot, y toward the meat, so the mesh's
+    face toward the meat lies on y = 0 and its base on z = 0. It is shown whole and collides
+    (with the tissue and the tools) as its convex pieces (:mod:`cell.robots.cad`);
+    ``clearance_m`` keeps it off the wall at rest.
+
+    Example:
+        >>> FixtureParams(clamp_mesh="clamp.stl").clearance_m
+        0.002
+    """
+
+    clamp_mesh: str = ""
+    clearance_m: float = 0.002
+
+    def __post_init__(self) -> None:
+        require_non_negative(self, "clearance_m")
+
+
 def _add_ft_sensor(spec: mujoco.MjSpec, body: mujoco.MjsBody) -> None:
     """A 6-axis F/T sensor between flange and tool: it reads what the flange exerts on the tool."""
     body.add_site(name="ft", size=[0.005, 0, 0])
@@ -117,10 +145,13 @@ def _add_ft_sensor(spec: mujoco.MjSpec, body: mujoco.MjsBody) -> None:
     )
 
 
-def build_knife(params: KnifeParams = KnifeParams()) -> mujoco.MjSpec:
-    """Knife spec: root body ``knife`` with geoms ``sensor``, ``handle``, ``blade``; sites
-    ``ft`` (sensor frame), ``tip`` (blade tip) and ``blade`` (blade centre); sensors
-    ``force`` and ``torque`` (N, N m, in the sensor frame, acting on the knife)."""
+def build_knife(params: KnifeParams = KnifeParams(),
+                handle: ConvexParts | None = None) -> mujoco.MjSpec:
+    """Knife spec: root body ``knife`` with geoms ``sensor``, ``handle`` (with
+    ``handle_mesh``, its pieces ``handle_0``, ... too: ``handle`` if given, else decomposed
+    here), ``blade``; sites ``ft`` (sensor frame), ``tip`` (blade tip) and ``blade`` (blade
+    centre); sensors ``force`` and ``torque`` (N, N m, in the sensor frame, acting on the
+    knife)."""
     spec = mujoco.MjSpec()
     knife = spec.worldbody.add_body(name="knife")
     _add_ft_sensor(spec, knife)
@@ -131,13 +162,18 @@ def build_knife(params: KnifeParams = KnifeParams()) -> mujoco.MjSpec:
         mass=params.sensor_mass_kg, rgba=[0.2, 0.2, 0.22, 1],
         contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity,
     )
-    knife.add_geom(
-        name="handle", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-        size=[params.handle_radius_m, params.handle_length_m / 2 - params.handle_radius_m, 0],
-        pos=[0, 0, h + params.handle_length_m / 2],
-        mass=params.handle_mass_kg, rgba=[0.1, 0.1, 0.1, 1],
-        contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity,
-    )
+    if params.handle_mesh:
+        handle = handle or decompose(params.handle_mesh, "knife.handle_mesh")
+        add_part(spec, knife, "handle", handle, mass_kg=params.handle_mass_kg, pos=(0, 0, h))
+    else:
+        knife.add_geom(
+            name="handle", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            size=[params.handle_radius_m, params.handle_length_m / 2 - params.handle_radius_m,
+                  0],
+            pos=[0, 0, h + params.handle_length_m / 2],
+            mass=params.handle_mass_kg, rgba=[0.1, 0.1, 0.1, 1],
+            contype=ROBOTS.contype, conaffinity=ROBOTS.conaffinity,
+        )
     blade_centre = h + params.handle_length_m + params.blade_length_m / 2
     knife.add_geom(
         name="blade", type=mujoco.mjtGeom.mjGEOM_BOX, size=params.blade_half_size_m,

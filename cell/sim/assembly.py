@@ -10,7 +10,7 @@ paper's dynamometer.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -20,13 +20,15 @@ from cell.collision import FEET, TABLE_TOP, muscles
 from cell.errors import MaterialError, MeshError
 from cell.io import write_atomic
 from cell.robots.arms import build_arm
+from cell.robots.cad import ConvexParts, add_part, decompose
 from cell.robots.names import ARMS, GRIPPER_BODY
 from cell.robots.tools import build_camera, build_gripper, build_knife
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import Aponeurosis, BindingLaw
 from cell.tissue.flexcomp import flexcomp_xml, set_continuum_law
-from cell.tissue.geometry import TetMesh, TwoMuscleMesh, build_two_muscles
+from cell.tissue.geometry import TetMesh, TwoMuscleMesh
 from cell.tissue.material import ContinuumMaterial
+from cell.tissue.scan import build_tissue
 
 #: Rest height of the bottom layer: vertices within this of the table are pinned (round) or
 #: stand on feet (shank).
@@ -51,6 +53,8 @@ class Scene:
             in a scene without robots).
         grasp_vertices: shank vertex index of each grasp equality.
         eq_data0: ``model.eq_data`` as built, for :meth:`restore`.
+        cad_parts: the CAD parts' decompositions by scenario key (``knife.handle_mesh``,
+            ``fixture.clamp_mesh``), for the summary.
 
     Example:
         >>> from cell.sim.scenario import Scenario
@@ -70,6 +74,7 @@ class Scene:
     grasp_equalities: np.ndarray
     grasp_vertices: np.ndarray
     eq_data0: np.ndarray
+    cad_parts: dict[str, ConvexParts] = field(default_factory=dict)
 
     @property
     def node_count(self) -> int:
@@ -107,9 +112,10 @@ def integrator(scenario: Scenario) -> mujoco.mjtIntegrator:
 
 
 def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None,
-                     robots: bool = True) -> mujoco.MjSpec:
+                     robots: bool = True, handle: ConvexParts | None = None) -> mujoco.MjSpec:
     """World, floor, table and the three arms with their tools (not with ``robots=False``),
-    added to ``spec`` (a new one by default, which then holds no tissue).
+    added to ``spec`` (a new one by default, which then holds no tissue); ``handle``: the
+    knife's CAD handle, if decomposed already.
 
     The tissue-free spec serves as the IK model, whose joints match the full scene by name.
     """
@@ -140,16 +146,18 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None,
                    conaffinity=TABLE_TOP.conaffinity,
                    friction=[sim.table_friction, 0.005, 0.0001])
     if robots:
-        _add_arms(scenario, spec)
+        _add_arms(scenario, spec, handle)
     return spec
 
 
-def _add_arms(scenario: Scenario, spec: mujoco.MjSpec) -> None:
-    """The three arms on their bases, each with its tool on its flange."""
+def _add_arms(scenario: Scenario, spec: mujoco.MjSpec, handle: ConvexParts | None = None
+              ) -> None:
+    """The three arms on their bases, each with its tool on its flange (the knife's CAD
+    handle ``handle``, if decomposed already)."""
     layout = scenario.layout
     world = spec.worldbody
     tools = {
-        "knife_arm": ("knife/", build_knife(scenario.knife)),
+        "knife_arm": ("knife/", build_knife(scenario.knife, handle)),
         "pull_arm": ("gripper/", build_gripper(scenario.gripper)),
         "camera_arm": ("camera/", build_camera(scenario.camera)),
     }
@@ -184,9 +192,11 @@ def _muscle_xml(name: str, mesh: TetMesh, scenario: Scenario, pins: np.ndarray,
 def _tissue_spec(scenario: Scenario, mesh: TwoMuscleMesh, round_pins: np.ndarray) -> str:
     layout = scenario.layout
     origin = np.array([layout.meat_x_m, 0.0, layout.table_height_m])
-    plate_half = [scenario.tissue.length_m / 2 + 0.03, scenario.tissue.round_width_m / 2 + 0.02,
-                  0.002]
-    plate_y = -scenario.tissue.round_width_m / 2
+    # Under the round: as long as the muscles and a little wider than the round.
+    length_m = np.ptp(mesh.round.points[:, 0])
+    width_m = origin[1] - mesh.round.points[:, 1].min()
+    plate_half = [length_m / 2 + 0.03, width_m / 2 + 0.02, 0.002]
+    plate_y = -width_m / 2
     return f"""<mujoco><worldbody>
   <body name="fixture" pos="{origin[0]} {origin[1]} {origin[2]}">
     <site name="dynamometer" size="0.01"/>
@@ -209,13 +219,16 @@ def build_scene(scenario: Scenario, robots: bool = True) -> Scene:
     """
     layout = scenario.layout
     origin = np.array([layout.meat_x_m, 0.0, layout.table_height_m])
-    mesh = build_two_muscles(scenario.tissue, origin_m=tuple(origin))
+    mesh = build_tissue(scenario.tissue, origin_m=tuple(origin))
     round_pins = np.flatnonzero(mesh.round.points[:, 2] <= origin[2] + _PIN_TOLERANCE_M)
     # flexcomp is the one element MjSpec cannot build from arrays: start from its MJCF.
     spec = mujoco.MjSpec.from_string(_tissue_spec(scenario, mesh, round_pins))
     set_continuum_law(spec, scenario.material)
     _add_feet(spec, mesh, origin[2], scenario.simulation.table_friction)
-    build_robot_spec(scenario, spec, robots)
+    parts = _cad_parts(scenario, robots)
+    if "fixture.clamp_mesh" in parts:
+        _add_clamp(spec, mesh, origin, scenario.fixture.clearance_m, parts["fixture.clamp_mesh"])
+    build_robot_spec(scenario, spec, robots, parts.get("knife.handle_mesh"))
 
     apo = scenario.aponeurosis
     law = BindingLaw(apo.law)
@@ -251,7 +264,25 @@ def build_scene(scenario: Scenario, robots: bool = True) -> Scene:
                               stiffness_n_m=apo.stiffness_n_m,
                               damping_n_s_m=apo.damping_n_s_m, equality_ids=binding_ids)
     return Scene(scenario, spec, model, mesh, round_bodies, shank_bodies, aponeurosis,
-                 grasp_ids, grasp_vertices, model.eq_data.copy())
+                 grasp_ids, grasp_vertices, model.eq_data.copy(), parts)
+
+
+def _cad_parts(scenario: Scenario, robots: bool) -> dict[str, ConvexParts]:
+    """The scenario's CAD parts decomposed (the knife's only in a scene with robots)."""
+    files = {"fixture.clamp_mesh": scenario.fixture.clamp_mesh}
+    if robots:
+        files["knife.handle_mesh"] = scenario.knife.handle_mesh
+    return {key: decompose(path, key) for key, path in files.items() if path}
+
+
+def _add_clamp(spec: mujoco.MjSpec, mesh: TwoMuscleMesh, origin: np.ndarray,
+               clearance_m: float, clamp: ConvexParts) -> None:
+    """The CAD clamp on the fixture, against the middle of the round's outer wall's foot."""
+    points = mesh.round.points
+    middle_x = 0.5 * (points[:, 0].min() + points[:, 0].max())
+    foot = np.array([middle_x, points[:, 1].min() - clearance_m, origin[2]]) - origin
+    add_part(spec, spec.body("fixture"), "clamp", clamp, pos=tuple(foot),
+             rgba=(0.45, 0.47, 0.5, 1.0))
 
 
 def _add_feet(spec: mujoco.MjSpec, mesh: TwoMuscleMesh, table_z_m: float,

@@ -31,6 +31,7 @@ from cell.sim.recording import EpisodeRecorder
 from cell.sim.scenario import Scenario
 from cell.sim.simulation import Simulation
 from cell.tissue.aponeurosis import ReleaseRule
+from cell.tissue.geometry import TwoMuscleMesh
 from controllers import gripper, knife
 from controllers.camera import view_pose
 from controllers.gripper import PullSchedule
@@ -107,7 +108,8 @@ class Episode:
     def __init__(self, scenario: Scenario, scene: Scene | None = None) -> None:
         self.scenario = scenario
         self.scene = build_scene(scenario) if scene is None else scene
-        self.robot_model = build_robot_spec(scenario).compile()
+        self.robot_model = build_robot_spec(
+            scenario, handle=self.scene.cad_parts.get("knife.handle_mesh")).compile()
         self.sim = Simulation(self.scene, scenario)
         model = self.scene.model
         names = [n for prefix, arm in ARMS.items() for n in arm_joint_names(prefix, arm)]
@@ -348,6 +350,8 @@ class Episode:
             "scenario": self.scenario.name,
             "seed": self.scenario.seed,
             "tissue_nodes": scene.node_count,
+            "tissue_mesh": _mesh_figures(scene.mesh),
+            "cad_parts": {key: part.figures() for key, part in scene.cad_parts.items()},
             "bindings": len(apo),
             "released_by_rule": apo.released_counts(),
             "released_fraction": released_fraction,
@@ -381,5 +385,16 @@ class Episode:
                 "cut_depth_m": {"min": float(perceived.cut_depth_m.min()),
                                 "max": float(perceived.cut_depth_m.max())},
             }
-        timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s}
+        timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s,
+                  "cad_parts": {key: part.timing() for key, part in scene.cad_parts.items()}}
         return {"result": result, "timing": timing}
+
+
+def _mesh_figures(mesh: TwoMuscleMesh) -> dict[str, Any]:
+    """What the summary says of the muscles' mesh: its source (the scan's files or the
+    procedural shape), size, worst element and the bound interface's area (m^2)."""
+    return {"source": [Path(name).name for name in mesh.shape.surface_mesh] or "procedural",
+            "nodes": mesh.node_count,
+            "tets": len(mesh.round.tets) + len(mesh.shank.tets),
+            "min_dihedral_deg": mesh.min_dihedral_deg,
+            "interface_area_m2": mesh.interface_area_m2}

@@ -19,7 +19,7 @@ from cell.assets import asset_path
 from cell.config import from_table, read_toml, require_non_negative, require_positive
 from cell.errors import InputError, MaterialError, ScenarioError
 from cell.perception.pipeline import PerceptionParams
-from cell.robots.tools import CameraParams, GripperParams, KnifeParams
+from cell.robots.tools import CameraParams, FixtureParams, GripperParams, KnifeParams
 from cell.tissue.aponeurosis import ReleaseRule
 from cell.tissue.geometry import MuscleShape
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial, default_meat
@@ -207,6 +207,7 @@ class Scenario:
     material: ContinuumMaterial | MassSpringMaterial = field(default_factory=default_meat)
     aponeurosis: AponeurosisParams = field(default_factory=AponeurosisParams)
     knife: KnifeParams = field(default_factory=KnifeParams)
+    fixture: FixtureParams = field(default_factory=FixtureParams)
     gripper: GripperParams = field(default_factory=GripperParams)
     camera: CameraParams = field(default_factory=CameraParams)
     cut: CutPlan = field(default_factory=CutPlan)
@@ -231,8 +232,8 @@ class _Head:
             require_positive(self, "end_s")
 
 
-_TABLES = ("simulation", "tissue", "material", "aponeurosis", "knife", "gripper", "camera",
-           "cut", "pull", "layout", "sensors", "perception", "recording")
+_TABLES = ("simulation", "tissue", "material", "aponeurosis", "knife", "fixture", "gripper",
+           "camera", "cut", "pull", "layout", "sensors", "perception", "recording")
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -256,6 +257,9 @@ def load_scenario(path: str | Path) -> Scenario:
     for name in _TABLES:
         if name in raw and name != "material":
             table[name] = raw[name]
+    tissue = table.get("tissue")
+    if isinstance(tissue, dict) and isinstance(tissue.get("surface_mesh"), str):
+        table["tissue"] = {**tissue, "surface_mesh": [tissue["surface_mesh"]]}
     scenario = from_table(Scenario, table, file=path, section="")
     if "material" in raw:
         scenario = replace(scenario, material=_material(path, raw["material"]))
@@ -264,7 +268,17 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ScenarioError(path, "simulation.integrator",
                             "MuJoCo runs flex continuum elasticity only with 'discrete'")
     curve = _resolve(path, scenario.aponeurosis.force_curve, "aponeurosis.force_curve")
-    return replace(scenario, aponeurosis=replace(scenario.aponeurosis, force_curve=curve))
+    scans = tuple(_resolve(path, name, "tissue.surface_mesh")
+                  for name in scenario.tissue.surface_mesh)
+    knife, fixture = scenario.knife, scenario.fixture
+    if knife.handle_mesh:
+        knife = replace(knife, handle_mesh=_resolve(path, knife.handle_mesh, "knife.handle_mesh"))
+    if fixture.clamp_mesh:
+        fixture = replace(fixture, clamp_mesh=_resolve(path, fixture.clamp_mesh,
+                                                       "fixture.clamp_mesh"))
+    return replace(scenario, aponeurosis=replace(scenario.aponeurosis, force_curve=curve),
+                   tissue=replace(scenario.tissue, surface_mesh=scans), knife=knife,
+                   fixture=fixture)
 
 
 def _material(scenario_file: Path, table: object) -> ContinuumMaterial | MassSpringMaterial:

@@ -23,7 +23,7 @@ from typing import Literal
 import numpy as np
 
 from cell.errors import InputError
-from cell.tissue.tetmesh import TetMesh, structured_hex_tets
+from cell.tissue.tetmesh import TetMesh, dihedral_angles_deg, structured_hex_tets
 
 # The rounded top edge turns the top down by this much before it meets the vertical outer wall:
 # a mapped grid needs a corner there, and 135 degrees keeps the corner cells well shaped (a full
@@ -58,7 +58,14 @@ class MuscleShape:
         end_taper: fraction of the height lost at the two ends, in [0, 0.6] (0 keeps it
             constant along x).
         gap_m: distance along y between facing vertices of the two muscles (they never touch).
-        cell_size_m: target edge length of the structured grid; the counts are rounded up.
+        cell_size_m: target edge length of the structured grid; the counts are rounded up
+            (of a scan's tets: their largest edge, about).
+        surface_mesh: closed surface files of a scanned or segmented pair of muscles
+            (:mod:`cell.tissue.scan`): two, the round's then the shank's, or one that holds
+            both as separate bodies. Given, they replace the procedural shape, whose
+            dimensions are then unused.
+        interface_tolerance_m: a scan's vertex lies on the interface when it is within this
+            distance of the other muscle's surface.
 
     Raises:
         InputError: a field out of range; ``field`` names it.
@@ -81,9 +88,17 @@ class MuscleShape:
     end_taper: float = 0.25
     gap_m: float = 0.003
     cell_size_m: float = 0.025
+    surface_mesh: tuple[str, ...] = ()
+    interface_tolerance_m: float = 0.005
 
     def __post_init__(self) -> None:
+        if len(self.surface_mesh) > 2 or not all(isinstance(name, str)
+                                                 for name in self.surface_mesh):
+            raise InputError(None, "surface_mesh",
+                             f"must be one or two file names, got {self.surface_mesh!r}")
         for f in fields(self):
+            if f.name == "surface_mesh":
+                continue
             value = getattr(self, f.name)
             if not isinstance(value, int | float) or isinstance(value, bool):
                 raise InputError(None, f.name, f"must be a number, got {value!r}")
@@ -99,6 +114,7 @@ class MuscleShape:
             "edge_radius_m",
             "gap_m",
             "cell_size_m",
+            "interface_tolerance_m",
         ):
             if getattr(self, name) <= 0.0:
                 raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
@@ -241,6 +257,9 @@ class TwoMuscleMesh:
         pair_rest_lengths_m: (P,) distance between the two vertices of each pair (the gap).
         top_line: (K, 3) midpoints of the top facing pairs, ordered along +x: the top edge of
             the interface, at the bottom of the valley.
+        interface_fit: for a scan, the (6,) coefficients of the interface mid-surface
+            y = c . (1, x, z, x^2, x z, z^2) in the local frame (m) fitted to the pairs'
+            midpoints; None for the procedural shape, whose interface is exact.
 
     Example:
         >>> mesh = build_two_muscles(MuscleShape(), origin_m=(0.6, 0.0, 0.8))
@@ -256,14 +275,59 @@ class TwoMuscleMesh:
     pairs: np.ndarray
     pair_rest_lengths_m: np.ndarray
     top_line: np.ndarray
+    interface_fit: np.ndarray | None = None
 
     def interface_y(self, x_m: np.ndarray, z_m: np.ndarray) -> np.ndarray:
         """World y of the true interface mid-surface at world (x, z), in m (broadcasts).
 
-        The round's interface face lies ``gap_m / 2`` below it along y, the shank's above.
+        The round's interface face lies ``gap_m / 2`` below it along y, the shank's above
+        (a scan's: the fitted mid-surface of its bindings).
         """
         ox, oy, oz = self.origin_m
-        return oy + self.shape.interface_y_m(np.asarray(x_m) - ox, np.asarray(z_m) - oz)
+        x, z = np.asarray(x_m) - ox, np.asarray(z_m) - oz
+        if self.interface_fit is None:
+            return oy + self.shape.interface_y_m(x, z)
+        return oy + np.tensordot(self.interface_fit, quadratic_terms(x, z), axes=1)
+
+    @property
+    def pair_midpoints_m(self) -> np.ndarray:
+        """(P, 3) world midpoints of the facing pairs, m: points of the interface surface."""
+        return 0.5 * (self.round.points[self.pairs[:, 0]] + self.shank.points[self.pairs[:, 1]])
+
+    @property
+    def node_count(self) -> int:
+        """Vertices of both muscles."""
+        return len(self.round.points) + len(self.shank.points)
+
+    @property
+    def min_dihedral_deg(self) -> float:
+        """Smallest interior dihedral angle of any tet of either muscle, degrees (70.5 for a
+        regular tet; slivers near 0 stiffen and slow the solver)."""
+        return float(min(dihedral_angles_deg(m.points, m.tets).min()
+                         for m in (self.round, self.shank)))
+
+    @property
+    def interface_area_m2(self) -> float:
+        """Area of the bound interface, m^2: the mean over both muscles of the surface
+        triangles whose three vertices are all bound.
+
+        Example:
+            >>> round(build_two_muscles(MuscleShape()).interface_area_m2, 4)
+            0.0312
+        """
+        areas = []
+        for mesh, bound in ((self.round, self.pairs[:, 0]), (self.shank, self.pairs[:, 1])):
+            on = np.isin(mesh.boundary, bound).all(axis=1)
+            corners = mesh.points[mesh.boundary[on]]
+            cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+            areas.append(0.5 * np.linalg.norm(cross, axis=1).sum())
+        return float(np.mean(areas))
+
+
+def quadratic_terms(x_m: np.ndarray, z_m: np.ndarray) -> np.ndarray:
+    """(6, ...) terms (1, x, z, x^2, x z, z^2) of the interface fit, broadcast over x and z."""
+    x, z = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(z_m, dtype=float))
+    return np.stack([np.ones_like(x), x, z, x * x, x * z, z * z])
 
 
 def _muscle_grid(shape: MuscleShape, muscle: Muscle, cells_v: int) -> np.ndarray:

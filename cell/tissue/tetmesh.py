@@ -105,6 +105,31 @@ def signed_volumes_m3(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", np.cross(b - a, c - a), a - d) / 6.0
 
 
+# Face f of TET_FACES is opposite vertex 3 - f; the two faces meeting at an edge (0-1, 0-2,
+# 0-3, 1-2, 1-3, 2-3) are those opposite the two vertices off that edge.
+_FACE_OPPOSITE = np.array([3, 2, 1, 0])
+_EDGE_FACES = 3 - np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]])
+
+
+def dihedral_angles_deg(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """(M, 6) interior dihedral angles of each tet in degrees, one per edge (70.5 when regular).
+
+    Example:
+        >>> p = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [0, 0, 1]], float)
+        >>> np.round(dihedral_angles_deg(p, np.array([[0, 1, 2, 3]])), 1).tolist()
+        [[90.0, 90.0, 90.0, 54.7, 54.7, 54.7]]
+    """
+    tri = points[tets[:, TET_FACES]]
+    normal = np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0])
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    # Orient by the opposite vertex so that inverted tets still give interior angles.
+    opposite = points[tets[:, _FACE_OPPOSITE]]
+    side = np.einsum("mfk,mfk->mf", normal, opposite - tri[:, :, 0])
+    normal *= -np.sign(side)[..., None]
+    cos_out = np.einsum("mek,mek->me", normal[:, _EDGE_FACES[:, 0]], normal[:, _EDGE_FACES[:, 1]])
+    return 180.0 - np.degrees(np.arccos(np.clip(cos_out, -1.0, 1.0)))
+
+
 def boundary_triangles(tets: np.ndarray) -> np.ndarray:
     """Faces that belong to exactly one tet, wound outward (for positively oriented tets).
 

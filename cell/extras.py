@@ -1,0 +1,26 @@
+"""Optional libraries, imported when a feature first needs them.
+
+The mesher (``tetgen``), the convex decomposition (``coacd``) and the DeepMind environment
+API (``dm_env``) are extras: a user who never reads a scan or a CAD tool need not install
+them, and one who does gets an error that names the extra.
+
+Example:
+    >>> optional("json", "mesh", "a demo").__name__
+    'json'
+"""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+
+from cell.errors import MissingExtraError
+
+
+def optional(module: str, extra: str, feature: str) -> ModuleType:
+    """Import ``module``, or raise :class:`MissingExtraError` saying to install ``extra``
+    for ``feature``."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise MissingExtraError(module.split(".")[0], extra, feature) from None

@@ -1,0 +1,109 @@
+"""The envs as ``dm_env.Environment`` s, for the DeepMind stack (Acme and the like).
+
+dm-control's own environment layers do not run on MuJoCo 4 (its ``Physics`` reads model
+fields MuJoCo 4 removed, see the README), so each task here is the Gymnasium env of
+:mod:`envs.separation` behind the ``dm_env`` API that dm-control's environments implement:
+the same cell, observations, actions, rewards and episode ends, with specs. A step after the
+last of an episode starts the next (``dm_env``'s contract); termination (success, failure,
+protective stop, divergence) has discount 0, the time limit is a truncation with discount 1.
+The seed given at construction seeds the first reset; later episodes draw their worlds from
+the env's own generator, as the Gymnasium env's unseeded resets do, so a seed fixes the
+whole sequence. ``info`` holds the Gymnasium info of the last reset or step.
+
+Needs the ``dm`` extra (``pip install 'musclecell[dm]'``).
+
+Example:
+    >>> from envs.dm import make
+    >>> env = make("Cut-v0", seed=0, cell_size_m=0.05)
+    >>> env.action_spec().shape, env.observation_spec().name
+    ((4,), 'observation')
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from cell.errors import InputError
+from cell.extras import optional
+from envs.observation import OBSERVATION_BOUND, OBSERVATION_NAMES
+from envs.separation import CutEnv, MuscleSeparationEnv, PullEnv
+
+dm_env = optional("dm_env", "dm", "envs.dm (the DeepMind environment API)")
+specs = dm_env.specs
+
+#: The tasks by their Gymnasium ids (without the ``musclecell/`` namespace).
+TASKS: dict[str, type[MuscleSeparationEnv]] = {
+    "MuscleSeparation-v0": MuscleSeparationEnv,
+    "Cut-v0": CutEnv,
+    "Pull-v0": PullEnv,
+}
+
+
+class SeparationEnvironment(dm_env.Environment):
+    """A :class:`~envs.separation.MuscleSeparationEnv` (or a task of it) as a
+    ``dm_env.Environment`` (module docstring).
+
+    Args:
+        env: the Gymnasium env to run.
+        seed: seeds the first reset (None: fresh entropy).
+
+    Example:
+        >>> env = SeparationEnvironment(PullEnv(cell_size_m=0.05, time_limit_s=0.1), seed=1)
+        >>> env.reset().first(), env.step(np.zeros(3, np.float32)).mid()
+        (True, True)
+    """
+
+    def __init__(self, env: MuscleSeparationEnv, seed: int | None = None) -> None:
+        self.gym_env = env
+        self._seed = seed
+        self._reset_next = True
+        self.info: dict[str, Any] = {}
+
+    def reset(self) -> dm_env.TimeStep:
+        """Start an episode: a fresh world and cell, the plan's approach played."""
+        observation, self.info = self.gym_env.reset(seed=self._seed)
+        self._seed = None  # later worlds come from the env's generator
+        self._reset_next = False
+        return dm_env.restart(observation)
+
+    def step(self, action: np.ndarray) -> dm_env.TimeStep:
+        """One control step of ``action``; after the last step of an episode, a reset."""
+        if self._reset_next:
+            return self.reset()
+        observation, reward, terminated, truncated, self.info = self.gym_env.step(action)
+        if terminated:
+            self._reset_next = True
+            return dm_env.termination(reward, observation)
+        if truncated:
+            self._reset_next = True
+            return dm_env.truncation(reward, observation)
+        return dm_env.transition(reward, observation)
+
+    def observation_spec(self) -> specs.BoundedArray:
+        """The Gymnasium env's observation box: float32, named entries in
+        :data:`envs.observation.OBSERVATION_NAMES` order."""
+        return specs.BoundedArray((len(OBSERVATION_NAMES),), np.float32, -OBSERVATION_BOUND,
+                                  OBSERVATION_BOUND, name="observation")
+
+    def action_spec(self) -> specs.BoundedArray:
+        """The Gymnasium env's action box: float32 in [-1, 1], scaled by the env's limits."""
+        space = self.gym_env.action_space
+        return specs.BoundedArray(space.shape, np.float32, -1.0, 1.0, name="action")
+
+    def close(self) -> None:
+        """Free the Gymnasium env's renderer."""
+        self.gym_env.close()
+
+
+def make(task: str, seed: int | None = None, **kwargs: Any) -> SeparationEnvironment:
+    """The ``dm_env`` environment of ``task`` (a key of :data:`TASKS`); ``kwargs`` go to the
+    Gymnasium env as ``gymnasium.make``'s do.
+
+    Raises:
+        InputError: an unknown task.
+    """
+    if task not in TASKS:
+        raise InputError(None, "task", f"unknown task {task!r}; known: {', '.join(TASKS)}")
+    return SeparationEnvironment(TASKS[task](**kwargs), seed=seed)
