@@ -112,19 +112,11 @@ def _diagnose(args: argparse.Namespace) -> int:
     measurements = load_measurement_set(args.set_dir)  # reads everything before any write
     result = diagnose(measurements, DiagnosisParams(workers=args.workers))
     extended = result.extended
-    comment = (f"Extended material fitted by `musclecell diagnose` to {measurements.folder.name}"
-               f" ({measurements.specimen.name}).\nModel: {extended.model.name}; causes: "
-               f"{', '.join(result.causes) or 'none'}; held-out RMSE "
-               f"{extended.heldout_rmse_n:.4g} N (baseline "
-               f"{result.baseline.heldout_rmse_n:.4g} N).")
-    if extended.model.has_offset:
-        comment += (f"\nThe load cell read {extended.offset_n:.4g} N at rest: a rig effect, "
-                    "not part of this material.")
     if args.report is not None:
         from cell.rheology.report import write_report
 
         write_report(result, args.report, material_path)
-    write_atomic(material_path, material_to_toml(extended.material, comment))
+    write_atomic(material_path, material_to_toml(extended.material, result.material_comment()))
     write_json(args.json, result.to_json())
     print(f"causes: {', '.join(result.causes) or 'none (the baseline explains the data)'}; "
           f"held-out RMSE {result.baseline.heldout_rmse_n:.4g} N -> "
@@ -238,6 +230,29 @@ def _bench_diagnose(args: argparse.Namespace) -> int:
     if args.markdown is not None:
         write_atomic(args.markdown, report["markdown"])
         print(f"wrote {args.markdown}")
+    return 0
+
+
+def _workers(args: argparse.Namespace):
+    """The ``--workers`` and ``--address`` of a command that plays many runs."""
+    from cell.scale.pool import Workers
+
+    if args.workers == 1 and args.address is not None:
+        raise InputError(None, "--workers", "1 plays the runs here, without Ray: drop "
+                         "--address, or give the cluster more workers")
+    return Workers(args.workers, args.address)
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from cell.scale.sweep import run_sweep
+
+    outcome = run_sweep(args.sweep, args.out, _workers(args),
+                        retry_failed=args.retry_failed, progress=not args.quiet)
+    statuses = [row["status"] for row in outcome.rows]
+    print(f"{len(statuses)} runs ({outcome.played} played now, {outcome.skipped} found "
+          f"finished in {args.out}): {statuses.count('ok')} finished, "
+          f"{statuses.count('diverged')} diverged, {statuses.count('failed')} failed; "
+          f"{outcome.wall_s:.1f} s; wrote {', '.join(p.name for p in outcome.files)}")
     return 0
 
 
@@ -416,7 +431,33 @@ def build_parser() -> argparse.ArgumentParser:
                        "mesh only (for smoke tests)")
     bench.set_defaults(handler=_bench)
     _add_learning(commands)
+    _add_sweep(commands)
     return parser
+
+
+def _add_sweep(commands: argparse._SubParsersAction) -> None:
+    """The ``sweep`` subcommand."""
+    sweep = commands.add_parser(
+        "sweep", help="run every episode of a sweep file, one Ray task each (needs the scale "
+        "extra unless --workers 1)")
+    sweep.add_argument("sweep", type=Path, help="sweep TOML file (see README, Sweeps)")
+    sweep.add_argument("--out", type=Path, required=True,
+                       help="results folder; runs already in it are skipped")
+    _add_workers(sweep)
+    sweep.add_argument("--retry-failed", action="store_true",
+                       help="play again the runs in --out that failed or diverged")
+    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.set_defaults(handler=_sweep)
+
+
+def _add_workers(command: argparse.ArgumentParser) -> None:
+    """``--address`` and ``--workers`` of a command that plays many runs."""
+    command.add_argument("--address",
+                         help="Ray cluster to run on: auto, HEAD_HOST:PORT or "
+                         "ray://HOST:PORT (default: start Ray on this machine)")
+    command.add_argument("--workers", type=int,
+                         help="runs side by side (default: one per core, or the whole "
+                         "cluster); 1 runs them one by one in this process, without Ray")
 
 
 def main(argv: list[str] | None = None) -> int:
