@@ -102,15 +102,23 @@ def _diagnose(args: argparse.Namespace) -> int:
     from cell.rheology.measured import load_measurement_set
     from cell.tissue.materialfile import material_to_toml
 
-    if args.workers < 1:
-        raise InputError(None, "--workers", f"must be >= 1, got {args.workers}")
+    if args.batch is not None:
+        return _diagnose_batch(args)
+    if args.set_dir is None or args.json is None:
+        raise InputError(None, "set_dir" if args.set_dir is None else "--json",
+                         "missing: diagnose SET_DIR --json FILE, or --batch PARENT --out DIR")
+    if args.address is not None:
+        raise InputError(None, "--address", "only --batch runs on Ray")
+    workers = 2 if args.workers is None else args.workers
+    if workers < 1:
+        raise InputError(None, "--workers", f"must be >= 1, got {workers}")
     material_path = args.material or args.json.with_name(f"{args.json.stem}-material.toml")
     if args.report is not None:
         from cell.rheology.report import require_matplotlib
 
         require_matplotlib()
     measurements = load_measurement_set(args.set_dir)  # reads everything before any write
-    result = diagnose(measurements, DiagnosisParams(workers=args.workers))
+    result = diagnose(measurements, DiagnosisParams(workers=workers))
     extended = result.extended
     if args.report is not None:
         from cell.rheology.report import write_report
@@ -126,6 +134,24 @@ def _diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _diagnose_batch(args: argparse.Namespace) -> int:
+    from cell.scale.batch import diagnose_batch
+
+    extra = [name for name, value in (("set_dir", args.set_dir), ("--json", args.json),
+                                      ("--material", args.material),
+                                      ("--report", args.report)) if value is not None]
+    if extra or args.out is None:
+        raise InputError(None, extra[0] if extra else "--out",
+                         "diagnose --batch PARENT takes --out DIR (and --address, --workers), "
+                         "and writes each set's JSON and material there")
+    outcome = diagnose_batch(args.batch, args.out, _workers(args), progress=not args.quiet)
+    done = sum(row["status"] == "ok" for row in outcome.rows)
+    print(f"{len(outcome.rows)} sets ({outcome.played} diagnosed now, {outcome.skipped} found "
+          f"done in {args.out}): {done} diagnosed, {len(outcome.rows) - done} failed; "
+          f"{outcome.wall_s:.1f} s; wrote {', '.join(p.name for p in outcome.files)}")
+    return 0
+
+
 def _bench(args: argparse.Namespace) -> int:
     from cell.bench.cell import run_bench
     from cell.io import write_json
@@ -134,6 +160,8 @@ def _bench(args: argparse.Namespace) -> int:
         return _bench_tissue(args)
     if args.suite == "diagnose":
         return _bench_diagnose(args)
+    if args.suite == "sweep":
+        return _bench_sweep(args)
     if args.seeds is not None:
         raise InputError(None, "--seeds", "only `musclecell bench diagnose` takes --seeds")
     if args.markdown is not None:
@@ -204,6 +232,23 @@ def _bench_env(args: argparse.Namespace) -> int:
 
     report = run_env_bench(quick=args.quick)
     json_path = args.json or Path("out/bench_env.json")
+    write_json(json_path, report)
+    _print_entries(report["entries"])
+    print(f"wrote {json_path}")
+    return 0
+
+
+def _bench_sweep(args: argparse.Namespace) -> int:
+    from cell.bench.sweep import run_sweep_bench
+    from cell.io import write_json
+
+    for name, value in (("--quick", args.quick), ("--seeds", args.seeds),
+                        ("--markdown", args.markdown)):
+        if value:
+            raise InputError(None, name, "`musclecell bench sweep` runs the whole example "
+                             "sweep and takes only --json")
+    report = run_sweep_bench()
+    json_path = args.json or Path("out/bench_sweep.json")
     write_json(json_path, report)
     _print_entries(report["entries"])
     print(f"wrote {json_path}")
@@ -396,21 +441,27 @@ def build_parser() -> argparse.ArgumentParser:
     diagnosis = commands.add_parser(
         "diagnose", help="diagnose a measurement set: what the simulation gets wrong, the "
         "cause, the extended material and the gain on held-out tests")
-    diagnosis.add_argument("set_dir", type=Path, help="folder with specimen.toml and tests.csv")
-    diagnosis.add_argument("--json", type=Path, required=True, help="write the diagnosis here")
+    diagnosis.add_argument("set_dir", type=Path, nargs="?",
+                           help="folder with specimen.toml and tests.csv")
+    diagnosis.add_argument("--json", type=Path, help="write the diagnosis here")
     diagnosis.add_argument("--material", type=Path,
                            help="write the extended material TOML here (default: next to the "
                            "JSON, <name>-material.toml)")
     diagnosis.add_argument("--report", type=Path,
                            help="write plots and a Markdown report in this folder")
-    diagnosis.add_argument("--workers", type=int, default=2,
-                           help="processes fitting candidates side by side (default 2)")
+    diagnosis.add_argument("--batch", type=Path,
+                           help="diagnose every set in this folder, one Ray task each, into "
+                           "one table in --out (needs the scale extra unless --workers 1)")
+    diagnosis.add_argument("--out", type=Path,
+                           help="--batch: results folder; sets already in it are skipped")
+    diagnosis.add_argument("--quiet", action="store_true", help="--batch: no progress bar")
+    _add_workers(diagnosis, "; one set: processes fitting candidates side by side (default 2)")
     diagnosis.set_defaults(handler=_diagnose)
 
     bench = commands.add_parser(
         "bench", help="benchmark the cell, the tissue models or the perception")
     bench.add_argument("suite", nargs="?",
-                       choices=("cell", "tissue", "perception", "env", "diagnose"),
+                       choices=("cell", "tissue", "perception", "env", "diagnose", "sweep"),
                        default="cell",
                        help="cell: the whole cell (default); tissue: every tissue model on "
                        "the two muscles, with peers; perception: curvature, guideline and fit, "
@@ -421,7 +472,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", type=Path,
                        help="JSON out (default out/bench.json, tissue: out/bench_tissue.json, "
                        "perception: out/bench_perception.json, env: out/bench_env.json, "
-                       "diagnose: out/bench_diagnose.json)")
+                       "diagnose: out/bench_diagnose.json, sweep: out/bench_sweep.json)")
     bench.add_argument("--markdown", type=Path,
                        help="tissue suite: Markdown tables out; diagnose: the confusion table")
     bench.add_argument("--seeds", type=int,
@@ -450,14 +501,16 @@ def _add_sweep(commands: argparse._SubParsersAction) -> None:
     sweep.set_defaults(handler=_sweep)
 
 
-def _add_workers(command: argparse.ArgumentParser) -> None:
-    """``--address`` and ``--workers`` of a command that plays many runs."""
+def _add_workers(command: argparse.ArgumentParser, note: str = "") -> None:
+    """``--address`` and ``--workers`` of a command that plays many runs; ``note`` ends the
+    help of ``--workers``."""
     command.add_argument("--address",
                          help="Ray cluster to run on: auto, HEAD_HOST:PORT or "
                          "ray://HOST:PORT (default: start Ray on this machine)")
     command.add_argument("--workers", type=int,
                          help="runs side by side (default: one per core, or the whole "
-                         "cluster); 1 runs them one by one in this process, without Ray")
+                         "cluster); 1 runs them one by one in this process, without Ray"
+                         + note)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -33,6 +33,8 @@ class Workers:
             cluster); 1 without an address plays them in this process, without Ray.
         address: a Ray cluster to join (``auto``, ``HOST:PORT`` of its head, or
             ``ray://HOST:PORT`` of its client server); None starts Ray here.
+        ray: play on Ray or not; None: on Ray unless ``count`` is 1 and there is no
+            address (one worker on Ray measures what Ray costs).
 
     Example:
         >>> Workers(1).in_process, Workers(2).in_process
@@ -44,14 +46,19 @@ class Workers:
 
     count: int | None = None
     address: str | None = None
+    ray: bool | None = None
 
     def __post_init__(self) -> None:
         if self.count is not None and self.count < 1:
             raise SweepError(None, "--workers", f"must be >= 1, got {self.count}")
+        if self.ray is False and self.address is not None:
+            raise SweepError(None, "--address", "a cluster is reached through Ray")
 
     @property
     def in_process(self) -> bool:
         """Played here, one after the other, without Ray."""
+        if self.ray is not None:
+            return not self.ray
         return self.count == 1 and self.address is None
 
 

@@ -4,6 +4,7 @@ the others on a :class:`~cell.scale.pool.RunPool`, keep each one's record as it 
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -19,12 +20,13 @@ R = TypeVar("R")
 
 @dataclass(frozen=True)
 class Played:
-    """Every run's row (in the runs' order), how many were played now, and how long it took
-    to start or join Ray, s."""
+    """Every run's row (in the runs' order), how many were played now, how long it took to
+    start or join Ray and to play them (that start included), s."""
 
     rows: list[dict[str, Any]]
     played: int
     startup_s: float
+    play_s: float
 
 
 def play_missing(function: Callable[[T], R], tasks: Sequence[T], names: Sequence[str],
@@ -47,6 +49,7 @@ def play_missing(function: Callable[[T], R], tasks: Sequence[T], names: Sequence
                 and (record["row"].get("status") == "ok" or not retry_failed)):
             rows[k] = record["row"]
     todo = [k for k in range(len(tasks)) if k not in rows]
+    started = time.perf_counter()
     # Nothing to play: no Ray to start.
     with (RunPool(workers if todo else Workers(1)) as pool,
           tqdm(total=len(tasks), initial=len(rows), disable=not progress, unit="run",
@@ -58,4 +61,5 @@ def play_missing(function: Callable[[T], R], tasks: Sequence[T], names: Sequence
             results.save(names[k], {"fingerprint": prints[k], **record})
             rows[k] = record["row"]
             bar.update()
-    return Played([rows[k] for k in range(len(tasks))], len(todo), pool.startup_s)
+        play_s = time.perf_counter() - started
+    return Played([rows[k] for k in range(len(tasks))], len(todo), pool.startup_s, play_s)

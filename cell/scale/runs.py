@@ -82,11 +82,18 @@ def play(task: RunTask) -> RunOutcome:
     except DivergenceError as exc:
         result, status, error = {}, "diverged", str(exc)
     except Exception as exc:  # one broken run is recorded as such, never stops the sweep
-        result, status, error = {}, "failed", f"{type(exc).__name__}: {exc}"
-        trace = "".join(traceback.format_exc().splitlines(keepends=True)[-_TRACEBACK_LINES:])
+        result, status = {}, "failed"
+        error, trace = describe_failure(exc)
     row = {**head, "status": status, "error": error, **result,
            "wall_s": time.perf_counter() - started}
     return RunOutcome(row, trace, recording)
+
+
+def describe_failure(exc: BaseException) -> tuple[str, str]:
+    """A failure's error (its type and message) and the last lines of its traceback; call it
+    while handling ``exc``."""
+    trace = traceback.format_exc().splitlines(keepends=True)[-_TRACEBACK_LINES:]
+    return f"{type(exc).__name__}: {exc}", "".join(trace)
 
 
 def failed_row(point: RunPoint, error: str) -> dict[str, Any]:

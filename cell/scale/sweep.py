@@ -36,13 +36,15 @@ TABLE = "results"
 @dataclass(frozen=True)
 class SweepOutcome:
     """A finished sweep: every run's row (by run index), how many runs were played now and
-    how many were found finished in the folder, the wall time (s) and the part of it that
-    started or joined Ray (s), and the files written."""
+    how many were found finished in the folder, the wall time (s), the part of it that
+    played the runs and the part of that which started or joined Ray (s), the files
+    written."""
 
     rows: list[dict[str, Any]]
     played: int
     skipped: int
     wall_s: float
+    play_s: float
     startup_s: float
     files: list[Path]
 
@@ -115,4 +117,4 @@ def run_sweep(sweep_file: str | Path, out: str | Path, workers: Workers, *,
     summary = summary_markdown(spec.path.stem, played.rows, variables, plots)
     files += [*plots, write_atomic(results.folder / "summary.md", summary)]
     return SweepOutcome(played.rows, played.played, len(tasks) - played.played,
-                        time.perf_counter() - started, played.startup_s, files)
+                        time.perf_counter() - started, played.play_s, played.startup_s, files)
