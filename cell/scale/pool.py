@@ -7,7 +7,6 @@ Ray is the ``scale`` extra: it is imported only when a pool uses it.
 
 from __future__ import annotations
 
-import importlib.util
 import logging
 import os
 import time
@@ -143,9 +142,9 @@ def require_ray(option: str) -> Any:
     Usage statistics are off unless the user turned them on: a sweep does not report to
     anyone, and CI machines have no network.
     """
-    if importlib.util.find_spec("ray") is None:
-        raise SweepError(None, option, f"Ray is not installed: {INSTALL_HINT}")
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-    import ray
-
+    try:
+        import ray
+    except ImportError:
+        raise SweepError(None, option, f"Ray is not installed: {INSTALL_HINT}") from None
     return ray
