@@ -17,6 +17,7 @@ from cell.errors import (
     MusclecellError,
     ScenarioError,
 )
+from cell.scale.command import add_sweep, add_workers
 
 if TYPE_CHECKING:
     from cell.sim.scenario import Scenario
@@ -103,7 +104,9 @@ def _diagnose(args: argparse.Namespace) -> int:
     from cell.tissue.materialfile import material_to_toml
 
     if args.batch is not None:
-        return _diagnose_batch(args)
+        from cell.scale.command import diagnose_batch_command
+
+        return diagnose_batch_command(args)
     if args.set_dir is None or args.json is None:
         raise InputError(None, "set_dir" if args.set_dir is None else "--json",
                          "missing: diagnose SET_DIR --json FILE, or --batch PARENT --out DIR")
@@ -131,24 +134,6 @@ def _diagnose(args: argparse.Namespace) -> int:
           f"{extended.heldout_rmse_n:.4g} N (gain {result.gain:.3f}, noise "
           f"{result.noise_n:.3g} N); wrote {args.json}, {material_path}"
           + (f", {args.report}" if args.report is not None else ""))
-    return 0
-
-
-def _diagnose_batch(args: argparse.Namespace) -> int:
-    from cell.scale.batch import diagnose_batch
-
-    extra = [name for name, value in (("set_dir", args.set_dir), ("--json", args.json),
-                                      ("--material", args.material),
-                                      ("--report", args.report)) if value is not None]
-    if extra or args.out is None:
-        raise InputError(None, extra[0] if extra else "--out",
-                         "diagnose --batch PARENT takes --out DIR (and --address, --workers), "
-                         "and writes each set's JSON and material there")
-    outcome = diagnose_batch(args.batch, args.out, _workers(args), progress=not args.quiet)
-    done = sum(row["status"] == "ok" for row in outcome.rows)
-    print(f"{len(outcome.rows)} sets ({outcome.played} diagnosed now, {outcome.skipped} found "
-          f"done in {args.out}): {done} diagnosed, {len(outcome.rows) - done} failed; "
-          f"{outcome.wall_s:.1f} s; wrote {', '.join(p.name for p in outcome.files)}")
     return 0
 
 
@@ -275,29 +260,6 @@ def _bench_diagnose(args: argparse.Namespace) -> int:
     if args.markdown is not None:
         write_atomic(args.markdown, report["markdown"])
         print(f"wrote {args.markdown}")
-    return 0
-
-
-def _workers(args: argparse.Namespace):
-    """The ``--workers`` and ``--address`` of a command that plays many runs."""
-    from cell.scale.pool import Workers
-
-    if args.workers == 1 and args.address is not None:
-        raise InputError(None, "--workers", "1 plays the runs here, without Ray: drop "
-                         "--address, or give the cluster more workers")
-    return Workers(args.workers, args.address)
-
-
-def _sweep(args: argparse.Namespace) -> int:
-    from cell.scale.sweep import run_sweep
-
-    outcome = run_sweep(args.sweep, args.out, _workers(args),
-                        retry_failed=args.retry_failed, progress=not args.quiet)
-    statuses = [row["status"] for row in outcome.rows]
-    print(f"{len(statuses)} runs ({outcome.played} played now, {outcome.skipped} found "
-          f"finished in {args.out}): {statuses.count('ok')} finished, "
-          f"{statuses.count('diverged')} diverged, {statuses.count('failed')} failed; "
-          f"{outcome.wall_s:.1f} s; wrote {', '.join(p.name for p in outcome.files)}")
     return 0
 
 
@@ -455,7 +417,7 @@ def build_parser() -> argparse.ArgumentParser:
     diagnosis.add_argument("--out", type=Path,
                            help="--batch: results folder; sets already in it are skipped")
     diagnosis.add_argument("--quiet", action="store_true", help="--batch: no progress bar")
-    _add_workers(diagnosis, "; one set: processes fitting candidates side by side (default 2)")
+    add_workers(diagnosis, "; one set: processes fitting candidates side by side (default 2)")
     diagnosis.set_defaults(handler=_diagnose)
 
     bench = commands.add_parser(
@@ -482,35 +444,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "mesh only (for smoke tests)")
     bench.set_defaults(handler=_bench)
     _add_learning(commands)
-    _add_sweep(commands)
+    add_sweep(commands)
     return parser
-
-
-def _add_sweep(commands: argparse._SubParsersAction) -> None:
-    """The ``sweep`` subcommand."""
-    sweep = commands.add_parser(
-        "sweep", help="run every episode of a sweep file, one Ray task each (needs the scale "
-        "extra unless --workers 1)")
-    sweep.add_argument("sweep", type=Path, help="sweep TOML file (see README, Sweeps)")
-    sweep.add_argument("--out", type=Path, required=True,
-                       help="results folder; runs already in it are skipped")
-    _add_workers(sweep)
-    sweep.add_argument("--retry-failed", action="store_true",
-                       help="play again the runs in --out that failed or diverged")
-    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
-    sweep.set_defaults(handler=_sweep)
-
-
-def _add_workers(command: argparse.ArgumentParser, note: str = "") -> None:
-    """``--address`` and ``--workers`` of a command that plays many runs; ``note`` ends the
-    help of ``--workers``."""
-    command.add_argument("--address",
-                         help="Ray cluster to run on: auto, HEAD_HOST:PORT or "
-                         "ray://HOST:PORT (default: start Ray on this machine)")
-    command.add_argument("--workers", type=int,
-                         help="runs side by side (default: one per core, or the whole "
-                         "cluster); 1 runs them one by one in this process, without Ray"
-                         + note)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -20,9 +20,9 @@ from cell.errors import InputError
 from cell.io import write_atomic, write_json
 from cell.rheology.diagnosis import DiagnosisParams, diagnose
 from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE, MeasurementSet, load_measurement_set
+from cell.scale.failure import describe_failure
 from cell.scale.pool import Workers
 from cell.scale.resume import play_missing
-from cell.scale.runs import describe_failure
 from cell.scale.store import ResultsFolder
 from cell.tissue.materialfile import material_to_toml
 

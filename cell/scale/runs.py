@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import tempfile
 import time
-import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import Any
 from cell.errors import DivergenceError
 from cell.learning.evaluate import EpisodeTask, run_episode
 from cell.scale.design import RunPoint
+from cell.scale.failure import describe_failure
 from cell.sim.episode import Episode
 from cell.sim.scenario import Scenario
 
@@ -30,8 +30,6 @@ OUTCOMES = ("released_fraction", "torn_fraction", "knife_force_peak_n")
 STATUSES = ("ok", "diverged", "failed")
 #: Columns of a row that measure the machine, not the run (left out when runs are compared).
 TIMING_COLUMNS = ("wall_s",)
-#: Lines of a failed run's traceback kept in its record.
-_TRACEBACK_LINES = 12
 
 
 @dataclass(frozen=True)
@@ -87,13 +85,6 @@ def play(task: RunTask) -> RunOutcome:
     row = {**head, "status": status, "error": error, **result,
            "wall_s": time.perf_counter() - started}
     return RunOutcome(row, trace, recording)
-
-
-def describe_failure(exc: BaseException) -> tuple[str, str]:
-    """A failure's error (its type and message) and the last lines of its traceback; call it
-    while handling ``exc``."""
-    trace = traceback.format_exc().splitlines(keepends=True)[-_TRACEBACK_LINES:]
-    return f"{type(exc).__name__}: {exc}", "".join(trace)
 
 
 def failed_row(point: RunPoint, error: str) -> dict[str, Any]:

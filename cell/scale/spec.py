@@ -79,7 +79,13 @@ class SweepHead:
 @dataclass(frozen=True)
 class PolicyTarget:
     """The ``[policy]`` table of a policy sweep: ``env`` (Gymnasium id), the policy's
-    ``name`` and, for a learned one, its ``folder`` (relative to the sweep file)."""
+    ``name`` and, for a learned one, its ``folder`` (relative to the sweep file).
+
+    Example:
+        >>> PolicyTarget("musclecell/Cut-v0", "learned")
+        Traceback (most recent call last):
+        cell.errors.InputError: folder: a learned policy needs its folder
+    """
 
     env: str
     name: Literal["random", "scripted", "learned"] = "scripted"
@@ -117,7 +123,15 @@ class Range:
 @dataclass(frozen=True)
 class SweepSpec:
     """A sweep file, read: where it is, its head, the policy of a policy sweep, the shared
-    overrides and the variables (dotted key to values or :class:`Range`), in file order."""
+    overrides and the variables (dotted key to values or :class:`Range`, in the key's own
+    SI unit), in file order.
+
+    Example:
+        >>> spec = SweepSpec(Path("sweeps/s.toml"), SweepHead(scenario="../default.toml"),
+        ...                  variables={"cut.speed_m_s": (0.03, 0.06)})
+        >>> spec.scenario_path.as_posix()
+        'sweeps/../default.toml'
+    """
 
     path: Path
     head: SweepHead

@@ -56,7 +56,7 @@ def prepare(spec: SweepSpec) -> list[RunTask]:
     Example:
         >>> tasks = prepare(load_sweep("scenarios/sweeps/binding_strength.toml"))
         >>> len(tasks), tasks[1].scenario.cut.speed_m_s, tasks[1].scenario.seed
-        (24, 0.04, 1)
+        (24, 0.05, 1)
     """
     points = design(spec)
     if spec.policy is None:
