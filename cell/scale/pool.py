@@ -100,7 +100,9 @@ class RunPool:
             "log_to_driver": False, "logging_level": logging.WARNING}
         if self.workers.address is not None:
             return {**options, "address": self.workers.address}
-        return {**options, "num_cpus": self.workers.count or os.cpu_count() or 1,
+        # "local": a Ray of its own, even where `ray start` left one running on this machine.
+        return {**options, "address": "local",
+                "num_cpus": self.workers.count or os.cpu_count() or 1,
                 "include_dashboard": False}
 
     def play(self, function: Callable[[T], R], tasks: Sequence[T], names: Sequence[str]

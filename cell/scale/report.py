@@ -50,7 +50,7 @@ def write_plots(folder: Path, rows: Sequence[dict[str, Any]], variables: Sequenc
                 ) -> list[Path]:
     """One PNG per swept variable, ``<variable>.png`` in ``folder``: each outcome of
     :data:`~cell.scale.runs.OUTCOMES` against the variable, finished runs as dots, runs that
-    diverged or failed as red crosses on the axis."""
+    diverged or failed as red crosses on the x axis."""
     require_matplotlib()
     from matplotlib.figure import Figure  # off pyplot: headless, nothing to close
 
@@ -63,9 +63,10 @@ def write_plots(folder: Path, rows: Sequence[dict[str, Any]], variables: Sequenc
             ax.plot([row[variable] for row in finished],
                     [row[outcome] for row in finished], "o", color="tab:blue",
                     alpha=0.7, label="finished")
-            if broken:
+            if broken:  # on the x axis itself, below every finished run's dot
                 ax.plot([row[variable] for row in broken], [0.0] * len(broken), "x",
-                        color="tab:red", markersize=9, label="diverged or failed")
+                        color="tab:red", markersize=9, clip_on=False,
+                        transform=ax.get_xaxis_transform(), label="diverged or failed")
             ax.set_xlabel(variable)
             ax.set_ylabel(_LABELS[outcome])
         figure.legend(*ax.get_legend_handles_labels(), loc="outside upper center", ncols=2)
