@@ -84,6 +84,8 @@ def test_the_example_sweep_is_a_24_run_grid_on_coarse_tissue() -> None:
      "policy"),
     ("[sweep]\nscenario = '{s}'\nseed = -1\n[variables]\ncut.speed_m_s = [0.01]\n",
      "sweep.seed"),
+    ("[sweep]\nrun = 'policy'\nrecord = true\n[policy]\nenv = 'musclecell/Cut-v0'\n"
+     "[variables]\ncell_size_m = [0.05]\n", "sweep.record"),
 ])
 def test_a_bad_sweep_file_is_refused_naming_the_file_and_the_key(tmp_path: Path, text: str,
                                                                  key: str) -> None:

@@ -172,6 +172,10 @@ def load_sweep(path: str | Path) -> SweepSpec:
             raise SweepError(path, "policy", 'run = "policy" needs a [policy] table')
         policy = from_table(PolicyTarget, raw["policy"], file=path, section="policy",
                             error=SweepError)
+        for key, given in (("scenario", head.scenario), ("record", head.record)):
+            if given:
+                raise SweepError(path, f"sweep.{key}", "only for run = \"episode\": a policy "
+                                 "sweep plays the env's own scenario, unrecorded")
     elif "policy" in raw:
         raise SweepError(path, "policy", 'only a sweep with run = "policy" has one')
     elif not head.scenario:
