@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import secrets
 import signal
 import socket
 import subprocess
@@ -122,11 +121,14 @@ def _stop(processes: list[subprocess.Popen]) -> None:
 
 @pytest.fixture
 def cluster(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Iterator[str]:
-    """A Ray cluster of two nodes of one CPU each on this machine, with its own token; yields
-    the head's address."""
+    """A Ray cluster of two nodes of one CPU each on this machine; yields the head's address.
+
+    Every party authenticates with the user's token file (``~/.ray/auth_token``, which the
+    head writes when it is missing), as on a cluster whose machines share it: a driver keeps
+    the first token it reads for the life of its process.
+    """
     ray = Path(sys.executable).with_name("ray")
     monkeypatch.setenv("RAY_AUTH_MODE", "token")
-    monkeypatch.setenv("RAY_AUTH_TOKEN", secrets.token_hex(16))
     port = _free_port()
     address = f"127.0.0.1:{port}"
     common = ["--num-cpus=1", "--object-store-memory=100000000", "--disable-usage-stats",
@@ -160,7 +162,10 @@ def _accepts(port: int) -> bool:
 def _alive_nodes(address: str) -> int:
     import ray
 
-    ray.init(address=address, logging_level="WARNING", log_to_driver=False)
+    try:
+        ray.init(address=address, logging_level="WARNING", log_to_driver=False)
+    except ConnectionError:  # the head's services are not all up yet
+        return 0
     try:
         return sum(node["Alive"] for node in ray.nodes())
     finally:
