@@ -21,7 +21,7 @@ def add_sweep(commands: argparse._SubParsersAction) -> None:
     sweep = commands.add_parser(
         "sweep", help="run every episode of a sweep file, one Ray task each (needs the scale "
         "extra unless --workers 1)")
-    sweep.add_argument("sweep", type=Path, help="sweep TOML file (see README, Sweeps)")
+    sweep.add_argument("sweep", type=Path, help="sweep TOML file (see README, Sweeps and batches)")
     sweep.add_argument("--out", type=Path, required=True,
                        help="results folder; runs already in it are skipped")
     add_workers(sweep)
