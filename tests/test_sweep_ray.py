@@ -123,25 +123,27 @@ def _stop(processes: list[subprocess.Popen]) -> None:
 def cluster(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Iterator[str]:
     """A Ray cluster of two nodes of one CPU each on this machine; yields the head's address.
 
-    Every party authenticates with the user's token file (``~/.ray/auth_token``, which the
-    head writes when it is missing), as on a cluster whose machines share it: a driver keeps
-    the first token it reads for the life of its process.
+    Without token authentication: a Ray driver settles its authentication once per process
+    (this one has already started a local Ray, or imported ray before this fixture), and the
+    cluster only listens on this machine for the test's length.
     """
     ray = Path(sys.executable).with_name("ray")
-    monkeypatch.setenv("RAY_AUTH_MODE", "token")
+    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
     port = _free_port()
     address = f"127.0.0.1:{port}"
-    common = ["--num-cpus=1", "--object-store-memory=100000000", "--disable-usage-stats",
-              "--block", f"--dashboard-agent-listen-port={_free_port()}",
-              f"--metrics-export-port={_free_port()}"]
+    def common() -> list[str]:  # each node's agents on ports of their own
+        return ["--num-cpus=1", "--object-store-memory=100000000", "--disable-usage-stats",
+                "--block", f"--dashboard-agent-listen-port={_free_port()}",
+                f"--metrics-export-port={_free_port()}"]
+
     logs = (tmp_path / "ray-head.log").open("w"), (tmp_path / "ray-node.log").open("w")
     processes = [subprocess.Popen(
         [str(ray), "start", "--head", f"--port={port}", "--include-dashboard=false",
-         f"--ray-client-server-port={_free_port()}", *common],
+         f"--ray-client-server-port={_free_port()}", *common()],
         stdout=logs[0], stderr=subprocess.STDOUT)]
     try:
         _wait_for(lambda: _accepts(port), "the head")
-        processes.append(subprocess.Popen([str(ray), "start", f"--address={address}", *common],
+        processes.append(subprocess.Popen([str(ray), "start", f"--address={address}", *common()],
                                           stdout=logs[1], stderr=subprocess.STDOUT))
         _wait_for(lambda: _alive_nodes(address) == 2, "the second node")
         yield address
