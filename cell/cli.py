@@ -17,6 +17,7 @@ from cell.errors import (
     MusclecellError,
     ScenarioError,
 )
+from cell.scale.command import add_sweep, add_workers
 
 if TYPE_CHECKING:
     from cell.sim.scenario import Scenario
@@ -102,29 +103,31 @@ def _diagnose(args: argparse.Namespace) -> int:
     from cell.rheology.measured import load_measurement_set
     from cell.tissue.materialfile import material_to_toml
 
-    if args.workers < 1:
-        raise InputError(None, "--workers", f"must be >= 1, got {args.workers}")
+    if args.batch is not None:
+        from cell.scale.command import diagnose_batch_command
+
+        return diagnose_batch_command(args)
+    if args.set_dir is None or args.json is None:
+        raise InputError(None, "set_dir" if args.set_dir is None else "--json",
+                         "missing: diagnose SET_DIR --json FILE, or --batch PARENT --out DIR")
+    if args.address is not None:
+        raise InputError(None, "--address", "only --batch runs on Ray")
+    workers = 2 if args.workers is None else args.workers
+    if workers < 1:
+        raise InputError(None, "--workers", f"must be >= 1, got {workers}")
     material_path = args.material or args.json.with_name(f"{args.json.stem}-material.toml")
     if args.report is not None:
         from cell.rheology.report import require_matplotlib
 
         require_matplotlib()
     measurements = load_measurement_set(args.set_dir)  # reads everything before any write
-    result = diagnose(measurements, DiagnosisParams(workers=args.workers))
+    result = diagnose(measurements, DiagnosisParams(workers=workers))
     extended = result.extended
-    comment = (f"Extended material fitted by `musclecell diagnose` to {measurements.folder.name}"
-               f" ({measurements.specimen.name}).\nModel: {extended.model.name}; causes: "
-               f"{', '.join(result.causes) or 'none'}; held-out RMSE "
-               f"{extended.heldout_rmse_n:.4g} N (baseline "
-               f"{result.baseline.heldout_rmse_n:.4g} N).")
-    if extended.model.has_offset:
-        comment += (f"\nThe load cell read {extended.offset_n:.4g} N at rest: a rig effect, "
-                    "not part of this material.")
     if args.report is not None:
         from cell.rheology.report import write_report
 
         write_report(result, args.report, material_path)
-    write_atomic(material_path, material_to_toml(extended.material, comment))
+    write_atomic(material_path, material_to_toml(extended.material, result.material_comment()))
     write_json(args.json, result.to_json())
     print(f"causes: {', '.join(result.causes) or 'none (the baseline explains the data)'}; "
           f"held-out RMSE {result.baseline.heldout_rmse_n:.4g} N -> "
@@ -142,6 +145,8 @@ def _bench(args: argparse.Namespace) -> int:
         return _bench_tissue(args)
     if args.suite == "diagnose":
         return _bench_diagnose(args)
+    if args.suite == "sweep":
+        return _bench_sweep(args)
     if args.seeds is not None:
         raise InputError(None, "--seeds", "only `musclecell bench diagnose` takes --seeds")
     if args.markdown is not None:
@@ -212,6 +217,23 @@ def _bench_env(args: argparse.Namespace) -> int:
 
     report = run_env_bench(quick=args.quick)
     json_path = args.json or Path("out/bench_env.json")
+    write_json(json_path, report)
+    _print_entries(report["entries"])
+    print(f"wrote {json_path}")
+    return 0
+
+
+def _bench_sweep(args: argparse.Namespace) -> int:
+    from cell.bench.sweep import run_sweep_bench
+    from cell.io import write_json
+
+    for name, value in (("--quick", args.quick), ("--seeds", args.seeds),
+                        ("--markdown", args.markdown)):
+        if value:
+            raise InputError(None, name, "`musclecell bench sweep` runs the whole example "
+                             "sweep and takes only --json")
+    report = run_sweep_bench()
+    json_path = args.json or Path("out/bench_sweep.json")
     write_json(json_path, report)
     _print_entries(report["entries"])
     print(f"wrote {json_path}")
@@ -381,21 +403,27 @@ def build_parser() -> argparse.ArgumentParser:
     diagnosis = commands.add_parser(
         "diagnose", help="diagnose a measurement set: what the simulation gets wrong, the "
         "cause, the extended material and the gain on held-out tests")
-    diagnosis.add_argument("set_dir", type=Path, help="folder with specimen.toml and tests.csv")
-    diagnosis.add_argument("--json", type=Path, required=True, help="write the diagnosis here")
+    diagnosis.add_argument("set_dir", type=Path, nargs="?",
+                           help="folder with specimen.toml and tests.csv")
+    diagnosis.add_argument("--json", type=Path, help="write the diagnosis here")
     diagnosis.add_argument("--material", type=Path,
                            help="write the extended material TOML here (default: next to the "
                            "JSON, <name>-material.toml)")
     diagnosis.add_argument("--report", type=Path,
                            help="write plots and a Markdown report in this folder")
-    diagnosis.add_argument("--workers", type=int, default=2,
-                           help="processes fitting candidates side by side (default 2)")
+    diagnosis.add_argument("--batch", type=Path,
+                           help="diagnose every set in this folder, one Ray task each, into "
+                           "one table in --out (needs the scale extra unless --workers 1)")
+    diagnosis.add_argument("--out", type=Path,
+                           help="--batch: results folder; sets already in it are skipped")
+    diagnosis.add_argument("--quiet", action="store_true", help="--batch: no progress bar")
+    add_workers(diagnosis, "; one set: processes fitting candidates side by side (default 2)")
     diagnosis.set_defaults(handler=_diagnose)
 
     bench = commands.add_parser(
         "bench", help="benchmark the cell, the tissue models or the perception")
     bench.add_argument("suite", nargs="?",
-                       choices=("cell", "tissue", "perception", "env", "diagnose"),
+                       choices=("cell", "tissue", "perception", "env", "diagnose", "sweep"),
                        default="cell",
                        help="cell: the whole cell (default); tissue: every tissue model on "
                        "the two muscles, with peers; perception: curvature, guideline and fit, "
@@ -406,7 +434,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", type=Path,
                        help="JSON out (default out/bench.json, tissue: out/bench_tissue.json, "
                        "perception: out/bench_perception.json, env: out/bench_env.json, "
-                       "diagnose: out/bench_diagnose.json)")
+                       "diagnose: out/bench_diagnose.json, sweep: out/bench_sweep.json)")
     bench.add_argument("--markdown", type=Path,
                        help="tissue suite: Markdown tables out; diagnose: the confusion table")
     bench.add_argument("--seeds", type=int,
@@ -416,6 +444,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "mesh only (for smoke tests)")
     bench.set_defaults(handler=_bench)
     _add_learning(commands)
+    add_sweep(commands)
     return parser
 
 

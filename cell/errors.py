@@ -63,6 +63,11 @@ class LearningError(InputError):
     named."""
 
 
+class SweepError(InputError):
+    """A sweep file (or a sweep's results folder) with a wrong key, type, value or range, or
+    a request to run one that cannot be met (no Ray where a cluster is named)."""
+
+
 class MeshError(InputError):
     """A mesh that cannot be simulated: not a volume, inverted or degenerate elements."""
 

@@ -177,3 +177,10 @@ def write_rows(path: str | Path, columns: Sequence[str], rows: Sequence[Mapping[
 def write_json(path: str | Path, payload: Any) -> Path:
     """Write ``payload`` as indented JSON, atomically."""
     return write_atomic(path, json.dumps(payload, indent=2, sort_keys=False) + "\n")
+
+
+def figure_png(figure: Any, dpi: int = 110) -> bytes:
+    """A matplotlib figure drawn as PNG bytes, for :func:`write_atomic`."""
+    png = io.BytesIO()
+    figure.savefig(png, format="png", dpi=dpi)
+    return png.getvalue()

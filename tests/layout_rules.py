@@ -24,10 +24,13 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "envs": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "controllers", "cell.sim"),
     "cell.learning": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "controllers",
                       "cell.sim", "envs"),
-    "cell.bench": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "cell.rheology",
+    "cell.scale": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "cell.rheology",
                    "controllers", "cell.sim", "envs", "cell.learning"),
+    "cell.bench": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "cell.rheology",
+                   "controllers", "cell.sim", "envs", "cell.learning", "cell.scale"),
     "cell.cli": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "cell.rheology",
-                 "controllers", "cell.sim", "envs", "cell.learning", "cell.bench"),
+                 "controllers", "cell.sim", "envs", "cell.learning", "cell.scale",
+                 "cell.bench"),
 }
 #: Modules that must not import a module they would otherwise be allowed: the diagnosis side
 #: never reads the synthetic generator, its answer key.

@@ -5,7 +5,6 @@ a resumed run carries on from what is there."""
 from __future__ import annotations
 
 import csv
-import io
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -13,7 +12,7 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.logger import KVWriter
 
-from cell.io import write_atomic, write_rows
+from cell.io import figure_png, write_atomic, write_rows
 
 #: Columns of the episodes table: env steps of the run when the episode ended, its return and
 #: length (env steps), and the final step's outcome.
@@ -109,7 +108,6 @@ def learning_curve_png(rows: Sequence[Mapping[str, Any]]) -> bytes:
     bottom.set_ylabel(f"success rate ({window} episodes)")
     bottom.set_xlabel("env steps")
     figure.tight_layout()
-    png = io.BytesIO()
-    figure.savefig(png, format="png", dpi=100)
+    png = figure_png(figure, dpi=100)
     plt.close(figure)
-    return png.getvalue()
+    return png

@@ -180,6 +180,20 @@ class Diagnosis:
         """1 - extended over baseline held-out RMSE."""
         return 1.0 - self.extended.heldout_rmse_n / self.baseline.heldout_rmse_n
 
+    def material_comment(self) -> str:
+        """The comment lines on top of the extended material's file: where it comes from,
+        the causes, the held-out errors and a rig offset left out of it."""
+        extended = self.extended
+        comment = (f"Extended material fitted by `musclecell diagnose` to "
+                   f"{self.measurements.folder.name} ({self.measurements.specimen.name}).\n"
+                   f"Model: {extended.model.name}; causes: {', '.join(self.causes) or 'none'}; "
+                   f"held-out RMSE {extended.heldout_rmse_n:.4g} N (baseline "
+                   f"{self.baseline.heldout_rmse_n:.4g} N).")
+        if extended.model.has_offset:
+            comment += (f"\nThe load cell read {extended.offset_n:.4g} N at rest: a rig effect, "
+                        "not part of this material.")
+        return comment
+
     def to_json(self) -> dict[str, Any]:
         """The diagnosis contract of ``spec/measured-data.md``, plus the noise, the
         information criteria and the order in which causes were accepted."""

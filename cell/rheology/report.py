@@ -20,7 +20,6 @@ Usage (a diagnosis takes minutes, so this is not run as an example)::
 from __future__ import annotations
 
 import importlib.util
-import io
 import math
 import os
 from pathlib import Path
@@ -29,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cell.errors import InputError
-from cell.io import write_atomic
+from cell.io import figure_png, write_atomic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -63,17 +62,12 @@ def write_report(diagnosis: Diagnosis, folder: Path,
 
     folder = Path(folder)
     forces = write_atomic(folder / "forces.png",
-                          _png(_draw_forces(Figure(layout="constrained"), diagnosis)))
+                          figure_png(_draw_forces(Figure(layout="constrained"), diagnosis), _DPI))
     residuals = write_atomic(folder / "residuals.png",
-                             _png(_draw_residuals(Figure(layout="constrained"), diagnosis)))
+                             figure_png(_draw_residuals(Figure(layout="constrained"), diagnosis),
+                                        _DPI))
     markdown = _markdown(diagnosis, folder, material_path, forces.name, residuals.name)
     return [forces, residuals, write_atomic(folder / "report.md", markdown)]
-
-
-def _png(figure: Figure) -> bytes:
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=_DPI)
-    return buffer.getvalue()
 
 
 def _draw_forces(figure: Figure, diagnosis: Diagnosis) -> Figure:

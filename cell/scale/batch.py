@@ -1,0 +1,173 @@
+"""``musclecell diagnose --batch``: every measurement set in a folder diagnosed, one Ray task
+per set, into one table of causes and gains; a re-run skips the sets already diagnosed.
+
+The results folder gets ``diagnoses.parquet`` and ``diagnoses.csv`` (one row per set),
+``summary.md``, and per set ``sets/<set>.json`` (what ``musclecell diagnose --json`` writes)
+and ``sets/<set>-material.toml`` (the extended material); a set that cannot be read or
+diagnosed is a row with its error, and the others go on.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from cell.errors import InputError
+from cell.io import write_atomic, write_json
+from cell.rheology.diagnosis import DiagnosisParams, diagnose
+from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE, MeasurementSet, load_measurement_set
+from cell.scale.failure import describe_failure
+from cell.scale.pool import Workers
+from cell.scale.resume import play_missing
+from cell.scale.store import ResultsFolder
+from cell.tissue.materialfile import material_to_toml
+
+TABLE = "diagnoses"
+
+
+@dataclass(frozen=True)
+class SetTask:
+    """One set to diagnose (it pickles, for Ray): its ``name`` (its folder's), what was read,
+    or the ``error`` that reading it gave."""
+
+    name: str
+    measurements: MeasurementSet | None
+    params: DiagnosisParams
+    error: str = ""
+
+
+@dataclass(frozen=True)
+class SetOutcome:
+    """A diagnosed set: its ``row`` (set, specimen, status, error, causes, gain, noise and
+    held-out RMSEs in N, wall time in s), the diagnosis's JSON and the extended material's
+    TOML (None and empty when it failed) and a failure's traceback."""
+
+    row: dict[str, Any]
+    diagnosis: dict[str, Any] | None = None
+    material_toml: str = ""
+    traceback: str = ""
+
+
+@dataclass(frozen=True)
+class BatchOutcome:
+    """A finished batch: every set's row (in name order), how many sets were diagnosed now
+    and how many were found done in the folder, the wall time (s), the files written."""
+
+    rows: list[dict[str, Any]]
+    played: int
+    skipped: int
+    wall_s: float
+    files: list[Path]
+
+
+def set_folders(parent: str | Path) -> list[Path]:
+    """The measurement sets in ``parent``: its sub-folders with a specimen or tests file.
+
+    Raises:
+        InputError: ``parent`` is not a folder, or holds no set.
+    """
+    parent = Path(parent)
+    if not parent.is_dir():
+        raise InputError(parent, None, "not a folder of measurement sets")
+    folders = sorted(p for p in parent.iterdir()
+                     if (p / SPECIMEN_FILE).is_file() or (p / TESTS_FILE).is_file())
+    if not folders:
+        raise InputError(parent, None, f"no measurement set in it (a folder with "
+                         f"{SPECIMEN_FILE} and {TESTS_FILE})")
+    return folders
+
+
+def diagnose_set(task: SetTask) -> SetOutcome:
+    """Diagnose one set; never raises for the set's own faults (they are its status)."""
+    started = time.perf_counter()
+    row: dict[str, Any] = {"set": task.name}
+    if task.measurements is None:
+        return SetOutcome({**row, "status": "failed", "error": task.error})
+    row["specimen"] = task.measurements.specimen.name
+    try:
+        result = diagnose(task.measurements, task.params)
+    except Exception as exc:  # one broken set is recorded as such, never stops the batch
+        error, trace = describe_failure(exc)
+        return SetOutcome({**row, "status": "failed", "error": error,
+                           "wall_s": time.perf_counter() - started}, traceback=trace)
+    row |= {"status": "ok", "error": "", "causes": " ".join(result.causes),
+            "gain": result.gain, "noise_n": result.noise_n,
+            "baseline_heldout_rmse_n": result.baseline.heldout_rmse_n,
+            "extended_model": result.extended.model.name,
+            "extended_heldout_rmse_n": result.extended.heldout_rmse_n,
+            "wall_s": time.perf_counter() - started}
+    toml = material_to_toml(result.extended.material, result.material_comment())
+    return SetOutcome(row, result.to_json(), toml)
+
+
+def diagnose_batch(parent: str | Path, out: str | Path, workers: Workers,
+                   params: DiagnosisParams | None = None, *, progress: bool = True
+                   ) -> BatchOutcome:
+    """Diagnose every set in ``parent`` (:func:`set_folders`) that ``out`` has not, then
+    write the table and the summary of all of them. A set counts as done while its files and
+    ``params`` are those it was diagnosed with.
+
+    Raises:
+        InputError: ``parent`` holds no set.
+    """
+    started = time.perf_counter()
+    params = DiagnosisParams() if params is None else params
+    folders = set_folders(parent)
+    tasks = [_read(folder, params) for folder in folders]
+    prints = [_fingerprint(folder, params) for folder in folders]
+    results = ResultsFolder(out)
+    sets = results.folder / "sets"
+
+    def keep(name: str, outcome: SetOutcome | None, error: str) -> dict[str, Any]:
+        if outcome is None:
+            return {"row": {"set": name, "status": "failed", "error": error}, "traceback": ""}
+        if outcome.diagnosis is not None:
+            write_json(sets / f"{name}.json", outcome.diagnosis)
+            write_atomic(sets / f"{name}-material.toml", outcome.material_toml)
+        return {"row": outcome.row, "traceback": outcome.traceback}
+
+    played = play_missing(diagnose_set, tasks, [task.name for task in tasks], prints, results,
+                          workers, keep=keep, progress=progress, desc="diagnose")
+    files = [*results.write_table(TABLE, played.rows),
+             write_atomic(results.folder / "summary.md", summary_markdown(played.rows))]
+    return BatchOutcome(played.rows, played.played, len(tasks) - played.played,
+                        time.perf_counter() - started, files)
+
+
+def summary_markdown(rows: list[dict[str, Any]]) -> str:
+    """How many sets were diagnosed, how often each cause was found, each set's line."""
+    done = [row for row in rows if row["status"] == "ok"]
+    causes = Counter(cause for row in done for cause in row["causes"].split())
+    lines = ["# Diagnoses", "", f"{len(rows)} sets: {len(done)} diagnosed, "
+             f"{len(rows) - len(done)} failed.", "", "| cause | sets |", "|---|---|"]
+    lines += [f"| {cause} | {count} |" for cause, count in causes.most_common()]
+    lines += ["", "| set | causes | gain | held-out RMSE (N) | error |", "|---|---|---|---|---|"]
+    for row in rows:
+        if row["status"] == "ok":
+            lines.append(f"| {row['set']} | {row['causes'] or 'none'} | {row['gain']:.3f} | "
+                         f"{row['baseline_heldout_rmse_n']:.3g} -> "
+                         f"{row['extended_heldout_rmse_n']:.3g} | |")
+        else:
+            lines.append(f"| {row['set']} | | | | {row['error']} |")
+    return "\n".join(lines) + "\n"
+
+
+def _read(folder: Path, params: DiagnosisParams) -> SetTask:
+    """The set in ``folder``, read here (a cluster's nodes need not see the files)."""
+    try:
+        return SetTask(folder.name, load_measurement_set(folder), params)
+    except InputError as exc:
+        return SetTask(folder.name, None, params, str(exc))
+
+
+def _fingerprint(folder: Path, params: DiagnosisParams) -> str:
+    """The set's files and the diagnosis settings, hashed."""
+    digest = hashlib.sha256(repr(params).encode())
+    for name in (SPECIMEN_FILE, TESTS_FILE):
+        path = folder / name
+        digest.update(path.read_bytes() if path.is_file() else b"missing")
+    return digest.hexdigest()[:16]

@@ -1,0 +1,86 @@
+"""The command-line side of sweeps and batches: ``musclecell sweep``, the ``--batch`` of
+``musclecell diagnose``, and their ``--address`` and ``--workers``.
+
+Light at import (the parser is built for every command): the handlers import the rest.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from cell.errors import InputError
+
+if TYPE_CHECKING:
+    from cell.scale.pool import Workers
+
+
+def add_sweep(commands: argparse._SubParsersAction) -> None:
+    """The ``sweep`` subcommand."""
+    sweep = commands.add_parser(
+        "sweep", help="run every episode of a sweep file, one Ray task each (needs the scale "
+        "extra unless --workers 1)")
+    sweep.add_argument("sweep", type=Path, help="sweep TOML file (see README, Sweeps and batches)")
+    sweep.add_argument("--out", type=Path, required=True,
+                       help="results folder; runs already in it are skipped")
+    add_workers(sweep)
+    sweep.add_argument("--retry-failed", action="store_true",
+                       help="play again the runs in --out that failed or diverged")
+    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.set_defaults(handler=sweep_command)
+
+
+def add_workers(command: argparse.ArgumentParser, note: str = "") -> None:
+    """``--address`` and ``--workers`` of a command that plays many runs; ``note`` ends the
+    help of ``--workers``."""
+    command.add_argument("--address",
+                         help="Ray cluster to run on: auto, HEAD_HOST:PORT or "
+                         "ray://HOST:PORT (default: start Ray on this machine)")
+    command.add_argument("--workers", type=int,
+                         help="runs side by side (default: one per core, or the whole "
+                         "cluster); 1 runs them one by one in this process, without Ray"
+                         + note)
+
+
+def workers(args: argparse.Namespace) -> Workers:
+    """The ``--workers`` and ``--address`` of a command that plays many runs."""
+    from cell.scale.pool import Workers
+
+    if args.workers == 1 and args.address is not None:
+        raise InputError(None, "--workers", "1 plays the runs here, without Ray: drop "
+                         "--address, or give the cluster more workers")
+    return Workers(args.workers, args.address)
+
+
+def sweep_command(args: argparse.Namespace) -> int:
+    """``musclecell sweep``."""
+    from cell.scale.sweep import run_sweep
+
+    outcome = run_sweep(args.sweep, args.out, workers(args),
+                        retry_failed=args.retry_failed, progress=not args.quiet)
+    statuses = [row["status"] for row in outcome.rows]
+    print(f"{len(statuses)} runs ({outcome.played} played now, {outcome.skipped} found "
+          f"finished in {args.out}): {statuses.count('ok')} finished, "
+          f"{statuses.count('diverged')} diverged, {statuses.count('failed')} failed; "
+          f"{outcome.wall_s:.1f} s; wrote {', '.join(p.name for p in outcome.files)}")
+    return 0
+
+
+def diagnose_batch_command(args: argparse.Namespace) -> int:
+    """``musclecell diagnose --batch``."""
+    from cell.scale.batch import diagnose_batch
+
+    extra = [name for name, value in (("set_dir", args.set_dir), ("--json", args.json),
+                                      ("--material", args.material),
+                                      ("--report", args.report)) if value is not None]
+    if extra or args.out is None:
+        raise InputError(None, extra[0] if extra else "--out",
+                         "diagnose --batch PARENT takes --out DIR (and --address, --workers), "
+                         "and writes each set's JSON and material there")
+    outcome = diagnose_batch(args.batch, args.out, workers(args), progress=not args.quiet)
+    done = sum(row["status"] == "ok" for row in outcome.rows)
+    print(f"{len(outcome.rows)} sets ({outcome.played} diagnosed now, {outcome.skipped} found "
+          f"done in {args.out}): {done} diagnosed, {len(outcome.rows) - done} failed; "
+          f"{outcome.wall_s:.1f} s; wrote {', '.join(p.name for p in outcome.files)}")
+    return 0

@@ -1,0 +1,194 @@
+"""`musclecell sweep` on Ray: on a local Ray with two workers, one of which is killed in the
+middle of a run, and on a two-node cluster started here and reached through `--address`, as
+a user with a cluster would."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import psutil
+import pyarrow.parquet as pq
+import pytest
+
+from cell.cli import main
+from cell.scale.runs import TIMING_COLUMNS
+from tests.paths import DEFAULT_SCENARIO
+
+pytest.importorskip("ray")
+
+SWEEP = f"""
+[sweep]
+scenario = "{DEFAULT_SCENARIO.as_posix()}"
+seed = 11
+
+[overrides]
+tissue.cell_size_m = 0.05
+perception.enabled = false
+
+[variables]
+end_s = [0.3, 3.0]
+# A tissue speed limit no run can keep: that run diverges at its first step.
+simulation.max_tissue_speed_m_s = [20.0, 1e-4]
+"""
+#: The run whose worker is killed: a 3 s episode, the others end within a second.
+KILLED = "run-0002"
+_STARTUP_TIMEOUT_S = 120.0
+
+
+@pytest.fixture(autouse=True)
+def _quiet_ray(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("RAY_USAGE_STATS_ENABLED", "0")
+
+
+def _table(folder: Path) -> list[dict]:
+    return pq.read_table(folder / "results.parquet").to_pylist()
+
+
+def _without_timing(row: dict) -> dict:
+    return {k: v for k, v in row.items() if k not in TIMING_COLUMNS}
+
+
+def _kill_when_running(title: str, killed: list[int], stop: threading.Event) -> None:
+    """SIGKILL the Ray worker whose process title is ``title`` once it shows up."""
+    while not stop.is_set():
+        for process in psutil.process_iter(["cmdline"]):
+            if (process.info["cmdline"] or [""])[0].startswith(f"ray::{title}"):
+                time.sleep(0.5)  # midway: the episode is being built or stepped
+                os.kill(process.pid, signal.SIGKILL)
+                killed.append(process.pid)
+                return
+        time.sleep(0.02)
+
+
+def test_a_killed_worker_fails_its_run_and_the_others_match_a_sweep_without_ray(
+        tmp_path: Path) -> None:
+    path = tmp_path / "sweep.toml"
+    path.write_text(SWEEP)
+    killed: list[int] = []
+    stop = threading.Event()
+    killer = threading.Thread(target=_kill_when_running, args=(KILLED, killed, stop))
+    killer.start()
+    try:
+        code = main(["sweep", str(path), "--out", str(tmp_path / "ray"), "--workers", "2",
+                     "--quiet"])
+    finally:
+        stop.set()
+        killer.join()
+    assert code == 0 and killed
+    on_ray = _table(tmp_path / "ray")
+    assert [row["status"] for row in on_ray] == ["ok", "diverged", "failed", "diverged"]
+    assert "WorkerCrashedError" in on_ray[2]["error"]
+    assert on_ray[0]["sim_time_s"] == pytest.approx(0.3, abs=0.02)
+
+    assert main(["sweep", str(path), "--out", str(tmp_path / "plain"), "--workers", "1",
+                 "--quiet"]) == 0
+    plain = _table(tmp_path / "plain")
+    assert plain[2]["status"] == "ok"
+    for k in (0, 1, 3):
+        assert _without_timing(on_ray[k]) == _without_timing(plain[k])
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _stop(processes: list[subprocess.Popen]) -> None:
+    """Stop the `ray start --block` processes, the joining node first, and whatever they
+    started that outlives them."""
+    descendants = [child for process in processes if process.poll() is None
+                   for child in psutil.Process(process.pid).children(recursive=True)]
+    for process in reversed(processes):
+        process.terminate()
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+    for child in descendants:
+        with contextlib.suppress(psutil.NoSuchProcess):
+            child.kill()
+
+
+@pytest.fixture
+def cluster(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Iterator[str]:
+    """A Ray cluster of two nodes of one CPU each on this machine; yields the head's address.
+
+    Without token authentication: a Ray driver settles its authentication once per process
+    (this one has already started a local Ray, or imported ray before this fixture), and the
+    cluster only listens on this machine for the test's length.
+    """
+    ray = Path(sys.executable).with_name("ray")
+    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
+    port = _free_port()
+    address = f"127.0.0.1:{port}"
+    def common() -> list[str]:  # each node's agents on ports of their own
+        return ["--num-cpus=1", "--object-store-memory=100000000", "--disable-usage-stats",
+                "--block", f"--dashboard-agent-listen-port={_free_port()}",
+                f"--metrics-export-port={_free_port()}"]
+
+    logs = (tmp_path / "ray-head.log").open("w"), (tmp_path / "ray-node.log").open("w")
+    processes = [subprocess.Popen(
+        [str(ray), "start", "--head", f"--port={port}", "--include-dashboard=false",
+         f"--ray-client-server-port={_free_port()}", *common()],
+        stdout=logs[0], stderr=subprocess.STDOUT)]
+    try:
+        _wait_for(lambda: _accepts(port), "the head")
+        processes.append(subprocess.Popen([str(ray), "start", f"--address={address}", *common()],
+                                          stdout=logs[1], stderr=subprocess.STDOUT))
+        _wait_for(lambda: _alive_nodes(address) == 2, "the second node")
+        yield address
+    finally:
+        _stop(processes)
+        for log in logs:
+            log.close()
+
+
+def _accepts(port: int) -> bool:
+    try:
+        socket.create_connection(("127.0.0.1", port), timeout=1).close()
+        return True
+    except OSError:
+        return False
+
+
+def _alive_nodes(address: str) -> int:
+    import ray
+
+    try:
+        ray.init(address=address, logging_level="WARNING", log_to_driver=False)
+    except ConnectionError:  # the head's services are not all up yet
+        return 0
+    try:
+        return sum(node["Alive"] for node in ray.nodes())
+    finally:
+        ray.shutdown()
+
+
+def _wait_for(ready: object, what: str) -> None:
+    deadline = time.monotonic() + _STARTUP_TIMEOUT_S
+    while not ready():
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"{what} of the test cluster did not start")
+        time.sleep(0.2)
+
+
+def test_a_sweep_runs_on_a_cluster_given_its_address(cluster: str, tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / "sweep.toml"
+    path.write_text(SWEEP.replace("end_s = [0.3, 3.0]", "end_s = [0.3, 0.4]"))
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out"), "--address", cluster,
+                 "--quiet"]) == 0
+    assert "4 runs (4 played now, 0 found finished" in capsys.readouterr().out
+    rows = _table(tmp_path / "out")
+    assert [row["status"] for row in rows] == ["ok", "diverged", "ok", "diverged"]
+    assert [row["sim_time_s"] for row in rows[::2]] == pytest.approx([0.3, 0.4], abs=0.02)
