@@ -142,8 +142,9 @@ def _bench(args: argparse.Namespace) -> int:
         return _bench_tissue(args)
     if args.suite == "diagnose":
         return _bench_diagnose(args)
-    if args.seeds is not None:
-        raise InputError(None, "--seeds", "only `musclecell bench diagnose` takes --seeds")
+    for flag in ("seeds", "pairs", "subtle"):
+        if getattr(args, flag) not in (None, False):
+            raise InputError(None, f"--{flag}", f"only `musclecell bench diagnose` takes --{flag}")
     if args.markdown is not None:
         raise InputError(None, "--markdown",
                          "only `musclecell bench tissue` and `bench diagnose` write Markdown")
@@ -222,10 +223,14 @@ def _bench_diagnose(args: argparse.Namespace) -> int:
     from cell.bench.diagnose import bench_seeds, run_diagnose_bench
     from cell.io import write_atomic, write_json
 
+    kind = "pairs" if args.pairs else "subtle" if args.subtle else "single"
+    if args.pairs and args.subtle:
+        raise InputError(None, "--pairs", "give --pairs or --subtle, not both")
     count = args.seeds if args.seeds is not None else (3 if args.quick else 10)
     if count < 1:
         raise InputError(None, "--seeds", f"must be >= 1, got {count}")
-    report = run_diagnose_bench(bench_seeds(count), progress=print)
+    report = run_diagnose_bench(bench_seeds(count, kind), workers=args.workers,
+                                progress=print, kind=kind)
     json_path = args.json or Path("out/bench_diagnose.json")
     write_json(json_path, report)
     print(report["markdown"], end="")
@@ -388,8 +393,9 @@ def build_parser() -> argparse.ArgumentParser:
                            "JSON, <name>-material.toml)")
     diagnosis.add_argument("--report", type=Path,
                            help="write plots and a Markdown report in this folder")
-    diagnosis.add_argument("--workers", type=int, default=2,
-                           help="processes fitting candidates side by side (default 2)")
+    diagnosis.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                           help="processes fitting candidates side by side (default: every "
+                           "core)")
     diagnosis.set_defaults(handler=_diagnose)
 
     bench = commands.add_parser(
@@ -411,6 +417,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="tissue suite: Markdown tables out; diagnose: the confusion table")
     bench.add_argument("--seeds", type=int,
                        help="diagnose suite: number of sets (default 10, --quick 3)")
+    bench.add_argument("--pairs", action="store_true",
+                       help="diagnose suite: sets hiding two causes at once")
+    bench.add_argument("--subtle", action="store_true",
+                       help="diagnose suite: sets hiding one cause, half as strong")
+    bench.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                       help="diagnose suite: processes per diagnosis (default: every core)")
     bench.add_argument("--quick", action="store_true",
                        help="fewer repetitions and a short episode; tissue: the smallest "
                        "mesh only (for smoke tests)")
