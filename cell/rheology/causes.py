@@ -16,8 +16,9 @@ cause                            change to the material (shape parameters)
                                  paper's polynomial E (1 + k (r - 1)**2) (b or k)
 ``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), and
                                  the oblique springs' factor (q, oblique)
-``viscoelasticity``              quasi-linear relaxation, each of its terms a weight and a
-                                 fitted time (log10 s) within the tests' span
+``viscoelasticity``              quasi-linear relaxation: the fraction that relaxes, its
+                                 shares among the terms (stick-breaking), each term's time
+                                 (log10 s) within the tests' span
 ``nonlinear_viscoelasticity``    the same, its relaxed fraction growing or shrinking with the
                                  strain held (slope c of ``1 + c |x|``); it replaces
                                  ``viscoelasticity``, never joins it
@@ -139,8 +140,9 @@ class CandidateMaterial:
         if "anisotropy" in self.causes:
             names += ["log_el_over_et", "oblique"] if self.oblique else ["log_el_over_et"]
         if self.relaxes:
-            for k in range(self.relaxation_terms):
-                names += [f"relaxation_load_{k}", f"log_relaxation_time_{k}"]
+            names.append("relaxed_fraction")
+            names += [f"relaxation_share_{k}" for k in range(self.relaxation_terms - 1)]
+            names += [f"log_relaxation_time_{k}" for k in range(self.relaxation_terms)]
         if "nonlinear_viscoelasticity" in self.causes:
             names.append("relaxation_strain_slope")
         if "tension_compression_asymmetry" in self.causes:
@@ -157,10 +159,12 @@ class CandidateMaterial:
         """A starting point for the shape parameters."""
         start = {"stiffening_exponent": 4.0, "stiffening_quadratic": 10.0,
                  "yield_strain": 0.03, "hardening": 0.3, "oblique": 0.0,
-                 "relaxation_strain_slope": 0.0}
+                 "relaxation_strain_slope": 0.0, "relaxed_fraction": 0.3}
         low, high = np.log10(self.time_range_s)
         times = np.linspace(low, high, self.relaxation_terms + 2)[1:-1]
         start.update({f"log_relaxation_time_{k}": float(t) for k, t in enumerate(times)})
+        start.update({f"relaxation_share_{k}": 1.0 / (self.relaxation_terms - k)
+                      for k in range(self.relaxation_terms - 1)})
         return np.array([start.get(n.removeprefix("compression_"),
                                    0.0 if n.startswith("log_") else 0.3)
                          for n in self.parameter_names])
@@ -172,10 +176,13 @@ class CandidateMaterial:
                   "log_el_over_et": (-1.6, 1.6), "oblique": (-0.8, 3.0),
                   "log_el_compression": (-3.0, 3.0), "log_compression": (-3.0, 3.0),
                   "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
-                  "hardening": (0.0, 0.95), "relaxation_strain_slope": (-6.0, 6.0)}
+                  "hardening": (0.0, 0.95), "relaxation_strain_slope": (-6.0, 6.0),
+                  "relaxed_fraction": (0.0, 0.98)}
         low, high = np.log10(self.time_range_s)
         limits.update({f"log_relaxation_time_{k}": (float(low), float(high))
                        for k in range(self.relaxation_terms)})
+        limits.update({f"relaxation_share_{k}": (0.0, 1.0)
+                       for k in range(self.relaxation_terms - 1)})
         pairs = [limits.get(n.removeprefix("compression_"), (0.0, 30.0))
                  for n in self.parameter_names]
         return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
@@ -206,9 +213,7 @@ class CandidateMaterial:
             common = value.get("log_compression", 0.0)
             el_c = curve(el * math.exp(value.get("log_el_compression", common)), squeezed)
             et_c = curve(et * math.exp(value.get("log_et_compression", common)), squeezed)
-        loads = np.array([value[n] for n in self.parameter_names
-                          if n.startswith("relaxation_load_")])
-        weights = loads / (1.0 + loads.sum()) if len(loads) else loads
+        weights = _relaxation_weights(value, self.relaxation_terms) if self.relaxes else ()
         times = tuple(10.0 ** value[n] for n in self.parameter_names
                       if n.startswith("log_relaxation_time_"))
         return MassSpringMaterial(
@@ -217,7 +222,7 @@ class CandidateMaterial:
             longitudinal_compression=el_c if asymmetric else None,
             transverse_compression=et_c if asymmetric else None,
             density_kg_m3=density_kg_m3,
-            relaxation_weights=tuple(weights.tolist()),
+            relaxation_weights=tuple(weights),
             relaxation_times_s=times,
             relaxation_strain_slope=value.get("relaxation_strain_slope", 0.0),
             yield_strain=value.get("yield_strain", 0.0),
@@ -254,3 +259,14 @@ class CandidateMaterial:
         if self.has_offset:
             params["force_offset_n"] = offset_n
         return params
+
+
+def _relaxation_weights(value: dict[str, float], terms: int) -> tuple[float, ...]:
+    """g_k from the relaxed fraction and its shares (stick-breaking: term k takes share k of
+    what the terms before it left, the last term the rest)."""
+    left = value["relaxed_fraction"]
+    weights = []
+    for k in range(terms - 1):
+        weights.append(left * value[f"relaxation_share_{k}"])
+        left -= weights[-1]
+    return (*weights, left)

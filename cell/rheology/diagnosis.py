@@ -12,6 +12,8 @@ material, the gain on held-out tests, and the evidence for each cause.
    each test's force) *and* lowers the Bayesian information criterion, cuts the held-out RMSE
    to at most ``max_rmse_ratio`` of what it was (``later_rmse_ratio`` from the second cause
    on), and (from the second on) lowers it on at least ``min_improved_fraction`` of the tests.
+   When no single cause passes, pairs of the three best are tried (look-ahead), the best
+   pair kept when it passes the same test.
 3. After each addition every other cause must still pass the same test against the model
    without it (for ``nonlinear_viscoelasticity``: with ``viscoelasticity`` in its place); the
    weakest that does not is dropped, and so on. A cause stays named only while removing it
@@ -51,6 +53,8 @@ from cell.rheology.fitting import ModelFit, Problem, fit
 from cell.rheology.measured import MeasurementSet, MechanicalTest
 
 _RELAXATION_TERMS = 2
+# Single additions whose pairs the search tries when none passes alone.
+_LOOK_AHEAD = 3
 
 
 @dataclass(frozen=True)
@@ -145,6 +149,8 @@ class Diagnosis:
         extended: the final model (the baseline when no cause is accepted).
         causes: accepted causes, most important first, then ``unexplained`` if it applies.
         evidence: per accepted cause, in the order of ``causes``.
+        params: the settings it ran with.
+        explored: every model the search fitted.
 
     ``to_json()`` is the JSON that ``musclecell diagnose --json`` writes.
     """
@@ -158,6 +164,7 @@ class Diagnosis:
     causes: tuple[str, ...]
     evidence: tuple[Evidence, ...] = ()
     params: DiagnosisParams = field(default_factory=DiagnosisParams)
+    explored: tuple[ModelFit, ...] = ()
 
     @property
     def gain(self) -> float:
@@ -263,17 +270,16 @@ def _start(previous: tuple[tuple[str, ...], np.ndarray] | None,
 
 
 def _variants(model: CandidateMaterial, cause: str) -> list[CandidateMaterial]:
-    """``model`` with ``cause`` added (a viscoelasticity replacing the other), in each form of
-    that cause: both stiffening laws, Eq. 10 with and without its oblique factor, one
-    compression factor or two; the forms of ``model``'s own causes stay."""
+    """``model`` with ``cause`` added (a viscoelasticity replacing the other), with both
+    stiffening laws when the cause is stiffening. Anisotropy always has its oblique factor (the
+    richer form holds the plainer one, and a form chosen early would be kept through later
+    steps that it no longer suits); the asymmetry is one factor on El and Et in compression (El
+    and Et apart would also absorb the lattice's own difference between its anisotropy in
+    tension and in compression, and name an asymmetry in every anisotropic set)."""
     causes = tuple(c for c in model.causes if not (c in EXCLUSIVE and cause in EXCLUSIVE))
     base = replace(model, causes=(*causes, cause))
     if cause == "strain_stiffening":
         return [replace(base, stiffening=law) for law in ("exponential", "polynomial")]
-    if cause == "anisotropy":
-        return [replace(base, oblique=flag) for flag in (False, True)]
-    if cause == "tension_compression_asymmetry":
-        return [replace(base, compression_per_direction=flag) for flag in (False, True)]
     return [base]
 
 
@@ -287,8 +293,10 @@ class _Search:
 
     def run(self, jobs: list[tuple[ModelFit | None, str | None]]) -> list[ModelFit]:
         """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root
-        model), started from ``fit``; or with its cause removed when the fit has it."""
-        tasks, keys = [], []
+        model), started from ``fit``; or with its cause removed when the fit has it. A model
+        fitted before is fitted again only when a cause is removed (the richer fit is a better
+        start than the one it had), and the fit with the lower residual kept."""
+        tasks, keys, refresh = [], [], set()
         for base, cause in jobs:
             model = self.root if base is None else base.model
             if cause is None:
@@ -298,26 +306,48 @@ class _Search:
                 if cause == EXCLUSIVE[1]:
                     kept += (EXCLUSIVE[0],)
                 models = [replace(model, causes=kept)]
+                refresh.add(frozenset(kept))
             else:
                 models = _variants(model, cause)
             start = None if base is None else (base.model.parameter_names, base.shape)
             keys.append(frozenset(models[0].causes))
             tasks.append((self.problem, models, start, self.params.max_evaluations))
-        todo = [(k, t) for k, t in zip(keys, tasks, strict=True) if k not in self.fits]
+        todo = [(k, t) for k, t in zip(keys, tasks, strict=True)
+                if k not in self.fits or k in refresh]
         unique = list({k: t for k, t in todo}.items())
         mapper: Callable = map if self.pool is None else self.pool.map
         for key, result in zip([k for k, _ in unique], mapper(_task, [t for _, t in unique]),
                                strict=True):
-            self.fits[key] = result
+            if key not in self.fits or result.rmse_n < self.fits[key].rmse_n:
+                self.fits[key] = result
         return [self.fits[k] for k in keys]
+
+
+def _look_ahead(search: _Search, current: ModelFit, trials: list[ModelFit], first: bool,
+                noise: float) -> ModelFit | None:
+    """When no single cause earns its place: the best of ``current`` plus two of the
+    ``_LOOK_AHEAD`` best single additions, if it passes :func:`accepts` (two effects can each
+    look like a third until both are in)."""
+    top = sorted(trials, key=lambda f: f.heldout_rmse_n)[:_LOOK_AHEAD]
+    added = [next(c for c in f.model.causes if c not in current.model.causes) for f in top]
+    jobs = [(top[i], added[j]) for i in range(len(top)) for j in range(i + 1, len(top))
+            if not {added[i], added[j]} >= set(EXCLUSIVE) and added[j] not in top[i].model.causes]
+    if not jobs:
+        return None
+    best = min(search.run(jobs), key=lambda f: f.heldout_rmse_n)
+    tests = search.problem.tests
+    return best if accepts(best, current, first, noise, tests, search.params) else None
 
 
 def _weakest(search: _Search, current: ModelFit, noise: float,
              tests: tuple[MechanicalTest, ...]) -> str | None:
     """The cause of ``current`` whose removal costs least, when it fails :func:`accepts`
-    against the model without it; None when every cause holds (module docstring, 3)."""
-    causes = current.model.causes
-    if len(causes) < 2:
+    against the model without it; None when every cause holds (module docstring, 3). A lone
+    cause is the first and stays, except a non-linear viscoelasticity, which must earn its
+    non-linearity against the quasi-linear kind."""
+    causes = tuple(c for c in current.model.causes
+                   if len(current.model.causes) > 1 or c == EXCLUSIVE[1])
+    if not causes:
         return None
     without = search.run([(current, c) for c in causes])
     failing = [(fit.heldout_rmse_n, cause) for fit, cause in zip(without, causes, strict=True)
@@ -330,7 +360,7 @@ def _evidence(search: _Search, final: ModelFit, order: list[str]) -> tuple[Evide
     tests = search.problem.tests
     evidence = []
     for cause in order:
-        if final.model.causes == (cause,) or cause not in final.model.causes:
+        if final.model.causes == (cause,) and cause != EXCLUSIVE[1]:
             without = search.run([(None, None)])[0]
         else:
             without = search.run([(final, cause)])[0]
@@ -375,7 +405,7 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     params = DiagnosisParams() if params is None else params
     problem = Problem.of(measurements.specimen, measurements.tests, params.fit_samples)
     root = CandidateMaterial((), "exponential", _time_range_s(measurements), _RELAXATION_TERMS,
-                             _stretch_range(measurements))
+                             _stretch_range(measurements), oblique=True)
     noise = noise_n(measurements)
     tests = measurements.tests
     # Spawned, not forked: a fork of a process whose numba (and MuJoCo, in the CLI) has
@@ -390,18 +420,24 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
         candidates = search.run([(baseline, c) for c in CAUSES])
         current, steps, order = baseline, [], []
         trials = candidates
+        visited = {frozenset()}
         while trials:
             best = min(trials, key=lambda f: f.heldout_rmse_n)
             if not accepts(best, current, not order, noise, tests, params):
-                break
-            added = next(c for c in best.model.causes if c not in current.model.causes)
-            order = [c for c in order if c in best.model.causes] + [added]
+                best = _look_ahead(search, current, trials, not order, noise)
+                if best is None:
+                    break
+            order = [c for c in order if c in best.model.causes] + [
+                c for c in best.model.causes if c not in current.model.causes]
             current = best
             while (weak := _weakest(search, current, noise, tests)) is not None:
                 current = search.run([(current, weak)])[0]
                 order = [c for c in order if c != weak]
                 if weak == EXCLUSIVE[1]:
                     order.append(EXCLUSIVE[0])
+            if frozenset(current.model.causes) in visited:
+                break
+            visited.add(frozenset(current.model.causes))
             steps.append(current)
             trials = search.run([(current, c) for c in CAUSES if c not in current.model.causes
                                  and not (c == EXCLUSIVE[0] and EXCLUSIVE[1] in order)])
@@ -417,7 +453,7 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
             and _structure(current, tests) > params.structure_correlation):
         causes += (UNEXPLAINED,)
     return Diagnosis(measurements, noise, baseline, tuple(candidates), tuple(steps), current,
-                     causes, evidence, params)
+                     causes, evidence, params, tuple(search.fits.values()))
 
 
 def _require_runs(model_fit: ModelFit) -> None:

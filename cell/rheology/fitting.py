@@ -9,10 +9,10 @@ closed form (the simulated force is linear in both). Each test is simulated by
 Held-out errors are leave-one-test-out: each test is predicted, at every sample, by the model
 refitted without it. The refit is one damped Gauss-Newton step from the fit on every test,
 on the Jacobian that fit ended with (its rows of the other tests), then E and the offset solved
-on the other tests again: the approximate leave-one-out of M-estimation, a refit's cost of two
-simulations instead of dozens, and within a few percent of a refit to convergence when the
-test left out does not carry a parameter alone (a parameter that only that test sets stays
-where the other tests leave it, as it would in a refit).
+on the other tests again: the approximate leave-one-out of M-estimation, a refit's cost of one
+simulation instead of dozens. A step that fits the other tests worse than the fit it started
+from is not taken (a refit never ends worse than its start), so that a parameter the other
+tests hardly set stays where the full fit put it.
 
 The confidence intervals of the shape parameters come from the same Jacobian:
 ``s**2 (J^T J)^-1`` with ``s**2`` the residual variance, 95 % for a normal error.
@@ -43,8 +43,8 @@ from cell.tissue.material import MassSpringMaterial
 _REFERENCE_PA = 1.0e4
 # Residual of a fit whose material has no equilibrium somewhere: far worse than any real fit.
 FAILED = 1.0e3
-# Damping of the held-out Gauss-Newton step, relative to the diagonal of J^T J.
-_STEP_DAMPING = 1e-3
+# Damping of the held-out Gauss-Newton step, relative to the diagonal of the full fit's J^T J.
+_STEP_DAMPING = 1e-2
 # Two-sided 95 % quantile of the normal distribution.
 _Z95 = 1.959964
 
@@ -238,25 +238,40 @@ def _held_out(problem: Problem, model: CandidateMaterial, shape: np.ndarray,
     docstring); a refit whose material cannot run predicts zero force."""
     sizes = [len(t.force_N) for t in problem.thinned]
     rows = np.split(np.arange(sum(sizes)), np.cumsum(sizes)[:-1])
+    damping = _STEP_DAMPING * (np.diag(jacobian.T @ jacobian) + 1e-300) if len(shape) else None
     heldout = []
     for left_out, test in enumerate(problem.tests):
         others = [i for i in range(len(problem.tests)) if i != left_out]
-        fold = shape
-        if len(shape):
-            keep = np.concatenate([rows[i] for i in others])
-            j, r = jacobian[keep], residual[keep]
-            normal = j.T @ j
-            damped = normal + _STEP_DAMPING * np.diag(np.diag(normal) + 1e-300)
-            step = np.linalg.lstsq(damped, -j.T @ r, rcond=None)[0]
-            fold = np.clip(shape + step, *bounds)
-        units = problem.unit_forces(model, fold, (*(problem.thinned[i] for i in others), test))
-        if units is None:
-            heldout.append(np.zeros(len(test.force_N)))
-            continue
+        keep = np.concatenate([rows[i] for i in others])
         measured = np.concatenate([problem.thinned[i].force_N for i in others])
-        scale, offset = scale_and_offset(np.concatenate(units[:-1]), measured, model.has_offset)
-        heldout.append(units[-1] * scale + offset)
+        chosen = (*(problem.thinned[i] for i in others), test)
+        prediction = None
+        if len(shape):
+            j, r = jacobian[keep], residual[keep]
+            step = np.linalg.solve(j.T @ j + np.diag(damping), -j.T @ r)
+            prediction = _fold(problem, model, np.clip(shape + step, *bounds), chosen,
+                               measured, float(r @ r))
+        if prediction is None:
+            prediction = _fold(problem, model, shape, chosen, measured, math.inf)
+        heldout.append(np.zeros(len(test.force_N)) if prediction is None else prediction)
     return heldout
+
+
+def _fold(problem: Problem, model: CandidateMaterial, shape: np.ndarray,
+          tests: tuple[MechanicalTest, ...], measured: np.ndarray,
+          worst_rss: float) -> np.ndarray | None:
+    """The last of ``tests`` predicted with ``shape``, E and the offset solved on the others
+    (``measured``); None when the material cannot run them or fits the others no better than
+    ``worst_rss``."""
+    units = problem.unit_forces(model, shape, tests)
+    if units is None:
+        return None
+    others = np.concatenate(units[:-1])
+    scale, offset = scale_and_offset(others, measured, model.has_offset)
+    misfit = scale * others + offset - measured
+    if float(misfit @ misfit) > worst_rss:
+        return None
+    return units[-1] * scale + offset
 
 
 def _ci95(jacobian: np.ndarray, rss: float, count: int, shape: np.ndarray) -> np.ndarray:
