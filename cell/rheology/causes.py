@@ -14,8 +14,9 @@ cause                            change to the material (shape parameters)
 ===============================  ==============================================================
 ``strain_stiffening``            both moduli follow the exponential law E exp(b |r - 1|) or the
                                  paper's polynomial E (1 + k (r - 1)**2) (b or k)
-``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), and
-                                 the oblique springs' factor (q, oblique)
+``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), the
+                                 oblique springs' factor, and q apart in compression (the
+                                 lattice's anisotropy differs there) (q, oblique, q_c)
 ``viscoelasticity``              quasi-linear relaxation: the fraction that relaxes, its
                                  shares among the terms (stick-breaking), each term's time
                                  (log10 s) within the tests' span
@@ -32,7 +33,7 @@ cause                            change to the material (shape parameters)
 Example:
     >>> model = CandidateMaterial(("anisotropy",))
     >>> model.parameter_names
-    ('log_el_over_et',)
+    ('log_el_over_et', 'log_el_over_et_compressed')
     >>> model.material(model.initial, 1e4, 1060.0).longitudinal.small_strain_modulus_pa
     10000.0
 """
@@ -139,6 +140,7 @@ class CandidateMaterial:
                          else "stiffening_quadratic")
         if "anisotropy" in self.causes:
             names += ["log_el_over_et", "oblique"] if self.oblique else ["log_el_over_et"]
+            names.append("log_el_over_et_compressed")
         if self.relaxes:
             names.append("relaxed_fraction")
             names += [f"relaxation_share_{k}" for k in range(self.relaxation_terms - 1)]
@@ -174,6 +176,7 @@ class CandidateMaterial:
         """Lower and upper bounds of the shape parameters."""
         limits = {"stiffening_exponent": (0.0, 40.0), "stiffening_quadratic": (0.0, 400.0),
                   "log_el_over_et": (-1.6, 1.6), "oblique": (-0.8, 3.0),
+                  "log_el_over_et_compressed": (-1.6, 1.6),
                   "log_el_compression": (-3.0, 3.0), "log_compression": (-3.0, 3.0),
                   "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
                   "hardening": (0.0, 0.95), "relaxation_strain_slope": (-6.0, 6.0),
@@ -207,12 +210,16 @@ class CandidateMaterial:
             return ModulusCurve((modulus, 0.0, modulus * quadratic, 0.0, 0.0, 0.0), r_min, r_max)
 
         el, et = modulus_pa * math.sqrt(ratio), modulus_pa / math.sqrt(ratio)
-        asymmetric = "tension_compression_asymmetry" in self.causes
+        asymmetric = ("tension_compression_asymmetry" in self.causes
+                      or "log_el_over_et_compressed" in value)
         if asymmetric:
             squeezed = "compression_" if any(n.startswith("compression_") for n in value) else ""
             common = value.get("log_compression", 0.0)
-            el_c = curve(el * math.exp(value.get("log_el_compression", common)), squeezed)
-            et_c = curve(et * math.exp(value.get("log_et_compression", common)), squeezed)
+            ratio_c = math.exp(value.get("log_el_over_et_compressed", math.log(ratio)))
+            el_c = curve(modulus_pa * math.sqrt(ratio_c)
+                         * math.exp(value.get("log_el_compression", common)), squeezed)
+            et_c = curve(modulus_pa / math.sqrt(ratio_c)
+                         * math.exp(value.get("log_et_compression", common)), squeezed)
         weights = _relaxation_weights(value, self.relaxation_terms) if self.relaxes else ()
         times = tuple(10.0 ** value[n] for n in self.parameter_names
                       if n.startswith("log_relaxation_time_"))
@@ -250,7 +257,7 @@ class CandidateMaterial:
                 params[f"relaxation_time_{k}_s"] = tau
         if "nonlinear_viscoelasticity" in self.causes:
             params["relaxation_strain_slope"] = material.relaxation_strain_slope
-        if "tension_compression_asymmetry" in self.causes:
+        if material.longitudinal_compression is not None:
             params["el_compression_pa"] = material.longitudinal_compression.coefficients[0]
             params["et_compression_pa"] = material.transverse_compression.coefficients[0]
         if "plasticity" in self.causes:

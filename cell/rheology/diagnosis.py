@@ -388,7 +388,7 @@ def cause_of(name: str) -> str:
         return "viscoelasticity"
     if name.startswith("stiffening"):
         return "strain_stiffening"
-    if name in ("log_el_over_et", "oblique"):
+    if name in ("log_el_over_et", "oblique", "log_el_over_et_compressed"):
         return "anisotropy"
     if "compression" in name:
         return "tension_compression_asymmetry"

@@ -43,6 +43,9 @@ from cell.tissue.material import MassSpringMaterial
 _REFERENCE_PA = 1.0e4
 # Residual of a fit whose material has no equilibrium somewhere: far worse than any real fit.
 FAILED = 1.0e3
+# Relative tolerances of a fit: far below the noise of any measured force, and a tenth of
+# the evaluations least_squares spends reaching its default 1e-8 on a flat valley.
+_TOLERANCE = 1e-5
 # Damping of the held-out Gauss-Newton step, relative to the diagonal of the full fit's J^T J.
 _STEP_DAMPING = 1e-2
 # Two-sided 95 % quantile of the normal distribution.
@@ -206,7 +209,7 @@ def fit(problem: Problem, model: CandidateMaterial, start: np.ndarray,
     if len(start):
         result = least_squares(lambda s: solve(s)[0], np.clip(start, lower, upper),
                                bounds=(lower, upper), x_scale="jac", diff_step=1e-3,
-                               max_nfev=max_evaluations)
+                               ftol=_TOLERANCE, xtol=_TOLERANCE, max_nfev=max_evaluations)
         shape, jacobian = result.x, result.jac
     else:
         shape, jacobian = start, np.zeros((0, 0))
