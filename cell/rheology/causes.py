@@ -13,7 +13,8 @@ offset, so a fit solves for those two in closed form and searches only the shape
 cause                            change to the material (shape parameters)
 ===============================  ==============================================================
 ``strain_stiffening``            both moduli follow the exponential law E exp(b |r - 1|) or the
-                                 paper's polynomial E (1 + k (r - 1)**2) (b or k)
+                                 paper's polynomial E (1 + k (r - 1)**2), b or k apart in
+                                 tension and compression
 ``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), the
                                  oblique springs' factor, and q apart in compression (the
                                  lattice's anisotropy differs there) (q, oblique, q_c)
@@ -24,7 +25,7 @@ cause                            change to the material (shape parameters)
                                  strain held (slope c of ``1 + c |x|``); it replaces
                                  ``viscoelasticity``, never joins it
 ``tension_compression_asymmetry`` El and Et of compressed springs (their logs over the
-                                 tension ones), and with stiffening its own exponent
+                                 tension ones)
 ``plasticity``                   yield strain and hardening ratio of every spring
 ``force_offset``                 the load cell reads a constant offset (a rig effect: it is
                                  not part of the material the muscles get)
@@ -138,6 +139,9 @@ class CandidateMaterial:
         if "strain_stiffening" in self.causes:
             names.append("stiffening_exponent" if self.stiffening == "exponential"
                          else "stiffening_quadratic")
+            # Its own in compression: the lattice stiffens apart there, and one exponent
+            # would name an asymmetry in every stiffening set.
+            names.append(f"compression_{names[0]}")
         if "anisotropy" in self.causes:
             names += ["log_el_over_et", "oblique"] if self.oblique else ["log_el_over_et"]
             names.append("log_el_over_et_compressed")
@@ -150,8 +154,6 @@ class CandidateMaterial:
         if "tension_compression_asymmetry" in self.causes:
             names += (["log_el_compression", "log_et_compression"]
                       if self.compression_per_direction else ["log_compression"])
-            if "strain_stiffening" in self.causes:
-                names.append(f"compression_{names[0]}")
         if "plasticity" in self.causes:
             names += ["yield_strain", "hardening"]
         return tuple(names)
@@ -211,7 +213,8 @@ class CandidateMaterial:
 
         el, et = modulus_pa * math.sqrt(ratio), modulus_pa / math.sqrt(ratio)
         asymmetric = ("tension_compression_asymmetry" in self.causes
-                      or "log_el_over_et_compressed" in value)
+                      or "log_el_over_et_compressed" in value
+                      or any(n.startswith("compression_") for n in value))
         if asymmetric:
             squeezed = "compression_" if any(n.startswith("compression_") for n in value) else ""
             common = value.get("log_compression", 0.0)

@@ -393,7 +393,7 @@ def cause_of(name: str) -> str:
         return "nonlinear_viscoelasticity"
     if "relaxation" in name:
         return "viscoelasticity"
-    if name.startswith("stiffening"):
+    if "stiffening" in name:
         return "strain_stiffening"
     if name in ("log_el_over_et", "oblique", "log_el_over_et_compressed"):
         return "anisotropy"
