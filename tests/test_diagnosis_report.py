@@ -24,7 +24,7 @@ def test_report_shows_the_figures_the_cause_and_the_gain(tmp_path: Path) -> None
         assert png.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
         height, width, _ = image.imread(png).shape
         assert height > 500 and width > 1000
-    markdown = paths[2].read_text()
+    markdown = paths[-1].read_text()
     assert "force_offset" in markdown and f"Gain {result.gain:.3f}" in markdown
     assert "(../material.toml)" in markdown and "(forces.png)" in markdown
     assert "## Evidence" in markdown and "(cause-force_offset.png)" in markdown
