@@ -23,7 +23,7 @@ from cell.rheology.synthetic import write_hidden_effect_set, write_relaxation_se
 DEFAULT_PAIRS = (
     ("strain_stiffening", "anisotropy"),
     ("viscoelasticity", "tension_compression_asymmetry"),
-    ("nonlinear_viscoelasticity", "plasticity"),
+    ("anisotropy", "nonlinear_viscoelasticity"),
     ("anisotropy", "force_offset"),
     ("strain_stiffening", "viscoelasticity"),
     ("tension_compression_asymmetry", "plasticity"),
