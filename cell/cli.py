@@ -112,7 +112,7 @@ def _diagnose(args: argparse.Namespace) -> int:
                          "missing: diagnose SET_DIR --json FILE, or --batch PARENT --out DIR")
     if args.address is not None:
         raise InputError(None, "--address", "only --batch runs on Ray")
-    workers = 2 if args.workers is None else args.workers
+    workers = (os.cpu_count() or 1) if args.workers is None else args.workers
     if workers < 1:
         raise InputError(None, "--workers", f"must be >= 1, got {workers}")
     material_path = args.material or args.json.with_name(f"{args.json.stem}-material.toml")
@@ -147,8 +147,9 @@ def _bench(args: argparse.Namespace) -> int:
         return _bench_diagnose(args)
     if args.suite == "sweep":
         return _bench_sweep(args)
-    if args.seeds is not None:
-        raise InputError(None, "--seeds", "only `musclecell bench diagnose` takes --seeds")
+    for flag in ("seeds", "pairs", "subtle"):
+        if getattr(args, flag) not in (None, False):
+            raise InputError(None, f"--{flag}", f"only `musclecell bench diagnose` takes --{flag}")
     if args.markdown is not None:
         raise InputError(None, "--markdown",
                          "only `musclecell bench tissue` and `bench diagnose` write Markdown")
@@ -244,10 +245,14 @@ def _bench_diagnose(args: argparse.Namespace) -> int:
     from cell.bench.diagnose import bench_seeds, run_diagnose_bench
     from cell.io import write_atomic, write_json
 
+    kind = "pairs" if args.pairs else "subtle" if args.subtle else "single"
+    if args.pairs and args.subtle:
+        raise InputError(None, "--pairs", "give --pairs or --subtle, not both")
     count = args.seeds if args.seeds is not None else (3 if args.quick else 10)
     if count < 1:
         raise InputError(None, "--seeds", f"must be >= 1, got {count}")
-    report = run_diagnose_bench(bench_seeds(count), progress=print)
+    report = run_diagnose_bench(bench_seeds(count, kind), workers=args.workers,
+                                progress=print, kind=kind)
     json_path = args.json or Path("out/bench_diagnose.json")
     write_json(json_path, report)
     print(report["markdown"], end="")
@@ -417,7 +422,8 @@ def build_parser() -> argparse.ArgumentParser:
     diagnosis.add_argument("--out", type=Path,
                            help="--batch: results folder; sets already in it are skipped")
     diagnosis.add_argument("--quiet", action="store_true", help="--batch: no progress bar")
-    add_workers(diagnosis, "; one set: processes fitting candidates side by side (default 2)")
+    add_workers(diagnosis, "; one set: processes fitting candidates side by side (default: "
+                "every core)")
     diagnosis.set_defaults(handler=_diagnose)
 
     bench = commands.add_parser(
@@ -439,6 +445,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="tissue suite: Markdown tables out; diagnose: the confusion table")
     bench.add_argument("--seeds", type=int,
                        help="diagnose suite: number of sets (default 10, --quick 3)")
+    bench.add_argument("--pairs", action="store_true",
+                       help="diagnose suite: sets hiding two causes at once")
+    bench.add_argument("--subtle", action="store_true",
+                       help="diagnose suite: sets hiding one cause, half as strong")
+    bench.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                       help="diagnose suite: processes per diagnosis (default: every core)")
     bench.add_argument("--quick", action="store_true",
                        help="fewer repetitions and a short episode; tissue: the smallest "
                        "mesh only (for smoke tests)")

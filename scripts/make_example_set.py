@@ -40,13 +40,13 @@ from cell.rheology.synthetic import (
     csv_text,
     cyclic,
     measure,
-    qlv_stress_pa,
     ramp,
     relaxation,
     specimen_toml,
     true_force_n,
     write_set,
 )
+from cell.rheology.truth import qlv_stress_pa
 
 SEED = 20240607
 SIZE_M = 0.010  # cube edge; the load axis is z

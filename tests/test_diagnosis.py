@@ -14,6 +14,7 @@ from cell.cli import main
 from cell.errors import DiagnosisError
 from cell.rheology.causes import CAUSES, UNEXPLAINED
 from cell.rheology.diagnosis import DiagnosisParams
+from cell.rheology.measured import load_specimen
 from cell.rheology.synthetic import write_hidden_effect_set
 from cell.sim.episode import Episode
 from cell.sim.scenario import load_scenario
@@ -56,6 +57,21 @@ def test_json_follows_the_contract_field_by_field(diagnosed: tuple[dict, Path]) 
         1.0 - report["extended"]["heldout_rmse_N"] / report["baseline"]["heldout_rmse_N"])
     assert report["gain"] > 0.5
     assert "relaxation_weight_0" in report["extended"]["params"]
+    assert "relaxation_time_1_s" in report["extended"]["params"]
+
+
+def test_json_gives_the_evidence_of_each_cause(diagnosed: tuple[dict, Path]) -> None:
+    report, _ = diagnosed
+    causes = [c for c in report["causes"] if c != UNEXPLAINED]
+    assert [e["cause"] for e in report["evidence"]] == causes
+    for evidence in report["evidence"]:
+        assert evidence["heldout_rmse_with_N"] == report["extended"]["heldout_rmse_N"]
+        assert evidence["heldout_rmse_without_N"] > evidence["heldout_rmse_with_N"]
+        assert 0.5 <= evidence["improved_fraction"] <= 1.0
+        assert evidence["params"]
+        for entry in evidence["params"].values():
+            low, high = entry["ci95"]
+            assert low <= entry["value"] <= high
 
 
 def test_extended_material_loads_into_the_default_scenario(diagnosed: tuple[dict, Path],
@@ -88,6 +104,23 @@ def test_a_bad_set_writes_nothing(tmp_path: Path) -> None:
     assert main(["diagnose", str(folder), "--json", str(out)]) == 2
     assert out.read_text() == "before"
     assert not out.with_name("diagnosis-material.toml").exists()
+
+
+def test_a_set_the_model_cannot_run_names_the_test_and_writes_nothing(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = tmp_path / "set"
+    write_hidden_effect_set(folder, 3, None)
+    height = load_specimen(folder / "specimen.toml").size_m[2]
+    # One more test squeezes the specimen flat: no spring lattice has an equilibrium there.
+    crushed = "".join(f"flat,compression,0,{t:.1f},{-height * t / 10.0:.10f},{-t:.3f}\n"
+                      for t in range(11))
+    with (folder / "tests.csv").open("a") as csv:
+        csv.write(crushed)
+    out = tmp_path / "diagnosis.json"
+    assert main(["diagnose", str(folder), "--json", str(out), "--workers", "1"]) == 2
+    error = capsys.readouterr().err
+    assert "'flat'" in error and "does not converge" in error and "baseline" in error
+    assert not out.exists() and not out.with_name("diagnosis-material.toml").exists()
 
 
 def test_params_are_checked() -> None:

@@ -112,6 +112,23 @@ def test_relaxation_under_a_hold_tends_to_g_infinity() -> None:
     assert np.all(np.diff(run.force_N[40:]) < 0.0)
 
 
+def test_non_linear_relaxation_relaxes_a_share_that_depends_on_the_strain() -> None:
+    def relaxed(material: MassSpringMaterial, strain: float) -> float:
+        run = simulate_test(_ramp(0.0, strain, duration_s=0.01, hold_s=100.0), CUBE, material)
+        return 1.0 - run.force_N[-1] / run.force_N[39]
+
+    linear = replace(ISOTROPIC, relaxation_weights=(0.3, 0.2), relaxation_times_s=(0.5, 5.0))
+    shrinking = replace(linear, relaxation_strain_slope=-2.0)
+    # Quasi-linear: half at any strain; with c = -2 about 0.5 (1 - 2 |x|) at spring strain x
+    # (the springs along the load see the strain, the others less).
+    assert relaxed(linear, 0.05) == pytest.approx(0.5, abs=0.01)
+    assert relaxed(linear, 0.2) == pytest.approx(0.5, abs=0.01)
+    assert 0.45 <= relaxed(shrinking, 0.05) <= 0.5
+    assert 0.3 <= relaxed(shrinking, 0.2) <= 0.4
+    growing = replace(linear, relaxation_strain_slope=2.0)
+    assert relaxed(growing, 0.2) > 0.55
+
+
 def test_plasticity_leaves_a_permanent_set() -> None:
     material = replace(ISOTROPIC, yield_strain=0.02, hardening=0.2)
     run = simulate_test(_cycle(0.0, 0.08, 8.0), CUBE, material)

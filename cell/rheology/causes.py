@@ -13,22 +13,28 @@ offset, so a fit solves for those two in closed form and searches only the shape
 cause                            change to the material (shape parameters)
 ===============================  ==============================================================
 ``strain_stiffening``            both moduli follow the exponential law E exp(b |r - 1|) or the
-                                 paper's polynomial E (1 + k (r - 1)**2) (b or k)
-``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), and
-                                 the oblique springs' factor (q, oblique)
-``viscoelasticity``              quasi-linear relaxation on fixed times spanning the tests
-                                 (one weight per time)
+                                 paper's polynomial E (1 + k (r - 1)**2), b or k apart in
+                                 tension and compression
+``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), the
+                                 oblique springs' factor, and q apart in compression (the
+                                 lattice's anisotropy differs there) (q, oblique, q_c)
+``viscoelasticity``              quasi-linear relaxation: the fraction that relaxes, its
+                                 shares among the terms (stick-breaking), each term's time
+                                 (log10 s) within the tests' span
+``nonlinear_viscoelasticity``    the same, its relaxed fraction growing or shrinking with the
+                                 strain held (slope c of ``1 + c |x|``); it replaces
+                                 ``viscoelasticity``, never joins it
 ``tension_compression_asymmetry`` El and Et of compressed springs (their logs over the
-                                 tension ones), and with stiffening its own exponent
+                                 tension ones)
 ``plasticity``                   yield strain and hardening ratio of every spring
 ``force_offset``                 the load cell reads a constant offset (a rig effect: it is
                                  not part of the material the muscles get)
 ===============================  ==============================================================
 
 Example:
-    >>> model = CandidateMaterial(("anisotropy",), relaxation_times_s=(1.0, 10.0, 100.0))
+    >>> model = CandidateMaterial(("anisotropy",))
     >>> model.parameter_names
-    ('log_el_over_et',)
+    ('log_el_over_et', 'log_el_over_et_compressed')
     >>> model.material(model.initial, 1e4, 1060.0).longitudinal.small_strain_modulus_pa
     10000.0
 """
@@ -50,11 +56,15 @@ CAUSES = (
     "strain_stiffening",
     "anisotropy",
     "viscoelasticity",
+    "nonlinear_viscoelasticity",
     "tension_compression_asymmetry",
     "plasticity",
     "force_offset",
 )
 UNEXPLAINED = "unexplained"
+#: Causes that one model never holds together: the second is the first made non-linear.
+EXCLUSIVE = ("viscoelasticity", "nonlinear_viscoelasticity")
+RELAXING = EXCLUSIVE
 Stiffening = Literal["exponential", "polynomial"]
 
 
@@ -65,7 +75,9 @@ class CandidateMaterial:
     Attributes:
         causes: causes of the catalogue, in any order.
         stiffening: the strain-stiffening law, when ``strain_stiffening`` is a cause.
-        relaxation_times_s: the relaxation times of ``viscoelasticity``, s.
+        time_range_s: (shortest, longest) relaxation time a fit may give, s; the terms start
+            spread evenly in log time over it.
+        relaxation_terms: exponential terms of the relaxation function.
         stretch_range: (r_min, r_max) over which a stiffening curve holds; outside it the
             modulus stays at its value at the bound.
         oblique: whether ``anisotropy`` also fits the oblique springs' factor.
@@ -73,16 +85,17 @@ class CandidateMaterial:
             of compressed springs apart (else by one factor).
 
     Raises:
-        DiagnosisError: an unknown cause.
+        DiagnosisError: an unknown cause, or both kinds of viscoelasticity.
 
     Example:
-        >>> CandidateMaterial(("plasticity",), relaxation_times_s=(1.0,)).parameter_names
+        >>> CandidateMaterial(("plasticity",)).parameter_names
         ('yield_strain', 'hardening')
     """
 
     causes: tuple[str, ...] = ()
     stiffening: Stiffening = "exponential"
-    relaxation_times_s: tuple[float, ...] = (1.0, 10.0, 100.0)
+    time_range_s: tuple[float, float] = (0.1, 300.0)
+    relaxation_terms: int = 2
     stretch_range: tuple[float, float] = (0.5, 1.5)
     oblique: bool = False
     compression_per_direction: bool = False
@@ -92,7 +105,15 @@ class CandidateMaterial:
         if unknown:
             raise DiagnosisError(None, "causes",
                                  f"unknown causes {sorted(unknown)}; the catalogue is {CAUSES}")
+        if set(EXCLUSIVE) <= set(self.causes):
+            raise DiagnosisError(None, "causes", f"{EXCLUSIVE[0]} and {EXCLUSIVE[1]} exclude "
+                                 "each other")
         object.__setattr__(self, "causes", tuple(c for c in CAUSES if c in self.causes))
+
+    @property
+    def relaxes(self) -> bool:
+        """Whether the model has a relaxation function (either kind of viscoelasticity)."""
+        return any(c in self.causes for c in RELAXING)
 
     @property
     def name(self) -> str:
@@ -118,15 +139,21 @@ class CandidateMaterial:
         if "strain_stiffening" in self.causes:
             names.append("stiffening_exponent" if self.stiffening == "exponential"
                          else "stiffening_quadratic")
+            # Its own in compression: the lattice stiffens apart there, and one exponent
+            # would name an asymmetry in every stiffening set.
+            names.append(f"compression_{names[0]}")
         if "anisotropy" in self.causes:
             names += ["log_el_over_et", "oblique"] if self.oblique else ["log_el_over_et"]
-        if "viscoelasticity" in self.causes:
-            names += [f"relaxation_load_{k}" for k in range(len(self.relaxation_times_s))]
+            names.append("log_el_over_et_compressed")
+        if self.relaxes:
+            names.append("relaxed_fraction")
+            names += [f"relaxation_share_{k}" for k in range(self.relaxation_terms - 1)]
+            names += [f"log_relaxation_time_{k}" for k in range(self.relaxation_terms)]
+        if "nonlinear_viscoelasticity" in self.causes:
+            names.append("relaxation_strain_slope")
         if "tension_compression_asymmetry" in self.causes:
             names += (["log_el_compression", "log_et_compression"]
                       if self.compression_per_direction else ["log_compression"])
-            if "strain_stiffening" in self.causes:
-                names.append(f"compression_{names[0]}")
         if "plasticity" in self.causes:
             names += ["yield_strain", "hardening"]
         return tuple(names)
@@ -135,7 +162,13 @@ class CandidateMaterial:
     def initial(self) -> np.ndarray:
         """A starting point for the shape parameters."""
         start = {"stiffening_exponent": 4.0, "stiffening_quadratic": 10.0,
-                 "yield_strain": 0.03, "hardening": 0.3, "oblique": 0.0}
+                 "yield_strain": 0.03, "hardening": 0.3, "oblique": 0.0,
+                 "relaxation_strain_slope": 0.0, "relaxed_fraction": 0.3}
+        low, high = np.log10(self.time_range_s)
+        times = np.linspace(low, high, self.relaxation_terms + 2)[1:-1]
+        start.update({f"log_relaxation_time_{k}": float(t) for k, t in enumerate(times)})
+        start.update({f"relaxation_share_{k}": 1.0 / (self.relaxation_terms - k)
+                      for k in range(self.relaxation_terms - 1)})
         return np.array([start.get(n.removeprefix("compression_"),
                                    0.0 if n.startswith("log_") else 0.3)
                          for n in self.parameter_names])
@@ -145,9 +178,16 @@ class CandidateMaterial:
         """Lower and upper bounds of the shape parameters."""
         limits = {"stiffening_exponent": (0.0, 40.0), "stiffening_quadratic": (0.0, 400.0),
                   "log_el_over_et": (-1.6, 1.6), "oblique": (-0.8, 3.0),
+                  "log_el_over_et_compressed": (-1.6, 1.6),
                   "log_el_compression": (-3.0, 3.0), "log_compression": (-3.0, 3.0),
                   "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
-                  "hardening": (0.0, 0.95)}
+                  "hardening": (0.0, 0.95), "relaxation_strain_slope": (-6.0, 6.0),
+                  "relaxed_fraction": (0.0, 0.98)}
+        low, high = np.log10(self.time_range_s)
+        limits.update({f"log_relaxation_time_{k}": (float(low), float(high))
+                       for k in range(self.relaxation_terms)})
+        limits.update({f"relaxation_share_{k}": (0.0, 1.0)
+                       for k in range(self.relaxation_terms - 1)})
         pairs = [limits.get(n.removeprefix("compression_"), (0.0, 30.0))
                  for n in self.parameter_names]
         return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
@@ -172,23 +212,29 @@ class CandidateMaterial:
             return ModulusCurve((modulus, 0.0, modulus * quadratic, 0.0, 0.0, 0.0), r_min, r_max)
 
         el, et = modulus_pa * math.sqrt(ratio), modulus_pa / math.sqrt(ratio)
-        asymmetric = "tension_compression_asymmetry" in self.causes
+        asymmetric = ("tension_compression_asymmetry" in self.causes
+                      or "log_el_over_et_compressed" in value
+                      or any(n.startswith("compression_") for n in value))
         if asymmetric:
             squeezed = "compression_" if any(n.startswith("compression_") for n in value) else ""
             common = value.get("log_compression", 0.0)
-            el_c = curve(el * math.exp(value.get("log_el_compression", common)), squeezed)
-            et_c = curve(et * math.exp(value.get("log_et_compression", common)), squeezed)
-        loads = np.array([value[n] for n in self.parameter_names
-                          if n.startswith("relaxation_load_")])
-        weights = loads / (1.0 + loads.sum()) if len(loads) else loads
+            ratio_c = math.exp(value.get("log_el_over_et_compressed", math.log(ratio)))
+            el_c = curve(modulus_pa * math.sqrt(ratio_c)
+                         * math.exp(value.get("log_el_compression", common)), squeezed)
+            et_c = curve(modulus_pa / math.sqrt(ratio_c)
+                         * math.exp(value.get("log_et_compression", common)), squeezed)
+        weights = _relaxation_weights(value, self.relaxation_terms) if self.relaxes else ()
+        times = tuple(10.0 ** value[n] for n in self.parameter_names
+                      if n.startswith("log_relaxation_time_"))
         return MassSpringMaterial(
             longitudinal=curve(el),
             transverse=curve(et),
             longitudinal_compression=el_c if asymmetric else None,
             transverse_compression=et_c if asymmetric else None,
             density_kg_m3=density_kg_m3,
-            relaxation_weights=tuple(weights.tolist()),
-            relaxation_times_s=self.relaxation_times_s if len(loads) else (),
+            relaxation_weights=tuple(weights),
+            relaxation_times_s=times,
+            relaxation_strain_slope=value.get("relaxation_strain_slope", 0.0),
             yield_strain=value.get("yield_strain", 0.0),
             hardening=value.get("hardening", 0.0),
             geometric_compensation=LATTICE_STIFFENING,
@@ -207,12 +253,14 @@ class CandidateMaterial:
             params["et_pa"] = material.transverse.small_strain_modulus_pa
             if self.oblique:
                 params["oblique"] = material.oblique
-        if "viscoelasticity" in self.causes:
+        if self.relaxes:
             for k, (g, tau) in enumerate(zip(material.relaxation_weights,
                                              material.relaxation_times_s, strict=True)):
                 params[f"relaxation_weight_{k}"] = g
                 params[f"relaxation_time_{k}_s"] = tau
-        if "tension_compression_asymmetry" in self.causes:
+        if "nonlinear_viscoelasticity" in self.causes:
+            params["relaxation_strain_slope"] = material.relaxation_strain_slope
+        if material.longitudinal_compression is not None:
             params["el_compression_pa"] = material.longitudinal_compression.coefficients[0]
             params["et_compression_pa"] = material.transverse_compression.coefficients[0]
         if "plasticity" in self.causes:
@@ -221,3 +269,14 @@ class CandidateMaterial:
         if self.has_offset:
             params["force_offset_n"] = offset_n
         return params
+
+
+def _relaxation_weights(value: dict[str, float], terms: int) -> tuple[float, ...]:
+    """g_k from the relaxed fraction and its shares (stick-breaking: term k takes share k of
+    what the terms before it left, the last term the rest)."""
+    left = value["relaxed_fraction"]
+    weights = []
+    for k in range(terms - 1):
+        weights.append(left * value[f"relaxation_share_{k}"])
+        left -= weights[-1]
+    return (*weights, left)

@@ -1,63 +1,60 @@
-"""Diagnosis of a measurement set: where the simulation is wrong, the cause, the extended
-material, the gain on held-out tests.
+"""Diagnosis of a measurement set: where the simulation is wrong, the causes, the extended
+material, the gain on held-out tests, and the evidence for each cause.
 
-1. The baseline (:class:`~cell.rheology.causes.CandidateMaterial` with no cause: linear, isotropic,
-   rate-independent springs) is fitted to every test, each simulated by
-   :func:`~cell.rheology.specimen.simulate_test` with the muscles' own spring law.
-2. Each cause of the catalogue is added to the current model and fitted; its error is measured
-   leave-one-test-out: refitted without a test, then run on that test's every sample.
-3. Causes are added one at a time, the one with the lowest held-out error first, while it
-   lowers the held-out mean square error by more than ``min_variance_drop`` times the noise
-   variance (the noise from the data: second differences of each test's force) *and* lowers
-   the Bayesian information criterion, cuts the held-out RMSE to at most ``max_rmse_ratio``
-   of what it was (``later_rmse_ratio`` from the second cause on), and (from the second on)
-   lowers it on at least ``min_improved_fraction`` of the tests. When the final held-out
-   error is still more than ``unexplained_ratio`` times the noise and its residuals are
-   correlated (lag-one autocorrelation above ``structure_correlation``), ``unexplained`` is
-   added.
+1. The baseline (:class:`~cell.rheology.causes.CandidateMaterial` with no cause: linear,
+   isotropic, rate-independent springs) is fitted to every test (:mod:`cell.rheology.fitting`:
+   each test simulated with the muscles' own spring law, errors measured leave-one-test-out).
+2. A stepwise search, forward with backward steps, over combinations of the catalogue's causes:
+   every cause not in the current model is added to it and fitted (``nonlinear_viscoelasticity``
+   replaces ``viscoelasticity``, never joins it); the best is kept when it passes
+   :func:`accepts` against the current model: it lowers the held-out mean square error by more
+   than ``min_variance_drop`` noise variances (the noise from the data: second differences of
+   each test's force) *and* lowers the Bayesian information criterion, cuts the held-out RMSE
+   to at most ``max_rmse_ratio`` of what it was (``later_rmse_ratio`` from the second cause
+   on), and (from the second on) lowers it on at least ``min_improved_fraction`` of the tests.
+   When no single cause passes, pairs of the three best are tried (look-ahead), the best
+   pair kept when it passes the same test.
+3. After each addition every other cause must still pass the same test against the model
+   without it (for ``nonlinear_viscoelasticity``: with ``viscoelasticity`` in its place); the
+   weakest that does not is dropped, and so on. A cause stays named only while removing it
+   raises the held-out error beyond the noise; those fits are the evidence of each cause
+   (:class:`Evidence`).
+4. When the final held-out error is still more than ``unexplained_ratio`` times the noise and
+   its residuals are correlated (lag-one autocorrelation above ``structure_correlation``),
+   ``unexplained`` is added.
 
-Fits search the shape parameters with ``scipy.optimize.least_squares`` on up to
-``fit_samples`` samples per test (picked evenly along time and displacement, turning points
-kept) and solve for E and the offset in closed form; held-out errors use every sample.
-
-A diagnosis takes minutes (``musclecell diagnose`` runs one); the examples here show its
-cheap parts. Usage::
+Candidates are fitted side by side in ``workers`` processes (default: every core). Usage::
 
     result = diagnose(load_measurement_set("assets/measured/beef_round_example"))
-    result.causes  # ('tension_compression_asymmetry', 'anisotropy', 'unexplained')
+    result.causes  # catalogue names, most important first
 
 Example:
     >>> from cell.rheology.measured import load_measurement_set
     >>> data = load_measurement_set("assets/measured/beef_round_example")
     >>> round(noise_n(data) * 1e3, 1)  # mN: the set's stated force noise is 1 mN
     1.0
-    >>> len(fit_samples(data.test("c00"), 32))
-    32
 """
 
 from __future__ import annotations
 
 import math
-from concurrent.futures import ProcessPoolExecutor
-from contextlib import nullcontext
+import os
+from collections.abc import Callable
+from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from multiprocessing import get_context
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from cell.errors import DiagnosisError, DivergenceError, MaterialError
-from cell.rheology.causes import CAUSES, UNEXPLAINED, CandidateMaterial
-from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
-from cell.rheology.specimen import SpecimenLattice, simulate_test
-from cell.tissue.material import MassSpringMaterial
+from cell.errors import DiagnosisError
+from cell.rheology.causes import CAUSES, EXCLUSIVE, UNEXPLAINED, CandidateMaterial
+from cell.rheology.fitting import ModelFit, Problem, fit
+from cell.rheology.measured import MeasurementSet, MechanicalTest
 
-# Modulus of the unit-modulus runs that E scales, Pa.
-_REFERENCE_PA = 1.0e4
-# Residual of a fit whose material has no equilibrium somewhere: far worse than any real fit.
-_FAILED = 1.0e3
-_RELAXATION_TERMS = 3
+_RELAXATION_TERMS = 2
+# Single additions whose pairs the search tries when none passes alone.
+_LOOK_AHEAD = 3
 
 
 @dataclass(frozen=True)
@@ -72,18 +69,15 @@ class DiagnosisParams:
             springs cannot follow every law exactly, and a cause must explain more than the
             shape of a misfit the others leave).
         later_rmse_ratio: the same bound for a cause after the first, which has more misfit
-            of the springs to absorb (a lattice's plastic knee is slightly asymmetric, and an
-            asymmetry then lowers every test's error by some 20%).
+            of the springs to absorb.
         min_improved_fraction: a cause after the first must also lower the held-out error of
-            at least this fraction of the tests: a real effect shows in most tests, a cause
-            that only absorbs in a few of them what the springs cannot follow is not one (the
-            first cause may trade some tests for others while it stands in for the rest).
+            at least this fraction of the tests: a real effect shows in many tests, a cause
+            that only absorbs in a few of them what the springs cannot follow is not one.
         unexplained_ratio: held-out RMSE over the noise above which left structure counts.
         structure_correlation: lag-one autocorrelation of held-out residuals above which
             they have structure.
-        workers: processes fitting candidates side by side.
+        workers: processes fitting candidates side by side (default: every core).
         max_evaluations: cap on a fit's simulations of the set.
-        fold_evaluations: cap on a held-out refit's, which starts from the full fit.
 
     Raises:
         DiagnosisError: ``fit_samples`` < 8 or ``workers`` < 1.
@@ -97,12 +91,11 @@ class DiagnosisParams:
     min_variance_drop: float = 1.0
     max_rmse_ratio: float = 0.85
     later_rmse_ratio: float = 0.75
-    min_improved_fraction: float = 0.75
+    min_improved_fraction: float = 0.5
     unexplained_ratio: float = 2.0
     structure_correlation: float = 0.5
-    workers: int = 1
+    workers: int = field(default_factory=lambda: os.cpu_count() or 1)
     max_evaluations: int = 400
-    fold_evaluations: int = 20
 
     def __post_init__(self) -> None:
         if self.fit_samples < 8:
@@ -111,43 +104,36 @@ class DiagnosisParams:
             raise DiagnosisError(None, "workers", f"must be >= 1, got {self.workers}")
 
 
-@dataclass(frozen=True, eq=False)
-class ModelFit:
-    """A material model fitted to a set, and its error on held-out tests.
+@dataclass(frozen=True)
+class Evidence:
+    """Why one named cause is named.
 
     Attributes:
-        model: the model (causes, stiffening law).
-        shape: its shape parameters.
-        modulus_pa: fitted small-strain modulus E (geometric mean of El and Et), Pa.
-        offset_n: fitted load-cell offset, N (0 without ``force_offset``).
-        material: the fitted material.
-        rmse_n: RMSE on the fitted samples, N.
-        heldout_rmse_n: RMSE of leave-one-test-out predictions over every sample, N.
-        bic: Bayesian information criterion of the fit.
-        fitted_force_n: per test, the fitted model's force at every sample, N.
-        heldout_force_n: per test, the force predicted by the fit without that test, N.
+        cause: the cause.
+        heldout_rmse_with_n: held-out RMSE of the final model, N.
+        heldout_rmse_without_n: of the final model refitted without the cause, N (for
+            ``nonlinear_viscoelasticity``: with ``viscoelasticity`` in its place).
+        improved_fraction: fraction of the tests whose held-out error the cause lowers.
+        params: the cause's shape parameters: value and 95 % interval (NaN where the data
+            do not bound it), in the units of their names (``log_`` ones: natural log, except
+            ``log_relaxation_time``: log10 s).
+        without: the fit without the cause (for plots).
     """
 
-    model: CandidateMaterial
-    shape: np.ndarray
-    modulus_pa: float
-    offset_n: float
-    material: MassSpringMaterial
-    rmse_n: float
-    heldout_rmse_n: float
-    bic: float
-    fitted_force_n: tuple[np.ndarray, ...]
-    heldout_force_n: tuple[np.ndarray, ...]
-
-    @property
-    def params(self) -> dict[str, float]:
-        """Fitted parameters in SI units."""
-        return self.model.reported(self.shape, self.modulus_pa, self.offset_n)
+    cause: str
+    heldout_rmse_with_n: float
+    heldout_rmse_without_n: float
+    improved_fraction: float
+    params: dict[str, tuple[float, float, float]]
+    without: ModelFit
 
     def to_json(self) -> dict[str, Any]:
-        """The contract's ``baseline`` / ``extended`` entry (plus ``bic``)."""
-        return {"model": self.model.name, "params": self.params,
-                "heldout_rmse_N": self.heldout_rmse_n, "bic": self.bic}
+        """The evidence as the JSON's ``evidence`` entry."""
+        return {"cause": self.cause, "heldout_rmse_with_N": self.heldout_rmse_with_n,
+                "heldout_rmse_without_N": self.heldout_rmse_without_n,
+                "improved_fraction": self.improved_fraction,
+                "params": {n: {"value": v, "ci95": [lo, hi]}
+                           for n, (v, lo, hi) in self.params.items()}}
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,10 +144,13 @@ class Diagnosis:
         measurements: the set.
         noise_n: the force noise estimated from the data, N.
         baseline: the baseline fit.
-        candidates: the baseline plus one cause, for each cause of the catalogue in order.
-        steps: the fit after each accepted cause, in order.
+        candidates: each cause of the catalogue alone, fitted.
+        steps: the model after each step of the search (an addition, with its drops).
         extended: the final model (the baseline when no cause is accepted).
         causes: accepted causes, most important first, then ``unexplained`` if it applies.
+        evidence: per accepted cause, in the order of ``causes``.
+        params: the settings it ran with.
+        explored: every model the search fitted.
 
     ``to_json()`` is the JSON that ``musclecell diagnose --json`` writes.
     """
@@ -173,7 +162,9 @@ class Diagnosis:
     steps: tuple[ModelFit, ...]
     extended: ModelFit
     causes: tuple[str, ...]
+    evidence: tuple[Evidence, ...] = ()
     params: DiagnosisParams = field(default_factory=DiagnosisParams)
+    explored: tuple[ModelFit, ...] = ()
 
     @property
     def gain(self) -> float:
@@ -196,7 +187,7 @@ class Diagnosis:
 
     def to_json(self) -> dict[str, Any]:
         """The diagnosis contract of ``spec/measured-data.md``, plus the noise, the
-        information criteria and the order in which causes were accepted."""
+        information criteria, the search's steps and the evidence of each cause."""
         return {
             "baseline": self.baseline.to_json(),
             "causes": list(self.causes),
@@ -211,6 +202,7 @@ class Diagnosis:
             "noise_N": self.noise_n,
             "steps": [{"causes": list(fit.model.causes), "heldout_rmse_N": fit.heldout_rmse_n,
                        "bic": fit.bic} for fit in self.steps],
+            "evidence": [e.to_json() for e in self.evidence],
         }
 
 
@@ -225,176 +217,14 @@ def noise_n(measurements: MeasurementSet) -> float:
     return float(np.median(spreads)) if spreads else 0.0
 
 
-def fit_samples(test: MechanicalTest, count: int) -> np.ndarray:
-    """Indices of about ``count`` samples spread evenly along time and displacement, the first,
-    the last and the displacement's turning points included."""
-    # Imported here: only the parent picks samples, and scipy.signal would be half of every
-    # spawned worker's start-up.
-    from scipy.signal import find_peaks
-
-    n = len(test.time_s)
-    if n <= count:
-        return np.arange(n)
-    span = max(float(np.ptp(test.displacement_m)), 1e-300)
-    travel = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(test.displacement_m)))]) / span
-    elapsed = (test.time_s - test.time_s[0]) / max(test.duration_s, 1e-300)
-    progress = travel / max(travel[-1], 1e-300) + elapsed
-    picks = np.searchsorted(progress, np.linspace(0.0, progress[-1], count))
-    turns = [find_peaks(sign * test.displacement_m, prominence=0.05 * span)[0]
-             for sign in (1.0, -1.0)]
-    return np.unique(np.concatenate([picks.clip(0, n - 1), *turns, [0, n - 1]]))
-
-
-def _subset(test: MechanicalTest, rows: np.ndarray) -> MechanicalTest:
-    return replace(test, time_s=test.time_s[rows], displacement_m=test.displacement_m[rows],
-                   force_N=test.force_N[rows])
-
-
-Start = tuple[tuple[str, ...], np.ndarray] | None
-
-
-@dataclass(frozen=True, eq=False)
-class _Problem:
-    """A set prepared for fits: the lattice, and the tests thinned for fitting."""
-
-    specimen: Specimen
-    tests: tuple[MechanicalTest, ...]
-    thinned: tuple[MechanicalTest, ...]
-    lattice: SpecimenLattice
-
-    def unit_forces(self, model: CandidateMaterial, shape: np.ndarray,
-                    tests: tuple[MechanicalTest, ...]) -> list[np.ndarray] | None:
-        """Each test's force at modulus ``_REFERENCE_PA``, N; None when the lattice cannot give
-        the material or a run has no equilibrium."""
-        material = model.material(shape, _REFERENCE_PA, self.specimen.density_kg_m3)
-        try:
-            return [simulate_test(t, self.specimen, material, self.lattice).force_N
-                    for t in tests]
-        except (DivergenceError, MaterialError):
-            return None
-
-
-def _scale_and_offset(unit: np.ndarray, measured: np.ndarray,
-                      with_offset: bool) -> tuple[float, float]:
-    """Least-squares E / reference and offset (N) for ``measured ~ scale * unit + offset``."""
-    columns = [unit, np.ones_like(unit)] if with_offset else [unit]
-    solution, *_ = np.linalg.lstsq(np.stack(columns, axis=1), measured, rcond=None)
-    scale = max(float(solution[0]), 1e-9)
-    return scale, float(solution[1]) if with_offset else 0.0
-
-
-def _fit(problem: _Problem, model: CandidateMaterial, tests: list[int], start: np.ndarray,
-         max_evaluations: int) -> tuple[np.ndarray, float, float, float, int]:
-    """Fit ``model`` to ``tests`` (indices, thinned samples): shape, E (Pa), offset (N),
-    residual sum of squares and sample count."""
-    chosen = tuple(problem.thinned[i] for i in tests)
-    measured = np.concatenate([t.force_N for t in chosen])
-
-    def solve(shape: np.ndarray) -> tuple[np.ndarray, float, float]:
-        units = problem.unit_forces(model, shape, chosen)
-        if units is None:
-            return np.full(len(measured), _FAILED), 1.0, 0.0
-        unit = np.concatenate(units)
-        scale, offset = _scale_and_offset(unit, measured, model.has_offset)
-        return scale * unit + offset - measured, scale, offset
-
-    if len(start):
-        lower, upper = model.bounds
-        result = least_squares(lambda s: solve(s)[0], np.clip(start, lower, upper),
-                               bounds=(lower, upper), x_scale="jac", diff_step=1e-3,
-                               max_nfev=max_evaluations)
-        shape = result.x
-    else:
-        shape = start
-    residual, scale, offset = solve(shape)
-    return shape, scale * _REFERENCE_PA, offset, float(residual @ residual), len(measured)
-
-
-def _predict(problem: _Problem, model: CandidateMaterial, shape: np.ndarray, modulus_pa: float,
-             offset_n: float, test: MechanicalTest) -> np.ndarray:
-    """Force of ``test`` at every sample, N (a failed run predicts zero force)."""
-    units = problem.unit_forces(model, shape, (test,))
-    unit = np.zeros(len(test.force_N)) if units is None else units[0]
-    return unit * modulus_pa / _REFERENCE_PA + offset_n
-
-
-def fit_model(problem: _Problem, models: list[CandidateMaterial], params: DiagnosisParams,
-              start: Start = None) -> ModelFit:
-    """Fit each of ``models`` (variants of one candidate) to every test and keep the best:
-    between stiffening laws, the lowest residual; between variants with other parameters, the
-    lowest held-out error (module docstring)."""
-    everything = list(range(len(problem.tests)))
-    best: dict[tuple[str, ...], tuple] = {}
-    for model in models:
-        fit = (model, *_fit(problem, model, everything, _start(start, model),
-                            params.max_evaluations))
-        kind = tuple(n for n in model.parameter_names if "stiffening_" not in n)
-        if kind not in best or fit[4] < best[kind][4]:
-            best[kind] = fit
-    return min((_hold_out(problem, *fit, params) for fit in best.values()),
-               key=lambda fit: fit.heldout_rmse_n)
-
-
-def _hold_out(problem: _Problem, model: CandidateMaterial, shape: np.ndarray, modulus: float,
-              offset: float, rss: float, count: int, params: DiagnosisParams) -> ModelFit:
-    """The fit of ``model`` on every test, and each test predicted by a refit without it."""
-    everything = list(range(len(problem.tests)))
-    fitted = tuple(_predict(problem, model, shape, modulus, offset, t) for t in problem.tests)
-    heldout = []
-    for left_out, test in enumerate(problem.tests):
-        others = [i for i in everything if i != left_out]
-        fold = _fit(problem, model, others, shape, params.fold_evaluations)
-        heldout.append(_predict(problem, model, fold[0], fold[1], fold[2], test))
-    residual = np.concatenate([h - t.force_N for h, t in zip(heldout, problem.tests,
-                                                               strict=True)])
-    parameters = len(shape) + 1 + int(model.has_offset)
-    return ModelFit(
-        model=model,
-        shape=shape,
-        modulus_pa=modulus,
-        offset_n=offset,
-        material=model.material(shape, modulus, problem.specimen.density_kg_m3),
-        rmse_n=math.sqrt(rss / count),
-        heldout_rmse_n=float(np.sqrt(np.mean(residual**2))),
-        bic=count * math.log(max(rss / count, 1e-300)) + parameters * math.log(count),
-        fitted_force_n=fitted,
-        heldout_force_n=tuple(heldout),
-    )
-
-
-def _start(previous: Start, model: CandidateMaterial) -> np.ndarray:
-    """A start for ``model`` from the (names, values) of a fit with one cause fewer: its values
-    where the names match, ``model.initial`` elsewhere (everywhere when None)."""
-    if previous is None:
-        return model.initial
-    names, values = previous
-    start = model.initial.copy()
-    for i, name in enumerate(model.parameter_names):
-        if name in names:
-            start[i] = values[names.index(name)]
-    return start
-
-
-def _variants(causes: tuple[str, ...], times: tuple[float, ...],
-              stretch_range: tuple[float, float]) -> list[CandidateMaterial]:
-    """The models for ``causes``: both stiffening laws when stiffening is among them, Eq. 10
-    with and without its oblique factor when anisotropy is, one compression factor or two when
-    the asymmetry is."""
-    laws = ("exponential", "polynomial") if "strain_stiffening" in causes else ("exponential",)
-    obliques = (False, True) if "anisotropy" in causes else (False,)
-    apart = (False, True) if "tension_compression_asymmetry" in causes else (False,)
-    return [CandidateMaterial(causes, law, times, stretch_range, oblique, split)
-            for law in laws for oblique in obliques for split in apart]
-
-
-def _relaxation_times_s(measurements: MeasurementSet) -> tuple[float, ...]:
-    """Relaxation times spanning the tests: from a few sample intervals to the longest test."""
+def _time_range_s(measurements: MeasurementSet) -> tuple[float, float]:
+    """Relaxation times a fit may give: from a third of the shortest sample interval (faster
+    ones act at once) to twice the longest test (slower ones never act)."""
     shortest = min(float(np.median(np.diff(t.time_s))) for t in measurements.tests
                    if len(t.time_s) > 1)
     longest = max(t.duration_s for t in measurements.tests)
-    low = max(3.0 * shortest, 1e-3)
-    high = max(longest, 2.0 * low)
-    return tuple(np.geomspace(low, high, _RELAXATION_TERMS).tolist())
+    low = max(shortest / 3.0, 1e-3)
+    return low, max(2.0 * longest, 10.0 * low)
 
 
 def _stretch_range(measurements: MeasurementSet) -> tuple[float, float]:
@@ -405,13 +235,11 @@ def _stretch_range(measurements: MeasurementSet) -> tuple[float, float]:
             1.0 + max(float(strains.max()), 0.0) + margin)
 
 
-def _improved_fraction(fit: ModelFit, previous: ModelFit,
-                       tests: tuple[MechanicalTest, ...]) -> float:
+def improved_fraction(fit: ModelFit, previous: ModelFit,
+                      tests: tuple[MechanicalTest, ...]) -> float:
     """Fraction of the tests whose held-out RMSE ``fit`` lowers below ``previous``'s."""
-    lower = [np.mean((new - test.force_N) ** 2) < np.mean((old - test.force_N) ** 2)
-             for new, old, test in zip(fit.heldout_force_n, previous.heldout_force_n, tests,
-                                       strict=True)]
-    return float(np.mean(lower))
+    return float(np.mean(fit.heldout_mse_per_test(tests)
+                         < previous.heldout_mse_per_test(tests)))
 
 
 def _structure(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> float:
@@ -425,62 +253,233 @@ def _structure(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> float:
     return products / max(squares, 1e-300)
 
 
+def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
+            tests: tuple[MechanicalTest, ...], params: DiagnosisParams) -> bool:
+    """Whether ``richer`` (``poorer`` plus one cause) earns its cause (module docstring, 2)."""
+    drop = poorer.heldout_rmse_n**2 - richer.heldout_rmse_n**2
+    ratio = params.max_rmse_ratio if first else params.later_rmse_ratio
+    return (drop > params.min_variance_drop * noise**2 and richer.bic < poorer.bic
+            and richer.heldout_rmse_n <= ratio * poorer.heldout_rmse_n
+            and (first or improved_fraction(richer, poorer, tests)
+                 >= params.min_improved_fraction))
+
+
 def _task(args: tuple) -> ModelFit:
-    return fit_model(*args)
+    problem, models, start, evaluations = args
+    fits = [fit(problem, model, _start(start, model), evaluations) for model in models]
+    return min(fits, key=lambda f: f.heldout_rmse_n)
+
+
+def _start(previous: tuple[tuple[str, ...], np.ndarray] | None,
+           model: CandidateMaterial) -> np.ndarray:
+    """A start for ``model`` from the (names, values) of a related fit: its values where the
+    names match, ``model.initial`` elsewhere (everywhere when None)."""
+    start = model.initial.copy()
+    if previous is not None:
+        names, values = previous
+        for i, name in enumerate(model.parameter_names):
+            if name in names:
+                start[i] = values[names.index(name)]
+    return start
+
+
+def _variants(model: CandidateMaterial, cause: str) -> list[CandidateMaterial]:
+    """``model`` with ``cause`` added (a viscoelasticity replacing the other), with both
+    stiffening laws when the cause is stiffening. Anisotropy always has its oblique factor (the
+    richer form holds the plainer one, and a form chosen early would be kept through later
+    steps that it no longer suits); the asymmetry is one factor on El and Et in compression (El
+    and Et apart would also absorb the lattice's own difference between its anisotropy in
+    tension and in compression, and name an asymmetry in every anisotropic set)."""
+    causes = tuple(c for c in model.causes if not (c in EXCLUSIVE and cause in EXCLUSIVE))
+    base = replace(model, causes=(*causes, cause))
+    if cause == "strain_stiffening":
+        return [replace(base, stiffening=law) for law in ("exponential", "polynomial")]
+    return [base]
+
+
+class _Search:
+    """The fits of one diagnosis, remembered by their causes, run side by side."""
+
+    def __init__(self, problem: Problem, params: DiagnosisParams, root: CandidateMaterial,
+                 pool: Executor | None) -> None:
+        self.problem, self.params, self.root, self.pool = problem, params, root, pool
+        self.fits: dict[frozenset[str], ModelFit] = {}
+
+    def run(self, jobs: list[tuple[ModelFit | None, str | None]]) -> list[ModelFit]:
+        """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root
+        model), started from ``fit``; or with its cause removed when the fit has it. A model
+        fitted before is fitted again only when a cause is removed (the richer fit is a better
+        start than the one it had), and the fit with the lower residual kept."""
+        tasks, keys, refresh = [], [], set()
+        for base, cause in jobs:
+            model = self.root if base is None else base.model
+            if cause is None:
+                models = [model]
+            elif cause in model.causes:
+                kept = tuple(c for c in model.causes if c != cause)
+                if cause == EXCLUSIVE[1]:
+                    kept += (EXCLUSIVE[0],)
+                models = [replace(model, causes=kept)]
+                refresh.add(frozenset(kept))
+            else:
+                models = _variants(model, cause)
+            start = None if base is None else (base.model.parameter_names, base.shape)
+            keys.append(frozenset(models[0].causes))
+            tasks.append((self.problem, models, start, self.params.max_evaluations))
+        todo = [(k, t) for k, t in zip(keys, tasks, strict=True)
+                if k not in self.fits or k in refresh]
+        unique = list({k: t for k, t in todo}.items())
+        mapper: Callable = map if self.pool is None else self.pool.map
+        for key, result in zip([k for k, _ in unique], mapper(_task, [t for _, t in unique]),
+                               strict=True):
+            if key not in self.fits or result.rmse_n < self.fits[key].rmse_n:
+                self.fits[key] = result
+        return [self.fits[k] for k in keys]
+
+
+def _look_ahead(search: _Search, current: ModelFit, trials: list[ModelFit], first: bool,
+                noise: float) -> ModelFit | None:
+    """When no single cause earns its place: the best of ``current`` plus two of the
+    ``_LOOK_AHEAD`` best single additions, if it passes :func:`accepts` (two effects can each
+    look like a third until both are in)."""
+    top = sorted(trials, key=lambda f: f.heldout_rmse_n)[:_LOOK_AHEAD]
+    added = [next(c for c in f.model.causes if c not in current.model.causes) for f in top]
+    jobs = [(top[i], added[j]) for i in range(len(top)) for j in range(i + 1, len(top))
+            if not {added[i], added[j]} >= set(EXCLUSIVE) and added[j] not in top[i].model.causes]
+    if not jobs:
+        return None
+    best = min(search.run(jobs), key=lambda f: f.heldout_rmse_n)
+    tests = search.problem.tests
+    return best if accepts(best, current, first, noise, tests, search.params) else None
+
+
+def _weaker(search: _Search, current: ModelFit, noise: float,
+            tests: tuple[MechanicalTest, ...]) -> ModelFit | None:
+    """``current`` without its weakest cause, when that cause fails :func:`accepts` against
+    the model without it; None when every cause holds (module docstring, 3). A lone cause is
+    the first and stays, except a non-linear viscoelasticity: it must earn its non-linearity
+    against the quasi-linear kind, alone or with any other cause added (a relaxed fraction
+    that grows with strain stiffens the slow tests, and stands in for strain stiffening)."""
+    causes = tuple(c for c in current.model.causes
+                   if len(current.model.causes) > 1 or c == EXCLUSIVE[1])
+    if not causes:
+        return None
+    without = search.run([(current, c) for c in causes])
+    if EXCLUSIVE[1] in causes:
+        linear = without[causes.index(EXCLUSIVE[1])]
+        swaps = search.run([(linear, c) for c in CAUSES
+                            if c not in linear.model.causes and c not in EXCLUSIVE])
+        without[causes.index(EXCLUSIVE[1])] = min([linear, *swaps],
+                                                  key=lambda f: f.heldout_rmse_n)
+    failing = [fit for fit in without
+               if not accepts(current, fit, False, noise, tests, search.params)]
+    return min(failing, key=lambda f: f.heldout_rmse_n) if failing else None
+
+
+def _evidence(search: _Search, final: ModelFit, order: list[str]) -> tuple[Evidence, ...]:
+    """The evidence of each cause of ``final``, in ``order``."""
+    tests = search.problem.tests
+    evidence = []
+    for cause in order:
+        if final.model.causes == (cause,) and cause != EXCLUSIVE[1]:
+            without = search.run([(None, None)])[0]
+        else:
+            without = search.run([(final, cause)])[0]
+        names = final.model.parameter_names
+        owners = {cause, EXCLUSIVE[0]} if cause == EXCLUSIVE[1] else {cause}
+        own = [i for i, n in enumerate(names) if cause_of(n) in owners]
+        evidence.append(Evidence(
+            cause, final.heldout_rmse_n, without.heldout_rmse_n,
+            improved_fraction(final, without, tests),
+            {names[i]: (float(final.shape[i]), *map(float, final.shape_ci95[i])) for i in own},
+            without))
+    return tuple(evidence)
+
+
+def cause_of(name: str) -> str:
+    """The cause a shape parameter belongs to.
+
+    Example:
+        >>> cause_of("log_relaxation_time_1"), cause_of("oblique")
+        ('viscoelasticity', 'anisotropy')
+    """
+    if name == "relaxation_strain_slope":
+        return "nonlinear_viscoelasticity"
+    if "relaxation" in name:
+        return "viscoelasticity"
+    if "stiffening" in name:
+        return "strain_stiffening"
+    if name in ("log_el_over_et", "oblique", "log_el_over_et_compressed"):
+        return "anisotropy"
+    if "compression" in name:
+        return "tension_compression_asymmetry"
+    return "plasticity"
 
 
 def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None) -> Diagnosis:
-    """Diagnose ``measurements`` (module docstring: its usage; minutes on a ten-test set)."""
+    """Diagnose ``measurements`` (module docstring).
+
+    Raises:
+        DiagnosisError: the baseline or the extended model cannot run a test (which, and with
+            which causes).
+    """
     params = DiagnosisParams() if params is None else params
-    problem = _Problem(
-        specimen=measurements.specimen,
-        tests=measurements.tests,
-        thinned=tuple(_subset(t, fit_samples(t, params.fit_samples))
-                      for t in measurements.tests),
-        lattice=SpecimenLattice.of(measurements.specimen),
-    )
-    times = _relaxation_times_s(measurements)
-    stretch = _stretch_range(measurements)
+    problem = Problem.of(measurements.specimen, measurements.tests, params.fit_samples)
+    root = CandidateMaterial((), "exponential", _time_range_s(measurements), _RELAXATION_TERMS,
+                             _stretch_range(measurements), oblique=True)
     noise = noise_n(measurements)
+    tests = measurements.tests
     # Spawned, not forked: a fork of a process whose numba (and MuJoCo, in the CLI) has
     # started threads can deadlock. The workers load the compiled spring law from numba's
     # on-disk cache rather than compiling it again.
     pool = (ProcessPoolExecutor(params.workers, mp_context=get_context("spawn"))
-            if params.workers > 1 else nullcontext())
-    with pool:
-
-        def fit_all(sets: list[tuple[str, ...]], start: Start) -> list[ModelFit]:
-            jobs = [(problem, _variants(causes, times, stretch), params, start)
-                    for causes in sets]
-            if params.workers == 1:
-                return [_task(job) for job in jobs]
-            return list(pool.map(_task, jobs))
-
-        baseline = fit_all([()], None)[0]
-        candidates = fit_all([(cause,) for cause in CAUSES], None)
-        current, steps, accepted = baseline, [], []
-        trials = list(candidates)
+            if params.workers > 1 else None)
+    try:
+        search = _Search(problem, params, root, pool)
+        baseline = search.run([(None, None)])[0]
+        _require_runs(baseline)
+        candidates = search.run([(baseline, c) for c in CAUSES])
+        current, steps, order = baseline, [], []
+        trials = candidates
+        visited = {frozenset()}
         while trials:
-            best = min(trials, key=lambda fit: fit.heldout_rmse_n)
-            drop = current.heldout_rmse_n**2 - best.heldout_rmse_n**2
-            if (drop <= params.min_variance_drop * noise**2 or best.bic >= current.bic
-                    or best.heldout_rmse_n > (params.later_rmse_ratio if accepted else
-                                              params.max_rmse_ratio) * current.heldout_rmse_n
-                    or (accepted and _improved_fraction(best, current, measurements.tests)
-                    < params.min_improved_fraction)):
-                break
-            added = next(c for c in best.model.causes if c not in current.model.causes)
+            best = min(trials, key=lambda f: f.heldout_rmse_n)
+            if not accepts(best, current, not order, noise, tests, params):
+                best = _look_ahead(search, current, trials, not order, noise)
+                if best is None:
+                    break
+            order = [c for c in order if c in best.model.causes] + [
+                c for c in best.model.causes if c not in current.model.causes]
             current = best
-            accepted.append(added)
-            steps.append(best)
-            remaining = [c for c in CAUSES if c not in accepted]
-            if not remaining:
+            while (weaker := _weaker(search, current, noise, tests)) is not None:
+                order = [c for c in order if c in weaker.model.causes] + [
+                    c for c in weaker.model.causes if c not in current.model.causes]
+                current = weaker
+            if frozenset(current.model.causes) in visited:
                 break
-            start = (best.model.parameter_names, best.shape)
-            trials = fit_all([(*accepted, cause) for cause in remaining], start)
-    causes = tuple(accepted)
+            visited.add(frozenset(current.model.causes))
+            steps.append(current)
+            trials = search.run([(current, c) for c in CAUSES if c not in current.model.causes
+                                 and not (c == EXCLUSIVE[0] and EXCLUSIVE[1] in order)])
+        evidence = _evidence(search, current, order)
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+    _require_runs(current)
+    order.sort(key=lambda c: -next(e.heldout_rmse_without_n for e in evidence if e.cause == c))
+    evidence = tuple(sorted(evidence, key=lambda e: order.index(e.cause)))
+    causes = tuple(order)
     if (current.heldout_rmse_n > params.unexplained_ratio * noise
-            and _structure(current, measurements.tests) > params.structure_correlation):
+            and _structure(current, tests) > params.structure_correlation):
         causes += (UNEXPLAINED,)
     return Diagnosis(measurements, noise, baseline, tuple(candidates), tuple(steps), current,
-                     causes, params)
+                     causes, evidence, params, tuple(search.fits.values()))
+
+
+def _require_runs(model_fit: ModelFit) -> None:
+    """Raise when the fitted material of ``model_fit`` cannot run a test of the set."""
+    if model_fit.failed_test is not None:
+        causes = ", ".join(model_fit.model.causes) or "none (the baseline)"
+        raise DiagnosisError(None, model_fit.failed_test,
+                             f"the fit with causes {causes} does not converge on test "
+                             f"{model_fit.failed_test!r}: the specimen has no equilibrium")

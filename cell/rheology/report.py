@@ -7,8 +7,10 @@ the extended model changes.
   held-out predictions (each from a fit without that test) against time;
 - ``residuals.png``: the held-out residuals (measured minus predicted) against nominal strain,
   strain rate, time in hold, fibre angle, tension or compression and loading or unloading;
-- ``report.md``: the causes, the gain, the candidates, the selection steps and the extended
-  model's parameters, with links to the two figures.
+- ``cause-<name>.png``: per named cause, the tests where it shows, predicted held out with it
+  and without it (:mod:`cell.rheology.causeplots`);
+- ``report.md``: the causes, the gain, the evidence of each cause, the candidates, the
+  selection steps and the extended model's parameters, with links to the figures.
 
 Plots need matplotlib (the ``report`` extra); it is imported only when a report is written.
 Usage (a diagnosis takes minutes, so this is not run as an example)::
@@ -66,8 +68,13 @@ def write_report(diagnosis: Diagnosis, folder: Path,
     residuals = write_atomic(folder / "residuals.png",
                              figure_png(_draw_residuals(Figure(layout="constrained"), diagnosis),
                                         _DPI))
+    from cell.rheology.causeplots import draw_cause
+
+    causes = [write_atomic(folder / f"cause-{e.cause}.png",
+                           figure_png(draw_cause(Figure(layout="constrained"), diagnosis, e), _DPI))
+              for e in diagnosis.evidence]
     markdown = _markdown(diagnosis, folder, material_path, forces.name, residuals.name)
-    return [forces, residuals, write_atomic(folder / "report.md", markdown)]
+    return [forces, residuals, *causes, write_atomic(folder / "report.md", markdown)]
 
 
 def _draw_forces(figure: Figure, diagnosis: Diagnosis) -> Figure:
@@ -168,6 +175,23 @@ def _residual(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> np.ndarray:
                                                           strict=True)])
 
 
+def _evidence_lines(diagnosis: Diagnosis) -> list[str]:
+    """The evidence section: per cause, held-out RMSE with and without it, the share of tests
+    it improves, its parameters with 95 % intervals, its figure."""
+    if not diagnosis.evidence:
+        return []
+    lines = ["## Evidence", "", "| cause | held-out RMSE with (N) | without (N) | tests improved "
+             "| parameters (95 % interval) |", "|---|---|---|---|---|"]
+    for e in diagnosis.evidence:
+        values = "; ".join(f"{n} {v:.3g} [{lo:.3g}, {hi:.3g}]"
+                           for n, (v, lo, hi) in e.params.items()) or "-"
+        lines.append(f"| {e.cause} | {e.heldout_rmse_with_n:.4g} | "
+                     f"{e.heldout_rmse_without_n:.4g} | {e.improved_fraction:.0%} | {values} |")
+    lines.append("")
+    lines += [f"![{e.cause}: with and without it](cause-{e.cause}.png)" for e in diagnosis.evidence]
+    return [*lines, ""]
+
+
 def _markdown(diagnosis: Diagnosis, folder: Path, material_path: Path | None, forces: str,
               residuals: str) -> str:
     """``report.md``: causes, gain, errors, candidates, steps, parameters, links."""
@@ -178,6 +202,7 @@ def _markdown(diagnosis: Diagnosis, folder: Path, material_path: Path | None, fo
         f"# Diagnosis of {diagnosis.measurements.specimen.name}", "", causes, "",
         f"Gain {diagnosis.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
         f"{extended.heldout_rmse_n:.4g} N (extended); noise {diagnosis.noise_n:.3g} N.", "",
+        *_evidence_lines(diagnosis),
         "## Candidates", "", "| cause | held-out RMSE (N) | BIC | selected |", "|---|---|---|---|",
     ]
     for fit in (base, *diagnosis.candidates):

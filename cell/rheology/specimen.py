@@ -38,13 +38,14 @@ Example:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from cell.errors import DivergenceError
 from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
-from cell.tissue.lattice import calibrated_law, tet_edges
+from cell.tissue.lattice import calibration_factors, tet_edges
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.springlaw import SpringLaw
 from cell.tissue.springlaw import uniaxial_stress as _uniaxial
@@ -104,6 +105,10 @@ class SpecimenLattice:
     mesh: TetMesh
     edges: np.ndarray
     edge_volume_m3: np.ndarray
+    # Calibration factors by (El / Et, oblique): they depend on nothing else, and a diagnosis
+    # asks for the same ones thousands of times.
+    _factors: dict[tuple[float, float], tuple[float, float]] = field(
+        default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, specimen: Specimen) -> SpecimenLattice:
@@ -127,9 +132,22 @@ class SpecimenLattice:
 
     def law(self, material: MassSpringMaterial) -> SpringLaw:
         """``material``'s spring law on this lattice, calibrated with its fibres along the load
-        axis."""
-        return calibrated_law(self.mesh.points, self.edges, self.edge_volume_m3, material,
-                              _LOAD_AXIS)[0]
+        axis (as :func:`~cell.tissue.lattice.calibrated_law`, its factors remembered)."""
+        squeezed = material.in_compression()
+        symmetric = material.longitudinal_compression is material.transverse_compression is None
+        tension = self._calibration(material)
+        return SpringLaw.of(material, tension,
+                            tension if symmetric else self._calibration(squeezed))
+
+    def _calibration(self, material: MassSpringMaterial) -> tuple[float, float]:
+        key = (material.longitudinal.small_strain_modulus_pa
+               / material.transverse.small_strain_modulus_pa, material.oblique)
+        if key not in self._factors:
+            if len(self._factors) > 4096:
+                self._factors.clear()
+            self._factors[key] = calibration_factors(self.mesh.points, self.edges,
+                                                     self.edge_volume_m3, material, _LOAD_AXIS)
+        return self._factors[key]
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,21 +200,42 @@ def simulate_test(
         >>> run.force_N.shape
         (250,)
     """
+    return simulate_tests((test,), specimen, material, lattice)[0]
+
+
+def simulate_tests(
+    tests: Sequence[MechanicalTest],
+    specimen: Specimen,
+    material: MassSpringMaterial,
+    lattice: SpecimenLattice | None = None,
+) -> list[SimulatedTest]:
+    """:func:`simulate_test` for each of ``tests``, with one spring law (its calibration is
+    most of the cost of a short test).
+
+    Raises:
+        MaterialError: an anisotropy the lattice's springs cannot give.
+        DivergenceError: no equilibrium at some sample of a test (named).
+    """
     lattice = SpecimenLattice.of(specimen) if lattice is None else lattice
     law = lattice.law(material)
-    fibre = np.asarray(fibre_direction(test.angle_deg))
-    cos_sq = (lattice.directions @ fibre) ** 2
-    time = np.ascontiguousarray(test.time_s - test.time_s[0])
-    stress = np.empty(len(time))
-    lateral = np.empty((len(time), 2))
-    failed = _uniaxial(time, np.ascontiguousarray(test.strain(specimen)), lattice.directions,
-                       lattice.weights, cos_sq, law.curves, law.params,
-                       law.history(len(lattice.directions)), stress, lateral)
-    if failed >= 0:
-        raise DivergenceError(float(time[failed]),
-                              f"test {test.test_id!r}: the specimen has no equilibrium at "
-                              f"strain {test.strain(specimen)[failed]:.4g}")
-    return SimulatedTest(test.test_id, test.time_s, stress * specimen.area_m2, lateral)
+    runs = []
+    for test in tests:
+        fibre = np.asarray(fibre_direction(test.angle_deg))
+        cos_sq = (lattice.directions @ fibre) ** 2
+        time = np.ascontiguousarray(test.time_s - test.time_s[0])
+        strain = np.ascontiguousarray(test.strain(specimen))
+        stress = np.empty(len(time))
+        lateral = np.empty((len(time), 2))
+        failed = _uniaxial(time, strain, lattice.directions, lattice.weights, cos_sq,
+                           law.curves, law.params, law.history(len(lattice.directions)), stress,
+                           lateral)
+        if failed >= 0:
+            raise DivergenceError(float(time[failed]),
+                                  f"test {test.test_id!r}: the specimen has no equilibrium at "
+                                  f"strain {strain[failed]:.4g}")
+        runs.append(SimulatedTest(test.test_id, test.time_s, stress * specimen.area_m2,
+                                  lateral))
+    return runs
 
 
 def simulate_set(measurements: MeasurementSet,
@@ -210,6 +249,4 @@ def simulate_set(measurements: MeasurementSet,
         >>> len(simulate_set(data, MassSpringMaterial.isotropic(6e3)))
         20
     """
-    lattice = SpecimenLattice.of(measurements.specimen)
-    return tuple(simulate_test(test, measurements.specimen, material, lattice)
-                 for test in measurements.tests)
+    return tuple(simulate_tests(measurements.tests, measurements.specimen, material))

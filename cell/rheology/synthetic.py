@@ -6,21 +6,24 @@ displacement path the machine drives, linear between knots, and the sample times
 seeded noise; it is written in the measured-data format (``specimen.toml``, ``tests.csv``).
 The pieces, used by every synthetic set:
 
-- :func:`qlv_stress_pa`: quasi-linear viscoelasticity over any elastic law;
+- :func:`qlv_stress_pa`: quasi-linear viscoelasticity over any elastic law
+  (:mod:`cell.rheology.truth`, the laws of the hidden effects);
 - :func:`true_force_n`: the truth's force along a plan (optionally on a finer grid);
 - :func:`measure`: force and displacement noise, drawn test by test;
 - :func:`csv_text` and :func:`specimen_toml`: the files' text; :func:`write_set` writes them.
 
 Hidden-effect sets (what the diagnosis is tested on): :func:`write_hidden_effect_set` draws,
-from one seed, a specimen, a linear isotropic baseline, at most one effect of the diagnosis
-catalogue with random magnitudes (:func:`truth_stress_pa`), a ten-test protocol and the noise,
+from one seed, a specimen, a linear isotropic baseline, effects of the diagnosis catalogue
+(none, one or a combination) with random magnitudes (:mod:`cell.rheology.truth`), a ten-test
+protocol and the noise,
 writes the set and returns the truth. The files hold no truth parameter. The diagnosis
 (:mod:`cell.rheology.diagnosis`) never imports this module: it is the answer key (an
 import-rule test holds it to that). The protocol (ten tests, 150 to 400 samples each, some
 unevenly sampled) shows every effect: ramps in tension at three angles and in compression at
-two, a ramp ten times faster, two relaxation holds, load/unload cycles in tension and in
-compression. The example set (``scripts/make_example_set.py``) is another truth on the same
-pieces.
+two, a ramp ten times faster, two relaxation holds at different strains, load/unload cycles in
+tension and in compression. :func:`write_relaxation_set` writes a relaxation-only set shaped
+like published muscle tests. The example set (``scripts/make_example_set.py``) is another truth
+on the same pieces.
 
 Example:
     >>> truth = write_hidden_effect_set(Path("out/hidden-7"), seed=7)
@@ -40,9 +43,12 @@ import numpy as np
 from cell.errors import MeasurementError
 from cell.io import write_atomic
 from cell.rheology.causes import CAUSES
+from cell.rheology.truth import check_effects, draw_magnitudes, truth_stress_pa
 
 EFFECTS: tuple[str | None, ...] = (*CAUSES, None)
-"""The effects one set can hide: the six causes of the catalogue, and None (baseline alone)."""
+"""The single effects a set can hide: the causes of the catalogue, and None (baseline alone)."""
+Effects = str | Sequence[str] | Literal["random"] | None
+"""What :func:`write_hidden_effect_set` hides: a cause, several, none, or one drawn."""
 
 DENSITY_KG_M3 = 1060.0
 ASPECT_SPREAD = 0.03
@@ -122,39 +128,6 @@ def cyclic(test_id: str, angle_deg: float, amplitude: float, rate_per_s: float, 
     return TestPlan(test_id, "cyclic", angle_deg, knots, strains,
                     np.linspace(0.0, knots[-1], samples),
                     f"{cycles} cycles 0 to {amplitude:+.2f} and back at {rate_per_s * 100:g} %/s")
-
-
-def qlv_stress_pa(time_s: np.ndarray, elastic_pa: np.ndarray, g_inf: float,
-                  terms: Sequence[tuple[float, float]]) -> np.ndarray:
-    """Quasi-linear viscoelastic stress along a history that starts at rest, Pa.
-
-    ``P(t) = g_inf Pe(t) + sum_k g_k int exp(-(t - s) / tau_k) dPe(s)``, exact for an elastic
-    stress ``elastic_pa`` linear in time between samples.
-
-    Args:
-        time_s: (n,) sample times, s, non-decreasing (a repeated time is a step).
-        elastic_pa: (n,) instantaneous elastic stress Pe at the samples, Pa.
-        g_inf: the relaxed fraction of the reduced relaxation function G.
-        terms: ``(g_k, tau_k)`` per exponential of G (tau in s).
-
-    Example:
-        >>> t = np.array([0.0, 1.0, 101.0])
-        >>> qlv_stress_pa(t, np.array([0.0, 1.0, 1.0]), 0.5, [(0.5, 1.0)]).round(3).tolist()
-        [0.0, 0.816, 0.5]
-    """
-    stress = g_inf * elastic_pa
-    d_elastic = np.diff(elastic_pa)
-    dt = np.diff(time_s)
-    for g, tau in terms:
-        decay = np.exp(-dt / tau)
-        # Share of a linear increment that survives the interval it happens in (the average
-        # of exp(-(t_i - s) / tau) over the interval; 1 for a step).
-        kept = np.where(dt > 0, -np.expm1(-dt / tau) * tau / np.where(dt > 0, dt, 1.0), 1.0)
-        state = np.zeros_like(elastic_pa)
-        for i in range(len(dt)):
-            state[i + 1] = decay[i] * state[i] + g * d_elastic[i] * kept[i]
-        stress = stress + state
-    return stress
 
 
 def true_force_n(plan: TestPlan, stress_pa: StressLaw, area_m2: float,
@@ -252,55 +225,29 @@ class HiddenEffect:
     """The truth behind one hidden-effect set.
 
     Attributes:
-        effect: the cause switched on (a name of :data:`EFFECTS`), None for the baseline alone.
+        effects: the causes switched on (names of the catalogue, in its order); none for the
+            baseline alone.
         seed: the seed everything was drawn from.
-        magnitudes: the drawn parameters: ``young_pa`` (baseline E) always, plus the effect's
-            own (see :func:`truth_stress_pa`).
+        magnitudes: the drawn parameters: ``young_pa`` (baseline E) always, plus each
+            effect's own (:func:`cell.rheology.truth.draw_magnitudes`).
         noise_n: standard deviation of the force noise, N.
     """
 
-    effect: str | None
+    effects: tuple[str, ...]
     seed: int
     magnitudes: dict[str, float]
     noise_n: float
 
+    @property
+    def effect(self) -> str | None:
+        """The one effect of a single-effect set (None for none).
 
-def _log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
-    return float(np.exp(rng.uniform(np.log(low), np.log(high))))
-
-
-def _ratio(rng: np.random.Generator, low: float, high: float) -> float:
-    """A ratio in [low, high] or its inverse, either at even odds."""
-    value = rng.uniform(low, high)
-    return float(value if rng.random() < 0.5 else 1.0 / value)
-
-
-def _draw_magnitudes(rng: np.random.Generator, effect: str | None) -> dict[str, float]:
-    """The baseline modulus and the effect's parameters."""
-    m = {"young_pa": _log_uniform(rng, 8e3, 40e3)}
-    if effect == "strain_stiffening":
-        m["stiffening"] = rng.uniform(6.0, 14.0)
-    elif effect == "anisotropy":
-        m["ratio_l_t"] = _ratio(rng, 2.0, 4.0)
-    elif effect == "viscoelasticity":
-        m["tau1_s"] = _log_uniform(rng, 0.5, 5.0)
-        m["tau2_s"] = _log_uniform(rng, 10.0, 100.0)
-        relaxed = rng.uniform(0.35, 0.7)
-        split = rng.uniform(0.3, 0.7)
-        m["g1"], m["g2"] = relaxed * split, relaxed * (1.0 - split)
-        m["g_inf"] = 1.0 - relaxed
-    elif effect == "tension_compression_asymmetry":
-        low, high = (0.25, 0.5) if rng.random() < 0.5 else (2.0, 4.0)
-        m["compression_ratio"] = rng.uniform(low, high)
-    elif effect == "plasticity":
-        m["yield_strain"] = rng.uniform(0.02, 0.05)
-        m["tangent_ratio"] = rng.uniform(0.1, 0.3)
-    elif effect == "force_offset":
-        m["offset_fraction"] = rng.uniform(0.04, 0.12) * rng.choice([-1.0, 1.0])
-    elif effect is not None:
-        raise MeasurementError(None, "effect",
-                               f"unknown effect {effect!r} (known: {EFFECTS})")
-    return {key: float(value) for key, value in m.items()}
+        Raises:
+            MeasurementError: the set hides more than one.
+        """
+        if len(self.effects) > 1:
+            raise MeasurementError(None, "effect", f"the set hides {self.effects}")
+        return self.effects[0] if self.effects else None
 
 
 def _times(rng: np.random.Generator, knots: list[float], counts: list[int],
@@ -339,12 +286,13 @@ def _protocol(rng: np.random.Generator) -> list[TestPlan]:
     drawn_ramp("c90", "compression", 90.0, compression, rate, uneven=True)
     drawn_ramp("t00-fast", "tension", 0.0, tension, 10.0 * rate)
     hold_strain, hold_s = rng.uniform(0.08, 0.12), float(np.round(rng.uniform(60.0, 120.0)))
-    for angle in (0.0, 90.0):
+    # Holds at two strains, so that a relaxed fraction that depends on the strain shows.
+    for angle, held in ((0.0, 0.6 * hold_strain), (90.0, 1.5 * hold_strain)):
         # Ramp in 2 s, then a hold sampled densely at first, sparsely later (uneven).
         hold = 2.0 + np.geomspace(0.05, hold_s, int(rng.integers(150, 250)))
         time = np.round(np.concatenate([np.linspace(0.0, 2.0, 41), hold]), 4)
         tests.append(TestPlan(f"r{angle:02.0f}", "relaxation", angle, (0.0, 2.0),
-                              (0.0, hold_strain), time))
+                              (0.0, held), time))
     for test_id, angle, peak in (("y00", 0.0, rng.uniform(0.10, 0.13)),
                                  ("y90c", 90.0, rng.uniform(-0.15, -0.10))):
         leg = float(np.round(abs(peak) / rate, 4))
@@ -355,100 +303,46 @@ def _protocol(rng: np.random.Generator) -> list[TestPlan]:
     return tests
 
 
-def _elastic_pa(strain: np.ndarray, angle_deg: float, effect: str | None,
-                m: dict[str, float]) -> np.ndarray:
-    """The rate-independent elastic law of the truth (no plasticity, no relaxation)."""
-    young = m["young_pa"]
-    if effect == "anisotropy":
-        # Geometric mean of E_L and E_T is E; Hill-type mixing of their square roots.
-        long, trans = young * np.sqrt(m["ratio_l_t"]), young / np.sqrt(m["ratio_l_t"])
-        c2 = np.cos(np.radians(angle_deg)) ** 2
-        young = 1.0 / (c2 / np.sqrt(long) + (1.0 - c2) / np.sqrt(trans)) ** 2
-    if effect == "strain_stiffening":
-        b = m["stiffening"]
-        return np.sign(strain) * young / b * np.expm1(b * np.abs(strain))
-    if effect == "tension_compression_asymmetry":
-        return np.where(strain < 0.0, m["compression_ratio"] * young, young) * strain
-    return young * strain
-
-
-def _plastic(strain: np.ndarray, m: dict[str, float]) -> np.ndarray:
-    """1D elastoplasticity, linear kinematic hardening, return mapping at every sample."""
-    young = m["young_pa"]
-    tangent = m["tangent_ratio"] * young
-    hardening = young * tangent / (young - tangent)
-    yield_stress = young * m["yield_strain"]
-    plastic = back = 0.0
-    stress = np.empty_like(strain)
-    for i, e in enumerate(strain):
-        trial = young * (e - plastic)
-        excess = abs(trial - back) - yield_stress
-        if excess > 0.0:
-            step = excess / (young + hardening) * np.sign(trial - back)
-            plastic += step
-            back += hardening * step
-        stress[i] = young * (e - plastic)
-    return stress
-
-
-def truth_stress_pa(time_s: np.ndarray, strain: np.ndarray, angle_deg: float,
-                    effect: str | None, magnitudes: dict[str, float]) -> np.ndarray:
-    """Nominal stress of the hidden-effect truth, Pa, at the samples of one test (true strain).
-
-    Baseline ``P = E e`` (``young_pa``). With one effect on:
-
-    - ``strain_stiffening``: ``P = sign(e) E / b (exp(b |e|) - 1)``, b = ``stiffening``.
-    - ``anisotropy``: ``E(theta) = 1 / (cos^2/sqrt(E_L) + sin^2/sqrt(E_T))^2`` with
-      ``E_L / E_T = ratio_l_t`` and ``sqrt(E_L E_T) = E``.
-    - ``viscoelasticity``: quasi-linear, ``G = g_inf + g1 exp(-t/tau1_s) + g2 exp(-t/tau2_s)``.
-    - ``tension_compression_asymmetry``: modulus ``compression_ratio * E`` for e < 0.
-    - ``plasticity``: yield at ``yield_strain``, post-yield tangent ``tangent_ratio * E``,
-      linear kinematic hardening.
-    - ``force_offset``: none here (the offset is on the force, :func:`write_hidden_effect_set`).
-
-    Example:
-        >>> t = np.array([0.0, 1.0, 2.0])
-        >>> truth_stress_pa(t, 0.01 * t, 0.0, None, {"young_pa": 1e4}).tolist()
-        [0.0, 100.0, 200.0]
-    """
-    if effect == "plasticity":
-        return _plastic(strain, magnitudes)
-    elastic = _elastic_pa(strain, angle_deg, effect, magnitudes)
-    if effect == "viscoelasticity":
-        m = magnitudes
-        return qlv_stress_pa(time_s, elastic, m["g_inf"],
-                             ((m["g1"], m["tau1_s"]), (m["g2"], m["tau2_s"])))
-    return elastic
-
-
 _HIDDEN_DIGITS = Digits(time_s=4, displacement_m=10, force_n=8, size_m=5)
 
 
-def write_hidden_effect_set(folder: Path, seed: int,
-                            effect: str | Literal["random"] | None = "random") -> HiddenEffect:
-    """Draw a set from ``seed`` with ``effect`` hidden in it, write it in ``folder``, return it.
-
-    Everything comes from ``np.random.default_rng(seed)``, the effect too when it is
-    ``"random"``; the draws other than the effect's own parameters do not depend on the
-    effect. Writes ``specimen.toml`` and ``tests.csv`` (creating ``folder``).
-
-    Raises:
-        MeasurementError: an unknown ``effect``.
-    """
-    rng = np.random.default_rng(seed)
+def _pick(rng: np.random.Generator, effect: Effects) -> tuple[str, ...]:
+    """The hidden effects: drawn when ``effect`` is ``"random"`` (the draw is made either way,
+    so that the later draws do not depend on it), else ``effect`` checked."""
     index = int(rng.integers(len(EFFECTS)))
     if effect == "random":
         effect = EFFECTS[index]
-    elif effect not in EFFECTS:
-        raise MeasurementError(None, "effect", f"unknown effect {effect!r} (known: {EFFECTS})")
+    if effect is None:
+        return ()
+    return check_effects((effect,) if isinstance(effect, str) else tuple(effect))
+
+
+def write_hidden_effect_set(folder: Path, seed: int, effect: Effects = "random",
+                            strength: float = 1.0) -> HiddenEffect:
+    """Draw a set from ``seed`` with ``effect`` hidden in it, write it in ``folder``, return it.
+
+    ``effect`` is a cause, several (a tuple: a combination), None, or ``"random"`` (one of
+    :data:`EFFECTS`); ``strength`` in (0, 1] scales every effect towards none
+    (:func:`cell.rheology.truth.draw_magnitudes`). Everything comes from
+    ``np.random.default_rng(seed)``; the draws other than the effects' own parameters do not
+    depend on the effects. Writes ``specimen.toml`` and ``tests.csv`` (creating ``folder``).
+
+    Raises:
+        MeasurementError: an unknown effect, one twice, both viscoelasticities, or a
+            ``strength`` outside (0, 1].
+    """
+    if not 0.0 < strength <= 1.0:
+        raise MeasurementError(None, "strength", f"must be in (0, 1], got {strength}")
+    rng = np.random.default_rng(seed)
+    effects = _pick(rng, effect)
     edge = rng.uniform(0.008, 0.012)
     size = np.round(edge * (1.0 + ASPECT_SPREAD * rng.uniform(-1.0, 1.0, 3)), 5)
     area, height = float(size[0] * size[1]), float(size[2])
     tests = _protocol(rng)
-    magnitudes = _draw_magnitudes(rng, effect)
+    magnitudes = draw_magnitudes(rng, effects, strength)
 
     def stress(time_s: np.ndarray, strain: np.ndarray, angle_deg: float) -> np.ndarray:
-        return truth_stress_pa(time_s, strain, angle_deg, effect, magnitudes)
+        return truth_stress_pa(time_s, strain, angle_deg, magnitudes)
 
     forces = [true_force_n(test, stress, area) for test in tests]
     peak = max(float(np.abs(f).max()) for f in forces)
@@ -459,11 +353,49 @@ def write_hidden_effect_set(folder: Path, seed: int,
               specimen_toml(_HIDDEN_HEADER, f"hidden-effect-{seed} (synthetic)", size,
                             {"machine": "uniaxial tester (synthetic)"}, _HIDDEN_DIGITS),
               csv_text(tests, measured, _HIDDEN_DIGITS))
-    return HiddenEffect(effect, seed, magnitudes, float(noise_n))
+    return HiddenEffect(effects, seed, magnitudes, float(noise_n))
+
+
+def write_relaxation_set(folder: Path, seed: int) -> HiddenEffect:
+    """A relaxation-only set shaped like published muscle tests, its relaxation non-linear.
+
+    Twelve ramp-and-hold compressions: to 10, 20 and 30 % strain, at 0.5 and 5 %/s, along
+    and across the fibres; each ramp sampled 10 times, then a 300 s hold sampled every 7.5 s
+    (50 samples a test). The truth: linear isotropic springs (E drawn) whose relaxed fraction
+    falls from 75 % at 10 % strain to 50 % at 30 % (muscle in compression), two relaxation
+    times drawn as :func:`write_hidden_effect_set` does; force noise 0.5 % of the peak.
+    """
+    rng = np.random.default_rng(seed)
+    magnitudes = draw_magnitudes(rng, ("nonlinear_viscoelasticity",), 1.0)
+    magnitudes.update(relaxed=0.75, relaxed_per_strain=-1.25)
+    size = (0.010, 0.010, 0.010)
+    tests = []
+    for strain in (-0.10, -0.20, -0.30):
+        for rate in (0.005, 0.05):
+            for angle in (0.0, 90.0):
+                end = abs(strain) / rate
+                time = np.round(np.concatenate([np.linspace(0.0, end, 10),
+                                                end + np.linspace(7.5, 300.0, 40)]), 4)
+                tests.append(TestPlan(f"r{angle:02.0f}-{abs(strain) * 100:.0f}-{rate * 1e3:g}",
+                                      "relaxation", angle, (0.0, end), (0.0, strain), time))
+
+    def stress(time_s: np.ndarray, strain: np.ndarray, angle_deg: float) -> np.ndarray:
+        return truth_stress_pa(time_s, strain, angle_deg, magnitudes)
+
+    # The machine drives the displacement linearly between samples far apart: the truth
+    # follows that path on a finer grid.
+    forces = [true_force_n(test, stress, size[0] * size[1], substeps=20) for test in tests]
+    noise_n = 0.005 * max(float(np.abs(f).max()) for f in forces)
+    measured = measure(tests, forces, size[2], Noise(noise_n, DISPLACEMENT_NOISE_M), rng)
+    write_set(folder,
+              specimen_toml(_HIDDEN_HEADER, f"relaxation-{seed} (synthetic)", size,
+                            {"machine": "uniaxial tester (synthetic)"}, _HIDDEN_DIGITS),
+              csv_text(tests, measured, _HIDDEN_DIGITS))
+    return HiddenEffect(("nonlinear_viscoelasticity",), seed, magnitudes, float(noise_n))
 
 
 def describe(truth: HiddenEffect) -> dict[str, Any]:
     """The truth as plain JSON-able values (for reports)."""
-    return {"effect": truth.effect, "seed": truth.seed,
+    return {"effects": list(truth.effects), "seed": truth.seed,
             "magnitudes": {k: float(v) for k, v in truth.magnitudes.items()},
             "noise_n": truth.noise_n}

@@ -105,6 +105,10 @@ class MassSpringMaterial:
             ``G(t) = 1 - sum g_k + sum g_k exp(-t / tau_k)`` acting on every spring's elastic
             force (the curves are the instantaneous response); each >= 0, their sum < 1.
         relaxation_times_s: tau_k, s, one per weight.
+        relaxation_strain_slope: c in the relaxing share ``1 + c |x|`` of a spring's elastic
+            stress at strain x (dimensionless, per unit strain): the fraction that relaxes is
+            ``sum g_k (1 + c |x|)``, clipped to [0, 1] (non-linear viscoelasticity; 0 is
+            quasi-linear, < 0 relaxes less at larger strain, as muscle in compression does).
         yield_strain: spring strain beyond which its rest length flows (permanent set); 0 for
             an elastic material.
         hardening: post-yield tangent over the elastic modulus, in [0, 1) (linear kinematic
@@ -145,6 +149,7 @@ class MassSpringMaterial:
     hardening: float = 0.0
     geometric_compensation: float = 0.0
     oblique: float = 0.0
+    relaxation_strain_slope: float = 0.0
 
     def __post_init__(self) -> None:
         require_positive(self, "density_kg_m3", error=MaterialError)
@@ -166,6 +171,9 @@ class MassSpringMaterial:
         if not (np.isfinite(times).all() and (times > 0).all()):
             raise MaterialError(None, "relaxation_times_s",
                                 f"must be finite and > 0, got {self.relaxation_times_s!r}")
+        if not math.isfinite(self.relaxation_strain_slope):
+            raise MaterialError(None, "relaxation_strain_slope",
+                                f"must be finite, got {self.relaxation_strain_slope}")
         fibre = np.asarray(self.fibre_direction, dtype=float)
         norm = float(np.linalg.norm(fibre)) if fibre.shape == (3,) else math.nan
         if not (math.isfinite(norm) and norm > 1e-12):

@@ -14,12 +14,17 @@ modulus): ``tension = K0 * l0 * s``.
 - Plasticity: x_e = x - p with p the spring's plastic strain; it flows when the elastic strain
   leaves ``[-y, y]`` around the back strain ``H p``, H = h / (1 - h) for the hardening ratio h
   (linear kinematic hardening: the tangent past yield is h times the elastic one).
-- Quasi-linear viscoelasticity: ``s = g_inf s_e + sum_k q_k`` with each ``q_k`` relaxing at
-  ``tau_k`` and loaded by ``g_k ds_e``; the update is exact when s_e is linear in time over a
-  step, so steps need not be short against ``tau_k``.
+- Viscoelasticity: ``s = s_e - G r + sum_k q_k`` with ``G = sum g_k`` and the relaxing stress
+  ``r = w(x_e) s_e``, each ``q_k`` relaxing at ``tau_k`` and loaded by ``g_k dr``: the response
+  to a step is s_e at once and ``(1 - G w) s_e`` relaxed. With ``w = 1`` this is quasi-linear
+  viscoelasticity (``s = g_inf s_e + sum_k q_k``, g_inf = 1 - G); the material's
+  ``relaxation_strain_slope`` c makes the relaxed fraction depend on the strain held,
+  ``w = 1 + c |x_e|`` (clipped to [0, 1 / G]): non-linear viscoelasticity, as muscle relaxes
+  a smaller fraction at larger strain (c < 0). The update is exact when r is linear in time over
+  a step, so steps need not be short against ``tau_k``.
 
 The history of E springs is an (E, 2 + K) array, one row per spring: plastic strain, last
-elastic stress, then the K relaxation states. Everything starts at rest (zeros).
+relaxing stress r, then the K relaxation states. Everything starts at rest (zeros).
 
 Every compiled kernel that calls :func:`spring_stress` lives in this module: the muscles'
 (:func:`muscle_forces`) and the specimen's (:func:`uniaxial_stress`). numba's on-disk cache
@@ -57,7 +62,7 @@ from cell.tissue.material import MassSpringMaterial
 # strains -0.3 to 0.25 (tests/test_specimen.py).
 LATTICE_STIFFENING = 0.33
 # Layout of SpringLaw.params.
-_YIELD, _BACK, _GEOMETRY, _OBLIQUE, _G_INF, _TERMS = range(6)
+_YIELD, _BACK, _GEOMETRY, _OBLIQUE, _G_INF, _STRAIN_SLOPE, _TERMS = range(7)
 # Layout of a history row.
 _PLASTIC, _LAST = 0, 1
 _STATES = 2
@@ -135,8 +140,12 @@ def spring_stress(
     stress = modulus * elastic / (1.0 + params[_GEOMETRY] * x)
     terms = int(params[_TERMS])
     if terms > 0:
-        change = stress - history[row, _LAST]
-        total = params[_G_INF] * stress
+        relaxing_share = 1.0 - params[_G_INF]
+        share = min(max(1.0 + params[_STRAIN_SLOPE] * abs(elastic), 0.0),
+                    1.0 / max(relaxing_share, 1e-12))
+        relaxing = share * stress
+        change = relaxing - history[row, _LAST]
+        total = stress - relaxing_share * relaxing
         for k in range(terms):
             weight = params[_TERMS + 1 + k]
             tau = params[_TERMS + 1 + terms + k]
@@ -148,7 +157,7 @@ def spring_stress(
             if commit:
                 history[row, _STATES + k] = state
         if commit:
-            history[row, _LAST] = stress
+            history[row, _LAST] = relaxing
         stress = total
     if commit:
         history[row, _PLASTIC] = plastic
@@ -163,11 +172,11 @@ class SpringLaw:
         curves: (4, 13) El and Et in tension, then in compression (:func:`pack_curve`), times
             their calibration factors.
         params: yield strain, back-strain factor H, geometric compensation, oblique factor,
-            g_inf, K, g_1..g_K, tau_1..tau_K (s).
+            g_inf, relaxation strain slope c, K, g_1..g_K, tau_1..tau_K (s).
 
     Example:
-        >>> SpringLaw.of(MassSpringMaterial()).params[:6].tolist()
-        [0.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        >>> SpringLaw.of(MassSpringMaterial()).params[:7].tolist()
+        [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
     """
 
     curves: np.ndarray
@@ -188,7 +197,7 @@ class SpringLaw:
         back = material.hardening / (1.0 - material.hardening)
         params = np.concatenate([
             [material.yield_strain, back, material.geometric_compensation, material.oblique,
-             1.0 - weights.sum(), len(weights)],
+             1.0 - weights.sum(), material.relaxation_strain_slope, len(weights)],
             weights,
             np.asarray(material.relaxation_times_s, dtype=float),
         ])
