@@ -216,7 +216,7 @@ def test_a_batch_diagnoses_every_set_records_a_broken_one_and_resumes(tmp_path: 
     broken = tmp_path / "sets" / "broken"
     broken.mkdir()
     (broken / "specimen.toml").write_text("[specimen]\nname = 'b'\n")
-    quick = DiagnosisParams(fit_samples=8, max_evaluations=10, fold_evaluations=2)
+    quick = DiagnosisParams(fit_samples=8, max_evaluations=10)
     out = tmp_path / "out"
     first = diagnose_batch(tmp_path / "sets", out, Workers(1), quick, progress=False)
     by_set = {row["set"]: row for row in first.rows}
