@@ -19,7 +19,8 @@ from envs.policies import TableSkimmingKnife
 IDS = ("musclecell/MuscleSeparation-v0", "musclecell/Cut-v0", "musclecell/Pull-v0")
 
 
-@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, CutEnv, PullEnv])
+# Cut-v0's check: tests/test_randomization.py (with its drawn worlds).
+@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, PullEnv])
 def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
     env = env_class(time_limit_s=1.0)
     check_env(env, skip_render_check=True)
