@@ -13,14 +13,14 @@ import pytest
 from cell.cli import main
 from cell.errors import DiagnosisError
 from cell.rheology.causes import CAUSES, UNEXPLAINED
-from cell.rheology.diagnosis import DiagnosisParams
-from cell.rheology.measured import load_specimen
+from cell.rheology.diagnosis import DiagnosisParams, diagnose
+from cell.rheology.measured import load_measurement_set, load_specimen
 from cell.rheology.synthetic import write_hidden_effect_set
 from cell.sim.episode import Episode
 from cell.sim.scenario import load_scenario
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.materialfile import load_material
-from tests.paths import DEFAULT_SCENARIO
+from tests.paths import DEFAULT_SCENARIO, EXAMPLE_SET
 from tests.test_episode import coarse
 
 
@@ -128,3 +128,14 @@ def test_params_are_checked() -> None:
         DiagnosisParams(fit_samples=2)
     with pytest.raises(DiagnosisError, match="workers"):
         DiagnosisParams(workers=0)
+
+
+@pytest.mark.slow
+def test_the_example_set_is_named_every_effect_of_its_truth_and_nothing_else() -> None:
+    # Its truth (specimen.toml's header): an exponential law apart in tension and compression,
+    # transversely isotropic moduli with a shear term, and quasi-linear relaxation.
+    result = diagnose(load_measurement_set(EXAMPLE_SET), DiagnosisParams(workers=2))
+    assert set(result.causes) - {UNEXPLAINED} == {
+        "strain_stiffening", "anisotropy", "viscoelasticity", "tension_compression_asymmetry"}
+    for evidence in result.evidence:
+        assert evidence.heldout_rmse_without_n > 3.0 * evidence.heldout_rmse_with_n

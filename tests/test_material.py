@@ -8,7 +8,7 @@ import pytest
 from cell.errors import MaterialError
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
-from cell.tissue.materialfile import load_material
+from cell.tissue.materialfile import load_material, material_to_toml
 
 # Stiffening in tension, softening in compression; positive over [0.75, 1.3].
 _KNOWN = (3.0e4, 1.2e5, 4.0e5, -3.0e5, 2.0e5, 1.0e5)
@@ -171,3 +171,14 @@ def test_shipped_default_material_file_is_the_default_meat() -> None:
     from cell.tissue.material import default_meat
 
     assert load_material("assets/materials/beef_default.toml") == default_meat()
+
+
+def test_a_compression_oblique_factor_is_written_and_read_back(tmp_path: Path) -> None:
+    material = MassSpringMaterial.transversely_isotropic(2e4, 1e4, oblique=-0.5,
+                                                         oblique_compression=0.4)
+    path = tmp_path / "m.toml"
+    path.write_text(material_to_toml(material))
+    assert load_material(path) == material
+    assert material.in_compression().oblique == 0.4 and not material.symmetric
+    with pytest.raises(MaterialError, match="oblique_compression"):
+        MassSpringMaterial(oblique_compression=-1.0)

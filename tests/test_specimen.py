@@ -103,6 +103,19 @@ def test_compression_curves_set_the_compressive_modulus() -> None:
     assert _secant_pa(_ramp(0.0, 0.001), material) == pytest.approx(1e4, rel=0.07)
 
 
+def test_a_compression_oblique_factor_acts_at_mid_angles_in_compression() -> None:
+    oblique = replace(ANISOTROPIC, oblique=-0.5)
+    apart = replace(oblique, oblique_compression=0.5)
+    # The lattice is calibrated in compression with its own factor, so along and across the
+    # fibres it keeps El and Et (within what the springs that Poisson's effect lengthens, on
+    # the tension law, leave), and anywhere in tension; at 45 degrees in compression it is
+    # twice as stiff.
+    for angle_deg, strain in ((0.0, -0.01), (90.0, -0.01), (0.0, 0.01), (45.0, 0.01)):
+        assert _secant_pa(_ramp(angle_deg, strain), apart) == pytest.approx(
+            _secant_pa(_ramp(angle_deg, strain), oblique), rel=0.04)
+    assert _secant_pa(_ramp(45.0, -0.01), apart) > 1.8 * _secant_pa(_ramp(45.0, -0.01), oblique)
+
+
 def test_relaxation_under_a_hold_tends_to_g_infinity() -> None:
     material = replace(ISOTROPIC, relaxation_weights=(0.3, 0.2), relaxation_times_s=(0.5, 5.0))
     run = simulate_test(_ramp(0.0, 0.05, duration_s=0.01, hold_s=100.0), CUBE, material)

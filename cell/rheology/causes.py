@@ -16,8 +16,9 @@ cause                            change to the material (shape parameters)
                                  paper's polynomial E (1 + k (r - 1)**2), b or k apart in
                                  tension and compression
 ``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), the
-                                 oblique springs' factor, and q apart in compression (the
-                                 lattice's anisotropy differs there) (q, oblique, q_c)
+                                 oblique springs' factor, and both apart in compression
+                                 (tissue's anisotropy differs there, and so does the
+                                 lattice's) (q, oblique, q_c, oblique_c)
 ``viscoelasticity``              quasi-linear relaxation: the fraction that relaxes, its
                                  shares among the terms (stick-breaking), each term's time
                                  (log10 s) within the tests' span
@@ -145,6 +146,8 @@ class CandidateMaterial:
         if "anisotropy" in self.causes:
             names += ["log_el_over_et", "oblique"] if self.oblique else ["log_el_over_et"]
             names.append("log_el_over_et_compressed")
+            if self.oblique:
+                names.append("oblique_compressed")
         if self.relaxes:
             names.append("relaxed_fraction")
             names += [f"relaxation_share_{k}" for k in range(self.relaxation_terms - 1)]
@@ -163,6 +166,7 @@ class CandidateMaterial:
         """A starting point for the shape parameters."""
         start = {"stiffening_exponent": 4.0, "stiffening_quadratic": 10.0,
                  "yield_strain": 0.03, "hardening": 0.3, "oblique": 0.0,
+                 "oblique_compressed": 0.0,
                  "relaxation_strain_slope": 0.0, "relaxed_fraction": 0.3}
         low, high = np.log10(self.time_range_s)
         times = np.linspace(low, high, self.relaxation_terms + 2)[1:-1]
@@ -178,6 +182,7 @@ class CandidateMaterial:
         """Lower and upper bounds of the shape parameters."""
         limits = {"stiffening_exponent": (0.0, 40.0), "stiffening_quadratic": (0.0, 400.0),
                   "log_el_over_et": (-1.6, 1.6), "oblique": (-0.8, 3.0),
+                  "oblique_compressed": (-0.8, 3.0),
                   "log_el_over_et_compressed": (-1.6, 1.6),
                   "log_el_compression": (-3.0, 3.0), "log_compression": (-3.0, 3.0),
                   "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
@@ -239,6 +244,7 @@ class CandidateMaterial:
             hardening=value.get("hardening", 0.0),
             geometric_compensation=LATTICE_STIFFENING,
             oblique=value.get("oblique", 0.0),
+            oblique_compression=value.get("oblique_compressed"),
         )
 
     def reported(self, shape: np.ndarray, modulus_pa: float,
@@ -253,6 +259,7 @@ class CandidateMaterial:
             params["et_pa"] = material.transverse.small_strain_modulus_pa
             if self.oblique:
                 params["oblique"] = material.oblique
+                params["oblique_compression"] = material.in_compression().oblique
         if self.relaxes:
             for k, (g, tau) in enumerate(zip(material.relaxation_weights,
                                              material.relaxation_times_s, strict=True)):

@@ -287,9 +287,12 @@ def _variants(model: CandidateMaterial, cause: str) -> list[CandidateMaterial]:
     """``model`` with ``cause`` added (a viscoelasticity replacing the other), with both
     stiffening laws when the cause is stiffening. Anisotropy always has its oblique factor (the
     richer form holds the plainer one, and a form chosen early would be kept through later
-    steps that it no longer suits); the asymmetry is one factor on El and Et in compression (El
-    and Et apart would also absorb the lattice's own difference between its anisotropy in
-    tension and in compression, and name an asymmetry in every anisotropic set)."""
+    steps that it no longer suits), apart in compression as its El/Et is (tissue's shear term
+    differs there: with one factor the tests at mid angles alone outweigh an asymmetry of
+    every other test, and a plasticity stands in for it); the asymmetry is one factor on El
+    and Et in compression (El and Et apart would also absorb the lattice's own difference
+    between its anisotropy in tension and in compression, and name an asymmetry in every
+    anisotropic set)."""
     causes = tuple(c for c in model.causes if not (c in EXCLUSIVE and cause in EXCLUSIVE))
     base = replace(model, causes=(*causes, cause))
     if cause == "strain_stiffening":
@@ -405,11 +408,11 @@ def cause_of(name: str) -> str:
     """
     if name == "relaxation_strain_slope":
         return "nonlinear_viscoelasticity"
-    if "relaxation" in name:
+    if "relax" in name:
         return "viscoelasticity"
     if "stiffening" in name:
         return "strain_stiffening"
-    if name in ("log_el_over_et", "oblique", "log_el_over_et_compressed"):
+    if name in ("log_el_over_et", "oblique", "log_el_over_et_compressed", "oblique_compressed"):
         return "anisotropy"
     if "compression" in name:
         return "tension_compression_asymmetry"

@@ -134,10 +134,9 @@ class SpecimenLattice:
         """``material``'s spring law on this lattice, calibrated with its fibres along the load
         axis (as :func:`~cell.tissue.lattice.calibrated_law`, its factors remembered)."""
         squeezed = material.in_compression()
-        symmetric = material.longitudinal_compression is material.transverse_compression is None
         tension = self._calibration(material)
         return SpringLaw.of(material, tension,
-                            tension if symmetric else self._calibration(squeezed))
+                            tension if material.symmetric else self._calibration(squeezed))
 
     def _calibration(self, material: MassSpringMaterial) -> tuple[float, float]:
         key = (material.longitudinal.small_strain_modulus_pa

@@ -187,8 +187,7 @@ def calibrated_law(
         MaterialError: ``longitudinal`` when the lattice cannot give an anisotropy.
     """
     tension = calibration_factors(points, edges, edge_volume_m3, material, along)
-    symmetric = material.longitudinal_compression is material.transverse_compression is None
-    compression = (tension if symmetric else
+    compression = (tension if material.symmetric else
                    calibration_factors(points, edges, edge_volume_m3, material.in_compression(),
                                        along))
     return SpringLaw.of(material, tension, compression), tension, compression

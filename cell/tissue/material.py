@@ -117,6 +117,9 @@ class MassSpringMaterial:
             blended as ``4 c**2 (1 - c**2)`` in the cosine c (> -1; 0 is the paper's Eq. 10).
             The third constant of a transversely isotropic material's stiffness against the
             load angle, which Eq. 10 alone fixes from El and Et.
+        oblique_compression: the same factor while a spring is shorter than at rest (> -1);
+            None for ``oblique`` (tissue's shear stiffness differs between tension and
+            compression as its moduli do: muscle is strongly anisotropic in tension only).
         geometric_compensation: k in a spring's stress ``E x / (1 + k x)``: a lattice of
             springs stiffens geometrically (its uniaxial nominal secant is about E (1 + 0.28
             strain) with k = 0), and ``cell.tissue.springlaw.LATTICE_STIFFENING`` (0.33) cancels
@@ -150,6 +153,7 @@ class MassSpringMaterial:
     geometric_compensation: float = 0.0
     oblique: float = 0.0
     relaxation_strain_slope: float = 0.0
+    oblique_compression: float | None = None
 
     def __post_init__(self) -> None:
         require_positive(self, "density_kg_m3", error=MaterialError)
@@ -158,8 +162,10 @@ class MassSpringMaterial:
         for name in ("hardening", "geometric_compensation"):
             if not getattr(self, name) < 1:
                 raise MaterialError(None, name, f"must be < 1, got {getattr(self, name)}")
-        if not -1 < self.oblique < math.inf:
-            raise MaterialError(None, "oblique", f"must be > -1 and finite, got {self.oblique}")
+        for name in ("oblique", "oblique_compression"):
+            value = getattr(self, name)
+            if value is not None and not -1 < value < math.inf:
+                raise MaterialError(None, name, f"must be > -1 and finite, got {value}")
         weights = np.asarray(self.relaxation_weights, dtype=float)
         times = np.asarray(self.relaxation_times_s, dtype=float)
         if weights.shape != times.shape:
@@ -184,16 +190,29 @@ class MassSpringMaterial:
             )
         object.__setattr__(self, "fibre_direction", tuple((fibre / norm).tolist()))
 
+    @property
+    def symmetric(self) -> bool:
+        """Whether compressed springs follow the tension curves and oblique factor.
+
+        Example:
+            >>> MassSpringMaterial(oblique_compression=0.5).symmetric
+            False
+        """
+        return (self.longitudinal_compression is self.transverse_compression
+                is self.oblique_compression is None)
+
     def in_compression(self) -> MassSpringMaterial:
-        """This material with its compression curves as its curves.
+        """This material with its compression curves and oblique factor as its own.
 
         Example:
             >>> MassSpringMaterial().in_compression() == MassSpringMaterial()
             True
         """
+        oblique = self.oblique if self.oblique_compression is None else self.oblique_compression
         return replace(self, longitudinal=self.longitudinal_compression or self.longitudinal,
                        transverse=self.transverse_compression or self.transverse,
-                       longitudinal_compression=None, transverse_compression=None)
+                       longitudinal_compression=None, transverse_compression=None,
+                       oblique=oblique, oblique_compression=None)
 
     @classmethod
     def isotropic(cls, young_pa: float, **fields: Any) -> MassSpringMaterial:

@@ -150,6 +150,8 @@ def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
         f"geometric_compensation = {number(material.geometric_compensation)}",
         f"oblique = {number(material.oblique)}",
     ]
+    if material.oblique_compression is not None:
+        lines.append(f"oblique_compression = {number(material.oblique_compression)}")
     for name in _CURVES + _COMPRESSION_CURVES:
         curve: ModulusCurve | None = getattr(material, name)
         if curve is None:

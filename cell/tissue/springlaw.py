@@ -10,7 +10,8 @@ modulus): ``tension = K0 * l0 * s``.
   Et the material's curves at the elastic strain x_e (:class:`~cell.tissue.curves.ModulusCurve`),
   its compression curves while x_e < 0; k is the material's ``geometric_compensation``
   (:data:`LATTICE_STIFFENING` cancels the lattice's own geometric stiffening) and w =
-  ``1 + oblique 4 c**2 (1 - c**2)`` weighs springs oblique to the fibres.
+  ``1 + oblique 4 c**2 (1 - c**2)`` weighs springs oblique to the fibres (the material's
+  compression factor while x_e < 0).
 - Plasticity: x_e = x - p with p the spring's plastic strain; it flows when the elastic strain
   leaves ``[-y, y]`` around the back strain ``H p``, H = h / (1 - h) for the hardening ratio h
   (linear kinematic hardening: the tangent past yield is h times the elastic one).
@@ -62,7 +63,7 @@ from cell.tissue.material import MassSpringMaterial
 # strains -0.3 to 0.25 (tests/test_specimen.py).
 LATTICE_STIFFENING = 0.33
 # Layout of SpringLaw.params.
-_YIELD, _BACK, _GEOMETRY, _OBLIQUE, _G_INF, _STRAIN_SLOPE, _TERMS = range(7)
+_YIELD, _BACK, _GEOMETRY, _OBLIQUE, _OBLIQUE_COMPRESSION, _G_INF, _STRAIN_SLOPE, _TERMS = range(8)
 # Layout of a history row.
 _PLASTIC, _LAST = 0, 1
 _STATES = 2
@@ -131,11 +132,13 @@ def spring_stress(
         elif over < -yield_strain:
             plastic += (over + yield_strain) / (1.0 + back)
     elastic = x - plastic
-    first = 2 if elastic < 0.0 else 0  # the compression curves follow the tension ones
+    squeezed = elastic < 0.0
+    first = 2 if squeezed else 0  # the compression curves follow the tension ones
     el = secant_modulus(elastic, curves[first])
     et = secant_modulus(elastic, curves[first + 1])
+    oblique = params[_OBLIQUE_COMPRESSION] if squeezed else params[_OBLIQUE]
     modulus = math.sqrt(et * et + (el * el - et * et) * cos_sq) * (
-        1.0 + params[_OBLIQUE] * 4.0 * cos_sq * (1.0 - cos_sq))
+        1.0 + oblique * 4.0 * cos_sq * (1.0 - cos_sq))
     # The lattice stiffens with its whole deformation, plastic part included.
     stress = modulus * elastic / (1.0 + params[_GEOMETRY] * x)
     terms = int(params[_TERMS])
@@ -171,12 +174,13 @@ class SpringLaw:
     Attributes:
         curves: (4, 13) El and Et in tension, then in compression (:func:`pack_curve`), times
             their calibration factors.
-        params: yield strain, back-strain factor H, geometric compensation, oblique factor,
-            g_inf, relaxation strain slope c, K, g_1..g_K, tau_1..tau_K (s).
+        params: yield strain, back-strain factor H, geometric compensation, oblique factor
+            in tension and in compression, g_inf, relaxation strain slope c, K, g_1..g_K,
+            tau_1..tau_K (s).
 
     Example:
-        >>> SpringLaw.of(MassSpringMaterial()).params[:7].tolist()
-        [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
+        >>> SpringLaw.of(MassSpringMaterial()).params[:8].tolist()
+        [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
     """
 
     curves: np.ndarray
@@ -197,7 +201,8 @@ class SpringLaw:
         back = material.hardening / (1.0 - material.hardening)
         params = np.concatenate([
             [material.yield_strain, back, material.geometric_compensation, material.oblique,
-             1.0 - weights.sum(), material.relaxation_strain_slope, len(weights)],
+             squeezed.oblique, 1.0 - weights.sum(), material.relaxation_strain_slope,
+             len(weights)],
             weights,
             np.asarray(material.relaxation_times_s, dtype=float),
         ])
