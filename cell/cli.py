@@ -117,9 +117,9 @@ def _diagnose(args: argparse.Namespace) -> int:
         raise InputError(None, "--workers", f"must be >= 1, got {workers}")
     material_path = args.material or args.json.with_name(f"{args.json.stem}-material.toml")
     if args.report is not None:
-        from cell.rheology.report import require_matplotlib
+        from cell.extras import require
 
-        require_matplotlib()
+        require("matplotlib", "report", "the diagnosis report")
     measurements = load_measurement_set(args.set_dir)  # reads everything before any write
     result = diagnose(measurements, DiagnosisParams(workers=workers))
     extended = result.extended

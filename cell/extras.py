@@ -12,6 +12,7 @@ Example:
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from types import ModuleType
 
 from cell.errors import MissingExtraError
@@ -24,3 +25,10 @@ def optional(module: str, extra: str, feature: str) -> ModuleType:
         return importlib.import_module(module)
     except ImportError:
         raise MissingExtraError(module.split(".")[0], extra, feature) from None
+
+
+def require(module: str, extra: str, feature: str) -> None:
+    """Raise :class:`MissingExtraError` now, before a long run whose end needs ``module``
+    (plots after a sweep or a diagnosis), when it is not installed; nothing is imported."""
+    if importlib.util.find_spec(module) is None:
+        raise MissingExtraError(module, extra, feature)

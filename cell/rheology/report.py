@@ -21,7 +21,6 @@ Usage (a diagnosis takes minutes, so this is not run as an example)::
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 from pathlib import Path
@@ -29,7 +28,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cell.errors import InputError
+from cell.extras import require
 from cell.io import figure_png, write_atomic
 
 if TYPE_CHECKING:
@@ -45,21 +44,15 @@ _HOLD_TOLERANCE = 1e-3
 _BASELINE, _EXTENDED = "tab:red", "tab:blue"
 
 
-def require_matplotlib() -> None:
-    """Raise :class:`InputError` now, before a long diagnosis, when plots cannot be drawn."""
-    if importlib.util.find_spec("matplotlib") is None:
-        raise InputError(None, "--report", "needs matplotlib: pip install 'musclecell[report]'")
-
-
 def write_report(diagnosis: Diagnosis, folder: Path,
                  material_path: Path | None = None) -> list[Path]:
     """Write ``forces.png``, ``residuals.png`` and ``report.md`` into ``folder`` (created if
     missing), each atomically; ``material_path`` is where the extended material's TOML is.
 
     Raises:
-        InputError: matplotlib is not installed.
+        MissingExtraError: matplotlib is not installed.
     """
-    require_matplotlib()
+    require("matplotlib", "report", "the diagnosis report")
     from matplotlib.figure import Figure  # a figure off pyplot: headless, nothing to close
 
     folder = Path(folder)

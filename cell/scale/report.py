@@ -6,7 +6,6 @@ Plots need matplotlib (the ``scale`` extra); it is imported only when they are d
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 from collections.abc import Sequence
 from pathlib import Path
@@ -14,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from cell.errors import SweepError
+from cell.extras import require
 from cell.io import figure_png, write_atomic
 from cell.scale.runs import OUTCOMES
 from envs.separation import CUT_TASK
@@ -26,13 +25,6 @@ MAX_TORN_FRACTION = CUT_TASK.max_torn_fraction
 _MAX_LEVELS = 8
 _LABELS = {"released_fraction": "released fraction", "torn_fraction": "torn fraction",
            "knife_force_peak_n": "peak knife force (N)"}
-
-
-def require_matplotlib() -> None:
-    """Raise :class:`SweepError` now, before any run, when the plots cannot be drawn."""
-    if importlib.util.find_spec("matplotlib") is None:
-        raise SweepError(None, None, "the sweep's plots need matplotlib: "
-                         "pip install -e '.[scale]'")
 
 
 def clean(row: dict[str, Any]) -> bool:
@@ -51,7 +43,7 @@ def write_plots(folder: Path, rows: Sequence[dict[str, Any]], variables: Sequenc
     """One PNG per swept variable, ``<variable>.png`` in ``folder``: each outcome of
     :data:`~cell.scale.runs.OUTCOMES` against the variable, finished runs as dots, runs that
     diverged or failed as red crosses on the x axis."""
-    require_matplotlib()
+    require("matplotlib", "scale", "the sweep's plots")
     from matplotlib.figure import Figure  # off pyplot: headless, nothing to close
 
     paths = []

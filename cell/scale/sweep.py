@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from cell.errors import InputError, SweepError
+from cell.extras import require
 from cell.io import write_atomic
 from cell.learning.baselines import PolicySpec, policy_folder
 from cell.learning.environments import make_env
@@ -23,7 +24,7 @@ from cell.learning.evaluate import EpisodeTask
 from cell.scale.design import design
 from cell.scale.overrides import nested, override_scenario
 from cell.scale.pool import Workers
-from cell.scale.report import require_matplotlib, summary_markdown, write_plots
+from cell.scale.report import summary_markdown, write_plots
 from cell.scale.resume import play_missing
 from cell.scale.runs import RunOutcome, RunTask, failed_row, play
 from cell.scale.spec import SweepSpec, load_sweep
@@ -88,13 +89,14 @@ def run_sweep(sweep_file: str | Path, out: str | Path, workers: Workers, *,
     failed or diverged too), then write the table, the plots and the summary of all of them.
 
     Raises:
-        SweepError: a bad sweep file (naming it and the key), no Ray or matplotlib.
+        SweepError: a bad sweep file (naming it and the key), or no Ray.
+        MissingExtraError: no matplotlib for the plots.
         ScenarioError: a bad base scenario.
     """
     started = time.perf_counter()
     spec = load_sweep(sweep_file)
     tasks = prepare(spec)
-    require_matplotlib()
+    require("matplotlib", "scale", "the sweep's plots")
     results = ResultsFolder(out)
 
     def keep(name: str, outcome: RunOutcome | None, error: str) -> dict[str, Any]:
