@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from cell.errors import MaterialError, MeshError
+from cell.sim.scenario import SimulationParams
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.geometry import MuscleShape, build_two_muscles
 from cell.tissue.lattice import tet_edges
@@ -56,13 +57,16 @@ def _positions(springs: MassSpringModel, data: mujoco.MjData, rest: np.ndarray) 
     return moved
 
 
-def _static_stretch(material: MassSpringMaterial, stress_pa: float) -> float:
+def _static_stretch(material: MassSpringMaterial, stress_pa: float,
+                    implicit: bool = False) -> float:
     """Stretch along z of the middle of the block, bottom pinned, top face loaded by a nominal
-    stress ``stress_pa`` along z (positive pulls), once at rest."""
+    stress ``stress_pa`` along z (positive pulls), once at rest; the implicit step runs at
+    the scenario's default step, the explicit one at its stable step."""
     mesh = _block(_CELLS, _SIZE_M)
     model = _block_model(mesh, material, pinned_bottom=True)
-    springs = MassSpringModel(model, ("block",), material)
-    model.opt.timestep = springs.stable_timestep_s()
+    springs = MassSpringModel(model, ("block",), material, implicit=implicit)
+    model.opt.timestep = (SimulationParams().timestep_s if implicit
+                          else springs.stable_timestep_s())
     data = mujoco.MjData(model)
     z = mesh.points[:, 2]
     top = np.flatnonzero(z == _SIZE_M[2])
@@ -84,7 +88,7 @@ def _static_stretch(material: MassSpringMaterial, stress_pa: float) -> float:
     model.dof_damping[springs.dofadr[springs.dofadr >= 0][:, None] + np.arange(3)] = (
         2.0 * omega * springs.vertex_mass_kg.max()
     )
-    for _ in range(math.ceil(15.0 / omega / model.opt.timestep)):
+    for _ in range(max(math.ceil(15.0 / omega / model.opt.timestep), 200)):
         springs.apply(data)
         mujoco.mj_step(model, data)
     moved = _positions(springs, data, mesh.points)
@@ -196,12 +200,14 @@ def test_isotropic_block_has_the_material_modulus(stress_pa: float) -> None:
     assert stress_pa / strain == pytest.approx(3.0e4, rel=0.06)
 
 
+@pytest.mark.parametrize("implicit", [False, True], ids=["explicit", "implicit"])
 @pytest.mark.parametrize("stress_pa", [1.2e4, -1.2e4])
-def test_fibres_along_the_load_take_el_and_across_take_et(stress_pa: float) -> None:
+def test_fibres_along_the_load_take_el_and_across_take_et(stress_pa: float,
+                                                           implicit: bool) -> None:
     strains = [
         _static_stretch(
             MassSpringMaterial.transversely_isotropic(_EL_PA, _ET_PA, fibre_direction=fibre),
-            stress_pa,
+            stress_pa, implicit,
         )
         - 1.0
         for fibre in ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0))
@@ -212,7 +218,8 @@ def test_fibres_along_the_load_take_el_and_across_take_et(stress_pa: float) -> N
     assert across == pytest.approx(_ET_PA, rel=0.1)
 
 
-def test_nonlinear_block_follows_its_curve() -> None:
+@pytest.mark.parametrize("implicit", [False, True], ids=["explicit", "implicit"])
+def test_nonlinear_block_follows_its_curve(implicit: bool) -> None:
     # Twice as stiff at r = 1.3 as at rest, a third as stiff at r = 0.8.
     coefficients = (3e4, 1e5, 0.0, 0.0, 0.0, 0.0)
     curve = ModulusCurve(coefficients, 0.8, 1.3)
@@ -224,7 +231,7 @@ def test_nonlinear_block_follows_its_curve() -> None:
     # Past 10% compression the block, free at the top, starts to buckle sideways.
     for target in (0.9, 1.1, 1.2, 1.3):
         stress = float(curve.stress_pa(target))
-        stretch = _static_stretch(material, stress)
+        stretch = _static_stretch(material, stress, implicit)
         assert float(curve.stress_pa(stretch)) == pytest.approx(stress, rel=0.1)
 
 
@@ -291,3 +298,77 @@ def test_moving_parent_is_refused() -> None:
     )
     with pytest.raises(MeshError, match="static"):
         MassSpringModel(model, ("block",), MassSpringMaterial())
+
+
+def _tip_history(material: MassSpringMaterial, timestep_s: float, implicit: bool,
+                 duration_s: float, load_pa: float = 0.0) -> np.ndarray:
+    """(steps,) mean x displacement (m) of the top face of the block, bottom pinned, at every
+    step: set swinging by an initial velocity, or pulled along z by ``load_pa`` from rest
+    (then the z displacement), ramped over 0.1 s, joint damping critical for the first
+    mode settling the transient as in :func:`_static_stretch`."""
+    mesh = _block(_CELLS, _SIZE_M)
+    model = _block_model(mesh, material, pinned_bottom=True)
+    springs = MassSpringModel(model, ("block",), material, implicit=implicit)
+    model.opt.timestep = timestep_s
+    data = mujoco.MjData(model)
+    z = mesh.points[:, 2]
+    free = springs.dofadr >= 0
+    top = np.flatnonzero(z == _SIZE_M[2])
+    axis = 2 if load_pa else 0
+    bodies = [model.body(f"block_{i}").id for i in top]
+    if load_pa:
+        omega = math.pi / 2.0 * math.sqrt(material.transverse.small_strain_modulus_pa
+                                          / material.density_kg_m3) / _SIZE_M[2]
+        model.dof_damping[springs.dofadr[free][:, None] + np.arange(3)] = (
+            2.0 * omega * springs.vertex_mass_kg.max())
+    else:  # about the first bending mode's shape
+        data.qvel[springs.dofadr[free]] = 0.3 * (z[free] / _SIZE_M[2]) ** 2
+    qpos = model.jnt_qposadr[model.body_jntadr[bodies]]
+    history = np.empty(round(duration_s / timestep_s))
+    for k in range(len(history)):
+        ramp = min(1.0, k * timestep_s / 0.1)
+        data.xfrc_applied[bodies, 2] = ramp * load_pa * _SIZE_M[0] * _SIZE_M[1] / len(top)
+        springs.apply(data)
+        mujoco.mj_step(model, data)
+        history[k] = data.qpos[qpos + axis].mean()
+    return history
+
+
+def _peaks(history: np.ndarray, timestep_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Times (s, at the end of their step) and values of the local maxima of ``history``."""
+    inside = np.flatnonzero((history[1:-1] > history[:-2]) & (history[1:-1] >= history[2:])) + 1
+    return (inside + 1) * timestep_s, history[inside]
+
+
+def test_implicit_free_vibration_keeps_the_explicit_amplitude_and_period() -> None:
+    # The default meat swinging at about 2.3 Hz for three periods: the implicit step at the
+    # scenario's default keeps the small-step explicit reference's amplitude (the material's
+    # damping) and period within 2%: its numerical damping is bounded.
+    material = MassSpringMaterial.transversely_isotropic(2.4e4, 1.6e4)
+    model = _block_model(_block(_CELLS, _SIZE_M), material, pinned_bottom=True)
+    fine = 0.25 * MassSpringModel(model, ("block",), material).stable_timestep_s()
+    step = SimulationParams().timestep_s
+    reference = _peaks(_tip_history(material, fine, False, 1.5), fine)
+    implicit = _peaks(_tip_history(material, step, True, 1.5), step)
+    assert len(reference[0]) == len(implicit[0]) == 3
+    np.testing.assert_allclose(implicit[1], reference[1], rtol=0.02)
+    np.testing.assert_allclose(implicit[0], reference[0], rtol=0.02, atol=step)
+    assert implicit[1][-1] <= implicit[1][0]  # no energy gained
+
+
+def test_implicit_relaxation_follows_the_explicit_reference() -> None:
+    # Creep of a viscoelastic block under a constant pull: half the stress relaxes with
+    # 0.2 s, so the block lengthens over the second; the implicit step follows the small-step
+    # explicit reference within 2% at every sample.
+    material = MassSpringMaterial.isotropic(3.0e4, relaxation_weights=(0.5,),
+                                            relaxation_times_s=(0.2,))
+    model = _block_model(_block(_CELLS, _SIZE_M), material, pinned_bottom=True)
+    fine = 0.5 * MassSpringModel(model, ("block",), material).stable_timestep_s()
+    step = SimulationParams().timestep_s
+    reference = _tip_history(material, fine, False, 1.0, load_pa=1.5e3)
+    implicit = _tip_history(material, step, True, 1.0, load_pa=1.5e3)
+    times = np.array([0.25, 0.5, 0.75, 1.0])
+    at_reference = reference[np.round(times / fine).astype(int) - 1]
+    at_implicit = implicit[np.round(times / step).astype(int) - 1]
+    assert at_reference[-1] > 1.3 * at_reference[0]  # it creeps
+    np.testing.assert_allclose(at_implicit, at_reference, rtol=0.02)

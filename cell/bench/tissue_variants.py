@@ -26,6 +26,7 @@ class TissueVariant:
         key: identifier in the JSON report.
         label: what it is, for the tables.
         material: its material (the family follows from the type).
+        tissue_step: how the springs are integrated (:class:`SimulationParams`).
 
     Example:
         >>> TissueVariant("linear", "StVK continuum", ContinuumMaterial()).family
@@ -35,6 +36,7 @@ class TissueVariant:
     key: str
     label: str
     material: ContinuumMaterial | MassSpringMaterial
+    tissue_step: Literal["implicit", "explicit"] = "explicit"
 
     @property
     def family(self) -> Literal["continuum", "mass_spring"]:
@@ -43,7 +45,9 @@ class TissueVariant:
 
 
 def tissue_variants() -> tuple[TissueVariant, ...]:
-    """The six models the bench compares.
+    """The seven models the bench compares: the default meat with the implicit step (at the
+    scenario's step, :mod:`cell.tissue.implicit`) and, as peers, every model with MuJoCo's
+    explicit step of the springs.
 
     The continuum models keep the paper's E = 0.03 MPa (ContinuumMaterial's default); the
     plastic one yields at 5% strain, so that the 10% tension test flows. The linear mass-spring
@@ -69,6 +73,9 @@ def tissue_variants() -> tuple[TissueVariant, ...]:
                     MassSpringMaterial.transversely_isotropic(el, et)),
         TissueVariant("mass_spring_nonlinear_anisotropic",
                     "mass-spring non-linear anisotropic (default meat)", meat),
+        TissueVariant("mass_spring_nonlinear_anisotropic_implicit",
+                      "mass-spring non-linear anisotropic (default meat), implicit step", meat,
+                      "implicit"),
     )
 
 
@@ -97,15 +104,18 @@ def paper_damping_s(material: MassSpringMaterial, cell_size_m: float) -> float:
 
 
 def bench_scenario(material: ContinuumMaterial | MassSpringMaterial, cell_size_m: float,
-                   timestep_s: float = 0.002) -> Scenario:
-    """The default scenario with this material and mesh; the bench sets the step per run.
+                   tissue_step: Literal["implicit", "explicit"] = "explicit") -> Scenario:
+    """The default scenario with this material, mesh and tissue step; the bench sets the
+    explicit step per run, the implicit one runs at the scenario's default step.
 
     Example:
         >>> bench_scenario(ContinuumMaterial(), 0.05).tissue.cell_size_m
         0.05
     """
+    simulation = (SimulationParams(tissue_step="implicit") if tissue_step == "implicit"
+                  else SimulationParams(timestep_s=0.002, tissue_step="explicit"))
     return Scenario(tissue=MuscleShape(cell_size_m=cell_size_m), material=material,
-                    simulation=SimulationParams(timestep_s=timestep_s))
+                    simulation=simulation)
 
 
 def tissue_run(scenario: Scenario) -> TissueSimulation:

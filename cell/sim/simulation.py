@@ -57,7 +57,8 @@ class TissueSimulation:
         self.data = mujoco.MjData(self.model)
         scene.restore(self.data)
         self.tissue = TissueForces(self.model, scenario.material, scene.aponeurosis,
-                                   scene.tissue_bodies)
+                                   scene.tissue_bodies,
+                                   implicit=scenario.simulation.tissue_step == "implicit")
         self._warnings = np.zeros(len(FATAL_WARNINGS), dtype=int)
 
     @property
@@ -153,11 +154,12 @@ class Simulation(TissueSimulation):
         self._gripper = self.model.body(GRIPPER_BODY).id
         self._grasp_site = self.model.site(GRASP_SITE).id
         self.grasped = np.zeros(0, dtype=int)
-        stable = self.tissue.stable_timestep_s()
+        stable = self.tissue.stable_timestep_s()  # None for the implicit step: no bound
         if stable is not None and self.model.opt.timestep > stable:
             raise ScenarioError(None, "simulation.timestep_s",
                                 f"{self.model.opt.timestep} s is above the stable step "
-                                f"{stable:.3g} s of this mass-spring material and mesh")
+                                f"{stable:.3g} s of this mass-spring material and mesh "
+                                "(simulation.tissue_step = \"implicit\" has no bound)")
         params = scenario.aponeurosis
         self.force_curve = (ForceCurve.from_csv(params.force_curve)
                             if ReleaseRule.FORCE.value in params.release_rules

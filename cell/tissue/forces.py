@@ -44,8 +44,12 @@ class TissueForces:
     from the state in ``data`` and returns the hooked bindings' pull on the blade (force N,
     moment N m about the blade centre) for the caller to put on the knife.
 
+    With ``implicit``, the springs' and the bindings' forces go through the implicit step
+    (:mod:`cell.tissue.implicit`) before MuJoCo's.
+
     Attributes:
         springs: one :class:`MassSpringModel` per muscle (empty for a continuum material).
+        implicit: whether the springs take the implicit step.
         aponeurosis: the bindings.
         dofs: the tissue vertices' dofs.
 
@@ -63,11 +67,13 @@ class TissueForces:
     """
 
     def __init__(self, model: mujoco.MjModel, material: ContinuumMaterial | MassSpringMaterial,
-                 aponeurosis: Aponeurosis, bodies: np.ndarray) -> None:
+                 aponeurosis: Aponeurosis, bodies: np.ndarray, implicit: bool = False) -> None:
         self.aponeurosis = aponeurosis
+        self.implicit = implicit
         self.dofs = tissue_dofs(model, bodies)
         self.springs: dict[str, MassSpringModel] = (
-            {muscle: MassSpringModel(model, (muscle,), material) for muscle in MUSCLES}
+            {muscle: MassSpringModel(model, (muscle,), material, implicit=implicit)
+             for muscle in MUSCLES}
             if isinstance(material, MassSpringMaterial) else {})
 
     def apply(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
@@ -75,8 +81,11 @@ class TissueForces:
         if not self.springs:
             data.qfrc_applied[self.dofs] = 0.0
         for springs in self.springs.values():
-            springs.apply(data)  # rewrites its muscle's dofs' entries
-        return self.aponeurosis.apply_forces(data)
+            springs.apply(data, filtered=False)  # rewrites its muscle's dofs' entries
+        on_blade = self.aponeurosis.apply_forces(data)
+        for springs in self.springs.values():
+            springs.filter(data)  # the bindings' forces go through the implicit step too
+        return on_blade
 
     def reset(self) -> None:
         """Every spring back at rest: no plastic strain, nothing left to relax."""
@@ -85,7 +94,7 @@ class TissueForces:
 
     def stable_timestep_s(self, safety: float = 0.9) -> float | None:
         """The springs' stable step (:meth:`MassSpringModel.stable_timestep_s`), s; None for a
-        continuum material."""
-        if not self.springs:
+        continuum material or the implicit step (stable at any step)."""
+        if not self.springs or self.implicit:
             return None
         return min(springs.stable_timestep_s(safety) for springs in self.springs.values())

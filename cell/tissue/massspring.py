@@ -47,6 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
 from cell.errors import MeshError
+from cell.tissue.implicit import ImplicitSystem
 from cell.tissue.lattice import (
     AffineLattice,
     calibrated_law,
@@ -109,13 +110,14 @@ class MassSpringModel:
         flexes: Sequence[str],
         material: MassSpringMaterial,
         calibrate_along: Sequence[float] | None = None,
+        implicit: bool = False,
     ) -> None:
         self._model = model
         self.calibrate_along = calibrate_along
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
         mujoco.mj_flex(model, data)
-        points, tets, vertices = [], [], []
+        points, tets, vertices, bodies = [], [], [], []
         count = 0
         for name in flexes:
             flex = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_FLEX, name)
@@ -123,8 +125,8 @@ class MassSpringModel:
                 raise MeshError(None, f"flex {name}", "no 3D (tetrahedral) flex of that name")
             first, n = int(model.flex_vertadr[flex]), int(model.flex_vertnum[flex])
             world = data.flexvert_xpos[first : first + n].copy()
-            bodies = model.flex_vertbodyid[first : first + n]
-            vertices.append(_flex_vertices(model, data, name, bodies, world))
+            bodies.append(model.flex_vertbodyid[first : first + n])
+            vertices.append(_flex_vertices(model, data, name, bodies[-1], world))
             elem = int(model.flex_elemdataadr[flex])
             local = model.flex_elem[elem : elem + 4 * int(model.flex_elemnum[flex])]
             points.append(world)
@@ -144,6 +146,13 @@ class MassSpringModel:
         self.vertex_mass_kg = mass
         self._position = np.zeros_like(self._rest_position)
         self._velocity = np.zeros_like(self._rest_position)
+        free = dofadr >= 0
+        armature = np.where(free, model.dof_armature[np.maximum(dofadr, 0)], 0.0)
+        self.implicit = (ImplicitSystem(self.edges, mass + armature, dofadr) if implicit
+                         else None)
+        self._tangent = np.zeros((len(self.edges) if implicit else 0, 6))
+        self._bodies = np.concatenate(bodies)
+        self._external = np.zeros((len(dofadr), 3))
         self.material = material
         self.set_fibre_direction(material.fibre_direction)
 
@@ -179,13 +188,17 @@ class MassSpringModel:
     def reset(self) -> None:
         """Put every spring back at rest: no plastic strain, nothing left to relax."""
         self._history[:] = 0.0
+        if self.implicit is not None:
+            self.implicit.reset()
 
     def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
         return (self._gain * directional_modulus(el_pa, et_pa, self._cos_sq)
                 * oblique_gain(self.material.oblique, self._cos_sq))
 
-    def apply(self, data: mujoco.MjData) -> None:
-        """Write the springs' forces for the state in ``data`` into ``data.qfrc_applied``."""
+    def apply(self, data: mujoco.MjData, filtered: bool = True) -> None:
+        """Write the springs' forces for the state in ``data`` into ``data.qfrc_applied``;
+        an implicit model then filters them (:meth:`filter`) unless ``filtered`` is False
+        (the caller adds forces of its own and filters after)."""
         muscle_forces(
             data.qpos,
             data.qvel,
@@ -204,7 +217,19 @@ class MassSpringModel:
             self.material.damping_s,
             self._position,
             self._velocity,
+            self._tangent,
         )
+        if filtered:
+            self.filter(data)
+
+    def filter(self, data: mujoco.MjData) -> None:
+        """Turn the vertices' forces in ``data.qfrc_applied`` into the implicit update's
+        (:mod:`cell.tissue.implicit`), after :meth:`apply` at the same state; nothing for an
+        explicit model."""
+        if self.implicit is not None:
+            _external_forces(self._model, data, self._bodies, self.dofadr, self._external)
+            self.implicit.filter(data.qvel, data.qfrc_applied, self._tangent,
+                                 self._model.opt.timestep, self._external)
 
     def stable_timestep_s(self, safety: float = 0.9) -> float:
         """Largest time step the springs allow, s, times ``safety``.
@@ -252,6 +277,18 @@ class MassSpringModel:
         omega_sq = float(spl.eigsh(reduced, k=1, which="LA", return_eigenvectors=False)[0])
         tau = self.material.damping_s
         return safety * (math.sqrt(tau**2 + 4.0 / omega_sq) - tau)
+
+
+def _external_forces(model: mujoco.MjModel, data: mujoco.MjData, bodies: np.ndarray,
+                     dofadr: np.ndarray, out: np.ndarray) -> None:
+    """(N, 3) into ``out``: the forces MuJoCo puts on each vertex besides ``qfrc_applied``,
+    N: gravity, ``xfrc_applied`` and the last step's constraint forces (contacts, bindings
+    as equalities, the grasp), which hold at rest and change little over a step; zero for
+    pinned vertices."""
+    free = dofadr >= 0
+    dofs = dofadr[free][:, None] + np.arange(3)
+    out[free] = (model.body_mass[bodies[free], None] * model.opt.gravity
+                 + data.xfrc_applied[bodies[free], :3] + data.qfrc_constraint[dofs])
 
 
 def _flex_vertices(

@@ -232,10 +232,18 @@ def muscle_forces(
     damping_s: float,
     position: np.ndarray,
     velocity: np.ndarray,
+    tangent: np.ndarray,
 ) -> None:
     """The muscles' kernel (:class:`~cell.tissue.massspring.MassSpringModel`): clear the
     vertex dofs of ``qfrc``, add every spring-damper's force to them and advance the springs'
-    history by ``timestep_s``."""
+    history by ``timestep_s``.
+
+    With a ``tangent`` of one row per spring (else of none), each row gets what an implicit
+    step needs (:mod:`cell.tissue.implicit`): the spring's unit direction, its tangent
+    stiffness along it dT/dl (N/m, the law's trial derivative over the step, relaxation's
+    instant share included), its tension over its length (N/m) and its dashpot (N s/m).
+    """
+    linearise = tangent.shape[0] == edges.shape[0]
     for i in range(position.shape[0]):
         a = qposadr[i]
         v = dofadr[i]
@@ -256,8 +264,13 @@ def muscle_forces(
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         if length == 0.0:  # a collapsed edge has no direction to push along
             continue
-        stress, modulus = spring_stress(length / rest_length[e] - 1.0, cos_sq[e], curves,
-                                        params, history, e, timestep_s, True)
+        strain = length / rest_length[e] - 1.0
+        if linearise:
+            # The trial comes first: the committed call below moves the history on.
+            probe, _ = spring_stress(strain + _PROBE, cos_sq[e], curves, params, history, e,
+                                     timestep_s, False)
+        stress, modulus = spring_stress(strain, cos_sq[e], curves, params, history, e,
+                                        timestep_s, True)
         ux = dx / length
         uy = dy / length
         uz = dz / length
@@ -268,6 +281,13 @@ def muscle_forces(
         )
         # Positive when stretched or stretching: pulls i towards j and j towards i.
         tension = gain[e] * (rest_length[e] * stress + modulus * damping_s * rate)
+        if linearise:
+            tangent[e, 0] = ux
+            tangent[e, 1] = uy
+            tangent[e, 2] = uz
+            tangent[e, 3] = gain[e] * (probe - stress) / _PROBE
+            tangent[e, 4] = gain[e] * rest_length[e] * stress / length
+            tangent[e, 5] = gain[e] * modulus * damping_s
         if dofadr[i] >= 0:
             qfrc[dofadr[i]] += tension * ux
             qfrc[dofadr[i] + 1] += tension * uy
