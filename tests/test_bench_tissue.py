@@ -12,6 +12,7 @@ from cell.bench.stability import largest_stable_timestep_s
 from cell.bench.tissue_accuracy import extrapolated_force_n
 from cell.bench.tissue_variants import tissue_variants
 from cell.cli import main
+from cell.sim.scenario import SimulationParams
 
 _MODELS = {model.key for model in tissue_variants()}
 
@@ -52,12 +53,16 @@ def test_quick_report_has_every_model_and_both_peers(
                     "real_time_factor", "force_error_pct", "ratio_to_numpy"):
             assert key in entry
         assert entry["run_timestep_s"] <= entry["stable_timestep_s"]
-        if entry["family"] == "mass_spring":
+        if entry["family"] == "mass_spring" and entry["tissue_step"] == "explicit":
             assert entry["formula_timestep_s"] > 0
+        if entry["tissue_step"] == "implicit":  # no bound: it runs at the scenario's step
+            assert entry["formula_timestep_s"] is None
+            assert entry["run_timestep_s"] == SimulationParams().timestep_s
     assert set(report["realism"]) == _MODELS
     assert report["paper_table_1"]["measured_here"] is False
     # --quick does not reach the targets' sizes: they are reported as not run.
-    assert set(report["targets"]) == {"us_per_node_step_1000_nodes",
+    assert set(report["targets"]) == {"us_per_node_step_1000_nodes_explicit",
+                                      "us_per_node_step_1000_nodes_implicit",
                                       "real_time_default_meat_2000_nodes",
                                       "real_time_paper_fig10_2000_nodes"}
     assert all(target["pass"] is None for target in report["targets"].values())

@@ -3,12 +3,19 @@ write the same tissue forces, and a reset puts the springs' history back at rest
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import mujoco
 import numpy as np
+import pytest
 
 from cell.bench.tissue_variants import bench_scenario, tissue_run
+from cell.errors import ScenarioError
 from cell.sim.assembly import build_scene
+from cell.sim.scenario import Scenario
 from cell.sim.simulation import Simulation
+from cell.tissue.curves import ModulusCurve
+from cell.tissue.geometry import MuscleShape
 from cell.tissue.material import MassSpringMaterial, default_meat
 
 
@@ -52,3 +59,28 @@ def test_a_reset_to_a_state_starts_from_that_state() -> None:
     assert run.data is not state
     np.testing.assert_array_equal(run.data.qpos, state.qpos)
     run.step(5)
+
+
+def _stiffer(material: MassSpringMaterial, factor: float) -> MassSpringMaterial:
+    """``material`` with every modulus curve ``factor`` times stiffer."""
+    def scaled(curve: ModulusCurve) -> ModulusCurve:
+        return replace(curve, coefficients=tuple(factor * c for c in curve.coefficients))
+    return replace(material, longitudinal=scaled(material.longitudinal),
+                   transverse=scaled(material.transverse))
+
+
+def test_a_material_twenty_times_stiffer_runs_at_the_default_step() -> None:
+    # Only the material changes: the implicit step keeps the scenario's step, which the
+    # explicit step of the same springs would have to shorten several times.
+    scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05),
+                        material=_stiffer(default_meat(), 20.0))
+    run = tissue_run(scenario)
+    step = scenario.simulation.timestep_s
+    explicit_limit = min(springs.stable_timestep_s() for springs in run.springs.values())
+    assert explicit_limit < step / 2.0
+    run.step(round(0.5 / step))  # the muscles settle on the table, no divergence
+    assert np.abs(run.data.qvel[run.tissue.dofs]).max() < 0.5
+    explicit = replace(scenario, simulation=replace(scenario.simulation,
+                                                    tissue_step="explicit"))
+    with pytest.raises(ScenarioError, match="stable step"):
+        Simulation(build_scene(explicit), explicit)

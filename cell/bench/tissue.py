@@ -225,6 +225,7 @@ def _bench_size(cell_size_m: float, params: TissueBenchParams,
             entry["ratio_to_numpy"] = entry["us_per_node_step"] / numpy_us
     for model in models:
         entries[model.key] |= {"label": model.label, "family": model.family,
+                               "tissue_step": model.tissue_step,
                                "force_error_pct":
                                realism[model.key]["force_error_pct"][str(cell_size_m)]}
     entries["mujoco_stock_flex"]["label"] = (

@@ -13,8 +13,9 @@ rho = 1500 kg/m^3 for the round of beef (Fig. 8); El = 0.25 MPa along the fibres
 Et = Er = 0.6 MPa across them for the transversely isotropic test cuboid (Fig. 10); Et = Er =
 0.003 MPa for the bending cylinder (Fig. 11). The defaults here keep the Fig. 8 modulus, isotropic
 30 kPa, which is stable at a 2 ms step on the default 1235-node muscles (measured limit 2.3 ms;
-the Fig. 10 moduli need 0.38 ms there, and 4712 nodes at 30 kPa need 1.2 ms), with a beef
-density of 1060 kg/m^3.
+the Fig. 10 moduli need 0.38 ms there, and 4712 nodes at 30 kPa need 1.2 ms) under the
+explicit step of the springs; the implicit step (the default, :mod:`cell.tissue.implicit`)
+runs any of them at the scenario's step. Beef density 1060 kg/m^3.
 
 The moduli are :class:`~cell.tissue.curves.ModulusCurve`; a material file is TOML with
 ``model = "continuum"`` or ``model = "mass_spring"`` and the keys of the matching dataclass
@@ -91,7 +92,7 @@ class MassSpringMaterial:
             of the default 1235-node muscles at 30 kPa, 7e-5 s at 250 kPa, 9e-4 s with 4712
             nodes at 30 kPa. Scaling with the stiffness keeps the damping a material property,
             the same on any mesh, and keeps every mode's damping ratio as the non-linear modulus
-            grows. The dashpots are explicit and shorten the stable step to about
+            grows. Under the explicit step the dashpots shorten the stable step to about
             ``sqrt(tau**2 + h0**2) - tau`` (h0 the undamped one); the default 2e-4 s leaves the
             default muscles stable up to 2.3 ms at 30 kPa.
         fibre_direction: unit vector along the fibres in the world frame (normalised on
@@ -249,8 +250,9 @@ def default_meat() -> MassSpringMaterial:
     paper's isotropic E = 0.03 MPa, stiffer along the fibres as muscle is in tension (Morrow et
     al. 2010), mildly so as it is in compression (1.84 vs 1.42 kPa at stretch 0.7, JMBBM 2023).
     Both stiffen with strain, E(r) = E0 (1 + 3 (r - 1)^2) over r in [0.6, 1.4] (collagen
-    recruitment: 1.48 E0 at 40% strain). Fibres along the muscles' length (x). Stable at the
-    default 2 ms step on the default mesh. The paper's own anisotropic test values (Fig. 10)
+    recruitment: 1.48 E0 at 40% strain). Fibres along the muscles' length (x). The explicit
+    step of its springs is stable up to about 2.5 ms on the default mesh; the implicit one
+    (the default) at any step. The paper's own anisotropic test values (Fig. 10)
     are El = 0.25 MPa, Et = Er = 0.6 MPa: ``MassSpringMaterial.transversely_isotropic``.
 
     Example:
