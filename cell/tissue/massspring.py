@@ -58,10 +58,6 @@ from cell.tissue.lattice import (
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.springlaw import muscle_forces
 
-# Share of the new constraint force taken into its running average at each implicit step
-# (about ten steps): 0.05 to 0.1 let a material 20 times the default meat's settle on the
-# table to 3 mm/s in 0.5 s, 0.2 left 6 mm/s and the plain last step's force 2 m/s.
-_CONSTRAINT_AVERAGING = 0.1
 _INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -73,6 +69,7 @@ class MassSpringModel:
 
     The flexes must have no elasticity of their own (no ``<elasticity>``, or ``young="0"``),
     and vertex bodies with three slide joints along their parent's axes (flexcomp's default);
+    the model's edge damping of the flexes is set to zero (the springs' dashpots replace it);
     pinned vertices have no dofs and stay where their parent puts them. :meth:`apply` owns the
     vertex dofs' entries of ``data.qfrc_applied``: it clears and rewrites them at every call
     and leaves every other entry alone; put external loads on vertices in ``xfrc_applied``.
@@ -127,6 +124,10 @@ class MassSpringModel:
             flex = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_FLEX, name)
             if flex < 0 or model.flex_dim[flex] != 3:
                 raise MeshError(None, f"flex {name}", "no 3D (tetrahedral) flex of that name")
+            # The springs' dashpots replace the flex's own edge damping, whose vanishing
+            # value only marks the flex as soft at compile time (flexcomp_xml); computing it
+            # took 40% of mj_step on the muscles (990 nodes, 0.98 -> 0.55 us per node).
+            model.flex_edgedamping[flex] = 0.0
             first, n = int(model.flex_vertadr[flex]), int(model.flex_vertnum[flex])
             world = data.flexvert_xpos[first : first + n].copy()
             bodies.append(model.flex_vertbodyid[first : first + n])
@@ -152,12 +153,10 @@ class MassSpringModel:
         self._velocity = np.zeros_like(self._rest_position)
         free = dofadr >= 0
         armature = np.where(free, model.dof_armature[np.maximum(dofadr, 0)], 0.0)
-        self.implicit = (ImplicitSystem(self.edges, mass + armature, dofadr) if implicit
-                         else None)
+        bodies = np.concatenate(bodies)
+        self.implicit = (ImplicitSystem(self.edges, mass + armature, dofadr, bodies, mass)
+                         if implicit else None)
         self._tangent = np.zeros((len(self.edges) if implicit else 0, 6))
-        self._bodies = np.concatenate(bodies)
-        self._external = np.zeros((len(dofadr), 3))
-        self._constraint = np.zeros((len(dofadr), 3))
         self.material = material
         self.set_fibre_direction(material.fibre_direction)
 
@@ -195,7 +194,6 @@ class MassSpringModel:
         self._history[:] = 0.0
         if self.implicit is not None:
             self.implicit.reset()
-            self._constraint[:] = 0.0
 
     def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
         return (self._gain * directional_modulus(el_pa, et_pa, self._cos_sq)
@@ -233,10 +231,9 @@ class MassSpringModel:
         (:mod:`cell.tissue.implicit`), after :meth:`apply` at the same state; nothing for an
         explicit model."""
         if self.implicit is not None:
-            _external_forces(self._model, data, self._bodies, self.dofadr, self._constraint,
-                             self._external)
             self.implicit.filter(data.qvel, data.qfrc_applied, self._tangent,
-                                 self._model.opt.timestep, self._external)
+                                 self._model.opt.timestep, self._model.opt.gravity,
+                                 data.xfrc_applied, data.qfrc_constraint)
 
     def stable_timestep_s(self, safety: float = 0.9) -> float:
         """Largest time step the springs allow, s, times ``safety``.
@@ -284,23 +281,6 @@ class MassSpringModel:
         omega_sq = float(spl.eigsh(reduced, k=1, which="LA", return_eigenvectors=False)[0])
         tau = self.material.damping_s
         return safety * (math.sqrt(tau**2 + 4.0 / omega_sq) - tau)
-
-
-def _external_forces(model: mujoco.MjModel, data: mujoco.MjData, bodies: np.ndarray,
-                     dofadr: np.ndarray, constraint: np.ndarray, out: np.ndarray) -> None:
-    """(N, 3) into ``out``: the forces MuJoCo puts on each vertex besides ``qfrc_applied``,
-    N: gravity, ``xfrc_applied`` and the constraint forces (contacts, bindings as
-    equalities, the grasp) averaged over the last steps in ``constraint``, which it updates;
-    zero for pinned vertices.
-
-    The average holds the static state exact (at rest the constraint forces are constant)
-    while their changes act on the step after: fed back at once, a contact's force and the
-    vertex it pushes took turns and pumped energy into a stiff material."""
-    free = dofadr >= 0
-    dofs = dofadr[free][:, None] + np.arange(3)
-    constraint[free] += _CONSTRAINT_AVERAGING * (data.qfrc_constraint[dofs] - constraint[free])
-    out[free] = (model.body_mass[bodies[free], None] * model.opt.gravity
-                 + data.xfrc_applied[bodies[free], :3] + constraint[free])
 
 
 def _flex_vertices(
