@@ -233,6 +233,7 @@ def muscle_forces(
     position: np.ndarray,
     velocity: np.ndarray,
     tangent: np.ndarray,
+    refresh_tangent: bool,
 ) -> None:
     """The muscles' kernel (:class:`~cell.tissue.massspring.MassSpringModel`): clear the
     vertex dofs of ``qfrc``, add every spring-damper's force to them and advance the springs'
@@ -241,9 +242,11 @@ def muscle_forces(
     With a ``tangent`` of one row per spring (else of none), each row gets what an implicit
     step needs (:mod:`cell.tissue.implicit`): the spring's unit direction, its tangent
     stiffness along it dT/dl (N/m, the law's trial derivative over the step, relaxation's
-    instant share included), its tension over its length (N/m) and its dashpot (N s/m).
+    instant share included; kept from the last call unless ``refresh_tangent``), its tension
+    over its length (N/m) and its dashpot (N s/m).
     """
     linearise = tangent.shape[0] == edges.shape[0]
+    probe = 0.0
     for i in range(position.shape[0]):
         a = qposadr[i]
         v = dofadr[i]
@@ -265,7 +268,7 @@ def muscle_forces(
         if length == 0.0:  # a collapsed edge has no direction to push along
             continue
         strain = length / rest_length[e] - 1.0
-        if linearise:
+        if linearise and refresh_tangent:
             # The trial comes first: the committed call below moves the history on.
             probe, _ = spring_stress(strain + _PROBE, cos_sq[e], curves, params, history, e,
                                      timestep_s, False)
@@ -285,7 +288,8 @@ def muscle_forces(
             tangent[e, 0] = ux
             tangent[e, 1] = uy
             tangent[e, 2] = uz
-            tangent[e, 3] = gain[e] * (probe - stress) / _PROBE
+            if refresh_tangent:
+                tangent[e, 3] = gain[e] * (probe - stress) / _PROBE
             tangent[e, 4] = gain[e] * rest_length[e] * stress / length
             tangent[e, 5] = gain[e] * modulus * damping_s
         if dofadr[i] >= 0:
