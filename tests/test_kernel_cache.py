@@ -35,7 +35,7 @@ springlaw.muscle_forces(
     np.array([0.1, 0.0, 0.0]), np.zeros(3), qfrc, np.array([-1, 0]), np.array([-1, 0]),
     np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.array([[0, 1]]), np.array([1.0]),
     np.array([1.0]), np.array([1.0]), law.curves, law.params, law.history(1), 0.0, 0.0,
-    np.zeros((2, 3)), np.zeros((2, 3)))
+    np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((0, 6)), False)
 # The specimen's lattice: one spring along each axis.
 axial = np.zeros(2)
 failed = springlaw.uniaxial_stress(

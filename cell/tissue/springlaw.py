@@ -274,20 +274,13 @@ def muscle_forces(
                                      timestep_s, False)
         stress, modulus = spring_stress(strain, cos_sq[e], curves, params, history, e,
                                         timestep_s, True)
-        ux = dx / length
-        uy = dy / length
-        uz = dz / length
-        rate = (
-            (velocity[j, 0] - velocity[i, 0]) * ux
-            + (velocity[j, 1] - velocity[i, 1]) * uy
-            + (velocity[j, 2] - velocity[i, 2]) * uz
-        )
+        ux, uy, uz = dx / length, dy / length, dz / length
+        rate = ((velocity[j, 0] - velocity[i, 0]) * ux + (velocity[j, 1] - velocity[i, 1]) * uy
+                + (velocity[j, 2] - velocity[i, 2]) * uz)
         # Positive when stretched or stretching: pulls i towards j and j towards i.
         tension = gain[e] * (rest_length[e] * stress + modulus * damping_s * rate)
         if linearise:
-            tangent[e, 0] = ux
-            tangent[e, 1] = uy
-            tangent[e, 2] = uz
+            tangent[e, 0], tangent[e, 1], tangent[e, 2] = ux, uy, uz
             if refresh_tangent:
                 tangent[e, 3] = gain[e] * (probe - stress) / _PROBE
             tangent[e, 4] = gain[e] * rest_length[e] * stress / length
