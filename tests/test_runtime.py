@@ -48,7 +48,8 @@ def test_turning_the_fibres_changes_the_springs_of_that_muscle_only() -> None:
         sim.set_fibre_direction("round", np.zeros(3))
 
 
-def test_a_timestep_above_the_springs_stable_step_is_refused() -> None:
-    scenario = replace(COARSE, simulation=SimulationParams(timestep_s=0.02, control_rate_hz=25))
+def test_a_timestep_above_the_springs_stable_step_is_refused_for_the_explicit_step() -> None:
+    scenario = replace(COARSE, simulation=SimulationParams(timestep_s=0.02, control_rate_hz=25,
+                                                           tissue_step="explicit"))
     with pytest.raises(ScenarioError, match=r"simulation\.timestep_s"):
         Simulation(build_scene(scenario), scenario)
