@@ -3,10 +3,10 @@ vectorised (synchronously, in one process), at the coarse and the default tissue
 and one env per core in their own processes (``async``), whose ``scaling`` is its rate over
 the single env's: near the core count when the processes scale.
 
-One env step is one control step (20 ms: 10 physics steps of 2 ms). Each single-env entry
-splits a step's wall time into physics (:meth:`Simulation.step`, MuJoCo and the tissue
-forces), IK (the three-arm mink solve) and the rest (release rules, sensing, observation,
-reward: Python overhead).
+One env step is one control step (20 ms: 4 physics steps of 5 ms, the implicit tissue step).
+Each single-env entry splits a step's wall time into physics (:meth:`Simulation.step`, MuJoCo
+and the tissue forces), IK (the three-arm mink solve) and the rest (release rules, sensing,
+observation, reward: Python overhead).
 """
 
 from __future__ import annotations
