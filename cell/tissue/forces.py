@@ -87,10 +87,11 @@ class TissueForces:
             springs.filter(data)  # the bindings' forces go through the implicit step too
         return on_blade
 
-    def reset(self) -> None:
-        """Every spring back at rest: no plastic strain, nothing left to relax."""
+    def reset(self, data: mujoco.MjData | None = None) -> None:
+        """Every spring back at rest: no plastic strain, nothing left to relax; ``data``:
+        the new state (:meth:`MassSpringModel.reset`)."""
         for springs in self.springs.values():
-            springs.reset()
+            springs.reset(data)
 
     def stable_timestep_s(self, safety: float = 0.9) -> float | None:
         """The springs' stable step (:meth:`MassSpringModel.stable_timestep_s`), s; None for a

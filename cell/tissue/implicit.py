@@ -100,10 +100,14 @@ class ImplicitSystem:
         self._inverse = np.zeros((n, 3, 3))
         self._blocks = np.zeros((len(self.edges), 4))
 
-    def reset(self) -> None:
-        """Forget the last solve and the constraint forces' average (a new state)."""
+    def reset(self, qfrc_constraint: np.ndarray | None = None) -> None:
+        """Forget the last solve (a new state); the constraint forces' average starts from
+        ``qfrc_constraint`` (MuJoCo's, of the new state), or from zero."""
         self.velocity_change[:] = 0.0
         self._constraint[:] = 0.0
+        if qfrc_constraint is not None:
+            free = self.dofadr >= 0
+            self._constraint[free] = qfrc_constraint[self.dofadr[free][:, None] + np.arange(3)]
 
     def filter(self, qvel: np.ndarray, qfrc: np.ndarray, tangent: np.ndarray,
                timestep_s: float, gravity: np.ndarray, xfrc_applied: np.ndarray,

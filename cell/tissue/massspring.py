@@ -194,12 +194,14 @@ class MassSpringModel:
             self.calibration[0] * material.longitudinal.small_strain_modulus_pa,
             self.calibration[1] * material.transverse.small_strain_modulus_pa)
 
-    def reset(self) -> None:
-        """Put every spring back at rest: no plastic strain, nothing left to relax."""
+    def reset(self, data: mujoco.MjData | None = None) -> None:
+        """Put every spring back at rest: no plastic strain, nothing left to relax; the
+        implicit step starts from the constraint forces of ``data``, the new state, if
+        given."""
         self._history[:] = 0.0
         self._steps = 0
         if self.implicit is not None:
-            self.implicit.reset()
+            self.implicit.reset(None if data is None else data.qfrc_constraint)
 
     def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
         return (self._gain * directional_modulus(el_pa, et_pa, self._cos_sq)
