@@ -111,19 +111,20 @@ class ImplicitSystem:
 
     def filter(self, qvel: np.ndarray, qfrc: np.ndarray, tangent: np.ndarray,
                timestep_s: float, gravity: np.ndarray, xfrc_applied: np.ndarray,
-               qfrc_constraint: np.ndarray) -> None:
+               qfrc_constraint: np.ndarray, refresh: bool = True) -> None:
         """Replace the vertices' forces in ``qfrc`` (N) by ``M dv / h - e``, dv the implicit
         update from velocities ``qvel`` over ``timestep_s`` with the springs' ``tangent``
         rows (:func:`~cell.tissue.springlaw.muscle_forces`) under the forces in ``qfrc`` and
         e: ``gravity`` (m/s^2), ``xfrc_applied`` and ``qfrc_constraint`` (MuJoCo's, of the
-        last step)."""
+        last step). The preconditioner is kept from the last call unless ``refresh`` (with
+        the springs' tangent: it need only be near the system's diagonal)."""
         work = self._work
         _external(self.body_mass_kg, gravity, xfrc_applied, qfrc_constraint, self.bodies,
                   self.dofadr, _CONSTRAINT_AVERAGING, self._constraint, work[6])
         self.iterations = _implicit_filter(
             qvel, qfrc, work[6], self.dofadr, self.mass_kg, self.edges, tangent, timestep_s,
             self._weights, self.tolerance_m_s, self.max_iterations, self.velocity_change,
-            work, self._inverse, self._blocks)
+            work, self._inverse, self._blocks, refresh)
 
 
 # Share of the new constraint force taken into its running average at each step (about ten
@@ -251,7 +252,7 @@ def _implicit_filter(qvel: np.ndarray, qfrc: np.ndarray, external: np.ndarray,
                      dofadr: np.ndarray, mass: np.ndarray, edges: np.ndarray,
                      tangent: np.ndarray, h: float, weights: np.ndarray, tolerance: float,
                      max_iterations: int, dv: np.ndarray, work: np.ndarray,
-                     inverse: np.ndarray, blocks: np.ndarray) -> int:
+                     inverse: np.ndarray, blocks: np.ndarray, refresh: bool) -> int:
     """Solve for dv by preconditioned conjugate gradients from the last dv and write
     M dv / h - e into ``qfrc``; returns the iterations."""
     n = dofadr.shape[0]
@@ -268,7 +269,8 @@ def _implicit_filter(qvel: np.ndarray, qfrc: np.ndarray, external: np.ndarray,
                          if free[i] else 0.0)
             if not free[i]:
                 dv[i, k] = 0.0
-    _block_inverses(mass, free, edges, tangent, blocks, inverse)
+    if refresh:
+        _block_inverses(mass, free, edges, tangent, blocks, inverse)
     _apply(dv, q, mass, free, edges, tangent, blocks, 0)
     scale = 0.0
     for i in range(n):

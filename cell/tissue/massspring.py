@@ -58,9 +58,10 @@ from cell.tissue.lattice import (
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.springlaw import muscle_forces
 
-# Steps between refreshes of the springs' tangent stiffness for the implicit step (one
-# control step at the default 5 ms): its probe of the spring law doubled the kernel's cost,
-# and the tangent changes little over 20 ms; the step's force is always the present one.
+# Steps between refreshes of the springs' tangent stiffness and of the preconditioner for the
+# implicit step (one control step at the default 5 ms): the tangent's probe of the spring law
+# doubled the kernel's cost, the preconditioner's 3x3 inverses were a third of the solve's,
+# and both change little over 20 ms; the step's force is always the present one.
 _TANGENT_REFRESH = 4
 _INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
@@ -232,7 +233,6 @@ class MassSpringModel:
             self._tangent,
             self._steps % _TANGENT_REFRESH == 0,
         )
-        self._steps += 1
         if filtered:
             self.filter(data)
 
@@ -243,7 +243,9 @@ class MassSpringModel:
         if self.implicit is not None:
             self.implicit.filter(data.qvel, data.qfrc_applied, self._tangent,
                                  self._model.opt.timestep, self._model.opt.gravity,
-                                 data.xfrc_applied, data.qfrc_constraint)
+                                 data.xfrc_applied, data.qfrc_constraint,
+                                 refresh=self._steps % _TANGENT_REFRESH == 0)
+            self._steps += 1
 
     def stable_timestep_s(self, safety: float = 0.9) -> float:
         """Largest time step the springs allow, s, times ``safety``.
