@@ -37,10 +37,11 @@ class SimulationParams:
     ``control_rate_hz``; ``max_tissue_speed_m_s`` flags an energy blow-up.
     ``tissue_step``: how the mass-spring springs are integrated: ``"implicit"`` (the default,
     :mod:`cell.tissue.implicit`: stable at any stiffness, so the step is set by accuracy and
-    the contacts: 5 ms, four steps per 20 ms control step, at any material; at 10 ms the
-    knife's flesh contacts, soft over two steps, let its tracking error reach 1 cm and its
-    force 64 N in the default episode, at 5 ms they are those of the old 2 ms explicit step)
-    or
+    the contacts and the arms: 5 ms, four steps per 20 ms control step, at any material. At
+    5 ms the default episode releases, cuts and tears as at the old 2 ms explicit step; at
+    10 ms the knife's tracking error reached 1 cm and its force 64 N; the arms' servos,
+    sized for 2 ms by :class:`~cell.robots.arms.ServoTuning`, reach omega h = 2.5 there, past
+    the explicit limit 2, and 1.25 at 5 ms) or
     ``"explicit"`` (MuJoCo's explicit step of the spring forces, refused above the springs'
     stable step, :meth:`~cell.tissue.massspring.MassSpringModel.stable_timestep_s`, which
     shrinks as the meat stiffens or the mesh refines). ``integrator``
