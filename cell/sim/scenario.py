@@ -46,7 +46,8 @@ class SimulationParams:
     stable step, :meth:`~cell.tissue.massspring.MassSpringModel.stable_timestep_s`, which
     shrinks as the meat stiffens or the mesh refines). ``integrator``
     ``"auto"`` picks ``discrete`` for continuum materials (the only one MuJoCo runs them
-    with) and ``implicitfast`` for the mass-spring model. ``muscle_contact`` lets the two
+    with) and ``implicitfast`` for the mass-spring model (``euler`` in a scene without the
+    arms: :func:`~cell.sim.assembly.integrator`). ``muscle_contact`` lets the two
     muscles collide with each other (off by default: it more than doubles a step's cost, and
     the bindings and the pull keep them apart).
 
