@@ -15,7 +15,7 @@ import pytest
 from cell.cli import main
 from cell.perception.pipeline import PerceptionParams
 from cell.sim.episode import Episode
-from cell.sim.scenario import AponeurosisParams, Scenario
+from cell.sim.scenario import AponeurosisParams, Scenario, load_scenario
 from cell.tissue.geometry import MuscleShape
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
@@ -149,3 +149,17 @@ def test_force_rule_alone_cuts_with_the_hooked_bindings() -> None:
     assert summary["released_by_rule"]["knife"] == summary["released_by_rule"]["tearing"] == 0
     assert summary["knife_force_split_n"]["edge"]["peak"] == 0.0
     assert summary["knife_force_peak_n"] > 1.0
+
+
+@pytest.mark.slow
+def test_a_meat_twenty_times_stiffer_runs_the_default_episode_unchanged() -> None:
+    # Only the material changes (the implicit tissue step needs no shorter step): the default
+    # episode, at the default resolution, still separates the muscles to the end.
+    scenario = load_scenario(Path(__file__).parents[1] / "scenarios" / "default.toml")
+    meat = scenario.material
+    stiffer = replace(meat, **{name: replace(getattr(meat, name), coefficients=tuple(
+        20.0 * c for c in getattr(meat, name).coefficients))
+        for name in ("longitudinal", "transverse")})
+    result = Episode(replace(scenario, material=stiffer)).run()["result"]
+    assert result["released_fraction"] >= 0.95
+    assert result["muscles_apart"]

@@ -78,7 +78,7 @@ class TissueSimulation:
         self.scene.restore(self.data)
         if state is not None:
             mujoco.mj_copyData(self.data, self.model, state)
-        self.tissue.reset(self.data)
+        self.tissue.reset()
         self._warnings = self._warning_counts()
 
     def step(self, count: int = 1) -> None:

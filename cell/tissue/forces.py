@@ -87,11 +87,10 @@ class TissueForces:
             springs.filter(data)  # the bindings' forces go through the implicit step too
         return on_blade
 
-    def reset(self, data: mujoco.MjData | None = None) -> None:
-        """Every spring back at rest: no plastic strain, nothing left to relax; ``data``:
-        the new state (:meth:`MassSpringModel.reset`)."""
+    def reset(self) -> None:
+        """Every spring back at rest: no plastic strain, nothing left to relax."""
         for springs in self.springs.values():
-            springs.reset(data)
+            springs.reset()
 
     def stable_timestep_s(self, safety: float = 0.9) -> float | None:
         """The springs' stable step (:meth:`MassSpringModel.stable_timestep_s`), s; None for a

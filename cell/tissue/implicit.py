@@ -16,14 +16,16 @@ M: the vertices' masses. The force written for MuJoCo is ``M dv / h``: MuJoCo's 
 (contacts, equalities and the grasp acting on the same step, ``x += h (v + dv)``) then moves
 the tissue by the implicit update, plus the constraint forces' share.
 
-The forces MuJoCo adds itself (gravity, ``xfrc_applied``, the constraint forces) enter f as
-well and are taken off the force written, ``M dv / h - e``: otherwise the implicit update would
-hold the springs against a force it does not see, and shift the static state by
-``beta h**2 K M^-1 e``. The constraint forces are not known before the step: e takes their
-running average over the last steps (about thirty), which holds the static state exact; fed
-back at once, a contact's force and the vertex it pushes took turns and pumped energy into a
-stiff material (20 times the default meat: 2 m/s after 0.5 s on the table, against 3 mm/s
-with the average; both with ``a = 0.05`` below).
+The forces MuJoCo adds itself and that are known before the step (gravity,
+``xfrc_applied``) enter f as well and are taken off the force written, ``M dv / h - e``:
+otherwise the implicit update would hold the springs against a force it does not see, and
+move each vertex by ``beta h**2 e / m`` against its neighbours at rest. The constraint forces
+(contacts, bindings as equalities, the grasp) are not known before the step and stay out: a
+vertex resting on the table sits ``beta h**2 g`` (0.06 mm at 5 ms) off, one of the default
+grasp's 34 holding the shank (about 0.45 N on 0.5 g) some 6 mm (estimates by that formula). Fed back from the last step, even averaged over 10 to
+30 steps, they took turns with the vertices they push and pumped energy into a stiff meat
+(the paper's material diverged in the default episode with the slower average, 20 times the
+default meat hanging from the grasp with the faster one).
 
 With MuJoCo's position update, ``theta = 0, beta = 1/4, gamma = 1/2`` is Newmark's average
 acceleration (the trapezoidal rule): unconditionally stable for linear springs, second order,
@@ -47,7 +49,7 @@ Example:
     ...                         np.array([1, 2]), np.array([0.01, 0.01]))
     >>> force = np.array([1.0, 0.0, 0.0, -1.0, 0.0, 0.0])
     >>> no_load = np.zeros((3, 6))
-    >>> system.filter(np.zeros(6), force, tangent, 0.01, np.zeros(3), no_load, np.zeros(6))
+    >>> system.filter(np.zeros(6), force, tangent, 0.01, np.zeros(3), no_load)
     >>> bool(0.0 < force[0] < 1.0)
     True
 """
@@ -95,57 +97,40 @@ class ImplicitSystem:
         self.iterations = 0
         n = len(self.dofadr)
         self.velocity_change = np.zeros((n, 3))
-        self._constraint = np.zeros((n, 3))
         self._work = np.zeros((7, n, 3))
         self._inverse = np.zeros((n, 3, 3))
         self._blocks = np.zeros((len(self.edges), 4))
 
-    def reset(self, qfrc_constraint: np.ndarray | None = None) -> None:
-        """Forget the last solve (a new state); the constraint forces' average starts from
-        ``qfrc_constraint`` (MuJoCo's, of the new state), or from zero."""
+    def reset(self) -> None:
+        """Forget the last solve (a new state)."""
         self.velocity_change[:] = 0.0
-        self._constraint[:] = 0.0
-        if qfrc_constraint is not None:
-            free = self.dofadr >= 0
-            self._constraint[free] = qfrc_constraint[self.dofadr[free][:, None] + np.arange(3)]
 
     def filter(self, qvel: np.ndarray, qfrc: np.ndarray, tangent: np.ndarray,
                timestep_s: float, gravity: np.ndarray, xfrc_applied: np.ndarray,
-               qfrc_constraint: np.ndarray, refresh: bool = True) -> None:
+               refresh: bool = True) -> None:
         """Replace the vertices' forces in ``qfrc`` (N) by ``M dv / h - e``, dv the implicit
         update from velocities ``qvel`` over ``timestep_s`` with the springs' ``tangent``
         rows (:func:`~cell.tissue.springlaw.muscle_forces`) under the forces in ``qfrc`` and
-        e: ``gravity`` (m/s^2), ``xfrc_applied`` and ``qfrc_constraint`` (MuJoCo's, of the
-        last step). The preconditioner is kept from the last call unless ``refresh`` (with
+        e: the weight under ``gravity`` (m/s^2) and ``xfrc_applied`` (MuJoCo's). The
+        preconditioner is kept from the last call unless ``refresh`` (with
         the springs' tangent: it need only be near the system's diagonal)."""
         work = self._work
-        _external(self.body_mass_kg, gravity, xfrc_applied, qfrc_constraint, self.bodies,
-                  self.dofadr, _CONSTRAINT_AVERAGING, self._constraint, work[6])
+        _external(self.body_mass_kg, gravity, xfrc_applied, self.bodies, self.dofadr,
+                  work[6])
         self.iterations = _implicit_filter(
             qvel, qfrc, work[6], self.dofadr, self.mass_kg, self.edges, tangent, timestep_s,
             self._weights, self.tolerance_m_s, self.max_iterations, self.velocity_change,
             work, self._inverse, self._blocks, refresh)
 
 
-# Share of the new constraint force taken into its running average at each step (about 30
-# steps, 0.15 s at 5 ms). Faster averages let the constraints pump energy into a stiff meat:
-# 20 times the default, the shank hanging from the grasp after the last binding let go
-# diverged at 0.1 and held at 0.03; on the table 0.05 to 0.1 settled to 3 mm/s in 0.5 s.
-_CONSTRAINT_AVERAGING = 0.03
-
-
 @njit(cache=True, fastmath=False)
 def _external(body_mass: np.ndarray, gravity: np.ndarray, xfrc: np.ndarray,
-              constraint_force: np.ndarray, bodies: np.ndarray, dofadr: np.ndarray,
-              averaging: float, average: np.ndarray, out: np.ndarray) -> None:
-    """e of every vertex into ``out`` (N), the constraint forces' ``average`` moved on."""
+              bodies: np.ndarray, dofadr: np.ndarray, out: np.ndarray) -> None:
+    """e of every vertex into ``out`` (N), zero for pinned vertices."""
     for i in range(dofadr.shape[0]):
         for k in range(3):
-            if dofadr[i] < 0:
-                out[i, k] = 0.0
-                continue
-            average[i, k] += averaging * (constraint_force[dofadr[i] + k] - average[i, k])
-            out[i, k] = body_mass[i] * gravity[k] + xfrc[bodies[i], k] + average[i, k]
+            out[i, k] = (body_mass[i] * gravity[k] + xfrc[bodies[i], k]) if dofadr[i] >= 0 \
+                else 0.0
 
 
 @njit(cache=True, fastmath=False)

@@ -195,14 +195,12 @@ class MassSpringModel:
             self.calibration[0] * material.longitudinal.small_strain_modulus_pa,
             self.calibration[1] * material.transverse.small_strain_modulus_pa)
 
-    def reset(self, data: mujoco.MjData | None = None) -> None:
-        """Put every spring back at rest: no plastic strain, nothing left to relax; the
-        implicit step starts from the constraint forces of ``data``, the new state, if
-        given."""
+    def reset(self) -> None:
+        """Put every spring back at rest: no plastic strain, nothing left to relax."""
         self._history[:] = 0.0
         self._steps = 0
         if self.implicit is not None:
-            self.implicit.reset(None if data is None else data.qfrc_constraint)
+            self.implicit.reset()
 
     def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
         return (self._gain * directional_modulus(el_pa, et_pa, self._cos_sq)
@@ -243,8 +241,7 @@ class MassSpringModel:
         if self.implicit is not None:
             self.implicit.filter(data.qvel, data.qfrc_applied, self._tangent,
                                  self._model.opt.timestep, self._model.opt.gravity,
-                                 data.xfrc_applied, data.qfrc_constraint,
-                                 refresh=self._steps % _TANGENT_REFRESH == 0)
+                                 data.xfrc_applied, refresh=self._steps % _TANGENT_REFRESH == 0)
             self._steps += 1
 
     def stable_timestep_s(self, safety: float = 0.9) -> float:
