@@ -21,9 +21,8 @@ The forces MuJoCo adds itself and that are known before the step (gravity,
 otherwise the implicit update would hold the springs against a force it does not see, and
 move each vertex by ``beta h**2 e / m`` against its neighbours at rest. The constraint forces
 (contacts, bindings as equalities, the grasp) are not known before the step and stay out: a
-vertex resting on the table sits ``beta h**2 g`` (0.06 mm at 5 ms) off, one of the default
-grasp's 34 holding the shank (about 0.45 N on 0.5 g) some 6 mm (estimates by that
-formula). Fed back from the last step, even averaged over 10 to 30 steps, they took turns
+vertex resting on the table sits ``beta h**2 g`` (0.06 mm at 5 ms) off, a grasped vertex
+pulled with 0.5 N (0.5 g) some 6 mm (estimates by that formula). Fed back from the last step, even averaged over 10 to 30 steps, they took turns
 with the vertices they push and pumped energy into a stiff meat (the paper's material
 diverged in the default episode with the slower average, 20 times the default meat hanging
 from the grasp with the faster one).
