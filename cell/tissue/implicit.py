@@ -22,10 +22,10 @@ otherwise the implicit update would hold the springs against a force it does not
 move each vertex by ``beta h**2 e / m`` against its neighbours at rest. The constraint forces
 (contacts, bindings as equalities, the grasp) are not known before the step and stay out: a
 vertex resting on the table sits ``beta h**2 g`` (0.06 mm at 5 ms) off, a grasped vertex
-pulled with 0.5 N (0.5 g) some 6 mm (estimates by that formula). Fed back from the last step, even averaged over 10 to 30 steps, they took turns
-with the vertices they push and pumped energy into a stiff meat (the paper's material
-diverged in the default episode with the slower average, 20 times the default meat hanging
-from the grasp with the faster one).
+pulled with 0.5 N (0.5 g) some 6 mm (estimates by that formula). Fed back from the last
+step, even averaged over 10 to 30 steps, they took turns with the vertices they push and
+pumped energy into a stiff meat (the paper's material diverged in the default episode with
+the slower average, 20 times the default meat hanging from the grasp with the faster one).
 
 With MuJoCo's position update, ``theta = 0, beta = 1/4, gamma = 1/2`` is Newmark's average
 acceleration (the trapezoidal rule): unconditionally stable for linear springs, second order,
