@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from cell.errors import DiagnosisError
-from cell.rheology.causes import CAUSES, EXCLUSIVE, UNEXPLAINED, CandidateMaterial
+from cell.rheology.causes import CAUSES, EXCLUSIVE, RELAXING, UNEXPLAINED, CandidateMaterial
 from cell.rheology.fitting import ModelFit, Problem, fit
 from cell.rheology.measured import MeasurementSet, MechanicalTest
 
@@ -235,6 +235,13 @@ def _stretch_range(measurements: MeasurementSet) -> tuple[float, float]:
             1.0 + max(float(strains.max()), 0.0) + margin)
 
 
+def _reference_strain(measurements: MeasurementSet) -> float:
+    """The strain a non-linear relaxed fraction is fitted at: the median of the tests' peak
+    strains (within the set's strains, where the fraction is measured)."""
+    return float(np.median([np.abs(t.strain(measurements.specimen)).max()
+                            for t in measurements.tests]))
+
+
 def improved_fraction(fit: ModelFit, previous: ModelFit,
                       tests: tuple[MechanicalTest, ...]) -> float:
     """Fraction of the tests whose held-out RMSE ``fit`` lowers below ``previous``'s."""
@@ -265,8 +272,11 @@ def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
 
 
 def _task(args: tuple) -> ModelFit:
-    problem, models, start, evaluations = args
-    fits = [fit(problem, model, _start(start, model), evaluations) for model in models]
+    """The best of ``models`` on held-out tests, each fitted from every one of ``starts`` and
+    the fit with the lower residual kept."""
+    problem, models, starts, evaluations = args
+    fits = [min((fit(problem, model, _start(start, model), evaluations) for start in starts),
+                key=lambda f: f.rmse_n) for model in models]
     return min(fits, key=lambda f: f.heldout_rmse_n)
 
 
@@ -326,9 +336,13 @@ class _Search:
                 refresh.add(frozenset(kept))
             else:
                 models = _variants(model, cause)
-            start = None if base is None else (base.model.parameter_names, base.shape)
+            starts = [None if base is None else (base.model.parameter_names, base.shape)]
+            if cause in RELAXING and base is not None and base.model.causes:
+                # The other causes' parameters, fitted without relaxation, may sit where they
+                # absorbed some of it: a fit from there can stall far from the best.
+                starts.append(None)
             keys.append(frozenset(models[0].causes))
-            tasks.append((self.problem, models, start, self.params.max_evaluations))
+            tasks.append((self.problem, models, starts, self.params.max_evaluations))
         todo = [(k, t) for k, t in zip(keys, tasks, strict=True)
                 if k not in self.fits or k in refresh]
         unique = list({k: t for k, t in todo}.items())
@@ -406,7 +420,7 @@ def cause_of(name: str) -> str:
         >>> cause_of("log_relaxation_time_1"), cause_of("oblique")
         ('viscoelasticity', 'anisotropy')
     """
-    if name == "relaxation_strain_slope":
+    if name == "relaxed_fraction_slope":
         return "nonlinear_viscoelasticity"
     if "relax" in name:
         return "viscoelasticity"
@@ -429,7 +443,8 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     params = DiagnosisParams() if params is None else params
     problem = Problem.of(measurements.specimen, measurements.tests, params.fit_samples)
     root = CandidateMaterial((), "exponential", _time_range_s(measurements), _RELAXATION_TERMS,
-                             _stretch_range(measurements), oblique=True)
+                             _stretch_range(measurements), oblique=True,
+                             reference_strain=_reference_strain(measurements))
     noise = noise_n(measurements)
     tests = measurements.tests
     # Spawned, not forked: a fork of a process whose numba (and MuJoCo, in the CLI) has
