@@ -18,7 +18,9 @@ material, the gain on held-out tests, and the evidence for each cause.
    without it (for ``nonlinear_viscoelasticity``: with ``viscoelasticity`` in its place); the
    weakest that does not is dropped, and so on. A cause stays named only while removing it
    raises the held-out error beyond the noise; those fits are the evidence of each cause
-   (:class:`Evidence`).
+   (:class:`Evidence`). ``nonlinear_viscoelasticity`` in place of ``viscoelasticity`` is
+   judged on the ramp-and-hold tests alone (mode ``relaxation``), where a relaxed fraction that
+   depends on the strain shows.
 4. When the final held-out error is still more than ``unexplained_ratio`` times the noise and
    its residuals are correlated (lag-one autocorrelation above ``structure_correlation``),
    ``unexplained`` is added.
@@ -48,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from cell.errors import DiagnosisError
+from cell.rheology.acceptance import accepts, improved_fraction, structure
 from cell.rheology.causes import CAUSES, EXCLUSIVE, RELAXING, UNEXPLAINED, CandidateMaterial
 from cell.rheology.fitting import ModelFit, Problem, fit
 from cell.rheology.measured import MeasurementSet, MechanicalTest
@@ -240,35 +243,6 @@ def _reference_strain(measurements: MeasurementSet) -> float:
     strains (within the set's strains, where the fraction is measured)."""
     return float(np.median([np.abs(t.strain(measurements.specimen)).max()
                             for t in measurements.tests]))
-
-
-def improved_fraction(fit: ModelFit, previous: ModelFit,
-                      tests: tuple[MechanicalTest, ...]) -> float:
-    """Fraction of the tests whose held-out RMSE ``fit`` lowers below ``previous``'s."""
-    return float(np.mean(fit.heldout_mse_per_test(tests)
-                         < previous.heldout_mse_per_test(tests)))
-
-
-def _structure(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> float:
-    """Lag-one autocorrelation of the held-out residuals, pooled over tests."""
-    products, squares = 0.0, 0.0
-    for predicted, test in zip(fit.heldout_force_n, tests, strict=True):
-        residual = predicted - test.force_N
-        residual = residual - residual.mean()
-        products += float(residual[1:] @ residual[:-1])
-        squares += float(residual @ residual)
-    return products / max(squares, 1e-300)
-
-
-def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
-            tests: tuple[MechanicalTest, ...], params: DiagnosisParams) -> bool:
-    """Whether ``richer`` (``poorer`` plus one cause) earns its cause (module docstring, 2)."""
-    drop = poorer.heldout_rmse_n**2 - richer.heldout_rmse_n**2
-    ratio = params.max_rmse_ratio if first else params.later_rmse_ratio
-    return (drop > params.min_variance_drop * noise**2 and richer.bic < poorer.bic
-            and richer.heldout_rmse_n <= ratio * poorer.heldout_rmse_n
-            and (first or improved_fraction(richer, poorer, tests)
-                 >= params.min_improved_fraction))
 
 
 def _task(args: tuple) -> ModelFit:
@@ -488,7 +462,7 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     evidence = tuple(sorted(evidence, key=lambda e: order.index(e.cause)))
     causes = tuple(order)
     if (current.heldout_rmse_n > params.unexplained_ratio * noise
-            and _structure(current, tests) > params.structure_correlation):
+            and structure(current, tests) > params.structure_correlation):
         causes += (UNEXPLAINED,)
     return Diagnosis(measurements, noise, baseline, tuple(candidates), tuple(steps), current,
                      causes, evidence, params, tuple(search.fits.values()))

@@ -146,7 +146,7 @@ def spring_stress(
     terms = int(params[_TERMS])
     if terms > 0:
         relaxing_share = 1.0 - params[_G_INF]
-        share = min(max(1.0 + params[_STRAIN_SLOPE] * (abs(elastic) - params[_REFERENCE_STRAIN]),
+        share = min(max(1.0 + params[_STRAIN_SLOPE] * (abs(x) - params[_REFERENCE_STRAIN]),
                         0.0),
                     1.0 / max(relaxing_share, 1e-12))
         relaxing = share * stress
