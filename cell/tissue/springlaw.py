@@ -16,11 +16,11 @@ modulus): ``tension = K0 * l0 * s``.
   leaves ``[-y, y]`` around the back strain ``H p``, H = h / (1 - h) for the hardening ratio h
   (linear kinematic hardening: the tangent past yield is h times the elastic one).
 - Viscoelasticity: ``s = s_e - G r + sum_k q_k`` with ``G = sum g_k`` and the relaxing stress
-  ``r = w(x_e) s_e``, each ``q_k`` relaxing at ``tau_k`` and loaded by ``g_k dr``: the response
+  ``r = w(x) s_e``, each ``q_k`` relaxing at ``tau_k`` and loaded by ``g_k dr``: the response
   to a step is s_e at once and ``(1 - G w) s_e`` relaxed. With ``w = 1`` this is quasi-linear
   viscoelasticity (``s = g_inf s_e + sum_k q_k``, g_inf = 1 - G); the material's
-  ``relaxation_strain_slope`` c makes the relaxed fraction depend on the strain held,
-  ``w = 1 + c (|x_e| - x_r)`` (clipped to [0, 1 / G]; x_r the material's
+  ``relaxation_strain_slope`` c makes the relaxed fraction depend on the strain held (plastic
+  part included), ``w = 1 + c (|x| - x_r)`` (clipped to [0, 1 / G]; x_r the material's
   ``relaxation_reference_strain``, at which G relaxes): non-linear viscoelasticity, as muscle
   relaxes a smaller fraction at larger strain (c < 0). The update is exact when r is linear in
   time over a step, so steps need not be short against ``tau_k``.
