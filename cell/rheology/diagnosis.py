@@ -351,10 +351,7 @@ def _weaker(search: _Search, current: ModelFit, noise: float,
     the first and stays, except a non-linear viscoelasticity: it must earn its non-linearity
     against the quasi-linear kind, alone and with each other cause added (a relaxed fraction
     that grows with strain stiffens the slow tests, and stands in for strain stiffening); when
-    it fails one, the best of them takes its place. Its relaxation must also earn its place:
-    the quasi-linear kind against the model without relaxation (else a relaxation that only
-    some strains have stands in for another cause's misfit); when it fails, that model takes
-    its place."""
+    it fails one, the best of them takes its place."""
     causes = tuple(c for c in current.model.causes
                    if len(current.model.causes) > 1 or c == EXCLUSIVE[1])
     if not causes:
@@ -368,11 +365,8 @@ def _weaker(search: _Search, current: ModelFit, noise: float,
                                              if c not in linear.model.causes
                                              and c not in EXCLUSIVE])]
         failing = [fit for fit in failing if fit is not linear]
-        still = search.run([(linear, EXCLUSIVE[0])])[0]
-        if not accepts(linear, still, not still.model.causes, noise, tests, search.params):
-            failing.append(still)
-        elif not all(accepts(current, f, False, noise, tests, search.params)
-                     for f in alternatives):
+        if not all(accepts(current, f, False, noise, tests, search.params)
+                   for f in alternatives):
             failing.append(min(alternatives, key=lambda f: f.heldout_rmse_n))
     return min(failing, key=lambda f: f.heldout_rmse_n) if failing else None
 
