@@ -42,6 +42,7 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
     "cell.rheology.report": ("cell.rheology.synthetic", "cell.rheology.truth"),
     "cell.rheology.fitting": ("cell.rheology.synthetic", "cell.rheology.truth"),
     "cell.rheology.causeplots": ("cell.rheology.synthetic", "cell.rheology.truth"),
+    "cell.rheology.acceptance": ("cell.rheology.synthetic", "cell.rheology.truth"),
 }
 PROJECT_PACKAGES = ("cell", "controllers", "envs", "tests")
 MAX_MODULE_LINES = 500

@@ -85,5 +85,5 @@ def test_relaxation_set_of_muscle_shape_is_nonlinear_viscoelastic(tmp_path: Path
     assert "viscoelasticity" not in result.causes
     assert result.gain >= 0.7
     evidence = result.evidence[0]
-    value, low, high = evidence.params["relaxation_strain_slope"]
+    value, low, high = evidence.params["relaxed_fraction_slope"]
     assert low < value < high < 0.0  # relaxes less at larger strain, as the truth does

@@ -182,3 +182,13 @@ def test_a_compression_oblique_factor_is_written_and_read_back(tmp_path: Path) -
     assert material.in_compression().oblique == 0.4 and not material.symmetric
     with pytest.raises(MaterialError, match="oblique_compression"):
         MassSpringMaterial(oblique_compression=-1.0)
+
+
+def test_a_non_linear_relaxation_is_written_and_read_back(tmp_path: Path) -> None:
+    material = MassSpringMaterial(relaxation_weights=(0.3,), relaxation_times_s=(2.0,),
+                                  relaxation_strain_slope=4.0, relaxation_reference_strain=0.15)
+    path = tmp_path / "m.toml"
+    path.write_text(material_to_toml(material))
+    assert load_material(path) == material
+    with pytest.raises(MaterialError, match="relaxation_reference_strain"):
+        MassSpringMaterial(relaxation_reference_strain=-0.1)

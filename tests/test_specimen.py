@@ -140,6 +140,11 @@ def test_non_linear_relaxation_relaxes_a_share_that_depends_on_the_strain() -> N
     assert 0.3 <= relaxed(shrinking, 0.2) <= 0.4
     growing = replace(linear, relaxation_strain_slope=2.0)
     assert relaxed(growing, 0.2) > 0.55
+    # Half at the reference strain 0.2 (the springs along the load; the others, strained less,
+    # relax less), with a slope that leaves none at small strains.
+    from_none = replace(linear, relaxation_strain_slope=5.0, relaxation_reference_strain=0.2)
+    assert 0.35 <= relaxed(from_none, 0.2) <= 0.5
+    assert relaxed(from_none, 0.02) < 0.1
 
 
 def test_plasticity_leaves_a_permanent_set() -> None:

@@ -22,8 +22,9 @@ cause                            change to the material (shape parameters)
 ``viscoelasticity``              quasi-linear relaxation: the fraction that relaxes, its
                                  shares among the terms (stick-breaking), each term's time
                                  (log10 s) within the tests' span
-``nonlinear_viscoelasticity``    the same, its relaxed fraction growing or shrinking with the
-                                 strain held (slope c of ``1 + c |x|``); it replaces
+``nonlinear_viscoelasticity``    the same, its relaxed fraction (held at the set's reference
+                                 strain) growing or shrinking linearly with the strain held
+                                 (its slope per unit strain); it replaces
                                  ``viscoelasticity``, never joins it
 ``tension_compression_asymmetry`` El and Et of compressed springs (their logs over the
                                  tension ones)
@@ -84,6 +85,10 @@ class CandidateMaterial:
         oblique: whether ``anisotropy`` also fits the oblique springs' factor.
         compression_per_direction: whether ``tension_compression_asymmetry`` scales El and Et
             of compressed springs apart (else by one factor).
+        reference_strain: the spring strain at which ``relaxed_fraction`` holds for
+            ``nonlinear_viscoelasticity`` (the fraction is linear in the strain around it: a
+            fraction that grows from none at small strains is one no positive fraction at zero
+            strain can give).
 
     Raises:
         DiagnosisError: an unknown cause, or both kinds of viscoelasticity.
@@ -100,6 +105,7 @@ class CandidateMaterial:
     stretch_range: tuple[float, float] = (0.5, 1.5)
     oblique: bool = False
     compression_per_direction: bool = False
+    reference_strain: float = 0.1
 
     def __post_init__(self) -> None:
         unknown = set(self.causes) - set(CAUSES)
@@ -153,7 +159,7 @@ class CandidateMaterial:
             names += [f"relaxation_share_{k}" for k in range(self.relaxation_terms - 1)]
             names += [f"log_relaxation_time_{k}" for k in range(self.relaxation_terms)]
         if "nonlinear_viscoelasticity" in self.causes:
-            names.append("relaxation_strain_slope")
+            names.append("relaxed_fraction_slope")
         if "tension_compression_asymmetry" in self.causes:
             names += (["log_el_compression", "log_et_compression"]
                       if self.compression_per_direction else ["log_compression"])
@@ -167,7 +173,7 @@ class CandidateMaterial:
         start = {"stiffening_exponent": 4.0, "stiffening_quadratic": 10.0,
                  "yield_strain": 0.03, "hardening": 0.3, "oblique": 0.0,
                  "oblique_compressed": 0.0,
-                 "relaxation_strain_slope": 0.0, "relaxed_fraction": 0.3}
+                 "relaxed_fraction_slope": 0.0, "relaxed_fraction": 0.3}
         low, high = np.log10(self.time_range_s)
         times = np.linspace(low, high, self.relaxation_terms + 2)[1:-1]
         start.update({f"log_relaxation_time_{k}": float(t) for k, t in enumerate(times)})
@@ -186,7 +192,7 @@ class CandidateMaterial:
                   "log_el_over_et_compressed": (-1.6, 1.6),
                   "log_el_compression": (-3.0, 3.0), "log_compression": (-3.0, 3.0),
                   "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
-                  "hardening": (0.0, 0.95), "relaxation_strain_slope": (-6.0, 6.0),
+                  "hardening": (0.0, 0.95), "relaxed_fraction_slope": (-10.0, 10.0),
                   "relaxed_fraction": (0.0, 0.98)}
         low, high = np.log10(self.time_range_s)
         limits.update({f"log_relaxation_time_{k}": (float(low), float(high))
@@ -239,7 +245,9 @@ class CandidateMaterial:
             density_kg_m3=density_kg_m3,
             relaxation_weights=tuple(weights),
             relaxation_times_s=times,
-            relaxation_strain_slope=value.get("relaxation_strain_slope", 0.0),
+            relaxation_strain_slope=_strain_slope(value),
+            relaxation_reference_strain=self.reference_strain if "relaxed_fraction_slope"
+            in value else 0.0,
             yield_strain=value.get("yield_strain", 0.0),
             hardening=value.get("hardening", 0.0),
             geometric_compensation=LATTICE_STIFFENING,
@@ -267,6 +275,7 @@ class CandidateMaterial:
                 params[f"relaxation_time_{k}_s"] = tau
         if "nonlinear_viscoelasticity" in self.causes:
             params["relaxation_strain_slope"] = material.relaxation_strain_slope
+            params["relaxation_reference_strain"] = material.relaxation_reference_strain
         if material.longitudinal_compression is not None:
             params["el_compression_pa"] = material.longitudinal_compression.coefficients[0]
             params["et_compression_pa"] = material.transverse_compression.coefficients[0]
@@ -287,3 +296,12 @@ def _relaxation_weights(value: dict[str, float], terms: int) -> tuple[float, ...
         weights.append(left * value[f"relaxation_share_{k}"])
         left -= weights[-1]
     return (*weights, left)
+
+
+def _strain_slope(value: dict[str, float]) -> float:
+    """The spring law's c from the fitted slope of the relaxed fraction per unit strain (the
+    fraction ``G (1 + c (|x| - x_r))`` has slope ``G c``); 0 when nothing relaxes."""
+    fraction = value.get("relaxed_fraction", 0.0)
+    if fraction <= 0.0:
+        return 0.0
+    return value.get("relaxed_fraction_slope", 0.0) / fraction

@@ -18,7 +18,9 @@ material, the gain on held-out tests, and the evidence for each cause.
    without it (for ``nonlinear_viscoelasticity``: with ``viscoelasticity`` in its place); the
    weakest that does not is dropped, and so on. A cause stays named only while removing it
    raises the held-out error beyond the noise; those fits are the evidence of each cause
-   (:class:`Evidence`).
+   (:class:`Evidence`). ``nonlinear_viscoelasticity`` in place of ``viscoelasticity`` is
+   judged on the ramp-and-hold tests alone (mode ``relaxation``), where a relaxed fraction that
+   depends on the strain shows.
 4. When the final held-out error is still more than ``unexplained_ratio`` times the noise and
    its residuals are correlated (lag-one autocorrelation above ``structure_correlation``),
    ``unexplained`` is added.
@@ -48,7 +50,8 @@ from typing import Any
 import numpy as np
 
 from cell.errors import DiagnosisError
-from cell.rheology.causes import CAUSES, EXCLUSIVE, UNEXPLAINED, CandidateMaterial
+from cell.rheology.acceptance import accepts, improved_fraction, structure
+from cell.rheology.causes import CAUSES, EXCLUSIVE, RELAXING, UNEXPLAINED, CandidateMaterial
 from cell.rheology.fitting import ModelFit, Problem, fit
 from cell.rheology.measured import MeasurementSet, MechanicalTest
 
@@ -235,38 +238,19 @@ def _stretch_range(measurements: MeasurementSet) -> tuple[float, float]:
             1.0 + max(float(strains.max()), 0.0) + margin)
 
 
-def improved_fraction(fit: ModelFit, previous: ModelFit,
-                      tests: tuple[MechanicalTest, ...]) -> float:
-    """Fraction of the tests whose held-out RMSE ``fit`` lowers below ``previous``'s."""
-    return float(np.mean(fit.heldout_mse_per_test(tests)
-                         < previous.heldout_mse_per_test(tests)))
-
-
-def _structure(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> float:
-    """Lag-one autocorrelation of the held-out residuals, pooled over tests."""
-    products, squares = 0.0, 0.0
-    for predicted, test in zip(fit.heldout_force_n, tests, strict=True):
-        residual = predicted - test.force_N
-        residual = residual - residual.mean()
-        products += float(residual[1:] @ residual[:-1])
-        squares += float(residual @ residual)
-    return products / max(squares, 1e-300)
-
-
-def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
-            tests: tuple[MechanicalTest, ...], params: DiagnosisParams) -> bool:
-    """Whether ``richer`` (``poorer`` plus one cause) earns its cause (module docstring, 2)."""
-    drop = poorer.heldout_rmse_n**2 - richer.heldout_rmse_n**2
-    ratio = params.max_rmse_ratio if first else params.later_rmse_ratio
-    return (drop > params.min_variance_drop * noise**2 and richer.bic < poorer.bic
-            and richer.heldout_rmse_n <= ratio * poorer.heldout_rmse_n
-            and (first or improved_fraction(richer, poorer, tests)
-                 >= params.min_improved_fraction))
+def _reference_strain(measurements: MeasurementSet) -> float:
+    """The strain a non-linear relaxed fraction is fitted at: the median of the tests' peak
+    strains (within the set's strains, where the fraction is measured)."""
+    return float(np.median([np.abs(t.strain(measurements.specimen)).max()
+                            for t in measurements.tests]))
 
 
 def _task(args: tuple) -> ModelFit:
-    problem, models, start, evaluations = args
-    fits = [fit(problem, model, _start(start, model), evaluations) for model in models]
+    """The best of ``models`` on held-out tests, each fitted from every one of ``starts`` and
+    the fit with the lower residual kept."""
+    problem, models, starts, evaluations = args
+    fits = [min((fit(problem, model, _start(start, model), evaluations) for start in starts),
+                key=lambda f: f.rmse_n) for model in models]
     return min(fits, key=lambda f: f.heldout_rmse_n)
 
 
@@ -326,9 +310,13 @@ class _Search:
                 refresh.add(frozenset(kept))
             else:
                 models = _variants(model, cause)
-            start = None if base is None else (base.model.parameter_names, base.shape)
+            starts = [None if base is None else (base.model.parameter_names, base.shape)]
+            if cause in RELAXING and base is not None and base.model.causes:
+                # The other causes' parameters, fitted without relaxation, may sit where they
+                # absorbed some of it: a fit from there can stall far from the best.
+                starts.append(None)
             keys.append(frozenset(models[0].causes))
-            tasks.append((self.problem, models, start, self.params.max_evaluations))
+            tasks.append((self.problem, models, starts, self.params.max_evaluations))
         todo = [(k, t) for k, t in zip(keys, tasks, strict=True)
                 if k not in self.fits or k in refresh]
         unique = list({k: t for k, t in todo}.items())
@@ -361,21 +349,25 @@ def _weaker(search: _Search, current: ModelFit, noise: float,
     """``current`` without its weakest cause, when that cause fails :func:`accepts` against
     the model without it; None when every cause holds (module docstring, 3). A lone cause is
     the first and stays, except a non-linear viscoelasticity: it must earn its non-linearity
-    against the quasi-linear kind, alone or with any other cause added (a relaxed fraction
-    that grows with strain stiffens the slow tests, and stands in for strain stiffening)."""
+    against the quasi-linear kind, alone and with each other cause added (a relaxed fraction
+    that grows with strain stiffens the slow tests, and stands in for strain stiffening); when
+    it fails one, the best of them takes its place."""
     causes = tuple(c for c in current.model.causes
                    if len(current.model.causes) > 1 or c == EXCLUSIVE[1])
     if not causes:
         return None
     without = search.run([(current, c) for c in causes])
-    if EXCLUSIVE[1] in causes:
-        linear = without[causes.index(EXCLUSIVE[1])]
-        swaps = search.run([(linear, c) for c in CAUSES
-                            if c not in linear.model.causes and c not in EXCLUSIVE])
-        without[causes.index(EXCLUSIVE[1])] = min([linear, *swaps],
-                                                  key=lambda f: f.heldout_rmse_n)
     failing = [fit for fit in without
                if not accepts(current, fit, False, noise, tests, search.params)]
+    if EXCLUSIVE[1] in causes:
+        linear = without[causes.index(EXCLUSIVE[1])]
+        alternatives = [linear, *search.run([(linear, c) for c in CAUSES
+                                             if c not in linear.model.causes
+                                             and c not in EXCLUSIVE])]
+        failing = [fit for fit in failing if fit is not linear]
+        if not all(accepts(current, f, False, noise, tests, search.params)
+                   for f in alternatives):
+            failing.append(min(alternatives, key=lambda f: f.heldout_rmse_n))
     return min(failing, key=lambda f: f.heldout_rmse_n) if failing else None
 
 
@@ -406,7 +398,7 @@ def cause_of(name: str) -> str:
         >>> cause_of("log_relaxation_time_1"), cause_of("oblique")
         ('viscoelasticity', 'anisotropy')
     """
-    if name == "relaxation_strain_slope":
+    if name == "relaxed_fraction_slope":
         return "nonlinear_viscoelasticity"
     if "relax" in name:
         return "viscoelasticity"
@@ -429,7 +421,8 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     params = DiagnosisParams() if params is None else params
     problem = Problem.of(measurements.specimen, measurements.tests, params.fit_samples)
     root = CandidateMaterial((), "exponential", _time_range_s(measurements), _RELAXATION_TERMS,
-                             _stretch_range(measurements), oblique=True)
+                             _stretch_range(measurements), oblique=True,
+                             reference_strain=_reference_strain(measurements))
     noise = noise_n(measurements)
     tests = measurements.tests
     # Spawned, not forked: a fork of a process whose numba (and MuJoCo, in the CLI) has
@@ -473,7 +466,7 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     evidence = tuple(sorted(evidence, key=lambda e: order.index(e.cause)))
     causes = tuple(order)
     if (current.heldout_rmse_n > params.unexplained_ratio * noise
-            and _structure(current, tests) > params.structure_correlation):
+            and structure(current, tests) > params.structure_correlation):
         causes += (UNEXPLAINED,)
     return Diagnosis(measurements, noise, baseline, tuple(candidates), tuple(steps), current,
                      causes, evidence, params, tuple(search.fits.values()))

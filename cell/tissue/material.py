@@ -106,10 +106,14 @@ class MassSpringMaterial:
             ``G(t) = 1 - sum g_k + sum g_k exp(-t / tau_k)`` acting on every spring's elastic
             force (the curves are the instantaneous response); each >= 0, their sum < 1.
         relaxation_times_s: tau_k, s, one per weight.
-        relaxation_strain_slope: c in the relaxing share ``1 + c |x|`` of a spring's elastic
-            stress at strain x (dimensionless, per unit strain): the fraction that relaxes is
-            ``sum g_k (1 + c |x|)``, clipped to [0, 1] (non-linear viscoelasticity; 0 is
-            quasi-linear, < 0 relaxes less at larger strain, as muscle in compression does).
+        relaxation_strain_slope: c in the relaxing share ``1 + c (|x| - x_r)`` of a spring's
+            elastic stress at strain x (dimensionless, per unit strain): the fraction that
+            relaxes is ``sum g_k (1 + c (|x| - x_r))``, clipped to [0, 1] (non-linear
+            viscoelasticity; 0 is quasi-linear, < 0 relaxes less at larger strain, as muscle in
+            compression does).
+        relaxation_reference_strain: x_r, the spring strain at which the fraction that relaxes
+            is ``sum g_k`` (>= 0; 0 for the share ``1 + c |x|``). A fraction that grows with the
+            strain from (near) none at small strains needs x_r > 0: ``sum g_k`` is positive.
         yield_strain: spring strain beyond which its rest length flows (permanent set); 0 for
             an elastic material.
         hardening: post-yield tangent over the elastic modulus, in [0, 1) (linear kinematic
@@ -155,11 +159,13 @@ class MassSpringMaterial:
     oblique: float = 0.0
     relaxation_strain_slope: float = 0.0
     oblique_compression: float | None = None
+    relaxation_reference_strain: float = 0.0
 
     def __post_init__(self) -> None:
         require_positive(self, "density_kg_m3", error=MaterialError)
         require_non_negative(self, "damping_s", "yield_strain", "hardening",
-                             "geometric_compensation", error=MaterialError)
+                             "geometric_compensation", "relaxation_reference_strain",
+                             error=MaterialError)
         for name in ("hardening", "geometric_compensation"):
             if not getattr(self, name) < 1:
                 raise MaterialError(None, name, f"must be < 1, got {getattr(self, name)}")

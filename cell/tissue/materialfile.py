@@ -145,6 +145,7 @@ def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
         f"relaxation_weights = {numbers(material.relaxation_weights)}",
         f"relaxation_times_s = {numbers(material.relaxation_times_s)}",
         f"relaxation_strain_slope = {number(material.relaxation_strain_slope)}",
+        f"relaxation_reference_strain = {number(material.relaxation_reference_strain)}",
         f"yield_strain = {number(material.yield_strain)}",
         f"hardening = {number(material.hardening)}",
         f"geometric_compensation = {number(material.geometric_compensation)}",

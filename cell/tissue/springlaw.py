@@ -16,13 +16,14 @@ modulus): ``tension = K0 * l0 * s``.
   leaves ``[-y, y]`` around the back strain ``H p``, H = h / (1 - h) for the hardening ratio h
   (linear kinematic hardening: the tangent past yield is h times the elastic one).
 - Viscoelasticity: ``s = s_e - G r + sum_k q_k`` with ``G = sum g_k`` and the relaxing stress
-  ``r = w(x_e) s_e``, each ``q_k`` relaxing at ``tau_k`` and loaded by ``g_k dr``: the response
+  ``r = w(x) s_e``, each ``q_k`` relaxing at ``tau_k`` and loaded by ``g_k dr``: the response
   to a step is s_e at once and ``(1 - G w) s_e`` relaxed. With ``w = 1`` this is quasi-linear
   viscoelasticity (``s = g_inf s_e + sum_k q_k``, g_inf = 1 - G); the material's
-  ``relaxation_strain_slope`` c makes the relaxed fraction depend on the strain held,
-  ``w = 1 + c |x_e|`` (clipped to [0, 1 / G]): non-linear viscoelasticity, as muscle relaxes
-  a smaller fraction at larger strain (c < 0). The update is exact when r is linear in time over
-  a step, so steps need not be short against ``tau_k``.
+  ``relaxation_strain_slope`` c makes the relaxed fraction depend on the strain held (plastic
+  part included), ``w = 1 + c (|x| - x_r)`` (clipped to [0, 1 / G]; x_r the material's
+  ``relaxation_reference_strain``, at which G relaxes): non-linear viscoelasticity, as muscle
+  relaxes a smaller fraction at larger strain (c < 0). The update is exact when r is linear in
+  time over a step, so steps need not be short against ``tau_k``.
 
 The history of E springs is an (E, 2 + K) array, one row per spring: plastic strain, last
 relaxing stress r, then the K relaxation states. Everything starts at rest (zeros).
@@ -63,7 +64,8 @@ from cell.tissue.material import MassSpringMaterial
 # strains -0.3 to 0.25 (tests/test_specimen.py).
 LATTICE_STIFFENING = 0.33
 # Layout of SpringLaw.params.
-_YIELD, _BACK, _GEOMETRY, _OBLIQUE, _OBLIQUE_COMPRESSION, _G_INF, _STRAIN_SLOPE, _TERMS = range(8)
+(_YIELD, _BACK, _GEOMETRY, _OBLIQUE, _OBLIQUE_COMPRESSION, _G_INF, _STRAIN_SLOPE,
+ _REFERENCE_STRAIN, _TERMS) = range(9)
 # Layout of a history row.
 _PLASTIC, _LAST = 0, 1
 _STATES = 2
@@ -144,7 +146,8 @@ def spring_stress(
     terms = int(params[_TERMS])
     if terms > 0:
         relaxing_share = 1.0 - params[_G_INF]
-        share = min(max(1.0 + params[_STRAIN_SLOPE] * abs(elastic), 0.0),
+        share = min(max(1.0 + params[_STRAIN_SLOPE] * (abs(x) - params[_REFERENCE_STRAIN]),
+                        0.0),
                     1.0 / max(relaxing_share, 1e-12))
         relaxing = share * stress
         change = relaxing - history[row, _LAST]
@@ -175,12 +178,12 @@ class SpringLaw:
         curves: (4, 13) El and Et in tension, then in compression (:func:`pack_curve`), times
             their calibration factors.
         params: yield strain, back-strain factor H, geometric compensation, oblique factor
-            in tension and in compression, g_inf, relaxation strain slope c, K, g_1..g_K,
-            tau_1..tau_K (s).
+            in tension and in compression, g_inf, relaxation strain slope c and reference
+            strain x_r, K, g_1..g_K, tau_1..tau_K (s).
 
     Example:
-        >>> SpringLaw.of(MassSpringMaterial()).params[:8].tolist()
-        [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
+        >>> SpringLaw.of(MassSpringMaterial()).params[:9].tolist()
+        [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
     """
 
     curves: np.ndarray
@@ -202,7 +205,7 @@ class SpringLaw:
         params = np.concatenate([
             [material.yield_strain, back, material.geometric_compensation, material.oblique,
              squeezed.oblique, 1.0 - weights.sum(), material.relaxation_strain_slope,
-             len(weights)],
+             material.relaxation_reference_strain, len(weights)],
             weights,
             np.asarray(material.relaxation_times_s, dtype=float),
         ])

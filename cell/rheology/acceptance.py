@@ -1,0 +1,74 @@
+"""Whether a cause earns its place in a model of a measurement set, from the held-out errors
+of the model with and without it (:func:`accepts`; the search that asks is
+:mod:`cell.rheology.diagnosis`).
+
+Usage::
+
+    accepts(richer, poorer, first=False, noise=noise_n(data), tests=data.tests,
+            params=DiagnosisParams())  # richer: poorer's model plus one cause, fitted
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from cell.rheology.causes import EXCLUSIVE
+from cell.rheology.fitting import ModelFit
+from cell.rheology.measured import MechanicalTest
+
+if TYPE_CHECKING:
+    from cell.rheology.diagnosis import DiagnosisParams
+
+
+def improved_fraction(fit: ModelFit, previous: ModelFit,
+                      tests: tuple[MechanicalTest, ...]) -> float:
+    """Fraction of the tests whose held-out RMSE ``fit`` lowers below ``previous``'s."""
+    return float(np.mean(fit.heldout_mse_per_test(tests)
+                         < previous.heldout_mse_per_test(tests)))
+
+
+def structure(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> float:
+    """Lag-one autocorrelation of the held-out residuals, pooled over tests."""
+    products, squares = 0.0, 0.0
+    for predicted, test in zip(fit.heldout_force_n, tests, strict=True):
+        residual = predicted - test.force_N
+        residual = residual - residual.mean()
+        products += float(residual[1:] @ residual[:-1])
+        squares += float(residual @ residual)
+    return products / max(squares, 1e-300)
+
+
+def _judged(richer: ModelFit, poorer: ModelFit,
+            tests: tuple[MechanicalTest, ...]) -> list[int]:
+    """The tests on which ``richer`` is judged against ``poorer``: the ramp-and-hold ones when
+    all it adds is to make poorer's relaxation non-linear (a relaxed fraction that depends on
+    the strain shows in holds alone; on the other tests its slope only trades misfit with the
+    other causes), every test otherwise (and when the set has no hold)."""
+    causes, other = set(richer.model.causes), set(poorer.model.causes)
+    holds = [i for i, test in enumerate(tests) if test.mode == "relaxation"]
+    if EXCLUSIVE[1] in causes and EXCLUSIVE[0] in other and causes - {EXCLUSIVE[1]} <= other:
+        return holds or list(range(len(tests)))
+    return list(range(len(tests)))
+
+
+def _heldout_rmse_n(fit: ModelFit, tests: tuple[MechanicalTest, ...],
+                    judged: list[int]) -> float:
+    """Held-out RMSE of ``fit`` over every sample of the ``judged`` tests, N."""
+    errors = np.concatenate([fit.heldout_force_n[i] - tests[i].force_N for i in judged])
+    return float(np.sqrt(np.mean(errors**2)))
+
+
+def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
+            tests: tuple[MechanicalTest, ...], params: DiagnosisParams) -> bool:
+    """Whether ``richer`` (``poorer`` plus one cause) earns its cause (module docstring, 2),
+    on the tests :func:`_judged` picks."""
+    judged = _judged(richer, poorer, tests)
+    rich, poor = (_heldout_rmse_n(f, tests, judged) for f in (richer, poorer))
+    ratio = params.max_rmse_ratio if first else params.later_rmse_ratio
+    improved = np.mean(richer.heldout_mse_per_test(tests)[judged]
+                       < poorer.heldout_mse_per_test(tests)[judged])
+    return (poor**2 - rich**2 > params.min_variance_drop * noise**2 and richer.bic < poorer.bic
+            and rich <= ratio * poor
+            and (first or improved >= params.min_improved_fraction))
