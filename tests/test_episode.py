@@ -149,3 +149,14 @@ def test_force_rule_alone_cuts_with_the_hooked_bindings() -> None:
     assert summary["released_by_rule"]["knife"] == summary["released_by_rule"]["tearing"] == 0
     assert summary["knife_force_split_n"]["edge"]["peak"] == 0.0
     assert summary["knife_force_peak_n"] > 1.0
+
+
+def test_the_cut_is_scored_against_the_true_interface(full_episode: dict) -> None:
+    tip = full_episode["knife_tip_to_true_interface_m"]
+    assert 0.0 < tip["mean"] <= tip["max"] and tip["mean"] <= 0.003
+    assert [p["pass"] for p in tip["passes"]] == [0]
+    damage = full_episode["flesh_damage"]
+    bindings = full_episode["bindings"]
+    assert damage["bindings_torn"] == full_episode["released_by_rule"]["tearing"]
+    assert damage["torn_fraction"] == pytest.approx(damage["bindings_torn"] / bindings)
+    assert damage["blade_volume_in_flesh_m3"] >= 0.0

@@ -4,13 +4,13 @@ opened cut shows.
 Every look of the camera gives a guideline: the bottom of the valley between the muscles, on
 the interface's top edge before the cut and deeper in the opening after each pass. At each x
 the looks' (y, z) points lie on the interface, so the interface there is the prior surface
-(the generic model's interface) shifted along y onto them. Before the cut only the top is seen and the
-shift is the same all the way down, so the lean is the prior's; as the passes open the cut,
-the looks span a height and the shift's slope over it takes over: a least-squares slope
-ridged to zero with weight ``prior_rise_m`` squared, so that looks a few millimetres apart,
-whose slope the noise would decide, move it little.
+(the generic model's interface) shifted along y onto them. Before the cut only the top is
+seen and the shift is the same all the way down, so the lean is the prior's; as the passes
+open the cut, the looks span a height and the shift's slope over it takes over: a
+least-squares slope ridged to zero with weight ``prior_rise_m`` squared, so that looks a few
+millimetres apart, whose slope the noise would decide, move it little.
 
-An affine fit of the generic model (:class:`~cell.perception.pipeline.PredictedInterface`)
+An affine fit of the generic model (:class:`~cell.perception.predicted.PredictedInterface`)
 leans as its shears say, which a top view hardly constrains: on 10 shapes drawn from the
 documented ranges (seeds 1000-1009) its planned tip ran 0.6 to 14.7 mm mean from the true
 interface, this estimate's with the prior lean alone 1.1 to 4.6 mm.

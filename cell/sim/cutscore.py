@@ -75,6 +75,7 @@ class CutScore:
         # Bindings within this distance along x of a point tell the interface's top there.
         self._station_m = mesh.shape.cell_size_m
         self._tip_distance: list[tuple[int, float]] = []
+        self._worst: dict[str, float] = {}
         self._flesh_area_m2 = 0.0
         self._last_tip: np.ndarray | None = None
 
@@ -103,17 +104,21 @@ class CutScore:
             return
         near = np.abs(midpoints[:, 0] - tip[0]) <= self._station_m
         top_z = midpoints[near, 2].max() if near.any() else midpoints[:, 2].max()
-        heights = np.linspace(0.0, self.blade_length_m, _EDGE_SAMPLES)
+        # Each sample stands for an equal share of the edge, at its middle.
+        heights = (np.arange(_EDGE_SAMPLES) + 0.5) * self.blade_length_m / _EDGE_SAMPLES
         edge = tip - heights[:, None] * np.asarray(blade_axis, dtype=float)
         edge = edge[edge[:, 2] <= top_z]
         points = np.vstack([tip, edge])
         distance, binding = self._distances(points, midpoints)
         self._tip_distance.append((pass_index, float(distance[0])))
+        if distance[0] >= self._worst.get("distance_m", -1.0):
+            self._worst = {"distance_m": float(distance[0]), "time_s": float(data.time),
+                           "x_m": float(tip[0]), "z_m": float(tip[2])}
         if len(edge) == 0 or advance == 0.0:
             return
         half_gap = 0.5 * np.linalg.norm(shank_m - round_m, axis=1)[binding[1:]]
         in_flesh = distance[1:] - self.blade_half_thickness_m > half_gap
-        segment_m = self.blade_length_m / (_EDGE_SAMPLES - 1)
+        segment_m = self.blade_length_m / _EDGE_SAMPLES
         self._flesh_area_m2 += float(in_flesh.sum()) * segment_m * advance
 
     def lift(self) -> None:
@@ -121,16 +126,19 @@ class CutScore:
         self._last_tip = None
 
     def tip_distance(self) -> dict[str, Any]:
-        """The tip's distance to the interface (m): ``mean`` and ``max`` over the whole cut,
-        ``samples``, and ``passes``, the same per pass (in pass order)."""
+        """The tip's distance to the interface (m): ``mean``, ``p95`` and ``max`` over the
+        whole cut, where the max was (``max_at``: time s, tip x and z m), ``samples``, and
+        ``passes``, the same per pass (in pass order)."""
         if not self._tip_distance:
-            return {"mean": None, "max": None, "samples": 0, "passes": []}
+            return {"mean": None, "p95": None, "max": None, "max_at": None, "samples": 0,
+                    "passes": []}
         passes, distance = (np.array(column) for column in zip(*self._tip_distance,
                                                                strict=True))
         per_pass = [{"pass": int(p), "mean": float(distance[passes == p].mean()),
                      "max": float(distance[passes == p].max()),
                      "samples": int((passes == p).sum())} for p in np.unique(passes)]
-        return {"mean": float(distance.mean()), "max": float(distance.max()),
+        return {"mean": float(distance.mean()), "p95": float(np.percentile(distance, 95)),
+                "max": float(distance.max()), "max_at": self._worst,
                 "samples": len(distance), "passes": per_pass}
 
     def flesh_damage(self) -> dict[str, Any]:

@@ -32,13 +32,21 @@ import numpy as np
 from cell.errors import PerceptionError
 from cell.perception.interface import SeenInterface
 from cell.perception.pipeline import PerceptionParams, look
-from cell.polyline import closest_on
+from cell.polyline import closest_on, length
 from cell.robots.camera import CameraRig
 
 #: Which random stream of the seed the looks' camera noise draws from (the first look: 1).
 _LOOK_STREAM = 2
 #: Cloud points within this plan-view distance of a look's guideline show the opening, m.
 _OPENING_HALF_WIDTH_M = 0.015
+#: A look's guideline point joins the estimate where it lies within this of it along y, m,
+#: plus _GATE_LEAN times its depth below the first look: the noise, and the most the lean
+#: of the documented shapes (0 to 0.2) can differ from the generic model's 0.1.
+_GATE_M = 0.0015
+_GATE_LEAN = 0.12
+#: A look whose guideline is shorter than this fraction of the first's, or keeps fewer of its
+#: points than this fraction after the gate, is not used (the walk lost the valley).
+_MIN_KEPT = 0.5
 
 
 class Relooks:
@@ -89,17 +97,30 @@ class Relooks:
                                           "perception_s": time.perf_counter() - clock})
             return None
         guideline = seen.guideline.points_m
-        self.estimate = self.estimate.seen(guideline)
-        lean = self.estimate.lean(guideline[:, 0])
-        update |= {"perception_s": time.perf_counter() - clock,
-                   "timings_s": dict(seen.timings_s),
-                   "guideline_samples": len(guideline),
-                   "seen_below_first_m": self.estimate.deepest_m(),
-                   "lean": {"min": float(lean.min()), "mean": float(lean.mean()),
-                            "max": float(lean.max())}}
-        self.updates.append(update)
+        kept = self._gate(guideline)
+        update |= {"timings_s": dict(seen.timings_s), "guideline_samples": len(guideline),
+                   "kept_fraction": float(kept.mean())}
+        first_length = length(self.estimate.looks_m[0])
+        if seen.guideline.length_m < _MIN_KEPT * first_length or kept.mean() < _MIN_KEPT:
+            update["rejected"] = (f"the walk kept {seen.guideline.length_m:.3f} m of the "
+                                  f"first look's {first_length:.3f} m, {kept.mean():.0%} of "
+                                  "its points within the gate")
+        else:
+            self.estimate = self.estimate.seen(guideline[kept])
+            lean = self.estimate.lean(guideline[kept, 0])
+            update |= {"seen_below_first_m": self.estimate.deepest_m(),
+                       "lean": {"min": float(lean.min()), "mean": float(lean.mean()),
+                                "max": float(lean.max())}}
+        self.updates.append(update | {"perception_s": time.perf_counter() - clock})
         near = closest_on(seen.cloud_m[:, :2], guideline[:, :2]).distance_m
         return guideline, seen.cloud_m[near <= _OPENING_HALF_WIDTH_M]
+
+    def _gate(self, guideline_m: np.ndarray) -> np.ndarray:
+        """(K,) which points of a look's guideline lie within the gate of the estimate."""
+        x, y, z = guideline_m.T
+        first = self.estimate.looks_m[0][np.argsort(self.estimate.looks_m[0][:, 0])]
+        below = np.maximum(np.interp(x, first[:, 0], first[:, 2]) - z, 0.0)
+        return np.abs(y - self.estimate(x, z)) <= _GATE_M + _GATE_LEAN * below
 
     def correct(self, target: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """The knife's planned target (position m, rotation) moved along y by what the looks
