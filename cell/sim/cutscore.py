@@ -12,8 +12,9 @@ moved to its pair's midpoint), so it deforms and opens with the meat. While the 
   thickness); the edge's length in flesh times the tip's advance is area swept (m^2), times
   the blade's thickness the blade volume swept inside a muscle (m^3).
 
-Only steps whose tip lies within the interface's extent along x count (the lead-in and
-lead-out are outside the meat).
+Only steps whose tip lies across from the interface count: within its extent along x and
+off it along its normal, not past its edge (the lead-in and lead-out are outside the meat,
+and the tip entering the end face is past the deformed surface's edge for a moment).
 
 Example:
     >>> from cell.sim.assembly import build_scene
@@ -43,6 +44,9 @@ from cell.tissue.geometry import TwoMuscleMesh
 
 #: Points sampled along the blade's edge each step.
 _EDGE_SAMPLES = 16
+#: A point lies across from the interface (not past its edge, as the tip entering the meat's
+#: end face does) where its offset from the closest point is this close to the normal.
+_ACROSS_COSINE = 0.95
 
 
 def interface_triangles(mesh: TwoMuscleMesh) -> np.ndarray:
@@ -79,17 +83,25 @@ class CutScore:
         self._flesh_area_m2 = 0.0
         self._last_tip: np.ndarray | None = None
 
-    def _distances(self, points: np.ndarray, midpoints: np.ndarray) -> tuple[np.ndarray,
-                                                                             np.ndarray]:
-        """Distance (m) of each of ``points`` (N, 3) to the interface surface, and the
-        binding nearest its closest point."""
+    def _distances(self, points: np.ndarray, midpoints: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Distance (m) of each of ``points`` (N, 3) to the interface surface, the binding
+        nearest its closest point, and whether the point lies across from the surface (its
+        offset along the closest triangle's normal) rather than past its edge."""
         corners = midpoints[self.triangles]
         candidates = np.broadcast_to(np.arange(len(corners)), (len(points), len(corners)))
         closest, triangle = closest_on_triangles(points, corners, candidates)
         nearest_corner = np.argmin(np.linalg.norm(
             corners[triangle] - closest[:, None, :], axis=2), axis=1)
         binding = self.triangles[triangle, nearest_corner]
-        return np.linalg.norm(points - closest, axis=1), binding
+        offset = points - closest
+        distance = np.linalg.norm(offset, axis=1)
+        a, b, c = (corners[triangle, i] for i in range(3))
+        normal = np.cross(b - a, c - a)
+        normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+        along_normal = np.abs(np.einsum("ij,ij->i", offset, normal))
+        across = along_normal >= _ACROSS_COSINE * distance
+        return distance, binding, across
 
     def observe(self, data: mujoco.MjData, pass_index: int, tip_m: np.ndarray,
                 blade_axis: np.ndarray) -> None:
@@ -109,7 +121,9 @@ class CutScore:
         edge = tip - heights[:, None] * np.asarray(blade_axis, dtype=float)
         edge = edge[edge[:, 2] <= top_z]
         points = np.vstack([tip, edge])
-        distance, binding = self._distances(points, midpoints)
+        distance, binding, across = self._distances(points, midpoints)
+        if not across[0]:
+            return
         self._tip_distance.append((pass_index, float(distance[0])))
         if distance[0] >= self._worst.get("distance_m", -1.0):
             self._worst = {"distance_m": float(distance[0]), "time_s": float(data.time),
