@@ -186,6 +186,7 @@ def _bench_tissue(args: argparse.Namespace) -> int:
 
 def _bench_perception(args: argparse.Namespace) -> int:
     from cell.bench.perception import run_perception_bench
+    from cell.bench.shapes import shape_lines
     from cell.io import write_json
 
     report = run_perception_bench(args.scenario, quick=args.quick, shapes=args.shapes,
@@ -194,23 +195,9 @@ def _bench_perception(args: argparse.Namespace) -> int:
     write_json(json_path, report)
     _print_entries(report["entries"])
     if "shapes" in report:
-        _print_shapes(report["shapes"])
+        print("\n".join(shape_lines(report["shapes"])))
     print(f"wrote {json_path}")
     return 0
-
-
-def _print_shapes(table: dict) -> None:
-    """One line per shape of the perception suite's episodes: tip error, released, torn."""
-    for row in table["shapes"]:
-        if row["status"] != "ok":
-            print(f"shape {row['seed']}: {row['status']}: {row['error']}")
-            continue
-        tip = row["tip_to_interface_m"]
-        passes = ", ".join(f"{p['mean'] * 1e3:.1f}/{p['max'] * 1e3:.1f}" for p in tip["passes"])
-        print(f"shape {row['seed']}: tip {tip['mean'] * 1e3:.1f} mm mean, "
-              f"{tip['max'] * 1e3:.1f} max (per pass {passes}); released "
-              f"{row['released_fraction']:.0%}, torn {row['torn_fraction']:.0%}")
-    print(f"shapes meeting every target: {table['met']} of {table['of']}")
 
 
 def _print_entries(entries: dict) -> None:
@@ -468,12 +455,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="diagnose suite: sets hiding one cause, half as strong")
     bench.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                        help="diagnose suite: processes per diagnosis (default: every core)")
-    bench.add_argument("--shapes", type=int, default=0,
-                       help="perception suite: also run the scenario's episode on this many "
-                       "shapes drawn from the documented ranges and report each (minutes "
-                       "an episode)")
-    bench.add_argument("--shape-seed", type=int, default=5000,
-                       help="perception suite: seed of the first shape (default 5000)")
+    bench.add_argument("--shapes", type=int, default=0, help="perception: + N shape episodes")
+    bench.add_argument("--shape-seed", type=int, default=5000)
     bench.add_argument("--quick", action="store_true",
                        help="fewer repetitions and a short episode; tissue: the smallest "
                        "mesh only (for smoke tests)")

@@ -118,3 +118,19 @@ def bench_shapes(scenario: Scenario, seeds: range) -> dict[str, Any]:
            and row["torn_fraction"] <= TARGETS["torn_fraction"]]
     return {"targets": TARGETS, "shapes": rows, "met": len(met), "of": len(rows),
             "seeds": [seeds.start, seeds.stop]}
+
+
+def shape_lines(table: dict[str, Any]) -> list[str]:
+    """One line per shape of :func:`bench_shapes`'s table (tip error in mm, released and
+    torn), and how many met every target."""
+    lines = []
+    for row in table["shapes"]:
+        if row["status"] != "ok":
+            lines.append(f"shape {row['seed']}: {row['status']}: {row['error']}")
+            continue
+        tip = row["tip_to_interface_m"]
+        passes = ", ".join(f"{p['mean'] * 1e3:.1f}/{p['max'] * 1e3:.1f}" for p in tip["passes"])
+        lines.append(f"shape {row['seed']}: tip {tip['mean'] * 1e3:.1f} mm mean, "
+                     f"{tip['max'] * 1e3:.1f} max (per pass {passes}); released "
+                     f"{row['released_fraction']:.0%}, torn {row['torn_fraction']:.0%}")
+    return [*lines, f"shapes meeting every target: {table['met']} of {table['of']}"]
