@@ -186,12 +186,16 @@ def _bench_tissue(args: argparse.Namespace) -> int:
 
 def _bench_perception(args: argparse.Namespace) -> int:
     from cell.bench.perception import run_perception_bench
+    from cell.bench.shapes import shape_lines
     from cell.io import write_json
 
-    report = run_perception_bench(args.scenario, quick=args.quick)
+    report = run_perception_bench(args.scenario, quick=args.quick, shapes=args.shapes,
+                                  shape_seed=args.shape_seed)
     json_path = args.json or Path("out/bench_perception.json")
     write_json(json_path, report)
     _print_entries(report["entries"])
+    if "shapes" in report:
+        print("\n".join(shape_lines(report["shapes"])))
     print(f"wrote {json_path}")
     return 0
 
@@ -451,6 +455,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="diagnose suite: sets hiding one cause, half as strong")
     bench.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                        help="diagnose suite: processes per diagnosis (default: every core)")
+    bench.add_argument("--shapes", type=int, default=0, help="perception: + N shape episodes")
+    bench.add_argument("--shape-seed", type=int, default=5000)
     bench.add_argument("--quick", action="store_true",
                        help="fewer repetitions and a short episode; tissue: the smallest "
                        "mesh only (for smoke tests)")

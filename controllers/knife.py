@@ -23,8 +23,10 @@ class CutPlan:
     """Where and how the knife cuts: along the interface's top line at ``depth_m`` below it
     (tip), never closer than ``table_clearance_m`` to the table, at ``speed_m_s``, entering
     ``lead_in_m`` before the meat's end and leaving ``lead_out_m`` after ``cut_fraction`` of
-    the line (1 = the whole interface). ``enabled = false`` keeps the knife waiting above the
-    entry point.
+    the line (1 = the whole interface). ``passes`` > 1 cuts in that many passes, each deeper
+    by ``depth_m / passes`` (the paper's small incisions), the knife waiting ``look_dwell_s``
+    out of the cut between them while the camera looks again (:func:`plan_passes`).
+    ``enabled = false`` keeps the knife waiting above the entry point.
 
     Example:
         >>> CutPlan(cut_fraction=0.5).depth_m
@@ -43,11 +45,16 @@ class CutPlan:
     lead_out_m: float = 0.04
     cut_fraction: float = 1.0
     start_s: float = 0.4
+    passes: int = 1
+    look_dwell_s: float = 0.3
 
     def __post_init__(self) -> None:
         require_positive(self, "speed_m_s", "depth_m", "approach_height_m", "cut_fraction",
                   "table_clearance_m")
-        require_non_negative(self, "lead_in_m", "lead_out_m", "start_s")
+        require_non_negative(self, "lead_in_m", "lead_out_m", "start_s", "look_dwell_s")
+        if isinstance(self.passes, bool) or not (isinstance(self.passes, int)
+                                                 and self.passes >= 1):
+            raise InputError(None, "passes", f"must be an integer >= 1, got {self.passes!r}")
         if self.cut_fraction > 1:
             raise InputError(None, "cut_fraction", f"must be <= 1, got {self.cut_fraction}")
 
@@ -92,6 +99,41 @@ def ready_pose(path_m: np.ndarray, plan: CutPlan) -> tuple[np.ndarray, np.ndarra
     return above, blade_rotation(tangent)
 
 
+def _pass_waypoints(path: np.ndarray, plan: CutPlan, depth_m: float, table_z_m: float,
+                    interface_y: SurfaceY | None, dwell_out_s: float
+                    ) -> tuple[list[Waypoint], np.ndarray, int, int]:
+    """One pass along ``path`` (K, 3) with the tip ``depth_m`` below it: the waypoints from
+    above the entry to out of the cut (the last one dwells ``dwell_out_s``), the tip path
+    while cutting (N, 3) m, and the index of the entry at depth and of the last cut point."""
+    tangents = _tangents(path)
+    above_entry, _ = ready_pose(path, plan)
+    cut = [above_entry - [0.0, 0.0, plan.approach_height_m], *path]
+    if plan.cut_fraction >= 1.0:
+        cut.append(path[-1] + plan.lead_out_m * tangents[-1])
+    top = np.array(cut)
+    cut = top.copy()
+    cut[:, 2] = np.maximum(cut[:, 2] - depth_m, table_z_m + plan.table_clearance_m)
+    if interface_y is not None:
+        cut[:, 1] = interface_y(cut[:, 0], cut[:, 2])
+        top[:, 1] = interface_y(top[:, 0], top[:, 2])
+    entry = cut[0]
+    cut_tangents = [tangents[0], *tangents]
+    if plan.cut_fraction >= 1.0:
+        cut_tangents.append(tangents[-1])
+    cut_rotations = [blade_rotation(t, c - p) for t, c, p in zip(cut_tangents, cut, top,
+                                                                    strict=True)]
+    above_entry = entry + (depth_m + plan.approach_height_m) * -cut_rotations[0][:, 2]
+    approach = [
+        Waypoint(above_entry, cut_rotations[0], TRANSIT_SPEED_M_S, dwell_s=0.2),
+        Waypoint(entry, cut_rotations[0], APPROACH_SPEED_M_S, dwell_s=0.2),
+    ]
+    along = [Waypoint(p, r, plan.speed_m_s) for p, r in zip(cut[1:], cut_rotations[1:],
+                                                             strict=True)]
+    exit_up = cut[-1] - (depth_m + plan.approach_height_m) * cut_rotations[-1][:, 2]
+    out = Waypoint(exit_up, cut_rotations[-1], APPROACH_SPEED_M_S, dwell_s=dwell_out_s)
+    return [*approach, *along, out], cut, len(approach) - 1, len(approach) + len(along) - 1
+
+
 def plan_cut(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float,
              start_pos: np.ndarray, start_rot: np.ndarray,
              interface_y: SurfaceY | None = None,
@@ -107,35 +149,74 @@ def plan_cut(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float
     Returns:
         The trajectory, the planned tip path while cutting (N, 3) m, and the cutting window.
     """
+    passes = plan_passes(path_m, plan, table_z_m, start_s, start_pos, start_rot, interface_y,
+                         count=1)
+    return passes.trajectory, passes.cut_paths_m[-1], passes.windows_s[0]
+
+
+@dataclass(frozen=True, eq=False)
+class PassPlan:
+    """The knife's cut in passes, each deeper than the last, the knife out of the meat between
+    them while the camera looks again.
+
+    Attributes:
+        trajectory: the tip's trajectory through every pass (world frame, m; s).
+        cut_paths_m: per pass, the planned tip path while cutting (N, 3), m.
+        depths_m: per pass, the tip's depth below the guideline, m.
+        windows_s: per pass, when it cuts (from the entry at depth to the last cut point), s.
+        looks_s: when the knife has left pass k's cut and waits for the camera (one time
+            between each two passes), s.
+
+    Example:
+        >>> path = np.array([[-0.2, 0.0, 0.65], [0.0, 0.0, 0.66], [0.2, 0.0, 0.65]])
+        >>> passes = plan_passes(path, CutPlan(passes=2), 0.6, 0.0, path[0] + [0, 0, 0.1],
+        ...                      np.eye(3))
+        >>> [round(d, 4) for d in passes.depths_m], len(passes.looks_s)
+        ([0.0325, 0.065], 1)
+        >>> passes.windows_s[0].end_s < passes.looks_s[0] < passes.windows_s[1].start_s
+        True
+    """
+
+    trajectory: CartesianTrajectory
+    cut_paths_m: tuple[np.ndarray, ...]
+    depths_m: tuple[float, ...]
+    windows_s: tuple[CutWindow, ...]
+    looks_s: tuple[float, ...]
+
+    @property
+    def window_s(self) -> CutWindow:
+        """From the first pass's entry at depth to the last pass's last cut point, s."""
+        return CutWindow(self.windows_s[0].start_s, self.windows_s[-1].end_s)
+
+    def pass_at(self, time_s: float) -> int | None:
+        """The pass cutting at ``time_s``, None between passes and outside the cut."""
+        for index, (start, end) in enumerate(self.windows_s):
+            if start <= time_s <= end:
+                return index
+        return None
+
+
+def plan_passes(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: float,
+                start_pos: np.ndarray, start_rot: np.ndarray,
+                interface_y: SurfaceY | None = None, count: int | None = None) -> PassPlan:
+    """The cut along ``path_m`` (K, 3) in ``count`` passes (by default ``plan.passes``), pass
+    i of n to ``depth_m`` i / n, each as :func:`plan_cut` describes one; between passes the
+    knife waits ``look_dwell_s`` out of the cut, then goes back above the entry."""
+    count = plan.passes if count is None else count
     path = truncate(np.asarray(path_m, float), plan.cut_fraction)
-    tangents = _tangents(path)
-    above_entry, _ = ready_pose(path, plan)
-    cut = [above_entry - [0.0, 0.0, plan.approach_height_m], *path]
-    if plan.cut_fraction >= 1.0:
-        cut.append(path[-1] + plan.lead_out_m * tangents[-1])
-    top = np.array(cut)
-    cut = top.copy()
-    cut[:, 2] = np.maximum(cut[:, 2] - plan.depth_m, table_z_m + plan.table_clearance_m)
-    if interface_y is not None:
-        cut[:, 1] = interface_y(cut[:, 0], cut[:, 2])
-        top[:, 1] = interface_y(top[:, 0], top[:, 2])
-    entry = cut[0]
-    cut_tangents = [tangents[0], *tangents]
-    if plan.cut_fraction >= 1.0:
-        cut_tangents.append(tangents[-1])
-    cut_rotations = [blade_rotation(t, c - p) for t, c, p in zip(cut_tangents, cut, top,
-                                                                    strict=True)]
-    above_entry = entry + (plan.depth_m + plan.approach_height_m) * -cut_rotations[0][:, 2]
-    approach = [
-        Waypoint(above_entry, cut_rotations[0], TRANSIT_SPEED_M_S, dwell_s=0.2),
-        Waypoint(entry, cut_rotations[0], APPROACH_SPEED_M_S, dwell_s=0.2),
-    ]
-    along = [Waypoint(p, r, plan.speed_m_s) for p, r in zip(cut[1:], cut_rotations[1:],
-                                                             strict=True)]
-    exit_up = cut[-1] - (plan.depth_m + plan.approach_height_m) * cut_rotations[-1][:, 2]
-    trajectory = CartesianTrajectory(start_s, start_pos, start_rot, [
-        *approach, *along, Waypoint(exit_up, cut_rotations[-1], APPROACH_SPEED_M_S)])
-    entry_index, last_cut_index = len(approach) - 1, len(approach) + len(along) - 1
-    window = CutWindow(float(trajectory.departures_s[entry_index]),
-                       float(trajectory.arrivals_s[last_cut_index]))
-    return trajectory, cut, window
+    depths = tuple(plan.depth_m * (i + 1) / count for i in range(count))
+    waypoints: list[Waypoint] = []
+    paths, marks = [], []
+    for index, depth in enumerate(depths):
+        dwell = plan.look_dwell_s if index < count - 1 else 0.0
+        points, cut, entry, last = _pass_waypoints(path, plan, depth, table_z_m, interface_y,
+                                                   dwell)
+        done = len(waypoints)
+        marks.append((done + entry, done + last, done + len(points) - 1))
+        waypoints += points
+        paths.append(cut)
+    trajectory = CartesianTrajectory(start_s, start_pos, start_rot, waypoints)
+    windows = tuple(CutWindow(float(trajectory.departures_s[entry]),
+                              float(trajectory.arrivals_s[last])) for entry, last, _ in marks)
+    looks = tuple(float(trajectory.departures_s[out]) for _, _, out in marks[:-1])
+    return PassPlan(trajectory, tuple(paths), depths, windows, looks)

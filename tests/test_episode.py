@@ -163,3 +163,14 @@ def test_a_meat_twenty_times_stiffer_runs_the_default_episode_unchanged() -> Non
     result = Episode(replace(scenario, material=stiffer)).run()["result"]
     assert result["released_fraction"] >= 0.95
     assert result["muscles_apart"]
+
+
+def test_the_cut_is_scored_against_the_true_interface(full_episode: dict) -> None:
+    tip = full_episode["knife_tip_to_true_interface_m"]
+    assert 0.0 < tip["mean"] <= tip["max"] and tip["mean"] <= 0.003
+    assert [p["pass"] for p in tip["passes"]] == [0]
+    damage = full_episode["flesh_damage"]
+    bindings = full_episode["bindings"]
+    assert damage["bindings_torn"] == full_episode["released_by_rule"]["tearing"]
+    assert damage["torn_fraction"] == pytest.approx(damage["bindings_torn"] / bindings)
+    assert damage["blade_volume_in_flesh_m3"] >= 0.0

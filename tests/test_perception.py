@@ -166,7 +166,8 @@ def test_an_interface_leaning_past_the_limit_is_refused(
     # The default interface leans 0.1; a limit below that stands for a fit gone astray.
     with pytest.raises(PerceptionError, match="leans"):
         perceive(rig, episode.sim.data, episode.scene.mesh, generic,
-                 PerceptionParams(max_interface_lean=0.05), np.random.default_rng(0))
+                 PerceptionParams(max_interface_lean=0.05, interface="affine"),
+                 np.random.default_rng(0))
 
 
 def test_a_marker_is_needed_without_the_truth(episode: Episode, rig: CameraRig,

@@ -18,9 +18,12 @@ the marker's own within a tolerance (else it is out of view, behind something, o
 surface), and P0 is the marker's pixel ray at the perceived depth. The truth is otherwise used
 only to score the result.
 
-The knife follows the interface at depth as :class:`PredictedInterface` gives it: the fitted
-model's interface, shifted along y onto the seen valley. A fit whose interface leans more than
-any muscle pair's can (``max_interface_lean``) is refused rather than cut along.
+The knife follows the interface at depth as :class:`~cell.perception.interface.SeenInterface`
+gives it: through the seen valley, leaning as the generic model until later looks into the
+opened cut (:func:`look`, between the passes of the cut) tell otherwise. With ``interface =
+"affine"`` it follows :class:`~cell.perception.predicted.PredictedInterface` instead: the
+fitted model's interface, shifted along y onto the seen valley; a fit whose interface leans
+more than any muscle pair's can (``max_interface_lean``) is refused then.
 
 Example (on the coarse meat; 8 x 8 bins keep the example quick):
     >>> from cell.robots.names import CAMERA
@@ -41,9 +44,9 @@ Example (on the coarse meat; 8 x 8 bins keep the example quick):
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
@@ -51,7 +54,9 @@ import numpy as np
 from cell.errors import InputError, PerceptionError
 from cell.perception.curvature import Curvature, surface_curvature
 from cell.perception.guideline import CutPath, GuidelineParams, find_cut_path
+from cell.perception.interface import SeenInterface
 from cell.perception.pointcloud import DepthView, SensorNoise, SurfaceMesh, capture, depth_mesh
+from cell.perception.predicted import PredictedInterface, refuse_leaning
 from cell.perception.registration import (
     AffineFit,
     FitParams,
@@ -63,14 +68,11 @@ from cell.polyline import closest_on, length, point_at
 from cell.robots.camera import CameraRig
 from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
 
-# Solving y(x, z) on the fitted interface: each round shrinks the error by the surface's slope
-# across y in the model's frame (a hundredth for fits within a few degrees of the nominal pose).
-_INTERFACE_ROUNDS = 50
-_INTERFACE_TOLERANCE_M = 1e-10
 # The fewest cloud points the chain works with: the twelve the fit needs.
 _MIN_CLOUD_POINTS = 12
-# Height step over which the predicted interface's lean is measured below the guideline, m.
-_LEAN_STEP_M = 0.01
+
+#: A surface y(x, z) in world coordinates (m): the interface as the knife's plan takes it.
+SurfaceY = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -91,6 +93,11 @@ class PerceptionParams:
             (-x) end, m.
         marker_tolerance_m: the most the perceived depth at the marker's pixel may differ from
             the marker's own depth for the marker to count as seen, m.
+        interface: how the interface below the guideline is estimated: ``"seen"``
+            (:class:`~cell.perception.interface.SeenInterface`: through the seen guideline,
+            leaning as the generic model until later looks into the opened cut tell, chosen by
+            measurement) or ``"affine"`` (:class:`PredictedInterface`: the affine fit's
+            interface shifted onto the guideline).
         max_interface_lean: the steepest lean |dy/dz| the fitted interface may have below the
             guideline (the generator's shapes keep within 0.5). A top view leaves the fit's
             shears of height into y nearly free, and on meat far from the generic shape the
@@ -115,6 +122,7 @@ class PerceptionParams:
     marker_inset_m: float = 0.02
     marker_tolerance_m: float = 0.005
     max_interface_lean: float = 0.5
+    interface: Literal["seen", "affine"] = "seen"
     guideline: GuidelineParams = field(default_factory=GuidelineParams)
     fit: FitParams = field(default_factory=FitParams)
 
@@ -135,6 +143,9 @@ class PerceptionParams:
                 raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
         if not self.marker_inset_m >= 0.0:
             raise InputError(None, "marker_inset_m", f"must be >= 0, got {self.marker_inset_m}")
+        if self.interface not in ("seen", "affine"):
+            raise InputError(None, "interface",
+                             f"must be 'seen' or 'affine', got {self.interface!r}")
         if not isinstance(self.guideline, GuidelineParams):
             raise InputError(None, "guideline", "must be a GuidelineParams")
         if not isinstance(self.fit, FitParams):
@@ -165,81 +176,6 @@ class Deviation:
 
 
 @dataclass(frozen=True, eq=False)
-class PredictedInterface:
-    """The interface as the surface y(x, z), world frame, m: the callable that
-    :func:`controllers.knife.plan_cut` takes as ``interface_y``.
-
-    Its shape below the surface is the fitted model's: the generic model's own interface
-    mid-surface (:meth:`~cell.tissue.geometry.TwoMuscleMesh.interface_y`) mapped by the fit, in
-    closed form, so it extends past the meat's ends where the knife enters and leaves
-    (:func:`~cell.perception.registration.predict_interface` samples the same surface at the model's
-    facing pairs). Its place is the seen valley's: at each x it is shifted along y to pass
-    through the guideline. The camera sees the interface's top edge directly, while an affine
-    fit of the generic shape to meat of another shape places it millimetres to centimetres off
-    (heights and the interface's bow do not map affinely); below the top, the fit's lean is
-    all there is to go on.
-
-    Attributes:
-        fit: the fitted affine map of the generic model.
-        model: the generic model.
-        anchor_m: (K, 3) the guideline the surface passes through, m.
-
-    Example:
-        >>> from cell.perception.registration import AffineFit
-        >>> generic = generic_model((0.0, 0.0, 0.6))
-        >>> unmoved = AffineFit(np.eye(3), np.zeros(3), np.zeros(3), 0.0)
-        >>> interface_y = PredictedInterface(unmoved, generic, generic.top_line + [0.0, 0.002, 0.0])
-        >>> x_m, z_m = np.array([0.0]), np.array([0.62])
-        >>> bool(np.isclose(interface_y(x_m, z_m) - interface_y.fitted_y(x_m, z_m), 0.002))
-        True
-    """
-
-    fit: AffineFit
-    model: TwoMuscleMesh
-    anchor_m: np.ndarray
-
-    def fitted_y(self, x_m: np.ndarray, z_m: np.ndarray) -> np.ndarray:
-        """World y (m) of the fitted model's interface at world (x, z) (m), not shifted onto
-        the guideline; broadcasts.
-
-        Raises:
-            PerceptionError: the fitted surface is not a function of (x, z) there (a fit
-                turned so far that the interface faces along x or z).
-        """
-        x, z = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(z_m, dtype=float))
-        inverse = np.linalg.inv(self.fit.matrix)
-        pivot = self.fit.pivot_m
-        # The world point (x, y, z) maps back to q = q0 + y a in the model's frame, and lies on
-        # the interface where q_y equals the model's interface y at (q_x, q_z).
-        world = np.stack([x, np.zeros_like(x), z], axis=-1)
-        q0 = (world - pivot - self.fit.translation_m) @ inverse.T + pivot
-        along = inverse[:, 1]
-        y = np.zeros_like(x)
-        for _ in range(_INTERFACE_ROUNDS):
-            q = q0 + y[..., None] * along
-            residual = q[..., 1] - self.model.interface_y(q[..., 0], q[..., 2])
-            y = y - residual / along[1]
-            if np.all(np.abs(residual) <= _INTERFACE_TOLERANCE_M):
-                return y
-        raise PerceptionError(
-            "the fitted interface is not a surface y(x, z) at the points asked: the fit turned "
-            "the generic model too far from its nominal pose")
-
-    def __call__(self, x_m: np.ndarray, z_m: np.ndarray) -> np.ndarray:
-        """World y (m) of the interface at world (x, z) (m); broadcasts. Past the guideline's
-        ends the shift of its nearest end holds.
-
-        Raises:
-            PerceptionError: as :meth:`fitted_y`.
-        """
-        x = np.asarray(x_m, dtype=float)
-        order = np.argsort(self.anchor_m[:, 0])
-        anchor_x, anchor_y, anchor_z = self.anchor_m[order].T
-        shift_y = anchor_y - self.fitted_y(anchor_x, anchor_z)
-        return self.fitted_y(x, z_m) + np.interp(x, anchor_x, shift_y)
-
-
-@dataclass(frozen=True, eq=False)
 class PerceivedPlan:
     """Everything the camera gave towards the cut, world frame.
 
@@ -251,8 +187,10 @@ class PerceivedPlan:
         guideline: the cut guideline on the surface (points, tangents, normals, nodes).
         fit: the generic model's fitted twelve parameters.
         interface: the interface the fit predicts, sampled at the model's facing pairs.
-        interface_y: the same interface as y(x, z), shifted onto the guideline, for
-            :func:`controllers.knife.plan_cut`.
+        interface_y: the interface as y(x, z) through the guideline, for
+            :func:`controllers.knife.plan_cut`: a
+            :class:`~cell.perception.interface.SeenInterface` or, with ``interface =
+            "affine"``, the fit's :class:`PredictedInterface`.
         timings_s: wall time of each stage (capture, mesh, curvature, guideline, fit,
             predict), s.
         guideline_distance_m: plan-view (xy) distance of the guideline's samples to the
@@ -272,7 +210,7 @@ class PerceivedPlan:
     guideline: CutPath
     fit: AffineFit
     interface: InterfacePrediction
-    interface_y: PredictedInterface
+    interface_y: SurfaceY
     timings_s: Mapping[str, float]
     guideline_distance_m: Deviation | None = None
     coverage: float | None = None
@@ -389,21 +327,8 @@ def _binned_cloud(view: DepthView, bin_px: int) -> np.ndarray:
     return cloud
 
 
-def _refuse_leaning(interface_y: PredictedInterface, guideline_m: np.ndarray,
-                    max_lean: float) -> None:
-    """PerceptionError where the fitted interface leans more than ``max_lean`` (|dy/dz|)
-    below the guideline's points (K, 3), m."""
-    x, _, z = guideline_m.T
-    lean = (interface_y.fitted_y(x, z) - interface_y.fitted_y(x, z - _LEAN_STEP_M)) / _LEAN_STEP_M
-    if np.max(np.abs(lean)) > max_lean:
-        raise PerceptionError(
-            f"the fitted model's interface leans up to {np.max(np.abs(lean)):.2f} (|dy/dz|) "
-            f"below the guideline, more than {max_lean}: the view does not "
-            "pin down this meat's shape, and the knife would cut into a muscle")
-
-
-def _scores(truth: TwoMuscleMesh, guideline: CutPath,
-            interface_y: PredictedInterface) -> dict[str, Any]:
+def _scores(truth: TwoMuscleMesh, guideline: CutPath, interface_y: SurfaceY
+            ) -> dict[str, Any]:
     """The plan's scores against the generator's true meat: :class:`PerceivedPlan`'s
     ``guideline_distance_m``, ``coverage`` and ``interface_error_m``."""
     true_surface = truth.pair_midpoints_m
@@ -414,6 +339,63 @@ def _scores(truth: TwoMuscleMesh, guideline: CutPath,
         "interface_error_m": Deviation.of(np.abs(
             interface_y(true_surface[:, 0], true_surface[:, 2]) - true_surface[:, 1])),
     }
+
+
+@dataclass(frozen=True, eq=False)
+class Look:
+    """One look of the camera at the meat: the cloud, its surface mesh and curvature, and the
+    guideline walked along the valley from the start point (world frame, m).
+
+    Attributes:
+        cloud_m: (N, 3) the binned point cloud, m.
+        mesh: the surface mesh of the binned depth grid.
+        curvature: per-vertex curvature of ``mesh``.
+        start_m: (3,) where the walk started: the marker's pixel ray at the seen depth, m.
+        guideline: the valley's bottom line from there.
+        timings_s: wall time of each stage (capture, mesh, curvature, guideline), s.
+
+    :func:`look` returns one.
+    """
+
+    cloud_m: np.ndarray
+    mesh: SurfaceMesh
+    curvature: Curvature
+    start_m: np.ndarray
+    guideline: CutPath
+    timings_s: Mapping[str, float]
+
+
+def look(rig: CameraRig, data: mujoco.MjData, params: PerceptionParams,
+         rng: np.random.Generator, marker_m: np.ndarray, marker_tolerance_m: float | None = None
+         ) -> Look:
+    """Capture a noisy depth image, mesh it, estimate its curvature and walk the valley from
+    the marker (seen within ``marker_tolerance_m`` of its depth, by default the params'; the
+    cut's opening may have taken the surface down at the marker since the first look).
+
+    Raises:
+        PerceptionError: as :func:`perceive`.
+    """
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(stage: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[stage] = now - clock
+        clock = now
+
+    tolerance = params.marker_tolerance_m if marker_tolerance_m is None else marker_tolerance_m
+    view = capture(rig, data, params.noise, rng)
+    cloud = _binned_cloud(view, params.bin_px)
+    lap("capture")
+    mesh = depth_mesh(view, params.bin_px)
+    lap("mesh")
+    curvature = surface_curvature(mesh, params.curvature_radius_m)
+    lap("curvature")
+    start = _seen_marker(view, marker_m, params.bin_px, tolerance)
+    guideline = find_cut_path(mesh, curvature, start, params.guideline)
+    lap("guideline")
+    return Look(cloud, mesh, curvature, start, guideline, timings)
 
 
 def perceive(
@@ -451,32 +433,22 @@ def perceive(
         if truth is None:
             raise InputError(None, "marker_m", "is needed when the truth is not given")
         marker_m = marker_position(truth, params.marker_inset_m)
-    timings: dict[str, float] = {}
+    seen = look(rig, data, params, rng, marker_m)
+    timings = dict(seen.timings_s)
     clock = time.perf_counter()
-
-    def lap(stage: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timings[stage] = now - clock
-        clock = now
-
-    view = capture(rig, data, params.noise, rng)
-    cloud = _binned_cloud(view, params.bin_px)
-    lap("capture")
-    mesh = depth_mesh(view, params.bin_px)
-    lap("mesh")
-    curvature = surface_curvature(mesh, params.curvature_radius_m)
-    lap("curvature")
-    start = _seen_marker(view, marker_m, params.bin_px, params.marker_tolerance_m)
-    guideline = find_cut_path(mesh, curvature, start, params.guideline)
-    lap("guideline")
-    fit = fit_generic_model(cloud, generic, params.fit)
-    lap("fit")
+    fit = fit_generic_model(seen.cloud_m, generic, params.fit)
+    timings["fit"] = time.perf_counter() - clock
+    clock = time.perf_counter()
     interface = predict_interface(fit, generic)
-    interface_y = PredictedInterface(fit, generic, guideline.points_m)
-    _refuse_leaning(interface_y, guideline.points_m, params.max_interface_lean)
-    lap("predict")
+    guideline = seen.guideline
+    interface_y: SurfaceY
+    if params.interface == "affine":
+        interface_y = PredictedInterface(fit, generic, guideline.points_m)
+        refuse_leaning(interface_y, guideline.points_m, params.max_interface_lean)
+    else:
+        interface_y = SeenInterface((guideline.points_m,), generic.interface_y)
+    timings["predict"] = time.perf_counter() - clock
     timings["total"] = sum(timings.values())
     scores = {} if truth is None else _scores(truth, guideline, interface_y)
-    return PerceivedPlan(cloud, mesh, curvature, start, guideline, fit, interface, interface_y,
-                         timings, **scores)
+    return PerceivedPlan(seen.cloud_m, seen.mesh, seen.curvature, seen.start_m, guideline, fit,
+                         interface, interface_y, timings, **scores)

@@ -18,16 +18,19 @@ import numpy as np
 from tqdm import tqdm
 
 from cell.errors import MusclecellError
+from cell.perception.interface import SeenInterface
 from cell.perception.pipeline import PerceivedPlan, generic_model, perceive
 from cell.robots.camera import CameraRig
-from cell.robots.names import ARMS, CAMERA, GRASP_SITE, KNIFE_TIP
+from cell.robots.names import ARMS, CAMERA, GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
 from cell.sim.assembly import (
     Scene,
     build_robot_spec,
     build_scene,
     grasp_point,
 )
+from cell.sim.cutscore import CutScore
 from cell.sim.recording import EpisodeRecorder
+from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
 from cell.sim.simulation import Simulation
 from cell.tissue.aponeurosis import ReleaseRule
@@ -36,7 +39,7 @@ from controllers import gripper, knife
 from controllers.camera import view_pose
 from controllers.gripper import PullSchedule
 from controllers.ik import CellIK, arm_joint_names, pose
-from controllers.knife import CutWindow
+from controllers.knife import CutWindow, PassPlan
 from controllers.trajectory import CartesianTrajectory
 
 #: IK iterations that bring the arms from home to their ready poses before the episode starts.
@@ -61,6 +64,7 @@ class EpisodePlan:
         pull: the grasp site's trajectory.
         schedule: when the gripper closes, grasps and pulls.
         end_s: when the scripted episode stops, s.
+        passes: the cut's passes: their windows and when the camera looks between them.
 
     Example:
         >>> from cell.tissue.geometry import MuscleShape
@@ -76,6 +80,7 @@ class EpisodePlan:
     pull: CartesianTrajectory
     schedule: PullSchedule
     end_s: float
+    passes: PassPlan
 
 
 @dataclass
@@ -182,7 +187,10 @@ class Episode:
         perceived = self.perceive(rig) if rig is not None and scenario.perception.enabled \
             else None
         plan = self.plan(perceived)
-        cut_start, cut_end = plan.cut_window_s
+        relooks = None
+        if perceived is not None and isinstance(perceived.interface_y, SeenInterface):
+            relooks = Relooks(perceived.interface_y, perceived.marker_m, plan.passes.looks_s,
+                              scenario.seed)
         steps = int(np.ceil(plan.end_s / self.control_dt_s))
         held = {"camera": ik.site_pose("camera/optical")[0]}
         if not scenario.pull.enabled:
@@ -195,25 +203,36 @@ class Episode:
             recorder.log_planned_path(plan.cut_path_m)
             if perceived is not None:
                 recorder.log_perception(perceived)
+                recorder.log_look(0, perceived.guideline.points_m, perceived.cloud_m,
+                                  plan.passes.cut_paths_m[0])
         frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
         camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
                                            * self.control_dt_s)))
         trace = _Trace()
         tip_site = model.site(KNIFE_TIP).id
+        blade = model.geom(KNIFE_BLADE_GEOM).id
+        score = CutScore(scene.aponeurosis, scene.mesh, scenario.knife.blade_length_m,
+                         scenario.knife.blade_thickness_m)
         wall_start = time.perf_counter()
         try:
             for k in tqdm(range(steps), disable=not progress, unit="ctrl", desc=scenario.name):
                 t_next = (k + 1) * self.control_dt_s
                 knife_target = plan.knife.sample(t_next) if scenario.cut.enabled else None
+                if knife_target is not None and relooks is not None:
+                    knife_target = relooks.correct(knife_target)
                 grasp_target = plan.pull.sample(t_next) if scenario.pull.enabled else None
                 self.control_step(plan, knife_target, grasp_target)
                 t = sim.time_s
                 tip = data.site_xpos[tip_site]
                 self._measure(trace, self._knife_tared, self._gripper_tared)
-                if knife_target is not None and cut_start <= t <= cut_end:
+                if relooks is not None and relooks.due(t):
+                    self._relook(relooks, rig, plan, recorder)
+                pass_index = plan.passes.pass_at(t)
+                if knife_target is not None and pass_index is not None:
                     trace.tracking_error_m.append(
                         float(np.linalg.norm(tip - knife_target[0])))
                     trace.cutting_force_n.append(trace.knife_force_n[-1])
+                    score.observe(data, pass_index, tip, data.geom_xmat[blade].reshape(3, 3)[:, 2])
                     for part, force_n in sim.knife_load_n().items():
                         trace.knife_load_n.setdefault(part, []).append(force_n)
                 for name, start in held.items():
@@ -231,7 +250,7 @@ class Episode:
         wall_s = time.perf_counter() - wall_start
         if recorder is not None:
             recorder.close()
-        return self._summary(trace, wall_s, perceived)
+        return self._summary(trace, score, wall_s, perceived, plan, relooks)
 
     def plan(self, perceived: PerceivedPlan | None = None) -> EpisodePlan:
         """Plan the knife and the gripper from the arms' present IK poses (the ready poses
@@ -245,15 +264,17 @@ class Episode:
             if top[0, 0] > top[-1, 0]:  # enter from the end the knife waits at (-x)
                 top = top[::-1]
         tip_pos, tip_rot = ik.site_pose(KNIFE_TIP)
-        knife_traj, cut_path, window = knife.plan_cut(
-            top, scenario.cut, scenario.layout.table_height_m,
-            scenario.cut.start_s, tip_pos, tip_rot, interface_y=interface_y)
+        passes = knife.plan_passes(top, scenario.cut, scenario.layout.table_height_m,
+                                   scenario.cut.start_s, tip_pos, tip_rot,
+                                   interface_y=interface_y)
+        knife_traj, cut_path, window = (passes.trajectory, passes.cut_paths_m[-1],
+                                        passes.window_s)
         grasp_pos, grasp_rot = ik.site_pose(GRASP_SITE)
         pull_traj, schedule = gripper.plan_pull(
             grasp_point(scenario, mesh), scenario.pull, scenario.settle_s, window,
             grasp_pos, grasp_rot)
         end_s = scenario.end_s or max(knife_traj.end_s, schedule.pull_end_s) + 0.5
-        return EpisodePlan(knife_traj, cut_path, window, pull_traj, schedule, end_s)
+        return EpisodePlan(knife_traj, cut_path, window, pull_traj, schedule, end_s, passes)
 
     def control_step(self, plan: EpisodePlan,
                      knife_target: tuple[np.ndarray, np.ndarray] | None,
@@ -271,7 +292,7 @@ class Episode:
         """
         scenario, sim, data = self.scenario, self.sim, self.sim.data
         schedule = plan.schedule
-        cut_start, cut_end = plan.cut_window_s
+        cut_start = plan.cut_window_s.start_s
         self._control_steps += 1
         t_next = self._control_steps * self.control_dt_s
         if knife_target is not None:
@@ -296,8 +317,10 @@ class Episode:
         if scenario.pull.enabled and not self._grasped and t >= schedule.grasp_s:
             sim.grasp(self._jaw_half_m)
             self._grasped = True
-        cutting = scenario.cut.enabled and cut_start <= t <= cut_end
-        return sim.apply_release_rules(t - cut_start if cutting else None)
+        cutting = plan.passes.pass_at(t) if scenario.cut.enabled else None
+        # The measured cutting force runs from each pass's start.
+        return sim.apply_release_rules(
+            None if cutting is None else t - plan.passes.windows_s[cutting].start_s)
 
     def perceive(self, rig: CameraRig) -> PerceivedPlan:
         """Look at the meat from the camera arm's pose and plan the cut (paper Sec. 5); the
@@ -310,6 +333,24 @@ class Episode:
         rng = np.random.default_rng([self.scenario.seed, _PERCEPTION_STREAM])
         return perceive(rig, self.sim.data, self.scene.mesh, self.generic,
                         self.scenario.perception, rng)
+
+    def _relook(self, relooks: Relooks, rig: CameraRig, plan: EpisodePlan,
+                recorder: EpisodeRecorder | None) -> None:
+        """The look after a pass: the interface estimate updated, the update and what it
+        changes in the next pass's path recorded."""
+        mujoco.mj_forward(self.scene.model, self.sim.data)
+        seen = relooks.look(rig, self.sim.data, self.scenario.perception,
+                            self.scenario.cut.depth_m)
+        if seen is None:
+            return
+        following = plan.passes.cut_paths_m[len(relooks.updates)]
+        shift = relooks.shift_m(following)
+        relooks.updates[-1]["next_pass_shift_m"] = {"mean": float(np.abs(shift).mean()),
+                                                    "max": float(np.abs(shift).max())}
+        if recorder is not None:
+            recorder.set_time(self.sim.time_s)
+            recorder.log_look(len(relooks.updates), *seen,
+                              following + np.outer(shift, [0.0, 1.0, 0.0]))
 
     def _measure(self, trace: _Trace, knife_tared: bool, gripper_tared: bool) -> None:
         sim = self.sim
@@ -332,8 +373,9 @@ class Episode:
                 values[name] = series[-1]
         return values
 
-    def _summary(self, trace: _Trace, wall_s: float,
-                 perceived: PerceivedPlan | None) -> dict[str, Any]:
+    def _summary(self, trace: _Trace, score: CutScore, wall_s: float,
+                 perceived: PerceivedPlan | None, plan: EpisodePlan,
+                 relooks: Relooks | None) -> dict[str, Any]:
         scene, sim = self.scene, self.sim
         apo = scene.aponeurosis
         gap = apo.lengths(sim.data) - apo.rest_length_m
@@ -373,6 +415,13 @@ class Episode:
                                        "p95": float(np.percentile(errors, 95)),
                                        "max": float(errors.max())},
             "held_arm_drift_m": trace.held_drift_m,
+            # Against the truth: the bound surface of the two muscles where it is now.
+            "knife_tip_to_true_interface_m": score.tip_distance(),
+            "flesh_damage": score.flesh_damage(),
+            "passes": [{"pass": i, "depth_m": depth, "window_s": list(window)}
+                       for i, (depth, window) in enumerate(zip(plan.passes.depths_m,
+                                                               plan.passes.windows_s,
+                                                               strict=True))],
             "sim_time_s": sim.time_s,
         }
         if perceived is not None:
@@ -384,8 +433,12 @@ class Episode:
                 "fit_rms_m": perceived.fit.rms_m,
                 "cut_depth_m": {"min": float(perceived.cut_depth_m.min()),
                                 "max": float(perceived.cut_depth_m.max())},
+                "updates": [] if relooks is None else relooks.updates,
             }
+        looks_s = [perceived.timings_s["total"]] if perceived is not None else []
+        looks_s += [u["perception_s"] for u in ([] if relooks is None else relooks.updates)]
         timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s,
+                  "perception_s": looks_s,
                   "cad_parts": {key: part.timing() for key, part in scene.cad_parts.items()}}
         return {"result": result, "timing": timing}
 

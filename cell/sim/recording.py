@@ -3,7 +3,9 @@
 Layout: ``world/cell/<body>`` holds each robot and tool body (static shapes, a transform per
 frame), ``world/tissue/<muscle>`` the muscle surfaces (static triangles, vertex positions per
 frame), ``world/aponeurosis`` the bindings, ``world/knife_path/*`` the planned and executed
-tip paths, ``world/camera`` the camera with its RGB and depth images, ``forces/*`` and
+tip paths, ``world/perception/*`` what the camera gave (``look_<k>/*``: each look's guideline,
+the seen opening and the next pass's tip path), ``world/camera`` the camera with its RGB and
+depth images, ``forces/*`` and
 ``progress/*`` time series. Time is the ``sim_time`` timeline, in s.
 """
 
@@ -144,6 +146,20 @@ class EpisodeRecorder:
               rr.Points3D(plan.mesh.vertices_m[path.nodes], colors=[[0, 255, 120]], radii=0.003))
         s.log("world/perception/guideline",
               rr.LineStrips3D([path.points_m], colors=[[0, 255, 120]], radii=0.0015))
+
+    def log_look(self, index: int, guideline_m: np.ndarray, opening_m: np.ndarray,
+                 tip_path_m: np.ndarray) -> None:
+        """Look ``index`` of the camera (0 before the cut, k after pass k), at the current
+        time, under ``world/perception/look_<index>``: its ``guideline`` (K, 3), the seen
+        ``opening`` (the cloud's points along the cut, (N, 3)) and the ``tip_path`` (M, 3)
+        the updated interface gives the next pass, m."""
+        s, entity = self.stream, f"world/perception/look_{index}"
+        s.log(f"{entity}/guideline", rr.LineStrips3D([guideline_m], colors=[[0, 255, 120]],
+                                                     radii=0.0015))
+        s.log(f"{entity}/opening", rr.Points3D(opening_m, colors=[[255, 220, 120]],
+                                               radii=0.0012))
+        s.log(f"{entity}/tip_path", rr.LineStrips3D([tip_path_m], colors=[[0, 160, 255]],
+                                                    radii=0.001))
 
     def log_frame(self, data: mujoco.MjData, knife_tip_m: np.ndarray,
                   scalars: dict[str, float]) -> None:

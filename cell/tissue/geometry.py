@@ -29,6 +29,10 @@ from cell.tissue.tetmesh import TetMesh, dihedral_angles_deg, structured_hex_tet
 # a mapped grid needs a corner there, and 135 degrees keeps the corner cells well shaped (a full
 # quarter round makes a flat corner and slivers).
 _EDGE_SWEEP_RAD = math.radians(45.0)
+# The derived valley width: the default shape's 0.03 m, or 1.15 times the valley's rise where
+# that is wider (the walls then stay below 37 degrees, the 45 the mesh allows with margin).
+_VALLEY_WIDTH_M = 0.03
+_VALLEY_WIDTH_PER_RISE = 1.15
 
 Muscle = Literal["round", "shank"]
 """Which of the two muscles: the round lies at y < 0, the shank at y > 0."""
@@ -52,6 +56,8 @@ class MuscleShape:
             muscle: the valley the cut follows.
         valley_width_m: lateral decay length of the valley on each side; at least 0.86 times
             the rise from the interface top to the higher crest, so no wall passes 45 degrees.
+            None (the default) derives it from the shape (:attr:`valley_decay_m`): 0.03 m, or
+            1.15 times the rise where that is wider.
         edge_radius_m: radius of the rounded top edge along each outer wall: a circular arc
             that turns the top down by 45 degrees, dropping it 0.29 times this, before the
             vertical wall.
@@ -83,7 +89,7 @@ class MuscleShape:
     interface_bow_m: float = 0.02
     interface_lean: float = 0.1
     valley_depth_m: float = 0.015
-    valley_width_m: float = 0.03
+    valley_width_m: float | None = None
     edge_radius_m: float = 0.05
     end_taper: float = 0.25
     gap_m: float = 0.003
@@ -97,7 +103,8 @@ class MuscleShape:
             raise InputError(None, "surface_mesh",
                              f"must be one or two file names, got {self.surface_mesh!r}")
         for f in fields(self):
-            if f.name == "surface_mesh":
+            if f.name == "surface_mesh" or (f.name == "valley_width_m"
+                                            and self.valley_width_m is None):
                 continue
             value = getattr(self, f.name)
             if not isinstance(value, int | float) or isinstance(value, bool):
@@ -110,14 +117,15 @@ class MuscleShape:
             "shank_width_m",
             "round_height_m",
             "shank_height_m",
-            "valley_width_m",
+            "valley_decay_m",
             "edge_radius_m",
             "gap_m",
             "cell_size_m",
             "interface_tolerance_m",
         ):
             if getattr(self, name) <= 0.0:
-                raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
+                key = "valley_width_m" if name == "valley_decay_m" else name
+                raise InputError(None, key, f"must be > 0, got {getattr(self, name)}")
         lower = min(self.round_height_m, self.shank_height_m)
         edge_drop = self.edge_radius_m * (1.0 - math.cos(_EDGE_SWEEP_RAD))
         if not 0.0 <= self.valley_depth_m < lower - edge_drop:
@@ -131,7 +139,7 @@ class MuscleShape:
         # steepest slope of the valley profile is rise * sqrt(2 / e) / valley_width_m.
         rise = max(self.round_height_m, self.shank_height_m) - self.interface_top_m
         narrowest_valley = rise * math.sqrt(2.0 / math.e)
-        if self.valley_width_m < narrowest_valley:
+        if self.valley_decay_m < narrowest_valley:
             raise InputError(
                 None,
                 "valley_width_m",
@@ -180,6 +188,22 @@ class MuscleShape:
             count(self.shank_width_m - self.gap_m / 2.0),
             count(max(self.round_height_m, self.shank_height_m)),
         )
+
+    @property
+    def valley_decay_m(self) -> float:
+        """The valley's lateral decay length in use, m: ``valley_width_m`` where given, else
+        derived from the rise from the interface top to the higher crest.
+
+        Example:
+            >>> MuscleShape().valley_decay_m  # a rise of 0.025 m
+            0.03
+            >>> round(MuscleShape(round_height_m=0.13).valley_decay_m, 4)  # 0.055 m
+            0.0633
+        """
+        if self.valley_width_m is not None:
+            return self.valley_width_m
+        rise = max(self.round_height_m, self.shank_height_m) - self.interface_top_m
+        return max(_VALLEY_WIDTH_M, _VALLEY_WIDTH_PER_RISE * rise)
 
     @property
     def interface_top_m(self) -> float:
@@ -233,7 +257,7 @@ class MuscleShape:
         d_m = np.asarray(d_m)
         low = self.interface_top_m
         # Both muscles end at exactly ``low`` at d = 0, so facing vertices get the same z.
-        profile = low + (height - low) * -np.expm1(-((d_m / self.valley_width_m) ** 2))
+        profile = low + (height - low) * -np.expm1(-((d_m / self.valley_decay_m) ** 2))
         radius = self.edge_radius_m
         run = radius * math.sin(_EDGE_SWEEP_RAD)
         t = np.clip(d_m - (self.plan_width_m(muscle, x_m) - run), 0.0, run)
