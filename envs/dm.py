@@ -5,7 +5,8 @@ fields MuJoCo 4 removed, see the README), so each task here is the Gymnasium env
 :mod:`envs.separation` behind the ``dm_env`` API that dm-control's environments implement:
 the same cell, observations, actions, rewards and episode ends, with specs. A step after the
 last of an episode starts the next (``dm_env``'s contract); termination (success, failure,
-protective stop, divergence) has discount 0, the time limit is a truncation with discount 1.
+protective stop, divergence, the cell's cycle time) has discount 0, a time limit outside the
+task (``task={"cycle_time_fails": False}``) is a truncation with discount 1.
 The seed given at construction seeds the first reset; later episodes draw their worlds from
 the env's own generator, as the Gymnasium env's unseeded resets do, so a seed fixes the
 whole sequence. ``info`` holds the Gymnasium info of the last reset or step.
@@ -97,13 +98,13 @@ class SeparationEnvironment(dm_env.Environment):
         self.gym_env.close()
 
 
-def make(task: str, seed: int | None = None, **kwargs: Any) -> SeparationEnvironment:
-    """The ``dm_env`` environment of ``task`` (a key of :data:`TASKS`); ``kwargs`` go to the
-    Gymnasium env as ``gymnasium.make``'s do.
+def make(name: str, /, seed: int | None = None, **kwargs: Any) -> SeparationEnvironment:
+    """The ``dm_env`` environment of the task ``name`` (a key of :data:`TASKS`); ``kwargs``
+    go to the Gymnasium env as ``gymnasium.make``'s do (``task=`` among them).
 
     Raises:
         InputError: an unknown task.
     """
-    if task not in TASKS:
-        raise InputError(None, "task", f"unknown task {task!r}; known: {', '.join(TASKS)}")
-    return SeparationEnvironment(TASKS[task](**kwargs), seed=seed)
+    if name not in TASKS:
+        raise InputError(None, "task", f"unknown task {name!r}; known: {', '.join(TASKS)}")
+    return SeparationEnvironment(TASKS[name](**kwargs), seed=seed)

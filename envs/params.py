@@ -61,8 +61,9 @@ class RewardParams:
     bindings torn rather than cut (more than tearing gains as progress, so that a torn
     binding costs and a cut one pays: separating by pulling alone is the damage the knife is
     there to avoid). A diverged simulation costs
-    ``divergence``, a protective stop (:class:`TaskParams`) ``protective_stop``; the step that
-    succeeds earns ``success``.
+    ``divergence``, a protective stop (:class:`TaskParams`) ``protective_stop``, an episode
+    not done within the cell's cycle time ``timeout``; the step that succeeds earns
+    ``success``.
 
     Example:
         >>> RewardParams(time_per_step=0.0).progress
@@ -82,6 +83,7 @@ class RewardParams:
     time_per_step: float = 0.002
     divergence: float = 10.0
     protective_stop: float = 5.0
+    timeout: float = 5.0
     success: float = 5.0
 
     def __post_init__(self) -> None:
@@ -99,7 +101,10 @@ class TaskParams:
     stop (the knife's force/torque sensor reads more than ``knife_stop_force_n`` or the
     gripper's more than ``pull_stop_force_n``, as a real cell's force limits stop the arms:
     a blade driven into the table reads hundreds of newtons, a cut 9 to 19 N) or when the
-    simulation diverges; it is truncated at the time limit.
+    simulation diverges. At the time limit it fails too (``cycle_time_fails``: the cell's
+    cycle time is part of the task, and the observation carries the time, so a policy cannot
+    wait out a cut it has not finished), or, with ``cycle_time_fails=False``, is truncated
+    (Gymnasium's time limit outside the task).
 
     Example:
         >>> TaskParams(max_torn_fraction=0.25).separated_fraction
@@ -110,9 +115,14 @@ class TaskParams:
     max_torn_fraction: float = 0.5
     knife_stop_force_n: float = 35.0
     pull_stop_force_n: float = 80.0
+    cycle_time_fails: bool = True
 
     def __post_init__(self) -> None:
-        require_positive(self)
+        require_positive(self, "separated_fraction", "max_torn_fraction", "knife_stop_force_n",
+                         "pull_stop_force_n")
+        if not isinstance(self.cycle_time_fails, bool):
+            raise InputError(None, "cycle_time_fails", f"expected true or false, got "
+                             f"{self.cycle_time_fails!r}")
         for name in ("separated_fraction", "max_torn_fraction"):
             if getattr(self, name) > 1.0:
                 raise InputError(None, name, f"must be in (0, 1], got {getattr(self, name)}")

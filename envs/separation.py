@@ -75,9 +75,11 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
     through. Terminated on success or failure as ``task`` (:class:`TaskParams`) defines them:
     success when the bindings are released with few torn (``info["success"]``), failure when
     too many tore, on a protective stop (``info["protective_stop"]``) or when the simulation
-    diverges (``info["diverged"]``, the last finite observation is returned); truncated at
+    diverges (``info["diverged"]``, the last finite observation is returned), and at
     ``time_limit_s`` of simulated time after the policy takes over (default: the scripted
-    plan's length plus 2 s). The final info also holds the episode's peak tool forces
+    plan's length plus 2 s): a failure of the cell's cycle time (``info["timed_out"]``), or a
+    truncation where ``task.cycle_time_fails`` is False. The final info also holds the
+    episode's peak tool forces
     (``knife_force_peak_n``, ``pull_force_peak_n``), ``flesh_damage_s`` (time the blade
     touched muscle with no binding under it) and ``elapsed_s``.
 
@@ -218,7 +220,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         self.clipped_actions = 0
         self.bounded_actions = 0
         self.torn_bindings = 0
-        self.protective_stop = False
+        self.protective_stop = self.timed_out = False
         self.knife_force_peak_n = self.pull_force_peak_n = self.flesh_damage_s = 0.0
         self._knife_through_s: float | None = None
         self._divergence = ""
@@ -270,6 +272,9 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         terminated = (self.success or self.protective_stop
                       or self.torn_fraction > self.task.max_torn_fraction)
         truncated = not terminated and self.elapsed_s >= self._limit_s - 1e-9
+        if truncated and self.task.cycle_time_fails:
+            self.timed_out, terminated, truncated = True, True, False
+            terms["timeout"] = -self.reward_params.timeout
         return self._obs, float(sum(terms.values())), terminated, truncated, self._info(terms)
 
     def _watch(self, terms: dict[str, float]) -> None:
@@ -335,6 +340,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
             "redraws": list(self.redraws),
             "success": self.success,
             "protective_stop": self.protective_stop,
+            "timed_out": self.timed_out,
             "knife_force_peak_n": self.knife_force_peak_n,
             "pull_force_peak_n": self.pull_force_peak_n,
             "flesh_damage_s": self.flesh_damage_s,

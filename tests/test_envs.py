@@ -112,6 +112,18 @@ def test_divergence_ends_the_episode_with_a_finite_observation() -> None:
     assert np.isfinite(obs).all() and np.isfinite(reward)
 
 
+def test_an_unfinished_cut_fails_at_the_cycle_time_unless_the_limit_is_a_truncation() -> None:
+    still = np.zeros(4, np.float32)
+    for fails in (True, False):
+        env = CutEnv(time_limit_s=0.1, task={"cycle_time_fails": fails})
+        env.reset(seed=0)
+        for _ in range(5):
+            _, _, terminated, truncated, info = env.step(still)
+        assert (terminated, truncated, info["timed_out"]) == (fails, not fails, fails)
+        assert not info["success"]
+        assert ("timeout" in info["reward_terms"]) == fails
+
+
 def _run(env: MuscleSeparationEnv, policy: str | Callable[[np.ndarray], np.ndarray]
          ) -> tuple[bool, bool, dict]:
     """One episode on the nominal coarse tissue, seed 0, the full default time limit."""
