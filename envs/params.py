@@ -46,7 +46,7 @@ class RewardParams:
     """Weights of the reward's terms; one step's reward is
 
     ``progress * d(released fraction) + cut_progress * d(knife's progress along its path)
-    - damage - force - tearing - time_per_step``
+    - damage - force - tearing - uncut_depth - time_per_step``
 
 (the second term is dense shaping: the bindings release a few at a time)
 
@@ -57,7 +57,11 @@ class RewardParams:
     above ``pull_force_limit_n`` (80 % of :class:`TaskParams`' stops: a cut's 9 to 19 N stays
     clear of them, as it must for a policy to learn that cutting pays), at most
     ``force_cap_per_step`` (a blade jammed on the table would otherwise outweigh everything
-    else); tearing is ``tearing`` times the fraction of the
+    else); uncut_depth is ``uncut_depth_per_m`` times the policy's blade tip's height above
+    ``cut_reach_m`` over the table while it cuts (the bindings lowest down hold until the tip
+    is that close, and a cut that leaves them leaves them to tear: the cost says so at the
+    step the blade passes high, not at the pull-off a second later); tearing is ``tearing``
+    times the fraction of the
     bindings torn rather than cut (more than tearing gains as progress, so that a torn
     binding costs and a cut one pays: separating by pulling alone is the damage the knife is
     there to avoid). A diverged simulation costs
@@ -80,6 +84,8 @@ class RewardParams:
     force_per_n: float = 0.01
     force_cap_per_step: float = 0.05
     tearing: float = 12.0
+    uncut_depth_per_m: float = 1.0
+    cut_reach_m: float = 0.003
     time_per_step: float = 0.002
     divergence: float = 10.0
     protective_stop: float = 5.0

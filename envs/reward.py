@@ -7,10 +7,11 @@ from envs.params import RewardParams
 
 
 def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: float,
-                 cut_advance: float) -> dict[str, float]:
+                 cut_advance: float, policy_cutting: bool = False) -> dict[str, float]:
     """The reward's terms for a step that led from ``before`` to ``after``, tore the fraction
-    ``torn`` of the bindings and moved the knife ``cut_advance`` (fraction of its path) along;
-    the reward is their sum (costs are negative).
+    ``torn`` of the bindings and moved the knife ``cut_advance`` (fraction of its path) along,
+    the policy's knife not yet through if ``policy_cutting``; the reward is their sum (costs are
+    negative).
 
     Example:
         >>> import numpy as np
@@ -22,9 +23,12 @@ def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: fl
         >>> after = replace(before, released_fraction=0.52)
         >>> terms = reward_terms(RewardParams(), before, after, torn=0.0, cut_advance=0.01)
         >>> sorted(terms)
-        ['cut_progress', 'damage', 'force', 'progress', 'tearing', 'time']
-        >>> terms["damage"], terms["force"]
-        (-0.0, -0.0)
+        ['cut_progress', 'damage', 'force', 'progress', 'tearing', 'time', 'uncut_depth']
+        >>> terms["damage"], terms["force"], terms["uncut_depth"]
+        (-0.0, -0.0, -0.0)
+        >>> round(reward_terms(RewardParams(), before, after, 0.0, 0.01, policy_cutting=True
+        ...                    )["uncut_depth"], 4)  # 10 mm up, 7 mm above the reach
+        -0.007
     """
     touching = after.blade_contacts > 0
     damage = params.contact_per_step if after.blade_in_flesh else 0.0
@@ -34,6 +38,8 @@ def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: fl
     force = min(params.force_cap_per_step, params.force_per_n * (
         max(0.0, after.knife_force_magnitude_n - params.knife_force_limit_n)
         + max(0.0, after.pull_force_magnitude_n - params.pull_force_limit_n)))
+    uncut = (params.uncut_depth_per_m * max(0.0, after.tip_height_m - params.cut_reach_m)
+             if policy_cutting else 0.0)
     return {
         "progress": params.progress * (after.released_fraction - before.released_fraction),
         "cut_progress": params.cut_progress * cut_advance,
@@ -41,4 +47,5 @@ def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: fl
         "force": -force,
         "tearing": -params.tearing * torn,
         "time": -params.time_per_step,
+        "uncut_depth": -uncut,
     }

@@ -264,7 +264,8 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         self.torn_bindings += torn_now
         torn = torn_now / len(episode.scene.aponeurosis)
         terms = reward_terms(self.reward_params, before, self._reading, torn,
-                             self._knife.progress - progress)
+                             self._knife.progress - progress,
+                             policy_cutting=self._drives_knife and progress < 1.0)
         self._watch(terms)
         self._obs = self._observe()
         if self.success:

@@ -13,8 +13,10 @@ import envs
 from cell.errors import InputError
 from cell.sim.scenario import Scenario
 from cell.tissue.geometry import MuscleShape
-from envs import CutEnv, MuscleSeparationEnv, PullEnv, apply_options
+from envs import CutEnv, MuscleSeparationEnv, PullEnv, RewardParams, apply_options
+from envs.observation import Reading
 from envs.policies import TableSkimmingKnife
+from envs.reward import reward_terms
 
 IDS = ("musclecell/MuscleSeparation-v0", "musclecell/Cut-v0", "musclecell/Pull-v0")
 
@@ -157,6 +159,20 @@ def test_cut_needs_the_knife_down_to_the_lowest_bindings() -> None:
     terminated, _, skimming = _run(CutEnv(randomize=False), TableSkimmingKnife())
     assert terminated and skimming["success"] and not skimming["protective_stop"]
     assert skimming["torn_fraction"] < 0.5 * planned["torn_fraction"]
+
+
+def test_a_knife_that_cuts_high_pays_for_the_depth_it_leaves() -> None:
+    zero = np.zeros(3)
+    def cost(tip_height_m: float, policy_cutting: bool) -> float:
+        reading = Reading(zero, tip_height_m, np.eye(3), zero, zero, zero, zero, 0.5, 0.0,
+                          0.0, 0.0, blade_contacts=1, under_blade=1, interface_offset_m=0.0)
+        return -reward_terms(RewardParams(), reading, reading, 0.0, 0.01,
+                             policy_cutting)["uncut_depth"]
+    reach = RewardParams().cut_reach_m
+    assert cost(0.015, True) == pytest.approx(RewardParams().uncut_depth_per_m
+                                              * (0.015 - reach))
+    assert cost(0.015, True) > cost(0.008, True) > cost(reach, True) == 0.0
+    assert cost(0.015, False) == 0.0  # a scripted knife's depth is not the policy's
 
 
 def test_a_knife_driven_into_the_table_stops_the_cell() -> None:
