@@ -43,23 +43,21 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
-from concurrent.futures import Executor, ProcessPoolExecutor
-from dataclasses import dataclass, field, replace
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
 from multiprocessing import get_context
 from typing import Any
 
 import numpy as np
 
 from cell.errors import DiagnosisError
-from cell.rheology.acceptance import accepts, improved_fraction, structure
-from cell.rheology.causes import CAUSES, EXCLUSIVE, RELAXING, UNEXPLAINED, CandidateMaterial
-from cell.rheology.fitting import ModelFit, Problem, fit
-from cell.rheology.measured import MeasurementSet, MechanicalTest
+from cell.rheology.acceptance import improved_fraction
+from cell.rheology.causes import CAUSES, EXCLUSIVE, UNEXPLAINED, CandidateMaterial
+from cell.rheology.fitting import ModelFit, Problem
+from cell.rheology.measured import MeasurementSet
+from cell.rheology.search import Search, forward, second_start, unexplained
 
 _RELAXATION_TERMS = 2
-# Single additions whose pairs the search tries when none passes alone.
-_LOOK_AHEAD = 3
 
 
 @dataclass(frozen=True)
@@ -247,133 +245,7 @@ def _reference_strain(measurements: MeasurementSet) -> float:
                             for t in measurements.tests]))
 
 
-def _task(args: tuple) -> ModelFit:
-    """The best of ``models`` on held-out tests, each fitted from every one of ``starts`` and
-    the fit with the lower residual kept."""
-    problem, models, starts, evaluations = args
-    fits = [min((fit(problem, model, _start(start, model), evaluations) for start in starts),
-                key=lambda f: f.rmse_n) for model in models]
-    return min(fits, key=lambda f: f.heldout_rmse_n)
-
-
-def _start(previous: tuple[tuple[str, ...], np.ndarray] | None,
-           model: CandidateMaterial) -> np.ndarray:
-    """A start for ``model`` from the (names, values) of a related fit: its values where the
-    names match, ``model.initial`` elsewhere (everywhere when None)."""
-    start = model.initial.copy()
-    if previous is not None:
-        names, values = previous
-        for i, name in enumerate(model.parameter_names):
-            if name in names:
-                start[i] = values[names.index(name)]
-    return start
-
-
-def _variants(model: CandidateMaterial, cause: str) -> list[CandidateMaterial]:
-    """``model`` with ``cause`` added (a viscoelasticity replacing the other), with both
-    stiffening laws when the cause is stiffening. Anisotropy always has its oblique factor (the
-    richer form holds the plainer one, and a form chosen early would be kept through later
-    steps that it no longer suits), apart in compression as its El/Et is (tissue's shear term
-    differs there: with one factor the tests at mid angles alone outweigh an asymmetry of
-    every other test, and a plasticity stands in for it); the asymmetry is one factor on El
-    and Et in compression (El and Et apart would also absorb the lattice's own difference
-    between its anisotropy in tension and in compression, and name an asymmetry in every
-    anisotropic set)."""
-    causes = tuple(c for c in model.causes if not (c in EXCLUSIVE and cause in EXCLUSIVE))
-    base = replace(model, causes=(*causes, cause))
-    if cause == "strain_stiffening":
-        return [replace(base, stiffening=law) for law in ("exponential", "polynomial")]
-    return [base]
-
-
-class _Search:
-    """The fits of one diagnosis, remembered by their causes, run side by side."""
-
-    def __init__(self, problem: Problem, params: DiagnosisParams, root: CandidateMaterial,
-                 pool: Executor | None) -> None:
-        self.problem, self.params, self.root, self.pool = problem, params, root, pool
-        self.fits: dict[frozenset[str], ModelFit] = {}
-
-    def run(self, jobs: list[tuple[ModelFit | None, str | None]]) -> list[ModelFit]:
-        """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root
-        model), started from ``fit``; or with its cause removed when the fit has it. A model
-        fitted before is fitted again only when a cause is removed (the richer fit is a better
-        start than the one it had), and the fit with the lower residual kept."""
-        tasks, keys, refresh = [], [], set()
-        for base, cause in jobs:
-            model = self.root if base is None else base.model
-            if cause is None:
-                models = [model]
-            elif cause in model.causes:
-                kept = tuple(c for c in model.causes if c != cause)
-                if cause == EXCLUSIVE[1]:
-                    kept += (EXCLUSIVE[0],)
-                models = [replace(model, causes=kept)]
-                refresh.add(frozenset(kept))
-            else:
-                models = _variants(model, cause)
-            starts = [None if base is None else (base.model.parameter_names, base.shape)]
-            if cause in RELAXING and base is not None and base.model.causes:
-                # The other causes' parameters, fitted without relaxation, may sit where they
-                # absorbed some of it: a fit from there can stall far from the best.
-                starts.append(None)
-            keys.append(frozenset(models[0].causes))
-            tasks.append((self.problem, models, starts, self.params.max_evaluations))
-        todo = [(k, t) for k, t in zip(keys, tasks, strict=True)
-                if k not in self.fits or k in refresh]
-        unique = list({k: t for k, t in todo}.items())
-        mapper: Callable = map if self.pool is None else self.pool.map
-        for key, result in zip([k for k, _ in unique], mapper(_task, [t for _, t in unique]),
-                               strict=True):
-            if key not in self.fits or result.rmse_n < self.fits[key].rmse_n:
-                self.fits[key] = result
-        return [self.fits[k] for k in keys]
-
-
-def _look_ahead(search: _Search, current: ModelFit, trials: list[ModelFit], first: bool,
-                noise: float) -> ModelFit | None:
-    """When no single cause earns its place: the best of ``current`` plus two of the
-    ``_LOOK_AHEAD`` best single additions, if it passes :func:`accepts` (two effects can each
-    look like a third until both are in)."""
-    top = sorted(trials, key=lambda f: f.heldout_rmse_n)[:_LOOK_AHEAD]
-    added = [next(c for c in f.model.causes if c not in current.model.causes) for f in top]
-    jobs = [(top[i], added[j]) for i in range(len(top)) for j in range(i + 1, len(top))
-            if not {added[i], added[j]} >= set(EXCLUSIVE) and added[j] not in top[i].model.causes]
-    if not jobs:
-        return None
-    best = min(search.run(jobs), key=lambda f: f.heldout_rmse_n)
-    tests = search.problem.tests
-    return best if accepts(best, current, first, noise, tests, search.params) else None
-
-
-def _weaker(search: _Search, current: ModelFit, noise: float,
-            tests: tuple[MechanicalTest, ...]) -> ModelFit | None:
-    """``current`` without its weakest cause, when that cause fails :func:`accepts` against
-    the model without it; None when every cause holds (module docstring, 3). A lone cause is
-    the first and stays, except a non-linear viscoelasticity: it must earn its non-linearity
-    against the quasi-linear kind, alone and with each other cause added (a relaxed fraction
-    that grows with strain stiffens the slow tests, and stands in for strain stiffening); when
-    it fails one, the best of them takes its place."""
-    causes = tuple(c for c in current.model.causes
-                   if len(current.model.causes) > 1 or c == EXCLUSIVE[1])
-    if not causes:
-        return None
-    without = search.run([(current, c) for c in causes])
-    failing = [fit for fit in without
-               if not accepts(current, fit, False, noise, tests, search.params)]
-    if EXCLUSIVE[1] in causes:
-        linear = without[causes.index(EXCLUSIVE[1])]
-        alternatives = [linear, *search.run([(linear, c) for c in CAUSES
-                                             if c not in linear.model.causes
-                                             and c not in EXCLUSIVE])]
-        failing = [fit for fit in failing if fit is not linear]
-        if not all(accepts(current, f, False, noise, tests, search.params)
-                   for f in alternatives):
-            failing.append(min(alternatives, key=lambda f: f.heldout_rmse_n))
-    return min(failing, key=lambda f: f.heldout_rmse_n) if failing else None
-
-
-def _evidence(search: _Search, final: ModelFit, order: list[str]) -> tuple[Evidence, ...]:
+def _evidence(search: Search, final: ModelFit, order: list[str]) -> tuple[Evidence, ...]:
     """The evidence of each cause of ``final``, in ``order``."""
     tests = search.problem.tests
     evidence = []
@@ -433,13 +305,13 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     pool = (ProcessPoolExecutor(params.workers, mp_context=get_context("spawn"))
             if params.workers > 1 else None)
     try:
-        search = _Search(problem, params, root, pool)
+        search = Search(problem, params, root, pool)
         baseline = search.run([(None, None)])[0]
         _require_runs(baseline)
         candidates = search.run([(baseline, c) for c in CAUSES])
-        current, steps, order = _forward(search, baseline, candidates, noise)
-        if _unexplained(current, noise, params, tests):
-            current, steps, order = _second_start(search, baseline, candidates, noise,
+        current, steps, order = forward(search, baseline, candidates, noise)
+        if unexplained(current, noise, params, tests):
+            current, steps, order = second_start(search, baseline, candidates, noise,
                                                   (current, steps, order))
         evidence = _evidence(search, current, order)
     finally:
@@ -449,73 +321,10 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     order.sort(key=lambda c: -next(e.heldout_rmse_without_n for e in evidence if e.cause == c))
     evidence = tuple(sorted(evidence, key=lambda e: order.index(e.cause)))
     causes = tuple(order)
-    if _unexplained(current, noise, params, tests):
+    if unexplained(current, noise, params, tests):
         causes += (UNEXPLAINED,)
     return Diagnosis(measurements, noise, baseline, tuple(candidates), tuple(steps), current,
                      causes, evidence, params, tuple(search.fits.values()))
-
-
-_Path = tuple[ModelFit, list[ModelFit], list[str]]
-
-
-def _forward(search: _Search, start: ModelFit, trials: list[ModelFit], noise: float,
-             order: list[str] | None = None) -> _Path:
-    """The stepwise search (module docstring, 2 and 3) from ``start`` over ``trials``
-    (``start`` plus each cause): the final fit, the fit after each step, the causes in the
-    order they came."""
-    params, tests = search.params, search.problem.tests
-    current, steps, order = start, [], list(order or [])
-    visited = {frozenset(start.model.causes)}
-    while trials:
-        best = min(trials, key=lambda f: f.heldout_rmse_n)
-        if not accepts(best, current, not order, noise, tests, params):
-            best = _look_ahead(search, current, trials, not order, noise)
-            if best is None:
-                break
-        order = [c for c in order if c in best.model.causes] + [
-            c for c in best.model.causes if c not in current.model.causes]
-        current = best
-        while (weaker := _weaker(search, current, noise, tests)) is not None:
-            order = [c for c in order if c in weaker.model.causes] + [
-                c for c in weaker.model.causes if c not in current.model.causes]
-            current = weaker
-        if frozenset(current.model.causes) in visited:
-            break
-        visited.add(frozenset(current.model.causes))
-        steps.append(current)
-        trials = search.run([(current, c) for c in CAUSES if c not in current.model.causes
-                             and not (c == EXCLUSIVE[0] and EXCLUSIVE[1] in order)])
-    return current, steps, order
-
-
-def _second_start(search: _Search, baseline: ModelFit, candidates: list[ModelFit],
-                  noise: float, first: _Path) -> _Path:
-    """When the search ends with structure left (``first``): the search again from the
-    runner-up single cause, kept if it explains the set with less held-out error. One cause
-    can stand in for two others (a stiffening for an asymmetry under a load-cell offset)
-    well enough to win the first step, and the two then never meet; the runner-up is often
-    one of them."""
-    params, tests = search.params, search.problem.tests
-    ranked = sorted(candidates, key=lambda f: f.heldout_rmse_n)
-    chosen = set(first[2][:1])
-    runner = next((f for f in ranked if not chosen & set(f.model.causes)), None)
-    if runner is None or not accepts(runner, baseline, True, noise, tests, params):
-        return first
-    steps_before = [runner]
-    trials = search.run([(runner, c) for c in CAUSES if c not in runner.model.causes])
-    current, steps, order = _forward(search, runner, trials, noise,
-                                     order=list(runner.model.causes))
-    if (current.heldout_rmse_n < first[0].heldout_rmse_n
-            and not _unexplained(current, noise, params, tests)):
-        return current, steps_before + steps, order
-    return first
-
-
-def _unexplained(fit: ModelFit, noise: float, params: DiagnosisParams,
-                 tests: tuple[MechanicalTest, ...]) -> bool:
-    """Whether ``fit`` leaves more than noise, with structure (module docstring, 4)."""
-    return (fit.heldout_rmse_n > params.unexplained_ratio * noise
-            and structure(fit, tests) > params.structure_correlation)
 
 
 def _require_runs(model_fit: ModelFit) -> None:
