@@ -58,10 +58,11 @@ class RewardParams:
     clear of them, as it must for a policy to learn that cutting pays), at most
     ``force_cap_per_step`` (a blade jammed on the table would otherwise outweigh everything
     else); uncut_depth is ``uncut_depth_per_m`` times the policy's blade tip's height above
-    ``cut_reach_m`` over the table while it cuts (the bindings lowest down hold until the tip
-    is that close, and a cut that leaves them leaves them to tear: the cost says so at the
-    step the blade passes high, not at the pull-off a second later); tearing is ``tearing``
-    times the fraction of the
+    ``cut_reach_m`` over the table, per step from the entry until its knife is through (the
+    bindings lowest down hold until the tip is that close, and a cut that leaves them leaves
+    them to tear: the cost says so at the step the blade passes high, not at the pull-off a
+    second later; from the entry on, so that waiting there is no way around it); tearing is
+    ``tearing`` times the fraction of the
     bindings torn rather than cut (more than tearing gains as progress, so that a torn
     binding costs and a cut one pays: separating by pulling alone is the damage the knife is
     there to avoid). A diverged simulation costs
