@@ -176,20 +176,29 @@ def forward(search: Search, start: ModelFit, trials: list[ModelFit], noise: floa
             best = _look_ahead(search, current, trials, not order, noise)
             if best is None:
                 break
-        order = [c for c in order if c in best.model.causes] + [
-            c for c in best.model.causes if c not in current.model.causes]
-        current = best
+        order, current = _reordered(order, current, best), best
         while (weaker := _weaker(search, current, noise, tests)) is not None:
-            order = [c for c in order if c in weaker.model.causes] + [
-                c for c in weaker.model.causes if c not in current.model.causes]
-            current = weaker
+            order, current = _reordered(order, current, weaker), weaker
         if frozenset(current.model.causes) in visited:
             break
         visited.add(frozenset(current.model.causes))
         steps.append(current)
-        trials = search.run([(current, c) for c in CAUSES if c not in current.model.causes
-                             and not (c == EXCLUSIVE[0] and EXCLUSIVE[1] in order)])
+        trials = _additions(search, current, order)
     return current, steps, order
+
+
+def _reordered(order: list[str], previous: ModelFit, following: ModelFit) -> list[str]:
+    """``order`` for the step from ``previous`` to ``following``: the causes kept, in their
+    order, then those added."""
+    return [c for c in order if c in following.model.causes] + [
+        c for c in following.model.causes if c not in previous.model.causes]
+
+
+def _additions(search: Search, current: ModelFit, order: list[str]) -> list[ModelFit]:
+    """``current`` with each cause it lacks added (no quasi-linear viscoelasticity once the
+    non-linear kind is named), fitted."""
+    return search.run([(current, c) for c in CAUSES if c not in current.model.causes
+                       and not (c == EXCLUSIVE[0] and EXCLUSIVE[1] in order)])
 
 
 def second_start(search: Search, baseline: ModelFit, candidates: list[ModelFit],
@@ -200,18 +209,17 @@ def second_start(search: Search, baseline: ModelFit, candidates: list[ModelFit],
     well enough to win the first step, and the two then never meet; the runner-up is often
     one of them."""
     params, tests = search.params, search.problem.tests
-    ranked = sorted(candidates, key=lambda f: f.heldout_rmse_n)
     chosen = set(first[2][:1])
-    runner = next((f for f in ranked if not chosen & set(f.model.causes)), None)
+    runner = min((f for f in candidates if not chosen & set(f.model.causes)),
+                 key=lambda f: f.heldout_rmse_n, default=None)
     if runner is None or not accepts(runner, baseline, True, noise, tests, params):
         return first
-    steps_before = [runner]
-    trials = search.run([(runner, c) for c in CAUSES if c not in runner.model.causes])
-    current, steps, order = forward(search, runner, trials, noise,
-                                     order=list(runner.model.causes))
+    order = list(runner.model.causes)
+    current, steps, order = forward(search, runner, _additions(search, runner, order), noise,
+                                    order)
     if (current.heldout_rmse_n < first[0].heldout_rmse_n
             and not unexplained(current, noise, params, tests)):
-        return current, steps_before + steps, order
+        return current, [runner, *steps], order
     return first
 
 
