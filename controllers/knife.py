@@ -23,14 +23,17 @@ class CutPlan:
     """Where and how the knife cuts: along the interface's top line at ``depth_m`` below it
     (tip), never closer than ``table_clearance_m`` to the table, at ``speed_m_s``, entering
     ``lead_in_m`` before the meat's end and leaving ``lead_out_m`` after ``cut_fraction`` of
-    the line (1 = the whole interface). ``passes`` > 1 cuts in that many passes, each deeper
-    by ``depth_m / passes`` (the paper's small incisions), the knife waiting ``look_dwell_s``
-    out of the cut between them while the camera looks again (:func:`plan_passes`).
-    ``enabled = false`` keeps the knife waiting above the entry point.
+    the line (1 = the whole interface). ``depth_m`` None (the default) cuts down to the
+    clearance everywhere, however tall the meat: the interface's lowest bindings lie on the
+    table, and a fixed depth leaves them to tear under meat taller than it. ``passes`` > 1
+    cuts in that many passes, pass i of n to i / n of the depth (the paper's small incisions),
+    the knife waiting ``look_dwell_s`` out of the cut between them while the camera looks
+    again (:func:`plan_passes`). ``enabled = false`` keeps the knife waiting above the entry
+    point.
 
     Example:
-        >>> CutPlan(cut_fraction=0.5).depth_m
-        0.065
+        >>> CutPlan(cut_fraction=0.5).depth_m is None  # down to the table's clearance
+        True
         >>> CutPlan(cut_fraction=1.5)
         Traceback (most recent call last):
         cell.errors.InputError: cut_fraction: must be <= 1, got 1.5
@@ -38,7 +41,7 @@ class CutPlan:
 
     enabled: bool = True
     speed_m_s: float = 0.03
-    depth_m: float = 0.065
+    depth_m: float | None = None
     table_clearance_m: float = 0.015
     approach_height_m: float = 0.06
     lead_in_m: float = 0.04
@@ -49,8 +52,10 @@ class CutPlan:
     look_dwell_s: float = 0.3
 
     def __post_init__(self) -> None:
-        require_positive(self, "speed_m_s", "depth_m", "approach_height_m", "cut_fraction",
-                  "table_clearance_m")
+        require_positive(self, "speed_m_s", "approach_height_m", "cut_fraction",
+                         "table_clearance_m")
+        if self.depth_m is not None:
+            require_positive(self, "depth_m")
         require_non_negative(self, "lead_in_m", "lead_out_m", "start_s", "look_dwell_s")
         if isinstance(self.passes, bool) or not (isinstance(self.passes, int)
                                                  and self.passes >= 1):
@@ -99,12 +104,13 @@ def ready_pose(path_m: np.ndarray, plan: CutPlan) -> tuple[np.ndarray, np.ndarra
     return above, blade_rotation(tangent)
 
 
-def _pass_waypoints(path: np.ndarray, plan: CutPlan, depth_m: float, table_z_m: float,
+def _pass_waypoints(path: np.ndarray, plan: CutPlan, fraction: float, table_z_m: float,
                     interface_y: SurfaceY | None, dwell_out_s: float
                     ) -> tuple[list[Waypoint], np.ndarray, int, int]:
-    """One pass along ``path`` (K, 3) with the tip ``depth_m`` below it: the waypoints from
-    above the entry to out of the cut (the last one dwells ``dwell_out_s``), the tip path
-    while cutting (N, 3) m, and the index of the entry at depth and of the last cut point."""
+    """One pass along ``path`` (K, 3) with the tip ``fraction`` of the plan's depth below it:
+    the waypoints from above the entry to out of the cut (the last one dwells
+    ``dwell_out_s``), the tip path while cutting (N, 3) m, and the index of the entry at depth
+    and of the last cut point."""
     tangents = _tangents(path)
     above_entry, _ = ready_pose(path, plan)
     cut = [above_entry - [0.0, 0.0, plan.approach_height_m], *path]
@@ -112,7 +118,9 @@ def _pass_waypoints(path: np.ndarray, plan: CutPlan, depth_m: float, table_z_m: 
         cut.append(path[-1] + plan.lead_out_m * tangents[-1])
     top = np.array(cut)
     cut = top.copy()
-    cut[:, 2] = np.maximum(cut[:, 2] - depth_m, table_z_m + plan.table_clearance_m)
+    floor_z = table_z_m + plan.table_clearance_m
+    depth = top[:, 2] - floor_z if plan.depth_m is None else plan.depth_m
+    cut[:, 2] = np.maximum(top[:, 2] - fraction * depth, floor_z)
     if interface_y is not None:
         cut[:, 1] = interface_y(cut[:, 0], cut[:, 2])
         top[:, 1] = interface_y(top[:, 0], top[:, 2])
@@ -122,14 +130,15 @@ def _pass_waypoints(path: np.ndarray, plan: CutPlan, depth_m: float, table_z_m: 
         cut_tangents.append(tangents[-1])
     cut_rotations = [blade_rotation(t, c - p) for t, c, p in zip(cut_tangents, cut, top,
                                                                     strict=True)]
-    above_entry = entry + (depth_m + plan.approach_height_m) * -cut_rotations[0][:, 2]
+    depth_m = top[:, 2] - cut[:, 2]
+    above_entry = entry + (depth_m[0] + plan.approach_height_m) * -cut_rotations[0][:, 2]
     approach = [
         Waypoint(above_entry, cut_rotations[0], TRANSIT_SPEED_M_S, dwell_s=0.2),
         Waypoint(entry, cut_rotations[0], APPROACH_SPEED_M_S, dwell_s=0.2),
     ]
     along = [Waypoint(p, r, plan.speed_m_s) for p, r in zip(cut[1:], cut_rotations[1:],
                                                              strict=True)]
-    exit_up = cut[-1] - (depth_m + plan.approach_height_m) * cut_rotations[-1][:, 2]
+    exit_up = cut[-1] - (depth_m[-1] + plan.approach_height_m) * cut_rotations[-1][:, 2]
     out = Waypoint(exit_up, cut_rotations[-1], APPROACH_SPEED_M_S, dwell_s=dwell_out_s)
     return [*approach, *along, out], cut, len(approach) - 1, len(approach) + len(along) - 1
 
@@ -162,7 +171,7 @@ class PassPlan:
     Attributes:
         trajectory: the tip's trajectory through every pass (world frame, m; s).
         cut_paths_m: per pass, the planned tip path while cutting (N, 3), m.
-        depths_m: per pass, the tip's depth below the guideline, m.
+        depths_m: per pass, the tip's greatest depth below the guideline, m.
         windows_s: per pass, when it cuts (from the entry at depth to the last cut point), s.
         looks_s: when the knife has left pass k's cut and waits for the camera (one time
             between each two passes), s.
@@ -171,8 +180,8 @@ class PassPlan:
         >>> path = np.array([[-0.2, 0.0, 0.65], [0.0, 0.0, 0.66], [0.2, 0.0, 0.65]])
         >>> passes = plan_passes(path, CutPlan(passes=2), 0.6, 0.0, path[0] + [0, 0, 0.1],
         ...                      np.eye(3))
-        >>> [round(d, 4) for d in passes.depths_m], len(passes.looks_s)
-        ([0.0325, 0.065], 1)
+        >>> [round(d, 4) for d in passes.depths_m], len(passes.looks_s)  # to 0.615 m at last
+        ([0.0225, 0.045], 1)
         >>> passes.windows_s[0].end_s < passes.looks_s[0] < passes.windows_s[1].start_s
         True
     """
@@ -200,23 +209,23 @@ def plan_passes(path_m: np.ndarray, plan: CutPlan, table_z_m: float, start_s: fl
                 start_pos: np.ndarray, start_rot: np.ndarray,
                 interface_y: SurfaceY | None = None, count: int | None = None) -> PassPlan:
     """The cut along ``path_m`` (K, 3) in ``count`` passes (by default ``plan.passes``), pass
-    i of n to ``depth_m`` i / n, each as :func:`plan_cut` describes one; between passes the
-    knife waits ``look_dwell_s`` out of the cut, then goes back above the entry."""
+    i of n to i / n of the plan's depth, each as :func:`plan_cut` describes one; between
+    passes the knife waits ``look_dwell_s`` out of the cut, then goes back above the entry."""
     count = plan.passes if count is None else count
     path = truncate(np.asarray(path_m, float), plan.cut_fraction)
-    depths = tuple(plan.depth_m * (i + 1) / count for i in range(count))
     waypoints: list[Waypoint] = []
-    paths, marks = [], []
-    for index, depth in enumerate(depths):
+    paths, depths, marks = [], [], []
+    for index in range(count):
         dwell = plan.look_dwell_s if index < count - 1 else 0.0
-        points, cut, entry, last = _pass_waypoints(path, plan, depth, table_z_m, interface_y,
-                                                   dwell)
+        points, cut, entry, last = _pass_waypoints(path, plan, (index + 1) / count, table_z_m,
+                                                   interface_y, dwell)
         done = len(waypoints)
         marks.append((done + entry, done + last, done + len(points) - 1))
         waypoints += points
         paths.append(cut)
+        depths.append(float(np.max(path[:, 2] - cut[1:len(path) + 1, 2])))
     trajectory = CartesianTrajectory(start_s, start_pos, start_rot, waypoints)
     windows = tuple(CutWindow(float(trajectory.departures_s[entry]),
                               float(trajectory.arrivals_s[last])) for entry, last, _ in marks)
     looks = tuple(float(trajectory.departures_s[out]) for _, _, out in marks[:-1])
-    return PassPlan(trajectory, tuple(paths), depths, windows, looks)
+    return PassPlan(trajectory, tuple(paths), tuple(depths), windows, looks)

@@ -28,9 +28,9 @@ def _prior(x_m: np.ndarray, z_m: np.ndarray) -> np.ndarray:
 
 
 def test_each_pass_cuts_deeper_and_the_camera_looks_between_them() -> None:
-    passes = plan_passes(PATH, CutPlan(passes=3), 0.6, 0.0, PATH[0] + [0.0, 0.0, 0.1],
-                         np.eye(3))
-    assert passes.depths_m == pytest.approx((0.065 / 3, 0.065 * 2 / 3, 0.065))
+    passes = plan_passes(PATH, CutPlan(passes=3, depth_m=0.03), 0.6, 0.0,
+                         PATH[0] + [0.0, 0.0, 0.1], np.eye(3))
+    assert passes.depths_m == pytest.approx((0.01, 0.02, 0.03))
     lowest = [path[1:-1, 2].min() for path in passes.cut_paths_m]
     assert lowest[0] > lowest[1] > lowest[2]
     for (_, end), look, (start, _) in zip(passes.windows_s, passes.looks_s,
@@ -38,6 +38,18 @@ def test_each_pass_cuts_deeper_and_the_camera_looks_between_them() -> None:
         assert end < look < start
         assert passes.pass_at(look) is None
     assert passes.pass_at(passes.windows_s[1].start_s + 0.1) == 1
+
+
+def test_the_default_depth_reaches_the_table_clearance_under_any_top() -> None:
+    clearance = CutPlan().table_clearance_m
+    for rise_m in (0.0, 0.03):  # meat 3 cm taller: the cut still goes down to the table
+        path = PATH + np.array([0.0, 0.0, rise_m])
+        passes = plan_passes(path, CutPlan(passes=2), 0.6, 0.0, path[0] + [0.0, 0.0, 0.1],
+                             np.eye(3))
+        first, last = (cut[1:-1, 2] for cut in passes.cut_paths_m)
+        np.testing.assert_allclose(last, 0.6 + clearance)
+        # the first pass halfway down from the guideline wherever the top lies
+        np.testing.assert_allclose(first, 0.5 * (path[:, 2] + 0.6 + clearance))
 
 
 def test_one_pass_is_the_single_cut() -> None:
@@ -89,7 +101,8 @@ def test_a_two_pass_episode_records_every_look(tmp_path: Path) -> None:
     [update] = result["perception"]["updates"]
     assert update["after_pass"] == 0 and update["perception_s"] < 0.3
     assert len(summary["timing"]["perception_s"]) == 2
-    assert [p["depth_m"] for p in result["passes"]] == [0.0325, 0.065]
+    first, last = (p["depth_m"] for p in result["passes"])
+    assert last == pytest.approx(2.0 * first)  # half way down, then to the table's clearance
     rerun = shutil.which("rerun", path=str(Path(sys.executable).parent))
     assert rerun is not None
     verify = subprocess.run([rerun, "rrd", "verify", str(rrd)], capture_output=True,

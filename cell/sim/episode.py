@@ -340,7 +340,7 @@ class Episode:
         changes in the next pass's path recorded."""
         mujoco.mj_forward(self.scene.model, self.sim.data)
         seen = relooks.look(rig, self.sim.data, self.scenario.perception,
-                            self.scenario.cut.depth_m)
+                            plan.passes.depths_m[-1])
         if seen is None:
             return
         following = plan.passes.cut_paths_m[len(relooks.updates)]
