@@ -30,6 +30,12 @@ def valley() -> SurfaceMesh:
     """Two rounded muscles 0.4 m long meeting in a valley 15 mm deep that bows in plan view
     and rises 10 mm from the ends to the middle, sampled every 6 mm (jittered) with 0.3 mm of
     noise, normals up."""
+    return _valley_mesh()
+
+
+def _valley_mesh(sill_m: float = 0.0) -> SurfaceMesh:
+    """The :func:`valley`, its bottom raised by ``sill_m`` over a 3 cm sill across it at
+    x = 0.05 m."""
     rng = np.random.default_rng(0)
     step = 0.006
     x, y = np.meshgrid(np.arange(-LENGTH_M / 2, LENGTH_M / 2 + 1e-9, step),
@@ -39,6 +45,7 @@ def valley() -> SurfaceMesh:
     d = y - _valley_y(x)
     z = 0.09 - 0.015 * np.exp(-((d / 0.03) ** 2)) - 0.01 * (2 * x / LENGTH_M) ** 2
     z = z + rng.normal(0.0, 3e-4, z.shape)
+    z += sill_m * np.exp(-((d / 0.03) ** 2)) * (np.abs(x - 0.05) < 0.015)
     ids = np.arange(x.size).reshape(x.shape)
     a, b, c, e = ids[:-1, :-1], ids[1:, :-1], ids[:-1, 1:], ids[1:, 1:]
     triangles = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
@@ -87,6 +94,17 @@ def test_a_start_in_the_middle_gives_the_whole_valley(
     assert from_middle.points_m[:, 0].max() > 0.18
 
 
+def test_the_walk_steps_over_a_sill_in_the_valley_and_on_to_its_end() -> None:
+    # The sill lifts every new concave node in the ball of the last node before it by more
+    # than the walk may climb: a walk of balls alone stopped there, at x = 0.034 m.
+    sill = _valley_mesh(sill_m=0.004)
+    path = find_cut_path(sill, surface_curvature(sill, CURVATURE_RADIUS_M), _on_valley(-0.19))
+    assert path.points_m[:, 0].max() > 0.18
+    offset = np.abs(path.points_m[:, 1] - _valley_y(path.points_m[:, 0]))
+    assert offset.mean() < 3e-3
+    assert offset.max() < 1e-2  # the first node past the sill, 13 mm to the side
+
+
 def test_a_start_off_the_meat_is_refused(valley: SurfaceMesh,
                                          valley_curvature: Curvature) -> None:
     with pytest.raises(PerceptionError, match="off the meat"):
@@ -114,7 +132,8 @@ def test_curvature_of_another_mesh_is_refused(valley: SurfaceMesh) -> None:
         find_cut_path(valley, other, _on_valley(0.0))
 
 
-@pytest.mark.parametrize("field", ["search_radius_m", "spacing_m", "max_start_offset_m"])
+@pytest.mark.parametrize("field", ["search_radius_m", "bridge_radius_m", "spacing_m",
+                                   "max_start_offset_m"])
 def test_parameters_must_be_positive(field: str) -> None:
     with pytest.raises(InputError, match=field):
         GuidelineParams(**{field: 0.0})

@@ -6,9 +6,13 @@ in the ball of radius r around the current node that no earlier ball covered, an
 lowest of them, "the next node with lower height in the concave region". Height is measured
 along the current node's surface normal, not the world's vertical: the valley rises towards the
 middle of the meat and falls towards its tapered ends, and a world height would prefer a node
-part-way up a wall behind to the valley's bottom ahead. The walk stops when a ball holds no new
-concave node, or when the lowest one lies more than ``max_rise_m`` above the current node: that
-is a step up a wall, left over where the valley runs out at the meat's end.
+part-way up a wall behind to the valley's bottom ahead. When the ball holds no new concave
+node, or the lowest lies more than ``max_rise_m`` above the current node (a step up a wall,
+left over where the valley runs out at the meat's end), the walk looks farther
+(``bridge_radius_m``) for a new concave node ahead, level with the current one (within
+``max_rise_m`` up or down, so that it never drops onto the crease where the meat meets the
+table): a short step leaves a ball mostly inside the ones before, and a normal tilted by the
+sensor's noise lifts the few new nodes in it. It stops where there is none.
 
 The paper starts at P0 on the surface's boundary, so its walk goes one way. Here the walk runs
 twice from P0, the second time where the first one's balls did not reach; a start anywhere in
@@ -71,6 +75,9 @@ class GuidelineParams:
         max_rise_m: the most a step may climb along the normal of the node it leaves. Along
             the valley's bottom the height changes only by the sensor's noise (about 1 mm at
             0.6 m); a step up a wall is a few millimetres.
+        bridge_radius_m: how far the walk looks when the ball around a node holds no new
+            concave node (on a documented shape, tuning seed 1003, a short step left the walk
+            there with 28 % of the valley walked and the valley going on 4 cm ahead).
         max_start_offset_m: a start point farther than this from every mesh vertex is off the
             meat.
         spacing_m: distance between the path's samples, along the path.
@@ -88,12 +95,13 @@ class GuidelineParams:
     search_radius_m: float = 0.03
     concave_below_1_m: float = -7.0
     max_rise_m: float = 0.0025
+    bridge_radius_m: float = 0.06
     max_start_offset_m: float = 0.01
     spacing_m: float = 0.005
     smoothing_m: float = 0.002
 
     def __post_init__(self) -> None:
-        for name in ("search_radius_m", "max_start_offset_m", "spacing_m"):
+        for name in ("search_radius_m", "bridge_radius_m", "max_start_offset_m", "spacing_m"):
             if not getattr(self, name) > 0.0:
                 raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
         for name in ("max_rise_m", "smoothing_m"):
@@ -153,23 +161,41 @@ def _walk_valley(
         )
     covered = np.zeros(len(vertices), dtype=bool)
 
+    def ball_of(node: int, radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The nodes within ``radius_m`` of ``node``, which of them are concave and not yet
+        covered by a ball, and their height above it along its normal: the valley may rise or
+        fall along its length (the meat tapers at its ends), which a world height would take
+        for a wall."""
+        ball = np.asarray(tree.query_ball_point(vertices[node], radius_m))
+        fresh = concave[ball] & ~covered[ball]
+        return ball, fresh, (vertices[ball] - vertices[node]) @ curvature.normals[node]
+
+    def step(node: int, heading: np.ndarray | None) -> int | None:
+        """The walk's next node after ``node``, reached along ``heading`` (None at the start),
+        None at the valley's end."""
+        covered[node] = True
+        ball, fresh, rise = ball_of(node, params.search_radius_m)
+        covered[ball] = True
+        if fresh.any() and rise[fresh].min() <= params.max_rise_m:
+            return int(ball[fresh][np.argmin(rise[fresh])])
+        if heading is None:
+            return None
+        ball, fresh, rise = ball_of(node, params.bridge_radius_m)
+        ahead = (vertices[ball] - vertices[node]) @ heading
+        onward = fresh & (np.abs(rise) <= params.max_rise_m) & (ahead > 0.0)
+        if not onward.any():
+            return None
+        chosen = np.flatnonzero(onward)[np.argmin(rise[onward])]
+        # The stretch stepped over counts as walked: the walk must not turn back into it.
+        covered[ball[ahead < ahead[chosen]]] = True
+        return int(ball[chosen])
+
     def walk(node: int) -> list[int]:
-        nodes = []
-        while True:
-            ball = np.asarray(tree.query_ball_point(vertices[node], params.search_radius_m))
-            covered[node] = True
-            fresh = ball[concave[ball] & ~covered[ball]]
-            covered[ball] = True
-            if len(fresh) == 0:
-                return nodes
-            # Height along the node's normal: the valley may rise or fall along its length
-            # (the meat tapers at its ends), which a world height would take for a wall.
-            rise = (vertices[fresh] - vertices[node]) @ curvature.normals[node]
-            lowest = int(np.argmin(rise))
-            if rise[lowest] > params.max_rise_m:
-                return nodes
-            node = int(fresh[lowest])
-            nodes.append(node)
+        nodes, heading = [], None
+        while (following := step(node, heading)) is not None:
+            heading = vertices[following] - vertices[node]
+            nodes.append(node := following)
+        return nodes
 
     forward = walk(int(start))
     if not forward:
