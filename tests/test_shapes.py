@@ -1,7 +1,8 @@
 """Any shape within the documented ranges runs with the default scenario: ten drawn (seeds
 9000-9009, which neither the tuning, 1000 on, nor the bench, 5000 on, uses) build, are seen
-and planned, the knife's planned tip between the table and the valley. How close it keeps to
-the true interface is the bench's (``musclecell bench perception --shapes N``)."""
+and planned, the knife's planned tip at the table's clearance along the whole valley. How
+close it keeps to the true interface is the bench's (``musclecell bench perception --shapes
+N``)."""
 
 from __future__ import annotations
 
@@ -40,8 +41,10 @@ def test_a_documented_shape_builds_is_seen_and_planned(default: Scenario, seed: 
     plan = episode.plan(perceived)
     table_z = scenario.layout.table_height_m
     path = plan.cut_path_m
-    assert np.all(path[:, 2] >= table_z + scenario.cut.table_clearance_m - 1e-9)
-    assert np.all(path[:, 2] < scene.mesh.top_line[:, 2].max())
+    # Down to the clearance all along, however tall the meat: the lowest bindings lie on the
+    # table. Along the whole valley: the cut ends where the guideline does.
+    np.testing.assert_allclose(path[:, 2], table_z + scenario.cut.table_clearance_m)
+    assert perceived.coverage >= 0.9
     assert plan.cut_window_s.start_s < plan.cut_window_s.end_s < plan.end_s
 
 
