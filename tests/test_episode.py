@@ -14,8 +14,9 @@ import pytest
 
 from cell.cli import main
 from cell.perception.pipeline import PerceptionParams
+from cell.robots.names import KNIFE_BLADE_GEOM
 from cell.sim.episode import Episode
-from cell.sim.scenario import AponeurosisParams, Scenario, load_scenario
+from cell.sim.scenario import AponeurosisParams, Scenario, SensorParams, load_scenario
 from cell.tissue.geometry import MuscleShape
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
@@ -60,6 +61,30 @@ def test_the_knife_feels_the_measured_cutting_force(full_episode: dict) -> None:
     assert set(split) == {"bindings", "flesh", "edge"}
     assert split["bindings"]["peak"] > 0.0 and split["edge"]["mean"] > 1.0
     assert full_episode["knife_force_cutting_mean_n"] > 1.0
+
+
+def test_the_knife_force_sensor_feels_the_flesh_pressing_on_the_blade() -> None:
+    # MuJoCo's force sensors leave the flex contacts out; the cell's F/T reading puts them
+    # back, so that it balances every load on the knife (the weight is tared; the knife's
+    # inertia is what is left).
+    episode = Episode(coarse(perception=PerceptionParams(enabled=False),
+                             sensors=SensorParams(force_noise_n=0.0)))
+    plan, sim = episode.plan(), episode.sim
+    blade = sim.model.geom(KNIFE_BLADE_GEOM).id
+    knife, site = sim.model.geom_bodyid[blade], sim.model.sensor("knife/force").objid[0]
+    flesh_n, unbalanced_n = [], []
+    while sim.time_s < plan.cut_window_s.start_s + 3.0:
+        t_next = sim.time_s + episode.control_dt_s
+        episode.control_step(plan, plan.knife.sample(t_next), plan.pull.sample(t_next))
+        flesh, _ = sim.flex_contact_load(np.array([knife]), np.zeros(3))
+        loads = flesh + sim.data.xfrc_applied[knife, :3]  # contacts, bindings, the edge
+        reading = sim.data.site_xmat[site].reshape(3, 3) @ sim.read("knife/force")
+        flesh_n.append(np.linalg.norm(flesh))
+        unbalanced_n.append(np.linalg.norm(reading + loads))
+    flesh_n, unbalanced_n = np.array(flesh_n), np.array(unbalanced_n)
+    pressed = flesh_n > 0.5
+    assert pressed.sum() > 10
+    assert np.median(unbalanced_n[pressed]) < 0.2 * np.median(flesh_n[pressed])
 
 
 def test_knife_tip_tracks_the_path_with_physics_on(full_episode: dict) -> None:

@@ -148,6 +148,10 @@ class Simulation(TissueSimulation):
         self.rng = np.random.default_rng(scenario.seed)
         self._sensor = {name: self._sensor_slice(name) for name in (
             "knife/force", "knife/torque", "gripper/force", "gripper/torque", "fixture_force")}
+        # The tools' force/torque sensors: their site, and the bodies whose load they carry.
+        self._tool_sensor = {name: self._tool_of(name) for name in (
+            "knife/force", "knife/torque", "gripper/force", "gripper/torque")}
+        self._flex_load: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}
         self._tare = {name: np.zeros(3) for name in self._sensor}
         self._blade = self.model.geom(KNIFE_BLADE_GEOM).id
         self._knife = self.model.geom_bodyid[self._blade]
@@ -175,6 +179,7 @@ class Simulation(TissueSimulation):
         super().reset(state)
         self.rng = np.random.default_rng(self.scenario.seed)
         self._tare = {name: np.zeros(3) for name in self._sensor}
+        self._flex_load = {}
         self.grasped = np.zeros(0, dtype=int)
         self.edge.reset()
         self._edge_force_n = 0.0
@@ -184,6 +189,60 @@ class Simulation(TissueSimulation):
         sensor = self.model.sensor(name)
         start = int(sensor.adr[0])
         return slice(start, start + int(sensor.dim[0]))
+
+    def _tool_of(self, name: str) -> tuple[int, np.ndarray]:
+        """The site of the force or torque sensor ``name`` and the bodies below it (the tool
+        it weighs)."""
+        model = self.model
+        site = int(model.sensor(name).objid[0])
+        top = model.site_bodyid[site]
+        below = [body for body in range(model.nbody) if self._descends(body, top)]
+        return site, np.array(below)
+
+    def _descends(self, body: int, ancestor: int) -> bool:
+        while body != ancestor and body != 0:
+            body = self.model.body_parentid[body]
+        return body == ancestor
+
+    def flex_contact_load(self, bodies: np.ndarray, point_m: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """Force (N) and moment about ``point_m`` (N m) that the flex contacts (the muscles'
+        vertices) put on the geoms of ``bodies``, world frame. MuJoCo 4.0 leaves these
+        contacts out of ``cfrc_ext``, so out of its force and torque sensors: measured, the
+        knife body's ``cfrc_ext`` equals its ``xfrc_applied`` while the blade presses 4 N
+        into the flesh."""
+        model, data = self.model, self.data
+        force, moment = np.zeros(3), np.zeros(3)
+        count = data.ncon
+        if count == 0:
+            return force, moment
+        geoms, flexes = data.contact.geom[:count], data.contact.flex[:count]
+        on_tool = (geoms >= 0) & np.isin(model.geom_bodyid[np.maximum(geoms, 0)], bodies)
+        wrench = np.zeros(6)
+        for i in np.flatnonzero(on_tool.any(axis=1) & (flexes >= 0).any(axis=1)):
+            mujoco.mj_contactForce(model, data, i, wrench)
+            # The contact frame's first row is the normal, from geom 1 to geom 2, and the
+            # force it gives acts on geom 2.
+            world = data.contact.frame[i].reshape(3, 3).T @ wrench[:3]
+            world = world if on_tool[i, 1] else -world
+            force += world
+            moment += np.cross(data.contact.pos[i] - point_m, world)
+        return force, moment
+
+    def _raw(self, name: str) -> np.ndarray:
+        """Sensor ``name``'s reading, the flex contacts on a tool added as a real
+        force/torque sensor feels them (the load on the tool pulls on the sensor: minus)."""
+        value = self.data.sensordata[self._sensor[name]]
+        if name not in self._tool_sensor:
+            return value.copy()
+        site, bodies = self._tool_sensor[name]
+        cached = self._flex_load.get(site)
+        if cached is None or cached[0] != self.data.time:
+            position = self.data.site_xpos[site]
+            cached = (self.data.time, *self.flex_contact_load(bodies, position))
+            self._flex_load[site] = cached
+        load = cached[2] if name.endswith("torque") else cached[1]
+        return value - self.data.site_xmat[site].reshape(3, 3).T @ load
 
     def _apply_forces(self) -> None:
         data = self.data
@@ -254,18 +313,7 @@ class Simulation(TissueSimulation):
         """How the force on the knife splits, N (norms of world-frame vectors): ``bindings``
         hooked on the edge, ``flesh`` pushing on the blade (its contacts), and the ``edge``'s
         cutting resistance (:class:`EdgeResistance`)."""
-        data, blade = self.data, self._blade
-        contacts = np.zeros(3)
-        geoms = data.contact.geom[: data.ncon]
-        wrench = np.zeros(6)
-        # The blade against a flex (the muscles), not against the table or a tool.
-        flexes = data.contact.flex[: data.ncon]
-        with_flesh = (geoms == blade).any(axis=1) & (flexes >= 0).any(axis=1)
-        for i in np.flatnonzero(with_flesh):
-            mujoco.mj_contactForce(self.model, data, i, wrench)
-            # The contact frame's first row is the normal, from geom 1 to geom 2.
-            world = data.contact.frame[i].reshape(3, 3).T @ wrench[:3]
-            contacts += world if geoms[i, 1] == blade else -world
+        contacts, _ = self.flex_contact_load(np.array([self._knife]), np.zeros(3))
         return {"bindings": float(np.linalg.norm(self._on_blade["bindings"])),
                 "flesh": float(np.linalg.norm(contacts)),
                 "edge": float(np.linalg.norm(self._on_blade["edge"]))}
@@ -291,7 +339,7 @@ class Simulation(TissueSimulation):
     def tare(self, *names: str) -> None:
         """Zero sensors (all by default) at the present load, such as a tool's own weight."""
         for name in names or tuple(self._sensor):
-            self._tare[name] = self.data.sensordata[self._sensor[name]].copy()
+            self._tare[name] = self._raw(name)
 
     def read(self, name: str) -> np.ndarray:
         """A tared 3-vector sensor reading with the sensors' bias and noise: ``knife/force``,
@@ -301,5 +349,5 @@ class Simulation(TissueSimulation):
         torque = name.endswith("torque")
         sigma = params.torque_noise_nm if torque else params.force_noise_n
         bias = np.asarray(params.torque_bias_nm if torque else params.force_bias_n)
-        value = self.data.sensordata[self._sensor[name]] - self._tare[name]
+        value = self._raw(name) - self._tare[name]
         return value + bias + self.rng.normal(0.0, sigma, 3)
