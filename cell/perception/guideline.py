@@ -75,9 +75,10 @@ class GuidelineParams:
         max_rise_m: the most a step may climb along the normal of the node it leaves. Along
             the valley's bottom the height changes only by the sensor's noise (about 1 mm at
             0.6 m); a step up a wall is a few millimetres.
-        bridge_radius_m: how far the walk looks when the ball around a node holds no new
-            concave node (on a documented shape, tuning seed 1003, a short step left the walk
-            there with 28 % of the valley walked and the valley going on 4 cm ahead).
+        bridge_radius_m: how far ahead the walk looks when the ball around a node holds no
+            new concave node low enough to step to (on a documented shape, tuning seed 1003,
+            the walk stopped there with 28 % of the valley walked and the valley's bottom
+            going on, level, 4 cm ahead).
         max_start_offset_m: a start point farther than this from every mesh vertex is off the
             meat.
         spacing_m: distance between the path's samples, along the path.
