@@ -229,19 +229,26 @@ class Simulation(TissueSimulation):
             moment += np.cross(data.contact.pos[i] - point_m, world)
         return force, moment
 
+    def _tool_flex_load(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`flex_contact_load` on the tool of sensor ``name``, about its site; computed
+        once per physics time for each site (the sensors and the knife's load split share
+        it)."""
+        site, bodies = self._tool_sensor[name]
+        cached = self._flex_load.get(site)
+        if cached is None or cached[0] != self.data.time:
+            cached = (self.data.time, *self.flex_contact_load(bodies, self.data.site_xpos[site]))
+            self._flex_load[site] = cached
+        return cached[1], cached[2]
+
     def _raw(self, name: str) -> np.ndarray:
         """Sensor ``name``'s reading, the flex contacts on a tool added as a real
         force/torque sensor feels them (the load on the tool pulls on the sensor: minus)."""
         value = self.data.sensordata[self._sensor[name]]
         if name not in self._tool_sensor:
             return value.copy()
-        site, bodies = self._tool_sensor[name]
-        cached = self._flex_load.get(site)
-        if cached is None or cached[0] != self.data.time:
-            position = self.data.site_xpos[site]
-            cached = (self.data.time, *self.flex_contact_load(bodies, position))
-            self._flex_load[site] = cached
-        load = cached[2] if name.endswith("torque") else cached[1]
+        force, moment = self._tool_flex_load(name)
+        load = moment if name.endswith("torque") else force
+        site = self._tool_sensor[name][0]
         return value - self.data.site_xmat[site].reshape(3, 3).T @ load
 
     def _apply_forces(self) -> None:
@@ -311,9 +318,9 @@ class Simulation(TissueSimulation):
 
     def knife_load_n(self) -> dict[str, float]:
         """How the force on the knife splits, N (norms of world-frame vectors): ``bindings``
-        hooked on the edge, ``flesh`` pushing on the blade (its contacts), and the ``edge``'s
-        cutting resistance (:class:`EdgeResistance`)."""
-        contacts, _ = self.flex_contact_load(np.array([self._knife]), np.zeros(3))
+        hooked on the edge, ``flesh`` pushing on the knife (its flex contacts), and the
+        ``edge``'s cutting resistance (:class:`EdgeResistance`)."""
+        contacts, _ = self._tool_flex_load("knife/force")
         return {"bindings": float(np.linalg.norm(self._on_blade["bindings"])),
                 "flesh": float(np.linalg.norm(contacts)),
                 "edge": float(np.linalg.norm(self._on_blade["edge"]))}
