@@ -6,10 +6,12 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from cell.bench.stability import largest_stable_timestep_s
 from cell.bench.tissue_accuracy import extrapolated_force_n
+from cell.bench.tissue_profile import floor_kernel
 from cell.bench.tissue_variants import tissue_variants
 from cell.cli import main
 from cell.sim.scenario import SimulationParams
@@ -98,3 +100,25 @@ def test_extrapolation_recovers_a_power_law_limit() -> None:
     assert limit == pytest.approx(40.0, rel=1e-9)
     assert order == pytest.approx(1.5, rel=1e-6)
     assert extrapolated_force_n({4: 1.0, 8: 2.0, 16: 1.5}) == (1.5, None)
+
+
+def test_the_profile_splits_a_step_and_sets_the_kernel_against_its_floor(
+        quick_report: tuple[dict[str, Any], str]) -> None:
+    report, markdown = quick_report
+    profile = report["profile"]
+    assert profile["nodes"] == report["sizes"][0]["nodes"]
+    assert set(profile["us_per_step"]) == {"springs", "bindings", "implicit_solve", "mujoco"}
+    assert set(profile["kernel"]) == {"round", "shank"}
+    for kernel in profile["kernel"].values():
+        assert kernel["bytes_per_spring"]["kernel"] > kernel["bytes_per_spring"]["floor"]
+    assert f"## Where a step goes: default meat, implicit step, {profile['nodes']} nodes" \
+        in markdown
+
+
+def test_the_floor_kernel_is_hookes_law_with_the_kernels_data_movement() -> None:
+    forces, tangent = np.zeros(6), np.zeros((1, 6))
+    floor_kernel(np.array([[0.0, 0.0, 0.0], [1.1, 0.0, 0.0]]), np.zeros((2, 3)), forces,
+                    np.array([0, 3]), np.array([[0, 1]]), np.array([1.0]), np.array([100.0]),
+                    tangent)
+    assert forces == pytest.approx([10.0, 0.0, 0.0, -10.0, 0.0, 0.0])  # 0.1 m at 100 N/m
+    assert tangent[0, :3] == pytest.approx([1.0, 0.0, 0.0])

@@ -60,6 +60,7 @@ from cell.bench.stability import largest_stable_timestep_s, quiet_mujoco, surviv
 from cell.bench.timing import StepTime, TimingJob, best_step_times
 from cell.bench.tissue_accuracy import force_errors
 from cell.bench.tissue_peers import NumpyMassSpring, stock_flex_run
+from cell.bench.tissue_profile import kernel_floor, step_profile
 from cell.bench.tissue_variants import (
     bench_scenario,
     paper_damping_s,
@@ -268,6 +269,17 @@ def _targets(sizes: list[dict[str, Any]], realtime: dict[str, dict[str, Any]] | 
     return targets
 
 
+def _profile(params: TissueBenchParams) -> dict[str, Any]:
+    """Where a step of the default meat's implicit step goes, at the size nearest 1000 nodes
+    (:mod:`cell.bench.tissue_profile`), on a run of its own after the warm-up."""
+    size = min(params.cell_sizes_m, key=lambda cell: abs(cell - 0.028))
+    run = tissue_run(bench_scenario(default_meat(), size, "implicit"))
+    run.step(params.warmup_steps)
+    profile = step_profile(run, _timing_steps(params, run.scene.node_count))
+    return profile | {"kernel": {muscle: kernel_floor(springs, run.data)
+                                 for muscle, springs in run.tissue.springs.items()}}
+
+
 def run_tissue_bench(params: TissueBenchParams | None = None,
                      progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run every tissue model and both peers at every size; returns the JSON-ready report
@@ -312,6 +324,7 @@ def run_tissue_bench(params: TissueBenchParams | None = None,
             say(f"{name}: {realtime[name]['real_time_factor']:.3g}x real time")
     return {
         "suite": "tissue",
+        "profile": _profile(params),
         "machine": {"python": platform.python_version(), "processor": platform.machine(),
                     "mujoco": mujoco.__version__, "cpus": cpu_count(),
                     "threads_per_step": 1, "load_average": list(os.getloadavg())},
@@ -393,6 +406,7 @@ def markdown_report(report: dict[str, Any]) -> str:
                          f"| {entry['us_per_node_step']:.3g} "
                          f"| {entry['cpu_us_per_node_step']:.3g} "
                          f"| {entry['real_time_factor']:.3g} |")
+    lines += _profile_lines(report["profile"])
     lines += ["", "## Targets", "", "| target | value | limit | pass |",
               "| --- | ---: | ---: | --- |"]
     for name, target in report["targets"].items():
@@ -404,3 +418,22 @@ def markdown_report(report: dict[str, Any]) -> str:
               "| code | us per node per iteration |", "| --- | ---: |"]
     lines += [f"| {name} | {value:g} |" for name, value in paper["us_per_node_iteration"].items()]
     return "\n".join(lines) + "\n"
+
+
+def _profile_lines(profile: dict[str, Any]) -> list[str]:
+    """The step's profile and the spring kernel against its floor, as Markdown."""
+    per_node = profile["us_per_node_step"]
+    lines = ["", f"## Where a step goes: default meat, implicit step, {profile['nodes']} nodes",
+             "", "| part | us/step | us/node/step |", "| --- | ---: | ---: |"]
+    lines += [f"| {part} | {us:.3g} | {per_node[part]:.3g} |"
+              for part, us in profile["us_per_step"].items()]
+    lines += [f"| mujoco: {stage} | {us:.3g} | {us / profile['nodes']:.3g} |"
+              for stage, us in profile["mujoco_stages_us_per_step"].items()]
+    lines += ["", "| muscle | springs | kernel ns/spring | floor ns/spring | bytes/spring "
+              "(kernel, floor) | floor GB/s |", "| --- | ---: | ---: | ---: | ---: | ---: |"]
+    for muscle, kernel in profile["kernel"].items():
+        times, sizes = kernel["ns_per_spring"], kernel["bytes_per_spring"]
+        lines.append(f"| {muscle} | {kernel['edges']} | {times['kernel']:.3g} "
+                     f"| {times['floor']:.3g} | {sizes['kernel']}, {sizes['floor']} "
+                     f"| {kernel['floor_gb_per_s']:.3g} |")
+    return lines

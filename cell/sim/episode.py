@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 from tqdm import tqdm
 
@@ -164,7 +163,7 @@ class Episode:
         data.qpos[self.scene_qpos] = q
         data.ctrl[self.actuators] = q
         data.ctrl[self.fingers] = self.scenario.gripper.max_opening_m / 2
-        mujoco.mj_forward(self.scene.model, data)
+        self.sim.forward()
         self._ctrl_prev = q.copy()
 
     def run(self, rerun_path: str | Path | None = None, progress: bool = False
@@ -329,7 +328,7 @@ class Episode:
         Raises:
             PerceptionError: no meat in view, no valley at the start marker, a bad fit.
         """
-        mujoco.mj_forward(self.scene.model, self.sim.data)
+        self.sim.forward()
         rng = np.random.default_rng([self.scenario.seed, _PERCEPTION_STREAM])
         return perceive(rig, self.sim.data, self.scene.mesh, self.generic,
                         self.scenario.perception, rng)
@@ -338,7 +337,7 @@ class Episode:
                 recorder: EpisodeRecorder | None) -> None:
         """The look after a pass: the interface estimate updated, the update and what it
         changes in the next pass's path recorded."""
-        mujoco.mj_forward(self.scene.model, self.sim.data)
+        self.sim.forward()
         seen = relooks.look(rig, self.sim.data, self.scenario.perception,
                             plan.passes.depths_m[-1])
         if seen is None:

@@ -171,6 +171,22 @@ class MassSpringModel:
         """Number of vertices of all the flexes, pinned ones included."""
         return len(self.dofadr)
 
+    @property
+    def history_columns(self) -> int:
+        """Numbers the spring law keeps per spring (plastic strain, relaxing stress and one
+        per relaxation term: :mod:`cell.tissue.springlaw`)."""
+        return int(self._history.shape[1])
+
+    def vertex_state(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 3) the vertices' positions (m, in the flexes' parent frame) and velocities
+        (m/s) in ``data``; pinned vertices at rest."""
+        free = self._qposadr >= 0
+        position = self._rest_position.copy()
+        velocity = np.zeros_like(position)
+        position[free] += data.qpos[self._qposadr[free, None] + np.arange(3)]
+        velocity[free] = data.qvel[self.dofadr[free, None] + np.arange(3)]
+        return position, velocity
+
     def set_fibre_direction(self, direction: np.ndarray | Sequence[float]) -> None:
         """Turn the fibres to ``direction`` (world frame, any length) and recalibrate.
 
