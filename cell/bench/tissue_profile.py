@@ -120,7 +120,9 @@ def _best_ns_per_spring(call: Callable[[], object], calls: int, edges: int) -> f
 def floor_kernel(position: np.ndarray, velocity: np.ndarray, qfrc: np.ndarray,
                     dofadr: np.ndarray, edges: np.ndarray, rest_length: np.ndarray,
                     stiffness: np.ndarray, tangent: np.ndarray) -> None:
-    """The floor kernel: the spring kernel's data movement with Hooke's law."""
+    """The floor kernel: the spring kernel's data movement with Hooke's law. Its scatter
+    repeats the kernel's on purpose: a helper that both call, inlined by numba or left to
+    LLVM, slowed the kernel from 38 to 42 and 47 ns a spring."""
     for e in range(edges.shape[0]):
         i = edges[e, 0]
         j = edges[e, 1]
