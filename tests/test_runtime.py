@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -53,3 +54,21 @@ def test_a_timestep_above_the_springs_stable_step_is_refused_for_the_explicit_st
                                                            tissue_step="explicit"))
     with pytest.raises(ScenarioError, match=r"simulation\.timestep_s"):
         Simulation(build_scene(scenario), scenario)
+
+
+def test_sensors_read_after_a_step_are_those_of_a_step_that_computes_them_every_time() -> None:
+    scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05))
+    sim = Simulation(build_scene(scenario), scenario)
+    on_demand = []
+    for _ in range(5):
+        sim.step(4)  # MuJoCo's sensors run in the last of the four steps only
+        on_demand.append(sim.data.sensordata.copy())
+    sim.reset()
+    every_step = []
+    for _ in range(5):
+        for _ in range(4):
+            sim.model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+            sim.step(1)
+        every_step.append(sim.data.sensordata.copy())
+    assert np.abs(on_demand[-1]).max() > 0.0  # the arms' weight, at least
+    assert all(np.array_equal(a, b) for a, b in zip(on_demand, every_step, strict=True))
