@@ -60,7 +60,7 @@ from cell.bench.stability import largest_stable_timestep_s, quiet_mujoco, surviv
 from cell.bench.timing import StepTime, TimingJob, best_step_times
 from cell.bench.tissue_accuracy import force_errors
 from cell.bench.tissue_peers import NumpyMassSpring, stock_flex_run
-from cell.bench.tissue_profile import kernel_floor, step_profile
+from cell.bench.tissue_profile import step_profile
 from cell.bench.tissue_variants import (
     bench_scenario,
     paper_damping_s,
@@ -275,9 +275,7 @@ def _profile(params: TissueBenchParams) -> dict[str, Any]:
     size = min(params.cell_sizes_m, key=lambda cell: abs(cell - 0.028))
     run = tissue_run(bench_scenario(default_meat(), size, "implicit"))
     run.step(params.warmup_steps)
-    profile = step_profile(run, _timing_steps(params, run.scene.node_count))
-    return profile | {"kernel": {muscle: kernel_floor(springs, run.data)
-                                 for muscle, springs in run.tissue.springs.items()}}
+    return step_profile(run, _timing_steps(params, run.scene.node_count))
 
 
 def run_tissue_bench(params: TissueBenchParams | None = None,
@@ -429,11 +427,10 @@ def _profile_lines(profile: dict[str, Any]) -> list[str]:
               for part, us in profile["us_per_step"].items()]
     lines += [f"| mujoco: {stage} | {us:.3g} | {us / profile['nodes']:.3g} |"
               for stage, us in profile["mujoco_stages_us_per_step"].items()]
-    lines += ["", "| muscle | springs | kernel ns/spring | floor ns/spring | bytes/spring "
-              "(kernel, floor) | floor GB/s |", "| --- | ---: | ---: | ---: | ---: | ---: |"]
-    for muscle, kernel in profile["kernel"].items():
-        times, sizes = kernel["ns_per_spring"], kernel["bytes_per_spring"]
-        lines.append(f"| {muscle} | {kernel['edges']} | {times['kernel']:.3g} "
-                     f"| {times['floor']:.3g} | {sizes['kernel']}, {sizes['floor']} "
-                     f"| {kernel['floor_gb_per_s']:.3g} |")
+    kernel = profile["kernel"]
+    lines += ["", "| springs | kernel ns/spring | floor ns/spring | bytes/spring (kernel, floor) "
+              "| floor GB/s |", "| ---: | ---: | ---: | ---: | ---: |",
+              f"| {kernel['springs']} | {kernel['ns_per_spring']:.3g} "
+              f"| {kernel['floor_ns_per_spring']:.3g} | {kernel['bytes_per_spring']['kernel']}, "
+              f"{kernel['bytes_per_spring']['floor']} | {kernel['floor_gb_per_s']:.3g} |"]
     return lines

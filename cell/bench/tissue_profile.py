@@ -3,11 +3,12 @@
 :func:`step_profile` times the parts of :meth:`TissueSimulation.step` one by one, in the
 step's own order (the springs' kernel, the binding springs, the implicit solve, then
 ``mj_step`` with MuJoCo's own stage timers), in microseconds per step and per node.
-:func:`kernel_floor` times the spring kernel (:func:`~cell.tissue.springlaw.muscle_forces`)
-beside a kernel that moves the same data per spring (both ends' positions and velocities
-gathered, the implicit step's tangent row written, both ends' forces scattered) with a linear
-spring in place of the law: the kernel's cost above that floor is the law's, the floor over
-the bytes moved is the rate the memory access runs at.
+:func:`kernel_floor` sets the spring kernel (:func:`~cell.tissue.springlaw.muscle_forces`, as
+the step calls it, its tangent's probe every fourth step included) against a kernel that
+moves the same data per spring (both ends' positions and velocities gathered, the implicit
+step's tangent row written, both ends' forces scattered) with a linear spring in place of
+the law: the kernel's cost above that floor is about the law's, the floor over the bytes
+moved is the rate the memory access runs at.
 
 Example:
     >>> from cell.bench.tissue_variants import bench_scenario, tissue_run
@@ -22,6 +23,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import mujoco
@@ -29,7 +31,6 @@ import numpy as np
 from numba import njit
 
 from cell.sim.simulation import TissueSimulation
-from cell.tissue.massspring import MassSpringModel
 
 #: MuJoCo's stage timers the profile reports (``mjtTimer`` names less ``mjTIMER_``).
 MUJOCO_STAGES = ("POS_KINEMATICS", "POS_INERTIA", "POS_COLLISION", "POS_MAKE", "VELOCITY",
@@ -40,9 +41,13 @@ def step_profile(run: TissueSimulation, steps: int = 200, rounds: int = 3) -> di
     """``rounds`` rounds of ``steps`` steps of ``run`` from its present state, each part timed
     (``time.perf_counter``); the round of the least total time counts (as the bench's best
     of three): per step (us) and per node and step (us), with MuJoCo's stages from its own
-    timers. The state moves on as :meth:`TissueSimulation.step` would move it."""
+    timers, and the springs' kernel against its floor (:func:`kernel_floor`). The state
+    moves on as :meth:`TissueSimulation.step` would move it."""
     profiles = [_profile_round(run, steps) for _ in range(rounds)]
-    return min(profiles, key=lambda profile: sum(profile["us_per_step"].values()))
+    profile = min(profiles, key=lambda profile: sum(profile["us_per_step"].values()))
+    springs = sum(len(model.edges) for model in run.tissue.springs.values())
+    kernel = profile["us_per_step"]["springs"] * 1e3 / springs
+    return profile | {"kernel": {"ns_per_spring": kernel, **kernel_floor(run, kernel)}}
 
 
 def _profile_round(run: TissueSimulation, steps: int) -> dict[str, Any]:
@@ -77,35 +82,37 @@ def _profile_round(run: TissueSimulation, steps: int) -> dict[str, Any]:
             "contacts": int(data.ncon)}
 
 
-def kernel_floor(springs: MassSpringModel, data: mujoco.MjData, calls: int = 500
+def kernel_floor(run: TissueSimulation, kernel_ns_per_spring: float, calls: int = 500
                  ) -> dict[str, Any]:
-    """One muscle's spring kernel (:meth:`MassSpringModel.apply`, unfiltered) at the state in
-    ``data`` against the floor kernel (module docstring): ns per spring of each (best of
-    three rounds of ``calls``), the bytes each moves per spring and the floor's rate (GB/s).
-    The kernel's calls advance the springs' history and write ``data.qfrc_applied``: give
-    it a run that is done with."""
-    edges, rest, stiffness = springs.edges, springs.rest_lengths_m, springs.stiffness_n_m
-    position, velocity = springs.vertex_state(data)
-    forces, tangent = np.zeros_like(data.qfrc_applied), np.zeros((len(edges), 6))
-    times = {
-        "kernel": _best_ns_per_spring(lambda: springs.apply(data, filtered=False), calls,
-                                      len(edges)),
-        "floor": _best_ns_per_spring(lambda: floor_kernel(
-            position, velocity, forces, springs.dofadr, edges, rest, stiffness, tangent),
-            calls, len(edges))}
+    """The floor kernel (module docstring) on every muscle of ``run`` at its present state:
+    its ns per spring (best of three rounds of ``calls``), the bytes it and the kernel move
+    per spring, its rate (GB/s) and the kernel's ``kernel_ns_per_spring`` less it (the law's
+    share). The simulation is left as it was."""
+    total_s, springs_count = 0.0, 0
+    history_columns = 0
+    for springs in run.tissue.springs.values():
+        edges = springs.edges
+        position, velocity = springs.vertex_state(run.data)
+        forces, tangent = np.zeros_like(run.data.qfrc_applied), np.zeros((len(edges), 6))
+        total_s += _best_call_s(partial(
+            floor_kernel, position, velocity, forces, springs.dofadr, edges,
+            springs.rest_lengths_m, springs.stiffness_n_m, tangent), calls)
+        springs_count += len(edges)
+        history_columns = springs.history_columns
+    floor = total_s / springs_count * 1e9
     # Per spring: its two vertex indices, rest length, gain and fibre cosine (the floor: a
     # stiffness), both ends' positions and velocities, the tangent row, both ends' three
     # forces read and written; the kernel also reads and writes the spring's history row.
     floor_bytes = 2 * 8 + 2 * 8 + 4 * 3 * 8 + 6 * 8 + 2 * 6 * 8
-    kernel_bytes = floor_bytes + 8 + 2 * springs.history_columns * 8
-    return {"edges": len(edges),
-            "ns_per_spring": times,
+    kernel_bytes = floor_bytes + 8 + 2 * history_columns * 8
+    return {"springs": springs_count, "floor_ns_per_spring": floor,
             "bytes_per_spring": {"kernel": kernel_bytes, "floor": floor_bytes},
-            "floor_gb_per_s": floor_bytes / times["floor"],
-            "law_ns_per_spring": times["kernel"] - times["floor"]}
+            "floor_gb_per_s": floor_bytes / floor,
+            "law_ns_per_spring": kernel_ns_per_spring - floor}
 
 
-def _best_ns_per_spring(call: Callable[[], object], calls: int, edges: int) -> float:
+def _best_call_s(call: Callable[[], object], calls: int) -> float:
+    """Seconds a call of ``call`` takes, best of three rounds of ``calls``."""
     call()  # compiled and warm
     best = math.inf
     for _ in range(3):
@@ -113,7 +120,7 @@ def _best_ns_per_spring(call: Callable[[], object], calls: int, edges: int) -> f
         for _ in range(calls):
             call()
         best = min(best, (time.perf_counter() - clock) / calls)
-    return best / edges * 1e9
+    return best
 
 
 @njit(cache=True, fastmath=False)
