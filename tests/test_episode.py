@@ -20,6 +20,7 @@ from cell.sim.scenario import AponeurosisParams, Scenario, SensorParams, load_sc
 from cell.tissue.geometry import MuscleShape
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
+from controllers.steering import SteeringParams
 
 
 def coarse(**changes: object) -> Scenario:
@@ -40,6 +41,15 @@ def test_the_knife_follows_the_perceived_guideline(full_episode: dict) -> None:
     assert perception["guideline_to_true_top_line_xy_m"]["mean"] <= 0.005
     assert perception["guideline_to_true_top_line_xy_m"]["max"] <= 0.015
     assert perception["coverage_of_true_top_line"] > 0.8
+
+
+def test_the_knife_steers_by_its_lateral_load_within_its_bound(full_episode: dict) -> None:
+    steering = full_episode["steering"]
+    bound = SteeringParams().max_lean_change
+    assert -bound <= steering["lean_change_min"] <= steering["lean_change"] \
+        <= steering["lean_change_max"] <= bound
+    # The generic model's own shape: the load holds the lean near the plan's.
+    assert abs(steering["lean_change"]) < 0.05
 
 
 def test_cut_and_pull_separate_the_muscles(full_episode: dict) -> None:

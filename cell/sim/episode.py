@@ -39,6 +39,7 @@ from controllers.camera import view_pose
 from controllers.gripper import PullSchedule
 from controllers.ik import CellIK, arm_joint_names, pose
 from controllers.knife import CutWindow, PassPlan
+from controllers.steering import LeanSteering
 from controllers.trajectory import CartesianTrajectory
 
 #: IK iterations that bring the arms from home to their ready poses before the episode starts.
@@ -130,6 +131,7 @@ class Episode:
         self._place_arms()
         self._control_steps = 0
         self._knife_tared = self._gripper_tared = self._grasped = False
+        self._knife_load_n = np.zeros(3)  # the load on the blade at the last reading, world, N
         self._jaw_half_m = np.array([scenario.gripper.finger_width_m / 2,
                                      scenario.gripper.max_opening_m / 2,
                                      scenario.gripper.finger_length_m / 2])
@@ -190,6 +192,8 @@ class Episode:
         if perceived is not None and isinstance(perceived.interface_y, SeenInterface):
             relooks = Relooks(perceived.interface_y, perceived.marker_m, plan.passes.looks_s,
                               scenario.seed)
+        steering = (LeanSteering(scenario.steering, perceived.guideline.points_m)
+                    if perceived is not None else None)
         steps = int(np.ceil(plan.end_s / self.control_dt_s))
         held = {"camera": ik.site_pose("camera/optical")[0]}
         if not scenario.pull.enabled:
@@ -219,6 +223,9 @@ class Episode:
                 knife_target = plan.knife.sample(t_next) if scenario.cut.enabled else None
                 if knife_target is not None and relooks is not None:
                     knife_target = relooks.correct(knife_target)
+                if knife_target is not None and steering is not None:
+                    knife_target = steering.correct(knife_target, self._knife_load_n,
+                                                    self.control_dt_s)
                 grasp_target = plan.pull.sample(t_next) if scenario.pull.enabled else None
                 self.control_step(plan, knife_target, grasp_target)
                 t = sim.time_s
@@ -249,7 +256,7 @@ class Episode:
         wall_s = time.perf_counter() - wall_start
         if recorder is not None:
             recorder.close()
-        return self._summary(trace, score, wall_s, perceived, plan, relooks)
+        return self._summary(trace, score, wall_s, perceived, plan, relooks, steering)
 
     def plan(self, perceived: PerceivedPlan | None = None) -> EpisodePlan:
         """Plan the knife and the gripper from the arms' present IK poses (the ready poses
@@ -304,7 +311,9 @@ class Episode:
         ctrl_prev = self._ctrl_prev
         for i in range(1, self.substeps + 1):
             data.ctrl[self.actuators] = ctrl_prev + (ctrl_next - ctrl_prev) * (i / self.substeps)
-            sim.step()  # one step at a time: the controls ramp between them
+            # One step at a time, the controls ramping between them; the sensors are read
+            # after the last.
+            sim.step(sensors=i == self.substeps)
         self._ctrl_prev = ctrl_next
         t = sim.time_s
         if not self._knife_tared and t >= cut_start - 0.1:
@@ -354,7 +363,9 @@ class Episode:
     def _measure(self, trace: _Trace, knife_tared: bool, gripper_tared: bool) -> None:
         sim = self.sim
         if knife_tared:
-            trace.knife_force_n.append(float(np.linalg.norm(sim.read("knife/force"))))
+            reading = sim.read_world("knife/force")
+            self._knife_load_n = -reading  # the sensor carries the load on the blade: minus
+            trace.knife_force_n.append(float(np.linalg.norm(reading)))
             trace.knife_torque_nm.append(float(np.linalg.norm(sim.read("knife/torque"))))
         if gripper_tared:
             trace.pull_force_n.append(float(np.linalg.norm(sim.read("gripper/force"))))
@@ -374,7 +385,7 @@ class Episode:
 
     def _summary(self, trace: _Trace, score: CutScore, wall_s: float,
                  perceived: PerceivedPlan | None, plan: EpisodePlan,
-                 relooks: Relooks | None) -> dict[str, Any]:
+                 relooks: Relooks | None, steering: LeanSteering | None) -> dict[str, Any]:
         scene, sim = self.scene, self.sim
         apo = scene.aponeurosis
         gap = apo.lengths(sim.data) - apo.rest_length_m
@@ -434,6 +445,10 @@ class Episode:
                                 "max": float(perceived.cut_depth_m.max())},
                 "updates": [] if relooks is None else relooks.updates,
             }
+        if steering is not None and steering.params.enabled:
+            result["steering"] = {"lean_change": steering.lean_change,
+                                  "lean_change_min": steering.extremes[0],
+                                  "lean_change_max": steering.extremes[1]}
         looks_s = [perceived.timings_s["total"]] if perceived is not None else []
         looks_s += [u["perception_s"] for u in ([] if relooks is None else relooks.updates)]
         timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s,

@@ -26,6 +26,7 @@ from cell.tissue.material import ContinuumMaterial, MassSpringMaterial, default_
 from cell.tissue.materialfile import load_material, material_from_table
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
+from controllers.steering import SteeringParams
 
 #: Data files named ``assets/...`` in a scenario that are not beside it come from the package.
 _ASSETS_PREFIX = "assets/"
@@ -224,6 +225,7 @@ class Scenario:
     camera: CameraParams = field(default_factory=CameraParams)
     cut: CutPlan = field(default_factory=CutPlan)
     pull: PullPlan = field(default_factory=PullPlan)
+    steering: SteeringParams = field(default_factory=SteeringParams)
     layout: LayoutParams = field(default_factory=LayoutParams)
     sensors: SensorParams = field(default_factory=SensorParams)
     perception: PerceptionParams = field(default_factory=PerceptionParams)
@@ -245,7 +247,7 @@ class _Head:
 
 
 _TABLES = ("simulation", "tissue", "material", "aponeurosis", "knife", "fixture", "gripper",
-           "camera", "cut", "pull", "layout", "sensors", "perception", "recording")
+           "camera", "cut", "pull", "steering", "layout", "sensors", "perception", "recording")
 
 
 def load_scenario(path: str | Path) -> Scenario:

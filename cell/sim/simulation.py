@@ -88,8 +88,10 @@ class TissueSimulation:
         self.tissue.reset()
         self._warnings = self._warning_counts()
 
-    def step(self, count: int = 1) -> None:
-        """Advance ``count`` physics steps, then check for divergence.
+    def step(self, count: int = 1, sensors: bool = True) -> None:
+        """Advance ``count`` physics steps, then check for divergence; MuJoCo computes the
+        sensors in the last of them (with ``sensors``) or in none (a caller stepping one at a
+        time asks for them in the step it reads after).
 
         Before each step the forces that MuJoCo does not compute itself (mass-spring
         springs, binding springs, hooked bindings on the blade) are written from the present
@@ -99,7 +101,7 @@ class TissueSimulation:
         start = self.time_s
         for index in range(count):
             self._apply_forces()
-            if index < count - 1:
+            if index < count - 1 or not sensors:
                 mujoco.mj_step(self.model, self.data)
             else:
                 self._with_sensors(mujoco.mj_step)
@@ -369,6 +371,11 @@ class Simulation(TissueSimulation):
         """Zero sensors (all by default) at the present load, such as a tool's own weight."""
         for name in names or tuple(self._sensor):
             self._tare[name] = self._raw(name)
+
+    def read_world(self, name: str) -> np.ndarray:
+        """:meth:`read` turned from the sensor's site frame into the world frame."""
+        site = int(self.model.sensor(name).objid[0])
+        return self.data.site_xmat[site].reshape(3, 3) @ self.read(name)
 
     def read(self, name: str) -> np.ndarray:
         """A tared 3-vector sensor reading with the sensors' bias and noise: ``knife/force``,

@@ -1,0 +1,63 @@
+"""The blade steered by what it feels: the knife's lateral load corrects the interface's lean
+below the guideline, only where the load tells it, and never past its bound."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from controllers.steering import LeanSteering, SteeringParams
+
+GUIDELINE = np.array([[-0.2, 0.0, 0.66], [0.0, 0.0, 0.67], [0.2, 0.0, 0.66]])
+TOWARDS_PLUS_Y = np.array([0.0, 3.0, 0.0])  # N: the flesh pushes the blade to +y
+
+
+def _steered(params: SteeringParams, target_m: np.ndarray, load_n: np.ndarray,
+             steps: int = 100) -> tuple[LeanSteering, np.ndarray]:
+    steering = LeanSteering(params, GUIDELINE)
+    position = target_m
+    for _ in range(steps):
+        position, _ = steering.correct((target_m, np.eye(3)), load_n, 0.02)
+    return steering, position
+
+
+def test_a_blade_pushed_towards_plus_y_is_steered_there_the_more_the_deeper() -> None:
+    steering, shallow = _steered(SteeringParams(), np.array([0.0, 0.0, 0.64]), TOWARDS_PLUS_Y)
+    assert steering.lean_change < 0.0
+    assert shallow[1] > 0.0
+    deep, _ = steering.correct((np.array([0.0, 0.0, 0.60]), np.eye(3)), TOWARDS_PLUS_Y, 0.02)
+    assert deep[1] > shallow[1]  # the lean's correction grows with depth below the top
+
+
+def test_the_load_of_a_blade_on_the_interface_changes_nothing() -> None:
+    params = SteeringParams()
+    on_interface = np.array([0.0, params.on_interface_load_n + 0.5 * params.dead_band_n, 0.0])
+    steering, position = _steered(params, np.array([0.0, 0.0, 0.60]), on_interface)
+    assert steering.lean_change == 0.0 and position[1] == 0.0
+
+
+@pytest.mark.parametrize("target_m", [np.array([0.0, 0.0, 0.665]),  # 5 mm deep
+                                      np.array([0.19, 0.0, 0.60])],  # near the meat's end
+                         ids=["shallow", "near-the-end"])
+def test_it_learns_nothing_where_the_load_does_not_tell_the_lean(target_m: np.ndarray) -> None:
+    steering, _ = _steered(SteeringParams(), target_m, TOWARDS_PLUS_Y)
+    assert steering.lean_change == 0.0
+
+
+def test_the_correction_stops_at_its_bound_and_a_push_the_other_way_brings_it_back() -> None:
+    params = SteeringParams(max_lean_change=0.05)
+    steering, _ = _steered(params, np.array([0.0, 0.0, 0.60]), 10 * TOWARDS_PLUS_Y, steps=2000)
+    assert steering.lean_change == pytest.approx(-0.05)
+    for _ in range(200):
+        steering.correct((np.array([0.0, 0.0, 0.60]), np.eye(3)), -TOWARDS_PLUS_Y, 0.02)
+    assert steering.lean_change > -0.05
+    assert steering.extremes[0] == pytest.approx(-0.05)
+
+
+def test_disabled_steering_keeps_the_planned_target() -> None:
+    target = np.array([0.0, 0.0, 0.60])
+    steering, position = _steered(replace(SteeringParams(), enabled=False), target,
+                                  TOWARDS_PLUS_Y)
+    assert steering.lean_change == 0.0 and np.array_equal(position, target)
