@@ -18,7 +18,7 @@ tip's mean distance to the interface went from 3.54 to 1.25 mm (lean 0.007) and 
 
 Example (the load pushing the blade 2 N towards +y, as when the tip runs on the -y side):
     >>> guideline = np.array([[-0.2, 0.0, 0.66], [0.2, 0.0, 0.66]])
-    >>> steering = LeanSteering(SteeringParams(), guideline)
+    >>> steering = LeanSteering(SteeringParams(), guideline, pulled_side=np.array([0, 1, 0]))
     >>> target = (np.array([0.0, 0.0, 0.60]), np.eye(3))  # 6 cm deep, mid-cut
     >>> for _ in range(50):
     ...     position_m, _ = steering.correct(target, np.array([0.0, 2.0, 0.0]), 0.02)
@@ -81,8 +81,10 @@ class SteeringParams:
 class LeanSteering:
     """The lean correction of one cut along ``guideline_m`` (K, 3), world, m.
 
-    Across the cut is the horizontal normal of the guideline's chord (world +y for a cut along
-    +x), the direction the interface's lean moves it with height (``y = ... + lean * z``).
+    Across the cut is the horizontal normal of the guideline's chord that points to the pulled
+    muscle (``pulled_side``, the gripper's pull direction, world): loads and the lean's change
+    count positive that way, whichever end the cut starts from (the default cell: world +y,
+    the lean of ``y = ... + lean * z``).
 
     Attributes:
         lean_change: the correction so far (dy/dz, dimensionless).
@@ -90,13 +92,15 @@ class LeanSteering:
         extremes: the least and the greatest lean change so far.
     """
 
-    def __init__(self, params: SteeringParams, guideline_m: np.ndarray) -> None:
+    def __init__(self, params: SteeringParams, guideline_m: np.ndarray,
+                 pulled_side: np.ndarray) -> None:
         points = np.asarray(guideline_m, dtype=float)
         self.params = params
         chord = points[-1, :2] - points[0, :2]
         along = chord / np.linalg.norm(chord)
         self._along = np.array([along[0], along[1], 0.0])
-        self._across = np.array([-along[1], along[0], 0.0])
+        across = np.array([-along[1], along[0], 0.0])
+        self._across = across if across @ np.asarray(pulled_side, float) >= 0.0 else -across
         station = (points - points[0]) @ self._along
         order = np.argsort(station)
         self._station, self._top_z = station[order], points[order, 2]

@@ -12,11 +12,12 @@ from controllers.steering import LeanSteering, SteeringParams
 
 GUIDELINE = np.array([[-0.2, 0.0, 0.66], [0.0, 0.0, 0.67], [0.2, 0.0, 0.66]])
 TOWARDS_PLUS_Y = np.array([0.0, 3.0, 0.0])  # N: the flesh pushes the blade to +y
+PULLED_TO_PLUS_Y = np.array([0.0, 1.0, 0.6])  # the gripper's pull direction
 
 
 def _steered(params: SteeringParams, target_m: np.ndarray, load_n: np.ndarray,
              steps: int = 100) -> tuple[LeanSteering, np.ndarray]:
-    steering = LeanSteering(params, GUIDELINE)
+    steering = LeanSteering(params, GUIDELINE, PULLED_TO_PLUS_Y)
     position = target_m
     for _ in range(steps):
         position, _ = steering.correct((target_m, np.eye(3)), load_n, 0.02)
@@ -61,3 +62,15 @@ def test_disabled_steering_keeps_the_planned_target() -> None:
     steering, position = _steered(replace(SteeringParams(), enabled=False), target,
                                   TOWARDS_PLUS_Y)
     assert steering.lean_change == 0.0 and np.array_equal(position, target)
+
+
+def test_it_steers_the_same_way_whichever_end_the_cut_starts_from() -> None:
+    target = np.array([0.0, 0.0, 0.60])
+    steered = []
+    for guideline in (GUIDELINE, GUIDELINE[::-1]):
+        steering = LeanSteering(SteeringParams(), guideline, PULLED_TO_PLUS_Y)
+        for _ in range(100):
+            position, _ = steering.correct((target, np.eye(3)), TOWARDS_PLUS_Y, 0.02)
+        steered.append((position[1], steering.lean_change))
+    assert steered[0] == pytest.approx(steered[1])
+    assert steered[0][0] > 0.0 and steered[0][1] < 0.0  # the lean of y = ... + lean * z

@@ -192,7 +192,8 @@ class Episode:
         if perceived is not None and isinstance(perceived.interface_y, SeenInterface):
             relooks = Relooks(perceived.interface_y, perceived.marker_m, plan.passes.looks_s,
                               scenario.seed)
-        steering = (LeanSteering(scenario.steering, perceived.guideline.points_m)
+        steering = (LeanSteering(scenario.steering, perceived.guideline.points_m,
+                                 np.asarray(scenario.pull.direction))
                     if perceived is not None else None)
         steps = int(np.ceil(plan.end_s / self.control_dt_s))
         held = {"camera": ik.site_pose("camera/optical")[0]}
