@@ -172,6 +172,8 @@ class Simulation(TissueSimulation):
         self.rng = np.random.default_rng(scenario.seed)
         self._sensor = {name: self._sensor_slice(name) for name in (
             "knife/force", "knife/torque", "gripper/force", "gripper/torque", "fixture_force")}
+        self._sensor_site = {name: int(self.model.sensor(name).objid[0])
+                             for name in self._sensor}
         # The tools' force/torque sensors: their site, and the bodies whose load they carry.
         self._tool_sensor = {name: self._tool_of(name) for name in (
             "knife/force", "knife/torque", "gripper/force", "gripper/torque")}
@@ -218,7 +220,7 @@ class Simulation(TissueSimulation):
         """The site of the force or torque sensor ``name`` and the bodies below it (the tool
         it weighs)."""
         model = self.model
-        site = int(model.sensor(name).objid[0])
+        site = self._sensor_site[name]
         top = model.site_bodyid[site]
         below = [body for body in range(model.nbody) if self._descends(body, top)]
         return site, np.array(below)
@@ -374,7 +376,7 @@ class Simulation(TissueSimulation):
 
     def read_world(self, name: str) -> np.ndarray:
         """:meth:`read` turned from the sensor's site frame into the world frame."""
-        site = int(self.model.sensor(name).objid[0])
+        site = self._sensor_site[name]
         return self.data.site_xmat[site].reshape(3, 3) @ self.read(name)
 
     def read(self, name: str) -> np.ndarray:
