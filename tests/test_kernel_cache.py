@@ -27,7 +27,7 @@ import springlaw
 from cell.tissue.material import MassSpringMaterial
 
 law = springlaw.SpringLaw.of(MassSpringMaterial.isotropic(3e4))
-stress, _ = springlaw.spring_stress(0.1, 1.0, law.curves, law.params, law.history(1), 0, 0.0,
+stress, _, _ = springlaw.spring_stress(0.1, 1.0, law.curves, law.params, law.history(1), 0, 0.0,
                                     True)
 # One spring along x between a pinned vertex and a free one stretched by 10%.
 qfrc = np.zeros(3)

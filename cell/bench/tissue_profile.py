@@ -3,12 +3,12 @@
 :func:`step_profile` times the parts of :meth:`TissueSimulation.step` one by one, in the
 step's own order (the springs' kernel, the binding springs, the implicit solve, then
 ``mj_step`` with MuJoCo's own stage timers), in microseconds per step and per node.
-:func:`kernel_floor` sets the spring kernel (:func:`~cell.tissue.springlaw.muscle_forces`, as
-the step calls it, its tangent's probe every fourth step included) against a kernel that
-moves the same data per spring (both ends' positions and velocities gathered, the implicit
-step's tangent row written, both ends' forces scattered) with a linear spring in place of
-the law: the kernel's cost above that floor is about the law's, the floor over the bytes
-moved is the rate the memory access runs at.
+The spring kernel (:func:`~cell.tissue.springlaw.muscle_forces`) is timed as the step calls
+it, at the steps that run the law (every fourth) and at those that follow its tangent line;
+:func:`kernel_floor` sets it against a kernel that moves the same data per spring (both ends'
+positions and velocities gathered, the implicit step's tangent row written, both ends' forces
+scattered) with a linear spring in place of the law: a law step's cost above that floor is
+about the law's, the floor over the bytes moved is the rate the memory access runs at.
 
 Example:
     >>> from cell.bench.tissue_variants import bench_scenario, tissue_run
@@ -47,20 +47,29 @@ def step_profile(run: TissueSimulation, steps: int = 200, rounds: int = 3) -> di
     profile = min(profiles, key=lambda profile: sum(profile["us_per_step"].values()))
     springs = sum(len(model.edges) for model in run.tissue.springs.values())
     kernel = profile["us_per_step"]["springs"] * 1e3 / springs
-    return profile | {"kernel": {"ns_per_spring": kernel, **kernel_floor(run, kernel)}}
+    steps = profile.pop("springs_us_per_step")
+    return profile | {"kernel": {"ns_per_spring": kernel,
+                                 "law_ns_per_spring": steps["law"] * 1e3 / springs,
+                                 "linearised_ns_per_spring": steps["linearised"] * 1e3 / springs,
+                                 **kernel_floor(run)}}
 
 
 def _profile_round(run: TissueSimulation, steps: int) -> dict[str, Any]:
     tissue, model, data = run.tissue, run.model, run.data
     parts = {"springs": 0.0, "bindings": 0.0, "implicit_solve": 0.0, "mujoco": 0.0}
+    # The springs' time and steps where the law ran and where they followed its tangent.
+    kernel = {True: [0.0, 0], False: [0.0, 0]}
     for timer in data.timer:
         timer.duration, timer.number = 0.0, 0
     for _ in range(steps):
+        law = all(springs.runs_law for springs in tissue.springs.values())
         clock = time.perf_counter()
         for springs in tissue.springs.values():
             springs.apply(data, filtered=False)
         lap = time.perf_counter()
         parts["springs"] += lap - clock
+        kernel[law][0] += lap - clock
+        kernel[law][1] += 1
         tissue.aponeurosis.apply_forces(data)
         clock = time.perf_counter()
         parts["bindings"] += clock - lap
@@ -79,21 +88,26 @@ def _profile_round(run: TissueSimulation, steps: int) -> dict[str, Any]:
             "us_per_node_step": {part: us / nodes for part, us in per_step.items()},
             "mujoco_stages_us_per_step": stages,
             "mujoco_bodies": int(model.nbody), "mujoco_dofs": int(model.nv),
-            "contacts": int(data.ncon)}
+            "contacts": int(data.ncon),
+            "springs_us_per_step": {"law": _mean_us(*kernel[True]),
+                                    "linearised": _mean_us(*kernel[False])}}
 
 
-def kernel_floor(run: TissueSimulation, kernel_ns_per_spring: float, calls: int = 500
-                 ) -> dict[str, Any]:
+def _mean_us(seconds: float, count: int) -> float:
+    return seconds / count * 1e6 if count else math.nan
+
+
+def kernel_floor(run: TissueSimulation, calls: int = 500) -> dict[str, Any]:
     """The floor kernel (module docstring) on every muscle of ``run`` at its present state:
-    its ns per spring (best of three rounds of ``calls``), the bytes it and the kernel move
-    per spring, its rate (GB/s) and the kernel's ``kernel_ns_per_spring`` less it (the law's
-    share). The simulation is left as it was."""
+    its ns per spring (best of three rounds of ``calls``), the bytes it and the kernel (at a
+    step that runs the law, and at one that follows its tangent) move per spring, and its
+    rate (GB/s). The simulation is left as it was."""
     total_s, springs_count = 0.0, 0
     history_columns = 0
     for springs in run.tissue.springs.values():
         edges = springs.edges
         position, velocity = springs.vertex_state(run.data)
-        forces, tangent = np.zeros_like(run.data.qfrc_applied), np.zeros((len(edges), 6))
+        forces, tangent = np.zeros_like(run.data.qfrc_applied), np.zeros((len(edges), 8))
         total_s += _best_call_s(partial(
             floor_kernel, position, velocity, forces, springs.dofadr, edges,
             springs.rest_lengths_m, springs.stiffness_n_m, tangent), calls)
@@ -101,14 +115,16 @@ def kernel_floor(run: TissueSimulation, kernel_ns_per_spring: float, calls: int 
         history_columns = springs.history_columns
     floor = total_s / springs_count * 1e9
     # Per spring: its two vertex indices, rest length, gain and fibre cosine (the floor: a
-    # stiffness), both ends' positions and velocities, the tangent row, both ends' three
-    # forces read and written; the kernel also reads and writes the spring's history row.
+    # stiffness), both ends' positions and velocities, six numbers of the tangent row
+    # written, both ends' three forces read and written. The law's run also reads and writes
+    # the spring's history row and writes two more of the tangent row; the tangent line
+    # reads four of the row instead of the gain and the cosine.
     floor_bytes = 2 * 8 + 2 * 8 + 4 * 3 * 8 + 6 * 8 + 2 * 6 * 8
-    kernel_bytes = floor_bytes + 8 + 2 * history_columns * 8
     return {"springs": springs_count, "floor_ns_per_spring": floor,
-            "bytes_per_spring": {"kernel": kernel_bytes, "floor": floor_bytes},
-            "floor_gb_per_s": floor_bytes / floor,
-            "law_ns_per_spring": kernel_ns_per_spring - floor}
+            "bytes_per_spring": {"law": floor_bytes + 8 + 2 * 8 + 2 * history_columns * 8,
+                                 "linearised": floor_bytes - 8 + 4 * 8,
+                                 "floor": floor_bytes},
+            "floor_gb_per_s": floor_bytes / floor}
 
 
 def _best_call_s(call: Callable[[], object], calls: int) -> float:

@@ -9,7 +9,10 @@ Et**2 (1 - c**2))`` with c the cosine between the edge and the fibres; with El =
 Eq. 8, ``K = E sum(V) / l0**2``. Both moduli are updated every step from the spring's stretch
 r = l / l0 (:class:`~cell.tissue.curves.ModulusCurve`); K uses their secant values
 ``sigma(r) / (r - 1)``, so that a spring's force follows the measured stress curve
-(a conservative spring) instead of the tangent modulus times the extension.
+(a conservative spring) instead of the tangent modulus times the extension. Under the
+implicit step the law runs at every fourth step (one 20 ms control step at 5 ms), with its
+derivative for the step's matrix; in between each spring's tension follows the law's tangent
+line from that run, along the spring's present direction (``_LAW_REFRESH``).
 
 Calibration: the moduli fed to Eq. 10 are those for which the lattice of the muscle's own
 mesh has the material's moduli (:mod:`cell.tissue.lattice`).
@@ -58,11 +61,13 @@ from cell.tissue.lattice import (
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.springlaw import muscle_forces
 
-# Steps between refreshes of the springs' tangent stiffness and of the preconditioner for the
-# implicit step (one control step at the default 5 ms): the tangent's probe of the spring law
-# doubled the kernel's cost, the preconditioner's 3x3 inverses were a third of the solve's,
-# and both change little over 20 ms; the step's force is always the present one.
-_TANGENT_REFRESH = 4
+# Steps between runs of the spring law for the implicit step (one control step at the default
+# 5 ms), with its tangent stiffness and the solve's preconditioner; in between, each spring
+# follows the law's tangent line from its last run, along its present direction. The law was
+# four fifths of the kernel's cost (23 of 30 ns a spring, 990 nodes), its tangent's probe as
+# much again, and over 20 ms a spring's length changes too little for the line to part from
+# the curve (tests/test_massspring.py, the bench's accuracy tests).
+_LAW_REFRESH = 4
 _INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -80,7 +85,8 @@ class MassSpringModel:
     and leaves every other entry alone; put external loads on vertices in ``xfrc_applied``.
     All flexes share one material and one fibre direction; use one model per muscle to give
     each muscle its own. A material with history (plasticity, relaxation) advances it by the
-    model's time step at every :meth:`apply`: call it once per step, and :meth:`reset` with
+    model's time step at every :meth:`apply` (an implicit model's law runs at every fourth
+    and advances it by four steps): call it once per step, and :meth:`reset` with
     ``mj_resetData``.
 
     Attributes:
@@ -161,7 +167,7 @@ class MassSpringModel:
         bodies = np.concatenate(bodies)
         self.implicit = (ImplicitSystem(self.edges, mass + armature, dofadr, bodies, mass)
                          if implicit else None)
-        self._tangent = np.zeros((len(self.edges) if implicit else 0, 6))
+        self._tangent = np.zeros((len(self.edges) if implicit else 0, 8))
         self._steps = 0
         self.material = material
         self.set_fibre_direction(material.fibre_direction)
@@ -170,6 +176,13 @@ class MassSpringModel:
     def vertex_count(self) -> int:
         """Number of vertices of all the flexes, pinned ones included."""
         return len(self.dofadr)
+
+    @property
+    def runs_law(self) -> bool:
+        """Whether the next :meth:`apply` runs the spring law: at every step for the explicit
+        step, at every fourth for the implicit one (each spring follows the law's tangent line
+        in between)."""
+        return self._steps % _LAW_REFRESH == 0
 
     @property
     def history_columns(self) -> int:
@@ -226,6 +239,9 @@ class MassSpringModel:
         """Write the springs' forces for the state in ``data`` into ``data.qfrc_applied``;
         an implicit model then filters them (:meth:`filter`) unless ``filtered`` is False
         (the caller adds forces of its own and filters after)."""
+        refresh = self.runs_law
+        # The law moves the history on by the time since it last ran.
+        elapsed = 1 if self._steps == 0 else _LAW_REFRESH
         muscle_forces(
             data.qpos,
             data.qvel,
@@ -240,12 +256,12 @@ class MassSpringModel:
             self._law.curves,
             self._law.params,
             self._history,
-            self._model.opt.timestep,
+            self._model.opt.timestep * elapsed,
             self.material.damping_s,
             self._position,
             self._velocity,
             self._tangent,
-            self._steps % _TANGENT_REFRESH == 0,
+            refresh,
         )
         if filtered:
             self.filter(data)
@@ -257,7 +273,7 @@ class MassSpringModel:
         if self.implicit is not None:
             self.implicit.filter(data.qvel, data.qfrc_applied, self._tangent,
                                  self._model.opt.timestep, self._model.opt.gravity,
-                                 data.xfrc_applied, refresh=self._steps % _TANGENT_REFRESH == 0)
+                                 data.xfrc_applied, refresh=self.runs_law)
             self._steps += 1
 
     def stable_timestep_s(self, safety: float = 0.9) -> float:

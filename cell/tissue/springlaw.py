@@ -35,17 +35,19 @@ it calls, so a kernel in another module would keep running the law it was compil
 the law changed; here one file's stamp covers the law and all its callers
 (``tests/test_kernel_cache.py``).
 The law is inlined into its callers (numba's ``inline="always"``): called, it left the
-muscles' kernel at 49 ns a spring, inlined 38 (990 nodes, the default meat).
+muscles' kernel at 49 ns a spring, inlined 38 (990 nodes, the default meat, with a second
+trial call for the tangent's finite difference; the tangent is now the law's own analytic
+derivative, checked against central differences in ``tests/test_springlaw.py``).
 
 Example:
     >>> from cell.tissue.material import MassSpringMaterial
     >>> law = SpringLaw.of(MassSpringMaterial.isotropic(3e4, relaxation_weights=(0.5,),
     ...                                                 relaxation_times_s=(1.0,)))
     >>> history = law.history(1)
-    >>> stress, _ = spring_stress(0.1, 1.0, law.curves, law.params, history, 0, 0.0, True)
+    >>> stress, _, _ = spring_stress(0.1, 1.0, law.curves, law.params, history, 0, 0.0, True)
     >>> round(stress)  # instantaneous: the elastic 3e4 * 0.1
     3000
-    >>> stress, _ = spring_stress(0.1, 1.0, law.curves, law.params, history, 0, 100.0, True)
+    >>> stress, _, _ = spring_stress(0.1, 1.0, law.curves, law.params, history, 0, 100.0, True)
     >>> round(stress)  # relaxed to g_inf = 0.5
     1500
 """
@@ -93,25 +95,49 @@ def pack_curve(curve: ModulusCurve, scale: float) -> np.ndarray:
 
 
 @njit(cache=True, fastmath=False, inline="always")
-def secant_modulus(x: float, curves: np.ndarray, row: int) -> float:
+def secant_modulus(x: float, curves: np.ndarray, row: int, with_slope: bool
+                   ) -> tuple[float, float]:
     """sigma(1 + x) / x, Pa, for the curve in row ``row`` of ``curves``, packed by
-    :func:`pack_curve` (x = r - 1).
+    :func:`pack_curve` (x = r - 1), and with ``with_slope`` its derivative in x, Pa (the
+    right one at x = 0; else 0, for callers that have no use for it).
 
     The row is indexed, not sliced: a slice of a runtime row is a new array whose reference
     count the kernel's inner loop would update for every spring.
     """
     if x > curves[row, 7]:
-        return (curves[row, 9] + curves[row, 11] * (x - curves[row, 7])) / x
+        value = (curves[row, 9] + curves[row, 11] * (x - curves[row, 7])) / x
+        if not with_slope:
+            return value, 0.0
+        return value, (curves[row, 11] * curves[row, 7] - curves[row, 9]) / (x * x)
     if x < curves[row, 6]:
-        return (curves[row, 8] + curves[row, 10] * (x - curves[row, 6])) / x
+        value = (curves[row, 8] + curves[row, 10] * (x - curves[row, 6])) / x
+        if not with_slope:
+            return value, 0.0
+        return value, (curves[row, 10] * curves[row, 6] - curves[row, 8]) / (x * x)
     exponent = curves[row, 12]
     if exponent > 0.0:
         reach = exponent * abs(x)
-        return curves[row, 0] if reach == 0.0 else curves[row, 0] * math.expm1(reach) / reach
+        if reach == 0.0:
+            value = curves[row, 0]
+        else:
+            grown = math.expm1(reach)
+            value = curves[row, 0] * grown / reach
+        if not with_slope:
+            return value, 0.0
+        # d/dy of expm1(y) / y, by its series where the closed form cancels.
+        slope = (0.5 + reach * (1.0 / 3.0 + reach / 8.0) if reach < 1e-4
+                 else ((grown + 1.0) * reach - grown) / (reach * reach))
+        return value, curves[row, 0] * (-exponent if x < 0.0 else exponent) * slope
     value = curves[row, 5]
+    if not with_slope:
+        for k in range(4, -1, -1):
+            value = value * x + curves[row, k]
+        return value, 0.0
+    slope = 0.0
     for k in range(4, -1, -1):
+        slope = slope * x + value
         value = value * x + curves[row, k]
-    return value
+    return value, slope
 
 
 @njit(cache=True, fastmath=False, inline="always")
@@ -124,49 +150,66 @@ def spring_stress(
     row: int,
     timestep_s: float,
     commit: bool,
-) -> tuple[float, float]:
+    with_slope: bool = False,
+) -> tuple[float, float, float]:
     """Stress of spring ``row`` at strain ``x`` after ``timestep_s`` since its last committed
-    state, Pa, and its secant directional modulus ``||E u||`` (Pa) for dashpots.
+    state, Pa; its secant directional modulus ``||E u||`` (Pa) for dashpots; and with
+    ``with_slope`` the stress's derivative in x over that step (Pa: the tangent an implicit
+    step needs, relaxation's instant share and plastic flow included; else 0).
 
     ``commit`` stores the new state in ``history``; without it the call is a trial (a solver's
     iterate) and leaves the history as it was.
     """
     plastic = history[row, _PLASTIC]
     yield_strain = params[_YIELD]
+    flow = 0.0  # d plastic / dx
     if yield_strain > 0.0:
         back = params[_BACK]
         over = x - plastic - back * plastic
         if over > yield_strain:
             plastic += (over - yield_strain) / (1.0 + back)
+            flow = 1.0 / (1.0 + back)
         elif over < -yield_strain:
             plastic += (over + yield_strain) / (1.0 + back)
+            flow = 1.0 / (1.0 + back)
     elastic = x - plastic
     squeezed = elastic < 0.0
     first = 2 if squeezed else 0  # the compression curves follow the tension ones
-    el = secant_modulus(elastic, curves, first)
-    et = secant_modulus(elastic, curves, first + 1)
+    el, el_slope = secant_modulus(elastic, curves, first, with_slope)
+    et, et_slope = secant_modulus(elastic, curves, first + 1, with_slope)
     oblique = params[_OBLIQUE_COMPRESSION] if squeezed else params[_OBLIQUE]
-    modulus = math.sqrt(et * et + (el * el - et * et) * cos_sq) * (
-        1.0 + oblique * 4.0 * cos_sq * (1.0 - cos_sq))
+    weight = 1.0 + oblique * 4.0 * cos_sq * (1.0 - cos_sq)
+    root = math.sqrt(et * et + (el * el - et * et) * cos_sq)
+    modulus = root * weight
     # The lattice stiffens with its whole deformation, plastic part included.
     stress = modulus * elastic / (1.0 + params[_GEOMETRY] * x)
+    slope = 0.0
+    if with_slope:
+        stiffening = 1.0 / (1.0 + params[_GEOMETRY] * x)
+        modulus_slope = weight * (et * et_slope + (el * el_slope - et * et_slope) * cos_sq) / root
+        slope = ((modulus_slope * elastic + modulus) * (1.0 - flow) * stiffening
+                 - stress * params[_GEOMETRY] * stiffening)
     terms = int(params[_TERMS])
     if terms > 0:
         relaxing_share = 1.0 - params[_G_INF]
-        share = min(max(1.0 + params[_STRAIN_SLOPE] * (abs(x) - params[_REFERENCE_STRAIN]),
-                        0.0),
-                    1.0 / max(relaxing_share, 1e-12))
+        free_share = 1.0 + params[_STRAIN_SLOPE] * (abs(x) - params[_REFERENCE_STRAIN])
+        share = min(max(free_share, 0.0), 1.0 / max(relaxing_share, 1e-12))
+        share_slope = (0.0 if share != free_share
+                       else -params[_STRAIN_SLOPE] if x < 0.0 else params[_STRAIN_SLOPE])
         relaxing = share * stress
+        relaxing_slope = share_slope * stress + share * slope
         change = relaxing - history[row, _LAST]
         total = stress - relaxing_share * relaxing
+        slope -= relaxing_share * relaxing_slope
         for k in range(terms):
-            weight = params[_TERMS + 1 + k]
+            term_weight = params[_TERMS + 1 + k]
             tau = params[_TERMS + 1 + terms + k]
             ratio = timestep_s / tau
             decay = math.exp(-ratio)
             load = 1.0 if ratio == 0.0 else -math.expm1(-ratio) / ratio
-            state = decay * history[row, _STATES + k] + weight * load * change
+            state = decay * history[row, _STATES + k] + term_weight * load * change
             total += state
+            slope += term_weight * load * relaxing_slope
             if commit:
                 history[row, _STATES + k] = state
         if commit:
@@ -174,7 +217,7 @@ def spring_stress(
         stress = total
     if commit:
         history[row, _PLASTIC] = plastic
-    return stress, modulus
+    return stress, modulus, slope
 
 
 @dataclass(frozen=True, eq=False)
@@ -223,40 +266,12 @@ class SpringLaw:
         return np.zeros((springs, _STATES + int(self.params[_TERMS])))
 
 
-@njit(cache=True, fastmath=False)
-def muscle_forces(
-    qpos: np.ndarray,
-    qvel: np.ndarray,
-    qfrc: np.ndarray,
-    qposadr: np.ndarray,
-    dofadr: np.ndarray,
-    rest_position: np.ndarray,
-    edges: np.ndarray,
-    rest_length: np.ndarray,
-    gain: np.ndarray,
-    cos_sq: np.ndarray,
-    curves: np.ndarray,
-    params: np.ndarray,
-    history: np.ndarray,
-    timestep_s: float,
-    damping_s: float,
-    position: np.ndarray,
-    velocity: np.ndarray,
-    tangent: np.ndarray,
-    refresh_tangent: bool,
-) -> None:
-    """The muscles' kernel (:class:`~cell.tissue.massspring.MassSpringModel`): clear the
-    vertex dofs of ``qfrc``, add every spring-damper's force to them and advance the springs'
-    history by ``timestep_s``.
-
-    With a ``tangent`` of one row per spring (else of none), each row gets what an implicit
-    step needs (:mod:`cell.tissue.implicit`): the spring's unit direction, its tangent
-    stiffness along it dT/dl (N/m, the law's trial derivative over the step, relaxation's
-    instant share included; kept from the last call unless ``refresh_tangent``), its tension
-    over its length (N/m) and its dashpot (N s/m).
-    """
-    linearise = tangent.shape[0] == edges.shape[0]
-    probe = 0.0
+@njit(cache=True, fastmath=False, inline="always")
+def _vertex_state(qpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray, qposadr: np.ndarray,
+                  dofadr: np.ndarray, rest_position: np.ndarray, position: np.ndarray,
+                  velocity: np.ndarray) -> None:
+    """Every vertex's position and velocity into ``position`` and ``velocity`` (pinned ones
+    at rest), and its dofs' entries of ``qfrc`` cleared."""
     for i in range(position.shape[0]):
         a = qposadr[i]
         v = dofadr[i]
@@ -268,6 +283,31 @@ def muscle_forces(
                 position[i, k] = rest_position[i, k] + qpos[a + k]
                 velocity[i, k] = qvel[v + k]
                 qfrc[v + k] = 0.0
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")
+def muscle_forces(qpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray, qposadr: np.ndarray,
+                  dofadr: np.ndarray, rest_position: np.ndarray, edges: np.ndarray,
+                  rest_length: np.ndarray, gain: np.ndarray, cos_sq: np.ndarray,
+                  curves: np.ndarray, params: np.ndarray, history: np.ndarray,
+                  timestep_s: float, damping_s: float, position: np.ndarray,
+                  velocity: np.ndarray, tangent: np.ndarray, refresh_law: bool) -> None:
+    """The muscles' kernel (:class:`~cell.tissue.massspring.MassSpringModel`): clear the
+    vertex dofs of ``qfrc``, add every spring-damper's force to them and advance the springs'
+    history by ``timestep_s``.
+
+    With a ``tangent`` of one row per spring (else of none), each row gets what an implicit
+    step needs (:mod:`cell.tissue.implicit`): the spring's unit direction, its tangent
+    stiffness along it dT/dl (N/m, the law's derivative over the step from
+    :func:`spring_stress`), its tension over its length (N/m), its dashpot (N s/m), then
+    the length (m) and the tension (N) at which the law last ran. Unless ``refresh_law``
+    the law does not run: each spring's tension is that last tension plus dT/dl times the
+    change of length since (the law's tangent line), and the history stays where it was;
+    the next refresh advances it by its ``timestep_s``, the time since the last one.
+    """
+    linearise = tangent.shape[0] == edges.shape[0]
+    frozen = linearise and not refresh_law
+    _vertex_state(qpos, qvel, qfrc, qposadr, dofadr, rest_position, position, velocity)
     for e in range(edges.shape[0]):
         i = edges[e, 0]
         j = edges[e, 1]
@@ -277,24 +317,36 @@ def muscle_forces(
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         if length == 0.0:  # a collapsed edge has no direction to push along
             continue
-        strain = length / rest_length[e] - 1.0
-        if linearise and refresh_tangent:
-            # The trial comes first: the committed call below moves the history on.
-            probe, _ = spring_stress(strain + _PROBE, cos_sq[e], curves, params, history, e,
-                                     timestep_s, False)
-        stress, modulus = spring_stress(strain, cos_sq[e], curves, params, history, e,
-                                        timestep_s, True)
         ux, uy, uz = dx / length, dy / length, dz / length
         rate = ((velocity[j, 0] - velocity[i, 0]) * ux + (velocity[j, 1] - velocity[i, 1]) * uy
                 + (velocity[j, 2] - velocity[i, 2]) * uz)
+        if frozen:
+            elastic = tangent[e, 7] + tangent[e, 3] * (length - tangent[e, 6])
+            dashpot = tangent[e, 5]
+        else:
+            strain = length / rest_length[e] - 1.0
+            # Two inlined calls, each with a constant flag, and numpy's error model (no
+            # zero-division checks, which kept the slope's divisions alive): one call with
+            # the runtime flag, or Python's error model, left the explicit step's kernel at
+            # 41 ns a spring instead of 30.
+            if linearise:
+                stress, modulus, slope = spring_stress(strain, cos_sq[e], curves, params,
+                                                       history, e, timestep_s, True, True)
+            else:
+                stress, modulus, slope = spring_stress(strain, cos_sq[e], curves, params,
+                                                       history, e, timestep_s, True, False)
+            elastic = gain[e] * rest_length[e] * stress
+            dashpot = gain[e] * modulus * damping_s
+            if linearise:
+                tangent[e, 3] = gain[e] * slope
+                tangent[e, 5] = dashpot
+                tangent[e, 6] = length
+                tangent[e, 7] = elastic
         # Positive when stretched or stretching: pulls i towards j and j towards i.
-        tension = gain[e] * (rest_length[e] * stress + modulus * damping_s * rate)
+        tension = elastic + dashpot * rate
         if linearise:
             tangent[e, 0], tangent[e, 1], tangent[e, 2] = ux, uy, uz
-            if refresh_tangent:
-                tangent[e, 3] = gain[e] * (probe - stress) / _PROBE
-            tangent[e, 4] = gain[e] * rest_length[e] * stress / length
-            tangent[e, 5] = gain[e] * modulus * damping_s
+            tangent[e, 4] = elastic / length
         if dofadr[i] >= 0:
             qfrc[dofadr[i]] += tension * ux
             qfrc[dofadr[i] + 1] += tension * uy
@@ -321,7 +373,7 @@ def _kirchhoff(state: np.ndarray, stretch: float, directions: np.ndarray, weight
         length = math.sqrt(vx * vx + vy * vy + vz * vz)
         if not length > 0.0:
             return False
-        stress, _ = spring_stress(length - 1.0, cos_sq[j], curves, params, history, j,
+        stress, _, _ = spring_stress(length - 1.0, cos_sq[j], curves, params, history, j,
                                   timestep_s, commit)
         scale = weights[j] * stress / length
         out[0] += scale * vx * vx
