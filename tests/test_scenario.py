@@ -25,8 +25,6 @@ BAD_SCENARIOS = [
     pytest.param("[steering]\nmiddle_fraction = 1.5\n", "steering.middle_fraction",
                  id="steering-window-past-the-cut"),
     pytest.param("[steering]\nenabled = 1\n", "steering.enabled", id="number-for-switch"),
-    pytest.param('[simulation]\nconstraint_response = "springs"\n',
-                 "simulation.constraint_response", id="unknown-constraint-response"),
     pytest.param('[cut]\nspeed_m_s = "fast"\n', "cut.speed_m_s", id="string-for-number"),
     pytest.param("[tissue]\nlength_m = true\n", "tissue.length_m", id="bool-for-number"),
     pytest.param(

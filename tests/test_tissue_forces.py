@@ -9,10 +9,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from cell.bench.tissue_variants import bench_scenario, paper_fig10_material, tissue_run
+from cell.bench.tissue_variants import bench_scenario, tissue_run
 from cell.errors import ScenarioError
 from cell.sim.assembly import build_scene
-from cell.sim.scenario import Scenario, SimulationParams
+from cell.sim.scenario import Scenario
 from cell.sim.simulation import Simulation
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.geometry import MuscleShape
@@ -84,19 +84,3 @@ def test_a_material_twenty_times_stiffer_runs_at_the_default_step() -> None:
                                                     tissue_step="explicit"))
     with pytest.raises(ScenarioError, match="stable step"):
         Simulation(build_scene(explicit), explicit)
-
-
-def test_the_springs_carry_the_constraint_impulse_where_they_outweigh_the_mass() -> None:
-    # Within a 5 ms step a vertex of the default meat weighs 1.4 to 1.6 times its mass, one
-    # of the paper's Fig. 10 material 13 to 18 times: only there do the springs take over
-    # the constraints' impulse (auto), unless the scenario says otherwise.
-    coarse = MuscleShape(cell_size_m=0.04)
-    def redistributing(material: MassSpringMaterial, response: str = "auto") -> tuple:
-        scenario = Scenario(tissue=coarse, material=material,
-                            simulation=SimulationParams(constraint_response=response))
-        return tissue_run(scenario).tissue.redistributing
-    assert redistributing(default_meat()) == ()
-    assert redistributing(paper_fig10_material()) == ("round", "shank")
-    assert redistributing(paper_fig10_material(), "mass") == ()
-    assert redistributing(default_meat(), "implicit") == ("round", "shank")
-

@@ -1,9 +1,8 @@
 """Where a step of the bare muscles spends its time, and the spring kernel against its floor.
 
 :func:`step_profile` times the parts of :meth:`TissueSimulation.step` one by one, in the
-step's own order (the springs' kernel, the binding springs, the implicit solve, ``mj_step``
-with MuJoCo's own stage timers, then the springs' share of the constraint impulse, where
-they take it), in microseconds per step and per node.
+step's own order (the springs' kernel, the binding springs, the implicit solve, then
+``mj_step`` with MuJoCo's own stage timers), in microseconds per step and per node.
 The spring kernel (:func:`~cell.tissue.springlaw.muscle_forces`) is timed as the step calls
 it, at the steps that run the law (every fourth) and at those that follow its tangent line;
 :func:`kernel_floor` sets it against a kernel that moves the same data per spring (both ends'
@@ -16,7 +15,7 @@ Example:
     >>> from cell.tissue.material import default_meat
     >>> run = tissue_run(bench_scenario(default_meat(), 0.05, "implicit"))
     >>> sorted(step_profile(run, steps=5)["us_per_step"])
-    ['bindings', 'constraint_response', 'implicit_solve', 'mujoco', 'springs']
+    ['bindings', 'implicit_solve', 'mujoco', 'springs']
 """
 
 from __future__ import annotations
@@ -57,8 +56,7 @@ def step_profile(run: TissueSimulation, steps: int = 200, rounds: int = 3) -> di
 
 def _profile_round(run: TissueSimulation, steps: int) -> dict[str, Any]:
     tissue, model, data = run.tissue, run.model, run.data
-    parts = {"springs": 0.0, "bindings": 0.0, "implicit_solve": 0.0, "mujoco": 0.0,
-             "constraint_response": 0.0}
+    parts = {"springs": 0.0, "bindings": 0.0, "implicit_solve": 0.0, "mujoco": 0.0}
     # The springs' time and steps where the law ran and where they followed its tangent.
     kernel = {True: [0.0, 0], False: [0.0, 0]}
     for timer in data.timer:
@@ -80,10 +78,7 @@ def _profile_round(run: TissueSimulation, steps: int) -> dict[str, Any]:
         lap = time.perf_counter()
         parts["implicit_solve"] += lap - clock
         mujoco.mj_step(model, data)
-        clock = time.perf_counter()
-        parts["mujoco"] += clock - lap
-        tissue.after_step(data)
-        parts["constraint_response"] += time.perf_counter() - clock
+        parts["mujoco"] += time.perf_counter() - lap
     run.check_divergence()
     nodes = run.scene.node_count
     stages = {name.lower(): data.timer[int(getattr(mujoco.mjtTimer, f"mjTIMER_{name}"))]

@@ -48,11 +48,7 @@ class SimulationParams:
     shrinks as the meat stiffens or the mesh refines). ``integrator``
     ``"auto"`` picks ``discrete`` for continuum materials (the only one MuJoCo runs them
     with) and ``implicitfast`` for the mass-spring model (``euler`` in a scene without the
-    arms: :func:`~cell.sim.assembly.integrator`). ``constraint_response``: how the implicit
-    step's vertices take the contacts', bindings' and grasp's impulse (``"auto"``: spread by
-    their springs where the springs outweigh the mass within a step, as in a stiff meat;
-    ``"implicit"``: always; ``"mass"``: never, MuJoCo's own;
-    :class:`~cell.tissue.forces.TissueForces`). ``muscle_contact`` lets the two
+    arms: :func:`~cell.sim.assembly.integrator`). ``muscle_contact`` lets the two
     muscles collide with each other (off by default: it more than doubles a step's cost, and
     the bindings and the pull keep them apart).
 
@@ -68,7 +64,6 @@ class SimulationParams:
     control_rate_hz: float = 50.0
     integrator: Literal["auto", "discrete", "implicitfast", "euler"] = "auto"
     tissue_step: Literal["implicit", "explicit"] = "implicit"
-    constraint_response: Literal["auto", "implicit", "mass"] = "auto"
     muscle_contact: bool = False
     solver_iterations: int = 100
     max_tissue_speed_m_s: float = 20.0

@@ -61,8 +61,7 @@ class TissueSimulation:
         scene.restore(self.data)
         self.tissue = TissueForces(self.model, scenario.material, scene.aponeurosis,
                                    scene.tissue_bodies,
-                                   implicit=scenario.simulation.tissue_step == "implicit",
-                                   constraint_response=scenario.simulation.constraint_response)
+                                   implicit=scenario.simulation.tissue_step == "implicit")
         self._warnings = np.zeros(len(FATAL_WARNINGS), dtype=int)
         # The force sensors' pass over every body (mj_rnePostConstraint) cost a seventh of a
         # step of the bare muscles, and their readings are read after a call to step() or
@@ -106,7 +105,6 @@ class TissueSimulation:
                 mujoco.mj_step(self.model, self.data)
             else:
                 self._with_sensors(mujoco.mj_step)
-            self.tissue.after_step(self.data)
         self.check_divergence(start + count * self.model.opt.timestep)
 
     def forward(self) -> None:

@@ -9,8 +9,6 @@ elasticity acts instead and the tissue dofs' ``qfrc_applied`` entries are zeroed
 
 from __future__ import annotations
 
-from typing import Literal
-
 import mujoco
 import numpy as np
 
@@ -47,17 +45,11 @@ class TissueForces:
     moment N m about the blade centre) for the caller to put on the knife.
 
     With ``implicit``, the springs' and the bindings' forces go through the implicit step
-    (:mod:`cell.tissue.implicit`) before MuJoCo's, and :meth:`after_step` lets the springs
-    carry the constraint impulse after it in the muscles that ``constraint_response``
-    names: ``"implicit"`` both, ``"mass"`` neither (MuJoCo's own response), ``"auto"``
-    those whose median vertex weighs more than twice its mass within a step
-    (:meth:`MassSpringModel.stiffness_share` above 1: the paper's Fig. 10 material, 12 to 17
-    at 5 ms; not the default meat, 0.4 to 0.6, which runs stably and faster without).
+    (:mod:`cell.tissue.implicit`) before MuJoCo's.
 
     Attributes:
         springs: one :class:`MassSpringModel` per muscle (empty for a continuum material).
         implicit: whether the springs take the implicit step.
-        redistributing: the muscles whose springs carry the constraint impulse.
         aponeurosis: the bindings.
         dofs: the tissue vertices' dofs.
 
@@ -75,8 +67,7 @@ class TissueForces:
     """
 
     def __init__(self, model: mujoco.MjModel, material: ContinuumMaterial | MassSpringMaterial,
-                 aponeurosis: Aponeurosis, bodies: np.ndarray, implicit: bool = False,
-                 constraint_response: Literal["auto", "implicit", "mass"] = "auto") -> None:
+                 aponeurosis: Aponeurosis, bodies: np.ndarray, implicit: bool = False) -> None:
         self.aponeurosis = aponeurosis
         self.implicit = implicit
         self.dofs = tissue_dofs(model, bodies)
@@ -84,10 +75,6 @@ class TissueForces:
             {muscle: MassSpringModel(model, (muscle,), material, implicit=implicit)
              for muscle in MUSCLES}
             if isinstance(material, MassSpringMaterial) else {})
-        self.redistributing = tuple(
-            muscle for muscle, springs in self.springs.items()
-            if implicit and constraint_response != "mass"
-            and (constraint_response == "implicit" or springs.stiffness_share() > 1.0))
 
     def apply(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """Write the tissue forces for the state in ``data``; returns the pull on the blade."""
@@ -99,12 +86,6 @@ class TissueForces:
         for springs in self.springs.values():
             springs.filter(data)  # the bindings' forces go through the implicit step too
         return on_blade
-
-    def after_step(self, data: mujoco.MjData) -> None:
-        """After every ``mj_step``: the springs of :attr:`redistributing` carry the step's
-        constraint impulse."""
-        for muscle in self.redistributing:
-            self.springs[muscle].redistribute(data)
 
     def reset(self) -> None:
         """Every spring back at rest: no plastic strain, nothing left to relax."""

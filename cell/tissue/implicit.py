@@ -41,20 +41,6 @@ swinging at 2.3 Hz keeps 99.9% of the small-step explicit amplitude after three 
 The system is solved matrix-free by conjugate gradients with a 3x3 block-Jacobi
 preconditioner, started from the last step's dv, to a velocity error ``tolerance_m_s``.
 
-MuJoCo's constraint solver sees a vertex as its mass alone and moves it by ``h M^-1 f_c``
-under the constraint forces f_c it finds; within an implicit step the vertex weighs its mass
-plus ``beta h**2`` times its springs' stiffness (12 to 17 times its mass for the paper's
-Fig. 10 material at 5 ms, median over the vertices; 0.4 to 0.6 for the default meat). Where
-the springs outweigh the mass, the blade's contacts on stiff flesh chattered: pushed as if
-free, a vertex flew off the blade, its springs threw it back, and the episode diverged on 3
-of 4 seeds (tissue above 20 m/s). :meth:`ImplicitSystem.redistribute` then lets the springs
-carry the impulse: after MuJoCo's step the vertices take ``S^-1 h f_c`` (S the step's matrix)
-in place of ``h M^-1 f_c``, velocity and position. The impulse, and so the momentum and
-every force a sensor reads, is MuJoCo's; only its spread over the vertices changes, so that a
-contact moves the flesh as the flesh can move in one step. Twelve seeds of the paper's
-episode all ran with it; it costs about five more conjugate gradient iterations a step,
-started from the last step's response.
-
 Example:
     >>> import numpy as np
     >>> edges = np.array([[0, 1]])
@@ -92,8 +78,6 @@ class ImplicitSystem:
     Attributes:
         iterations: conjugate gradient iterations of the last solve.
         velocity_change: (N, 3) the last dv, m/s, the next solve's start.
-        constraint_iterations: those of the last :meth:`redistribute` (-1: nothing to carry).
-        constraint_response: (N, 3) its velocity change, m/s, the next one's start.
     """
 
     def __init__(self, edges: np.ndarray, mass_kg: np.ndarray, dofadr: np.ndarray,
@@ -111,18 +95,15 @@ class ImplicitSystem:
         self.tolerance_m_s = tolerance_m_s
         self.max_iterations = max_iterations
         self.iterations = 0
-        self.constraint_iterations = 0
         n = len(self.dofadr)
         self.velocity_change = np.zeros((n, 3))
-        self.constraint_response = np.zeros((n, 3))
         self._work = np.zeros((7, n, 3))
         self._inverse = np.zeros((n, 3, 3))
         self._blocks = np.zeros((len(self.edges), 4))
 
     def reset(self) -> None:
-        """Forget the last solves (a new state)."""
+        """Forget the last solve (a new state)."""
         self.velocity_change[:] = 0.0
-        self.constraint_response[:] = 0.0
 
     def filter(self, qvel: np.ndarray, qfrc: np.ndarray, tangent: np.ndarray,
                timestep_s: float, gravity: np.ndarray, xfrc_applied: np.ndarray,
@@ -140,28 +121,6 @@ class ImplicitSystem:
             qvel, qfrc, work[6], self.dofadr, self.mass_kg, self.edges, tangent, timestep_s,
             self._weights, self.tolerance_m_s, self.max_iterations, self.velocity_change,
             work, self._inverse, self._blocks, refresh)
-
-    def stiffness_share(self, stiffness_n_m: np.ndarray, timestep_s: float) -> float:
-        """The median over the free vertices of ``beta h**2 k / m``: k a third of the summed
-        ``stiffness_n_m`` (N/m, one per spring) of the springs at the vertex, m its mass. How
-        much heavier than its mass a vertex is within one implicit step, for a push of its
-        own (dimensionless)."""
-        free = self.dofadr >= 0
-        summed = np.zeros(len(self.dofadr))
-        np.add.at(summed, self.edges.ravel(), np.repeat(stiffness_n_m, 2))
-        share = self._weights[0] * timestep_s**2 * summed[free] / (3.0 * self.mass_kg[free])
-        return float(np.median(share))
-
-    def redistribute(self, qpos: np.ndarray, qvel: np.ndarray, qfrc_constraint: np.ndarray,
-                     qposadr: np.ndarray, tangent: np.ndarray, timestep_s: float) -> None:
-        """After MuJoCo's step (:meth:`filter` before it, with the same ``tangent``), let
-        the springs carry the constraint forces' impulse on the vertices (module
-        docstring): ``qvel`` and ``qpos`` (at the vertices' ``qposadr``) take the implicit
-        system's response to it in place of the vertices' own."""
-        self.constraint_iterations = _redistribute(
-            qpos, qvel, qfrc_constraint, qposadr, self.dofadr, self.mass_kg, self.edges,
-            tangent, timestep_s, self.tolerance_m_s, self.max_iterations,
-            self.constraint_response, self._work, self._inverse, self._blocks)
 
 
 @njit(cache=True, fastmath=False)
@@ -275,49 +234,6 @@ def _block_inverses(mass: np.ndarray, free: np.ndarray, edges: np.ndarray,
 
 
 @njit(cache=True, fastmath=False)
-def _conjugate_gradients(rhs: np.ndarray, x: np.ndarray, mass: np.ndarray, free: np.ndarray,
-                         edges: np.ndarray, tangent: np.ndarray, blocks: np.ndarray,
-                         inverse: np.ndarray, tolerance: float, max_iterations: int,
-                         work: np.ndarray) -> int:
-    """Solve (M + beta h**2 K + gamma h D) x = rhs by conjugate gradients with the 3x3
-    block-Jacobi preconditioner ``inverse``, from ``x`` as it is; returns the iterations."""
-    r, z, p, q = work[2], work[3], work[4], work[5]
-    _apply(x, q, mass, free, edges, tangent, blocks, 0)
-    scale = 0.0
-    for i in range(x.shape[0]):
-        scale += mass[i]
-        for k in range(3):
-            r[i, k] = rhs[i, k] - q[i, k]
-    rz = _precondition(inverse, r, z)
-    p[:] = z
-    iterations = 0
-    # r . z is about the mass-weighted square of the velocity error: an absolute bound, for
-    # the springs' forces often balance others (gravity, contacts) and a bound relative to
-    # them would leave the tissue creeping at rest.
-    while rz > tolerance * tolerance * scale and iterations < max_iterations:
-        _apply(p, q, mass, free, edges, tangent, blocks, 0)
-        pq = 0.0
-        for i in range(x.shape[0]):
-            for k in range(3):
-                pq += p[i, k] * q[i, k]
-        if pq <= 0.0:
-            break
-        alpha = rz / pq
-        for i in range(x.shape[0]):
-            for k in range(3):
-                x[i, k] += alpha * p[i, k]
-                r[i, k] -= alpha * q[i, k]
-        rz_new = _precondition(inverse, r, z)
-        beta = rz_new / rz
-        rz = rz_new
-        for i in range(x.shape[0]):
-            for k in range(3):
-                p[i, k] = z[i, k] + beta * p[i, k]
-        iterations += 1
-    return iterations
-
-
-@njit(cache=True, fastmath=False)
 def _implicit_filter(qvel: np.ndarray, qfrc: np.ndarray, external: np.ndarray,
                      dofadr: np.ndarray, mass: np.ndarray, edges: np.ndarray,
                      tangent: np.ndarray, h: float, weights: np.ndarray, tolerance: float,
@@ -327,7 +243,7 @@ def _implicit_filter(qvel: np.ndarray, qfrc: np.ndarray, external: np.ndarray,
     M dv / h - e into ``qfrc``; returns the iterations."""
     n = dofadr.shape[0]
     free = dofadr >= 0
-    v, rhs, q = work[0], work[1], work[5]
+    v, rhs, r, z, p, q = work[0], work[1], work[2], work[3], work[4], work[5]
     _edge_blocks(tangent, h, weights, blocks)
     for i in range(n):
         for k in range(3):
@@ -341,40 +257,40 @@ def _implicit_filter(qvel: np.ndarray, qfrc: np.ndarray, external: np.ndarray,
                 dv[i, k] = 0.0
     if refresh:
         _block_inverses(mass, free, edges, tangent, blocks, inverse)
-    iterations = _conjugate_gradients(rhs, dv, mass, free, edges, tangent, blocks, inverse,
-                                      tolerance, max_iterations, work)
+    _apply(dv, q, mass, free, edges, tangent, blocks, 0)
+    scale = 0.0
+    for i in range(n):
+        scale += mass[i]
+        for k in range(3):
+            r[i, k] = rhs[i, k] - q[i, k]
+    rz = _precondition(inverse, r, z)
+    p[:] = z
+    iterations = 0
+    # r . z is about the mass-weighted square of the velocity error: an absolute bound, for
+    # the springs' forces often balance others (gravity, contacts) and a bound relative to
+    # them would leave the tissue creeping at rest.
+    while rz > tolerance * tolerance * scale and iterations < max_iterations:
+        _apply(p, q, mass, free, edges, tangent, blocks, 0)
+        pq = 0.0
+        for i in range(n):
+            for k in range(3):
+                pq += p[i, k] * q[i, k]
+        if pq <= 0.0:
+            break
+        alpha = rz / pq
+        for i in range(n):
+            for k in range(3):
+                dv[i, k] += alpha * p[i, k]
+                r[i, k] -= alpha * q[i, k]
+        rz_new = _precondition(inverse, r, z)
+        beta = rz_new / rz
+        rz = rz_new
+        for i in range(n):
+            for k in range(3):
+                p[i, k] = z[i, k] + beta * p[i, k]
+        iterations += 1
     for i in range(n):
         if free[i]:
             for k in range(3):
                 qfrc[dofadr[i] + k] = mass[i] * dv[i, k] / h - external[i, k]
-    return iterations
-
-
-@njit(cache=True, fastmath=False)
-def _redistribute(qpos: np.ndarray, qvel: np.ndarray, qfrc_constraint: np.ndarray,
-                  qposadr: np.ndarray, dofadr: np.ndarray, mass: np.ndarray,
-                  edges: np.ndarray, tangent: np.ndarray, h: float, tolerance: float,
-                  max_iterations: int, response: np.ndarray, work: np.ndarray,
-                  inverse: np.ndarray, blocks: np.ndarray) -> int:
-    """Replace the constraint impulse's velocity change ``h M^-1 f_c`` of the step just
-    taken by the implicit system's ``response`` to it, ``S^-1 h f_c``, in ``qvel`` and (times
-    h) ``qpos``; returns the iterations (-1: no constraint force on these vertices)."""
-    n = dofadr.shape[0]
-    free = dofadr >= 0
-    impulse = work[1]
-    loaded = False
-    for i in range(n):
-        for k in range(3):
-            impulse[i, k] = h * qfrc_constraint[dofadr[i] + k] if free[i] else 0.0
-            loaded = loaded or impulse[i, k] != 0.0
-    if not loaded:
-        return -1
-    iterations = _conjugate_gradients(impulse, response, mass, free, edges, tangent, blocks,
-                                      inverse, tolerance, max_iterations, work)
-    for i in range(n):
-        if free[i]:
-            for k in range(3):
-                change = response[i, k] - impulse[i, k] / mass[i]
-                qvel[dofadr[i] + k] += change
-                qpos[qposadr[i] + k] += h * change
     return iterations

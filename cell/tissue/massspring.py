@@ -276,22 +276,6 @@ class MassSpringModel:
                                  data.xfrc_applied, refresh=self.runs_law)
             self._steps += 1
 
-    def stiffness_share(self) -> float:
-        """How much heavier than its mass the median vertex is within one implicit step at
-        the model's step (:meth:`ImplicitSystem.stiffness_share`, the calibrated small-strain
-        stiffness); 0 for an explicit model."""
-        if self.implicit is None:
-            return 0.0
-        return self.implicit.stiffness_share(self.stiffness_n_m, self._model.opt.timestep)
-
-    def redistribute(self, data: mujoco.MjData) -> None:
-        """After ``mj_step`` (:meth:`filter` before it): the springs carry the step's
-        constraint impulse on the vertices (:meth:`ImplicitSystem.redistribute`); nothing
-        for an explicit model."""
-        if self.implicit is not None:
-            self.implicit.redistribute(data.qpos, data.qvel, data.qfrc_constraint,
-                                       self._qposadr, self._tangent, self._model.opt.timestep)
-
     def stable_timestep_s(self, safety: float = 0.9) -> float:
         """Largest time step the springs allow, s, times ``safety``.
 
