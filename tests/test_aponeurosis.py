@@ -354,3 +354,28 @@ def test_force_rule_cuts_only_loaded_bindings_under_the_blade() -> None:
     np.testing.assert_array_equal(released, [stretched[0]])
     assert apo.released_by[stretched[0]] is ReleaseRule.FORCE
     assert apo.released_counts() == {"knife": 0, "tearing": 0, "force": 1}
+
+
+def test_a_hooked_binding_pulls_the_blade_back_with_what_it_pulls_the_vertices() -> None:
+    # Hooked at its middle, the binding rides on the blade; moved 1 cm along +x, the blade
+    # stretches it: the vertices are pulled towards the hook, the blade back by the same
+    # force (the binding's pulls on a and b, summed), about the blade's centre.
+    model = mujoco.MjModel.from_xml_string(_TWO_VERTICES)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    apo = Aponeurosis(model, [0], [1], [model.body("a").id], [model.body("b").id],
+                      np.array([[0, 0]]), law=BindingLaw.SPRING, stiffness_n_m=50.0,
+                      damping_n_s_m=0.0)
+    rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    centre = np.array([0.0, 0.0, 0.02])
+    apo.track_blade(centre, rotation)
+    apo.hook(data, np.array([True]))
+    apo.track_blade(centre + np.array([0.01, 0.0, 0.0]), rotation)
+    force, moment = apo.apply_forces(data)
+    on_vertices = data.qfrc_applied[:6].reshape(2, 3)
+    np.testing.assert_allclose(force, -on_vertices.sum(axis=0), atol=1e-12)
+    assert on_vertices[0, 0] > 0.0 and on_vertices[1, 0] > 0.0  # towards the hook, +x
+    stretch = 2.0 * np.hypot(0.01, 0.0015) - apo.rest_length_m[0]
+    assert -force[0] == pytest.approx(50.0 * stretch * 2.0 * 0.01 / np.hypot(0.01, 0.0015))
+    arm = np.array([0.0, 0.0, -0.02])  # the hook sits 2 cm below the blade's centre
+    np.testing.assert_allclose(moment, np.cross(arm, force), atol=1e-12)
