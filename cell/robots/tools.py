@@ -26,6 +26,7 @@ from cell.robots.cad import ConvexParts, add_part, decompose
 #: springs threw them back, and the episode ran away (tissue above 20 m/s) on 3 of 4 seeds.
 BLADE_SOLIMP = (0.1, 0.15, 0.001, 0.5, 2.0)
 
+
 @dataclass(frozen=True)
 class KnifeParams:
     """A boning knife on a 6-axis force/torque sensor, as in the paper's cell.

@@ -63,9 +63,10 @@ from cell.tissue.springlaw import muscle_forces
 
 # Steps between runs of the spring law for the implicit step (one control step at the default
 # 5 ms), with its tangent stiffness and the solve's preconditioner; in between, each spring
-# follows the law's tangent line from its last run, along its present direction. The law,
-# with its tangent's probe every fourth step, was 29 of the kernel's 37 ns a spring (990
-# nodes; the tangent line runs at 8.6, the memory floor at 7.4), and over 20 ms a spring's
+# follows the law's tangent line from its last run, along its present direction. Run at
+# every step, the law and a finite-difference probe of it every fourth were 29 of the
+# kernel's 37 ns a spring (990 nodes; the tangent line runs at 8.6, the memory floor at
+# 7.4), and over 20 ms a spring's
 # length changes too little for the line to part from the curve (tests/test_massspring.py,
 # the bench's accuracy tests).
 _LAW_REFRESH = 4

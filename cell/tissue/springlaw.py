@@ -129,15 +129,11 @@ def secant_modulus(x: float, curves: np.ndarray, row: int, with_slope: bool
                  else ((grown + 1.0) * reach - grown) / (reach * reach))
         return value, curves[row, 0] * (-exponent if x < 0.0 else exponent) * slope
     value = curves[row, 5]
-    if not with_slope:
-        for k in range(4, -1, -1):
-            value = value * x + curves[row, k]
-        return value, 0.0
-    slope = 0.0
+    slope = 0.0  # Horner's rule for the derivative alongside; dropped unused once inlined
     for k in range(4, -1, -1):
         slope = slope * x + value
         value = value * x + curves[row, k]
-    return value, slope
+    return value, slope if with_slope else 0.0
 
 
 @njit(cache=True, fastmath=False, inline="always")
