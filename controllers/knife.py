@@ -82,6 +82,10 @@ class CutWindow(NamedTuple):
     end_s: float
 
 
+#: The estimate's slope at the seen path's ends is taken over this length inward, m.
+_SLOPE_BASE_M = 0.03
+
+
 def blade_rotation(tangent: np.ndarray, down: np.ndarray = (0.0, 0.0, -1.0)) -> np.ndarray:
     """Tool rotation with the tool axis (z) along ``down`` and the cutting edge (x) along
     ``tangent`` made orthogonal to it, so that the blade plane contains both."""
@@ -104,6 +108,20 @@ def ready_pose(path_m: np.ndarray, plan: CutPlan) -> tuple[np.ndarray, np.ndarra
     return above, blade_rotation(tangent)
 
 
+def _continued(interface_y: SurfaceY, x_m: np.ndarray, z_m: np.ndarray,
+               seen_x_m: tuple[float, float]) -> np.ndarray:
+    """The estimate's y (m) at (``x_m``, ``z_m``), continued along its slope in x past the
+    seen path's x-range ``seen_x_m``: the estimate holds along the seen path only, and the
+    lead-in and lead-out run past the meat's ends, where its bow term would bend the blade's
+    path away within centimetres and across the end face."""
+    low, high = seen_x_m
+    seen = np.clip(x_m, low, high)
+    inward = np.where(seen > 0.5 * (low + high), -_SLOPE_BASE_M, _SLOPE_BASE_M)
+    y = interface_y(seen, z_m)
+    slope = (interface_y(seen + inward, z_m) - y) / inward
+    return y + slope * (np.asarray(x_m) - seen)
+
+
 def _pass_waypoints(path: np.ndarray, plan: CutPlan, fraction: float, table_z_m: float,
                     interface_y: SurfaceY | None, dwell_out_s: float
                     ) -> tuple[list[Waypoint], np.ndarray, int, int]:
@@ -122,8 +140,9 @@ def _pass_waypoints(path: np.ndarray, plan: CutPlan, fraction: float, table_z_m:
     depth = top[:, 2] - floor_z if plan.depth_m is None else plan.depth_m
     cut[:, 2] = np.maximum(top[:, 2] - fraction * depth, floor_z)
     if interface_y is not None:
-        cut[:, 1] = interface_y(cut[:, 0], cut[:, 2])
-        top[:, 1] = interface_y(top[:, 0], top[:, 2])
+        seen_x = (path[:, 0].min(), path[:, 0].max())
+        cut[:, 1] = _continued(interface_y, cut[:, 0], cut[:, 2], seen_x)
+        top[:, 1] = _continued(interface_y, top[:, 0], top[:, 2], seen_x)
     entry = cut[0]
     cut_tangents = [tangents[0], *tangents]
     if plan.cut_fraction >= 1.0:

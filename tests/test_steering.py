@@ -74,3 +74,18 @@ def test_it_steers_the_same_way_whichever_end_the_cut_starts_from() -> None:
         steered.append((position[1], steering.lean_change))
     assert steered[0] == pytest.approx(steered[1])
     assert steered[0][0] > 0.0 and steered[0][1] < 0.0  # the lean of y = ... + lean * z
+
+
+def test_a_blade_on_the_pulled_muscles_side_which_pushes_back_less_is_steered_back_harder(
+        ) -> None:
+    params = SteeringParams()
+    target = np.array([0.0, 0.0, 0.60])
+    beyond_n = params.dead_band_n + 1.0
+    changes = {}
+    for side, sign in (("pulled", -1.0), ("other", 1.0)):  # the load points away from the tip
+        load = np.array([0.0, params.on_interface_load_n + sign * beyond_n, 0.0])
+        steering, _ = _steered(params, target, load, steps=10)
+        changes[side] = steering.lean_change
+    assert changes["pulled"] > 0.0 > changes["other"]
+    assert changes["pulled"] == pytest.approx(-params.pulled_side_gain * changes["other"],
+                                              rel=0.05)

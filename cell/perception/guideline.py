@@ -53,6 +53,13 @@ from cell.polyline import arc_lengths, length, segment_lengths
 # A sample's normal averages this many nearest vertices' normals: on the crease of the valley
 # that takes in both walls.
 _NORMAL_NEIGHBOURS = 8
+# An end node's course is the line through this many walk nodes after it (3 to 5 cm).
+_COURSE_NODES = 4
+# The hook where the valley runs out is one or two nodes.
+_MAX_DROPPED = 2
+# An end node is off course where it lies this many times the walk's zigzag off: on a depth
+# mesh binned 8 x 8 the zigzag reaches 10 mm, and a fixed bound ate the guideline's ends.
+_ZIGZAG_SPREAD = 3.0
 
 
 @dataclass(frozen=True)
@@ -84,6 +91,11 @@ class GuidelineParams:
         spacing_m: distance between the path's samples, along the path.
         smoothing_m: root-mean-square distance the spline may leave between itself and the
             walked nodes (it averages the node-to-node zigzag across the valley).
+        max_end_offset_m: the walk's end nodes that lie farther than this across from the
+            course of the nodes after them (plan view) are dropped: where the valley runs out
+            at a tapered end, the last concave nodes can lie on the end's rounded edge (on
+            tuning seeds 1213 and 1221 the first two nodes lay 8 and 21 mm off the interface;
+            the walk zigzags up to about 3.5 mm either side, tuning seed 1222).
 
     Raises:
         InputError: a non-positive radius, offset or spacing, or a negative rise or smoothing.
@@ -100,9 +112,11 @@ class GuidelineParams:
     max_start_offset_m: float = 0.01
     spacing_m: float = 0.005
     smoothing_m: float = 0.002
+    max_end_offset_m: float = 0.006
 
     def __post_init__(self) -> None:
-        for name in ("search_radius_m", "bridge_radius_m", "max_start_offset_m", "spacing_m"):
+        for name in ("search_radius_m", "bridge_radius_m", "max_start_offset_m", "spacing_m",
+                     "max_end_offset_m"):
             if not getattr(self, name) > 0.0:
                 raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
         for name in ("max_rise_m", "smoothing_m"):
@@ -191,8 +205,8 @@ def _walk_valley(
         covered[ball[ahead < ahead[chosen]]] = True
         return int(ball[chosen])
 
-    def walk(node: int) -> list[int]:
-        nodes, heading = [], None
+    def walk(node: int, heading: np.ndarray | None = None) -> list[int]:
+        nodes = []
         while (following := step(node, heading)) is not None:
             heading = vertices[following] - vertices[node]
             nodes.append(node := following)
@@ -209,8 +223,43 @@ def _walk_valley(
     covered[:] = False
     reached = tree.query_ball_point(vertices[forward], params.search_radius_m)
     covered[np.concatenate(reached)] = True
-    backward = walk(int(start))
+    # It leaves the start away from the first walk, so that it may bridge too: a start near
+    # the meat's end whose first walk went to that end has no fresh node in its own ball
+    # (tuning seed 1302: the guideline ended 1 cm from the start).
+    backward = walk(int(start), vertices[start] - vertices[forward[0]])
     return np.array([*backward[::-1], int(start), *forward])
+
+
+def _end_offset_m(end_m: np.ndarray, ahead_m: np.ndarray) -> float:
+    """Plan-view distance (m) of the node ``end_m`` from the least-squares line through the
+    nodes ``ahead_m`` (a few centimetres of the walk: its zigzag across the valley averages
+    out over them)."""
+    centre = ahead_m[:, :2].mean(axis=0)
+    direction = np.linalg.svd(ahead_m[:, :2] - centre)[2][0]
+    offset = end_m[:2] - centre
+    return float(abs(offset[0] * direction[1] - offset[1] * direction[0]))
+
+
+def _on_course(points_m: np.ndarray, max_offset_m: float) -> slice:
+    """The walk's nodes (K, 3) without the end nodes (up to :data:`_MAX_DROPPED` at either
+    end) that lie off the course of the :data:`_COURSE_NODES` nodes after them by more than
+    ``max_offset_m`` and :data:`_ZIGZAG_SPREAD` times the root-mean-square of the same
+    offset along the rest of the walk (its zigzag, which a coarse depth mesh widens)."""
+    start, stop = 0, len(points_m)
+    if stop <= 2 * (_COURSE_NODES + _MAX_DROPPED):
+        return slice(start, stop)
+    zigzag = [_end_offset_m(points_m[i], points_m[i + 1:i + 1 + _COURSE_NODES])
+              for i in range(_MAX_DROPPED, stop - _COURSE_NODES - _MAX_DROPPED)]
+    max_offset_m = max(max_offset_m, _ZIGZAG_SPREAD * float(np.sqrt(np.mean(np.square(zigzag)))))
+    while (start < _MAX_DROPPED
+           and _end_offset_m(points_m[start], points_m[start + 1:start + 1 + _COURSE_NODES])
+           > max_offset_m):
+        start += 1
+    while (len(points_m) - stop < _MAX_DROPPED
+           and _end_offset_m(points_m[stop - 1], points_m[stop - 1 - _COURSE_NODES:stop - 1])
+           > max_offset_m):
+        stop -= 1
+    return slice(start, stop)
 
 
 def find_cut_path(
@@ -239,6 +288,7 @@ def find_cut_path(
         raise InputError(None, "curvature", "was computed on another mesh (vertex counts differ)")
     tree = cKDTree(vertices)
     nodes = _walk_valley(vertices, tree, curvature, start_m, params)
+    nodes = nodes[_on_course(vertices[nodes], params.max_end_offset_m)]
     points = vertices[nodes]
     # A repeated position (a mesh may hold a point twice) would give a zero chord.
     keep = np.concatenate([[True], segment_lengths(points) > 0.0])
