@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from cell.bench.shapes import documented_shape
 from cell.errors import InputError, PerceptionError
 from cell.perception.curvature import Curvature, surface_curvature
-from cell.perception.guideline import GuidelineParams, find_cut_path
+from cell.perception.guideline import GuidelineParams, _on_course, find_cut_path
 from cell.perception.pointcloud import SensorNoise, SurfaceMesh, capture, depth_mesh
 from cell.polyline import closest_on, length
 from cell.robots.camera import CameraRig
@@ -105,6 +106,15 @@ def test_the_walk_steps_over_a_sill_in_the_valley_and_on_to_its_end() -> None:
     assert offset.max() < 1e-2  # the first node past the sill, 13 mm to the side
 
 
+def test_a_hooked_end_of_the_walk_is_dropped_and_its_zigzag_kept() -> None:
+    x = np.linspace(-0.2, 0.2, 21)
+    zigzag = 0.003 * (-1.0) ** np.arange(len(x))
+    walk = np.column_stack([x, zigzag, np.full_like(x, 0.08)])
+    assert _on_course(walk, GuidelineParams().max_end_offset_m) == slice(0, len(x))
+    hooked = np.vstack([[-0.203, -0.018, 0.08], walk])  # on the tapered end's rounded edge
+    assert _on_course(hooked, GuidelineParams().max_end_offset_m) == slice(1, len(x) + 1)
+
+
 def test_a_start_off_the_meat_is_refused(valley: SurfaceMesh,
                                          valley_curvature: Curvature) -> None:
     with pytest.raises(PerceptionError, match="off the meat"):
@@ -162,3 +172,19 @@ def test_guideline_on_the_default_cell_follows_the_interface(episode: Episode, s
     assert distance.mean() <= 5e-3
     assert distance.max() <= 15e-3
     assert path.length_m >= 0.9 * length(top_line)
+
+
+@pytest.mark.parametrize("seed", [1302, 1213, 1221])
+def test_the_guideline_of_a_documented_shape_runs_the_valley_end_to_end(seed: int) -> None:
+    # Tuning shapes: 1302 (end taper 0.35) walked 1 cm from its marker when the walk's second
+    # leg, with no heading, could not bridge; on 1213 and 1221 the walk's first nodes lay on
+    # the tapered end's rounded edge, 8 to 21 mm off the interface.
+    episode = Episode(Scenario(tissue=documented_shape(seed)))
+    camera = episode.scenario.camera
+    with CameraRig(episode.scene.model, CAMERA, camera.width_px, camera.height_px) as rig:
+        plan = episode.perceive(rig)
+    truth = episode.scene.mesh
+    assert plan.coverage > 0.9
+    points = plan.guideline.points_m
+    offset = points[:, 1] - truth.interface_y(points[:, 0], points[:, 2])
+    assert np.abs(offset).max() <= 6e-3
