@@ -245,21 +245,22 @@ def _on_course(points_m: np.ndarray, max_offset_m: float) -> slice:
     end) that lie off the course of the :data:`_COURSE_NODES` nodes after them by more than
     ``max_offset_m`` and :data:`_ZIGZAG_SPREAD` times the root-mean-square of the same
     offset along the rest of the walk (its zigzag, which a coarse depth mesh widens)."""
-    start, stop = 0, len(points_m)
-    if stop <= 2 * (_COURSE_NODES + _MAX_DROPPED):
-        return slice(start, stop)
+    count = len(points_m)
+    if count <= 2 * (_COURSE_NODES + _MAX_DROPPED):
+        return slice(0, count)
     zigzag = [_end_offset_m(points_m[i], points_m[i + 1:i + 1 + _COURSE_NODES])
-              for i in range(_MAX_DROPPED, stop - _COURSE_NODES - _MAX_DROPPED)]
-    max_offset_m = max(max_offset_m, _ZIGZAG_SPREAD * float(np.sqrt(np.mean(np.square(zigzag)))))
-    while (start < _MAX_DROPPED
-           and _end_offset_m(points_m[start], points_m[start + 1:start + 1 + _COURSE_NODES])
-           > max_offset_m):
-        start += 1
-    while (len(points_m) - stop < _MAX_DROPPED
-           and _end_offset_m(points_m[stop - 1], points_m[stop - 1 - _COURSE_NODES:stop - 1])
-           > max_offset_m):
-        stop -= 1
-    return slice(start, stop)
+              for i in range(_MAX_DROPPED, count - _COURSE_NODES - _MAX_DROPPED)]
+    limit_m = max(max_offset_m, _ZIGZAG_SPREAD * float(np.sqrt(np.mean(np.square(zigzag)))))
+
+    def off_course(walk: np.ndarray) -> int:
+        """How many of ``walk``'s first nodes to drop."""
+        dropped = 0
+        while (dropped < _MAX_DROPPED and _end_offset_m(
+                walk[dropped], walk[dropped + 1:dropped + 1 + _COURSE_NODES]) > limit_m):
+            dropped += 1
+        return dropped
+
+    return slice(off_course(points_m), count - off_course(points_m[::-1]))
 
 
 def find_cut_path(
