@@ -11,10 +11,15 @@ on the interface of the default shape). The steering low-passes that load and in
 what lies beyond a dead band around the load it holds (a little above the on-interface one,
 so that a blade on the side that feels little drifts back) into a change of the lean, a load
 towards the pulled side counting ``pulled_side_gain`` times: the target at depth ``d`` below
-the guideline moves across the cut by ``-lean_change * d``. It learns only where the load
-tells the lean: the tip deeper than ``min_depth_m`` and in the middle of the cut, away from
-the meat's ends (where the load on a blade on the interface runs from -1.7 N at the entry to
-+2.4 N at the exit).
+the guideline moves across the cut by ``-lean_change * d``. The load across can read as the
+pulled side's where the blade runs in the other muscle (tuning seed 9004: -0.4 to -1.3 N with
+the tip 5 mm into it), and the pulled side's weight then drives the tip deeper, to the lean's
+bound; but that muscle lifts the blade (1.4 to 4.7 N with the tip 3 to 16 mm into it, under
+0.4 N on the interface or on the pulled side; seeds 1062, 1438, 9004), so above
+``in_flesh_lift_n`` of lift the correction moves the tip towards the pulled side only. It
+learns only where the load tells the lean: the tip deeper than ``min_depth_m`` and in the
+middle of the cut, away from the meat's ends (where the load on a blade on the interface runs
+from -1.7 N at the entry to +2.4 N at the exit).
 
 Chosen on tuning shapes (seeds 1016-1112 of lean 0.19-0.2, 1023-1082 of lean 0.005-0.018,
 1200-1447): on the six of lean about 0.2 the tip's mean distance to the interface went from
@@ -65,6 +70,13 @@ class SteeringParams:
         pulled_side_gain: a load beyond the dead band away from the pulled side (the tip on
             that side) counts this many times: that side pushes back about a fifth as hard
             per millimetre.
+        in_flesh_lift_n: an upward load on the blade above this (filtered, N) says the tip
+            runs in the muscle that is not pulled, whatever the load across says: the
+            correction then moves it towards the pulled side only, by what the lift exceeds
+            this. Measured: 1.4 to 4.7 N with the tip 3 to 16 mm into that muscle, under
+            0.4 N on the interface and with the tip on the pulled side (tuning seeds 1062,
+            1438, 9004), where a load across of -0.4 to -3 N had turned the pulled side's
+            weight the wrong way and the lean ran to its bound.
 
     Example:
         >>> SteeringParams(gain_per_n_s=0.02).dead_band_n
@@ -80,11 +92,12 @@ class SteeringParams:
     middle_fraction: float = 0.75
     max_lean_change: float = 0.12
     pulled_side_gain: float = 4.0
+    in_flesh_lift_n: float = 1.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.enabled, bool):
             raise InputError(None, "enabled", f"expected true or false, got {self.enabled!r}")
-        require_positive(self, "filter_s", "middle_fraction")
+        require_positive(self, "filter_s", "middle_fraction", "in_flesh_lift_n")
         require_non_negative(self, "gain_per_n_s", "dead_band_n", "min_depth_m",
                              "max_lean_change", "pulled_side_gain")
         if self.middle_fraction > 1.0:
@@ -103,6 +116,7 @@ class LeanSteering:
     Attributes:
         lean_change: the correction so far (dy/dz, dimensionless).
         load_n: the filtered load across the cut, N.
+        lift_n: the filtered upward load on the blade, N.
         extremes: the least and the greatest lean change so far.
     """
 
@@ -123,6 +137,7 @@ class LeanSteering:
         self._half_window = 0.5 * params.middle_fraction * (self._station[-1] - self._station[0])
         self.lean_change = 0.0
         self.load_n = params.on_interface_load_n  # neutral until the blade feels otherwise
+        self.lift_n = 0.0
         self.extremes = (0.0, 0.0)
 
     def correct(self, target: Pose, load_n: np.ndarray, dt_s: float) -> Pose:
@@ -135,12 +150,15 @@ class LeanSteering:
             return target
         station = float((position - self._origin) @ self._along)
         depth = max(float(np.interp(station, self._station, self._top_z)) - position[2], 0.0)
-        self.load_n += (float(load_n @ self._across) - self.load_n) * min(
-            dt_s / params.filter_s, 1.0)
+        blend = min(dt_s / params.filter_s, 1.0)
+        self.load_n += (float(load_n @ self._across) - self.load_n) * blend
+        self.lift_n += (float(load_n[2]) - self.lift_n) * blend
         if depth > params.min_depth_m and abs(station - self._middle) <= self._half_window:
             beyond = self.load_n - params.on_interface_load_n
             beyond = np.sign(beyond) * max(abs(beyond) - params.dead_band_n, 0.0)
-            if beyond < 0.0:  # the tip on the pulled muscle's side, which pushes back less
+            if self.lift_n > params.in_flesh_lift_n:  # in the muscle that is not pulled
+                beyond = max(beyond, self.lift_n - params.in_flesh_lift_n)
+            elif beyond < 0.0:  # the tip on the pulled muscle's side, which pushes back less
                 beyond *= params.pulled_side_gain
             self.lean_change = float(np.clip(
                 self.lean_change - params.gain_per_n_s * beyond * dt_s,

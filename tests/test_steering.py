@@ -89,3 +89,18 @@ def test_a_blade_on_the_pulled_muscles_side_which_pushes_back_less_is_steered_ba
     assert changes["pulled"] > 0.0 > changes["other"]
     assert changes["pulled"] == pytest.approx(-params.pulled_side_gain * changes["other"],
                                               rel=0.05)
+
+
+def test_a_blade_lifted_by_the_unpulled_muscle_goes_to_the_pulled_side_whatever_it_feels_across(
+        ) -> None:
+    # Tuning seed 9004: 5 mm into the muscle that is not pulled, the load across read -0.4 to
+    # -1.3 N, as if the tip were on the pulled side, while the flesh lifted the blade 2-4 N.
+    params = SteeringParams()
+    target = np.array([0.0, 0.0, 0.60])
+    read_as_pulled_side = np.array([0.0, -1.0, 0.0])
+    lifted = read_as_pulled_side + [0.0, 0.0, params.in_flesh_lift_n + 2.0]
+    steering, position = _steered(params, target, lifted)
+    assert steering.lean_change < 0.0 and position[1] > 0.0  # towards the pulled side (+y)
+    unlifted, _ = _steered(params, target, read_as_pulled_side)
+    assert unlifted.lean_change > 0.0  # without the lift it reads the pulled side's load
+    assert steering.lift_n == pytest.approx(params.in_flesh_lift_n + 2.0, rel=0.01)
