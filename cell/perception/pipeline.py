@@ -5,9 +5,10 @@ One call, :func:`perceive`, runs the chain on the rendered scene: capture a nois
 (:func:`~cell.perception.pointcloud.capture`), bin it into a cloud and a surface mesh
 (:func:`~cell.perception.pointcloud.depth_mesh`), estimate the curvature
 (:func:`~cell.perception.curvature.surface_curvature`), walk the valley from the start point P0
-(:func:`~cell.perception.guideline.find_cut_path`), fit the generic two-muscle model to the cloud
-(:func:`~cell.perception.registration.fit_generic_model`) and map its interface into the world
-(:func:`~cell.perception.registration.predict_interface`).
+(:func:`~cell.perception.guideline.find_cut_path`) and move the walk onto the valley's floor in
+the unbinned cloud (:func:`~cell.perception.floor.find_floor`), fit the generic two-muscle
+model to the cloud (:func:`~cell.perception.registration.fit_generic_model`) and map its
+interface into the world (:func:`~cell.perception.registration.predict_interface`).
 
 P0 is a marker the camera sees. In the real cell an operator (or a vision tag) marks the
 valley at one end of the meat; in simulation the marker is the point of the generator's true
@@ -53,6 +54,7 @@ import numpy as np
 
 from cell.errors import InputError, PerceptionError
 from cell.perception.curvature import Curvature, surface_curvature
+from cell.perception.floor import FloorParams, find_floor
 from cell.perception.guideline import CutPath, GuidelineParams, find_cut_path
 from cell.perception.interface import SeenInterface
 from cell.perception.pointcloud import DepthView, SensorNoise, SurfaceMesh, capture, depth_mesh
@@ -104,6 +106,8 @@ class PerceptionParams:
             fit uses them: its interface then leans tens of degrees and the knife would cut
             into a muscle, so such a fit is refused.
         guideline: how the valley is walked (:class:`~cell.perception.guideline.GuidelineParams`).
+        floor: where the walked guideline finds the valley's floor on the unbinned cloud
+            (:class:`~cell.perception.floor.FloorParams`).
         fit: how the generic model is fitted (:class:`~cell.perception.registration.FitParams`).
 
     Raises:
@@ -124,6 +128,7 @@ class PerceptionParams:
     max_interface_lean: float = 0.5
     interface: Literal["seen", "affine"] = "seen"
     guideline: GuidelineParams = field(default_factory=GuidelineParams)
+    floor: FloorParams = field(default_factory=FloorParams)
     fit: FitParams = field(default_factory=FitParams)
 
     def __post_init__(self) -> None:
@@ -148,6 +153,8 @@ class PerceptionParams:
                              f"must be 'seen' or 'affine', got {self.interface!r}")
         if not isinstance(self.guideline, GuidelineParams):
             raise InputError(None, "guideline", "must be a GuidelineParams")
+        if not isinstance(self.floor, FloorParams):
+            raise InputError(None, "floor", "must be a FloorParams")
         if not isinstance(self.fit, FitParams):
             raise InputError(None, "fit", "must be a FitParams")
 
@@ -393,7 +400,8 @@ def look(rig: CameraRig, data: mujoco.MjData, params: PerceptionParams,
     curvature = surface_curvature(mesh, params.curvature_radius_m)
     lap("curvature")
     start = _seen_marker(view, marker_m, params.bin_px, tolerance)
-    guideline = find_cut_path(mesh, curvature, start, params.guideline)
+    guideline = find_floor(find_cut_path(mesh, curvature, start, params.guideline),
+                           view.points_m(1), params.floor)
     lap("guideline")
     return Look(cloud, mesh, curvature, start, guideline, timings)
 
