@@ -98,7 +98,7 @@ def test_a_blade_lifted_by_the_unpulled_muscle_goes_to_the_pulled_side_whatever_
     params = SteeringParams()
     target = np.array([0.0, 0.0, 0.60])
     read_as_pulled_side = np.array([0.0, -1.0, 0.0])
-    lifted = read_as_pulled_side + [0.0, 0.0, params.in_flesh_lift_n + 2.0]
+    lifted = np.array([0.0, -1.0, params.in_flesh_lift_n + 2.0])  # and lifted
     steering, position = _steered(params, target, lifted)
     assert steering.lean_change < 0.0 and position[1] > 0.0  # towards the pulled side (+y)
     unlifted, _ = _steered(params, target, read_as_pulled_side)
