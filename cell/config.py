@@ -187,6 +187,33 @@ def require_non_negative(owner: object, *names: str,
     _require(owner, names, lambda value: value >= 0, ">= 0", error)
 
 
+def require_flag(owner: object, *names: str, error: type[InputError] = InputError) -> None:
+    """Raise ``error`` naming the first of ``owner``'s fields ``names`` that is not a bool.
+
+    Example:
+        >>> from dataclasses import dataclass
+        >>> @dataclass
+        ... class Knife:
+        ...     enabled: bool
+        >>> require_flag(Knife(1), "enabled")
+        Traceback (most recent call last):
+        cell.errors.InputError: enabled: must be true or false, got 1
+    """
+    for name in names:
+        value = getattr(owner, name)
+        if not isinstance(value, bool):
+            raise error(None, name, f"must be true or false, got {value!r}")
+
+
+def require_count(owner: object, name: str, least: int,
+                  error: type[InputError] = InputError) -> None:
+    """Raise ``error`` naming ``owner``'s field ``name`` unless it is an integer (not a bool)
+    of at least ``least``."""
+    value = getattr(owner, name)
+    if isinstance(value, bool) or not (isinstance(value, int) and value >= least):
+        raise error(None, name, f"must be an integer >= {least}, got {value!r}")
+
+
 def _require(owner: object, names: tuple[str, ...], holds: Any, bound: str,
              error: type[InputError]) -> None:
     for name in names or tuple(f.name for f in dataclasses.fields(owner)):

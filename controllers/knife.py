@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from cell.config import require_non_negative, require_positive
+from cell.config import require_count, require_non_negative, require_positive
 from cell.errors import InputError
 from cell.polyline import truncate
 from controllers.trajectory import CartesianTrajectory, Waypoint
@@ -57,9 +57,7 @@ class CutPlan:
         if self.depth_m is not None:
             require_positive(self, "depth_m")
         require_non_negative(self, "lead_in_m", "lead_out_m", "start_s", "look_dwell_s")
-        if isinstance(self.passes, bool) or not (isinstance(self.passes, int)
-                                                 and self.passes >= 1):
-            raise InputError(None, "passes", f"must be an integer >= 1, got {self.passes!r}")
+        require_count(self, "passes", 1)
         if self.cut_fraction > 1:
             raise InputError(None, "cut_fraction", f"must be <= 1, got {self.cut_fraction}")
 

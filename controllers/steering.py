@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.config import require_non_negative, require_positive
+from cell.config import require_flag, require_non_negative, require_positive
 from cell.errors import InputError
 
 Pose = tuple[np.ndarray, np.ndarray]
@@ -95,8 +95,7 @@ class SteeringParams:
     in_flesh_lift_n: float = 1.0
 
     def __post_init__(self) -> None:
-        if not isinstance(self.enabled, bool):
-            raise InputError(None, "enabled", f"expected true or false, got {self.enabled!r}")
+        require_flag(self, "enabled")
         require_positive(self, "filter_s", "middle_fraction", "in_flesh_lift_n")
         require_non_negative(self, "gain_per_n_s", "dead_band_n", "min_depth_m",
                              "max_lean_change", "pulled_side_gain")

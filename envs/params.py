@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cell.config import require_non_negative, require_positive
+from cell.config import require_flag, require_non_negative, require_positive
 from cell.errors import InputError
 
 
@@ -127,9 +127,7 @@ class TaskParams:
     def __post_init__(self) -> None:
         require_positive(self, "separated_fraction", "max_torn_fraction", "knife_stop_force_n",
                          "pull_stop_force_n")
-        if not isinstance(self.cycle_time_fails, bool):
-            raise InputError(None, "cycle_time_fails", f"expected true or false, got "
-                             f"{self.cycle_time_fails!r}")
+        require_flag(self, "cycle_time_fails")
         for name in ("separated_fraction", "max_torn_fraction"):
             if getattr(self, name) > 1.0:
                 raise InputError(None, name, f"must be in (0, 1], got {getattr(self, name)}")

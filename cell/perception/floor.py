@@ -34,8 +34,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 from scipy.spatial import cKDTree
 
-from cell.config import require_positive
-from cell.errors import InputError
+from cell.config import require_count, require_flag, require_positive
 from cell.perception.guideline import CutPath
 from cell.polyline import arc_lengths
 
@@ -84,13 +83,9 @@ class FloorParams:
     max_shift_m: float = 0.006
 
     def __post_init__(self) -> None:
-        if not isinstance(self.enabled, bool):
-            raise InputError(None, "enabled", f"must be true or false, got {self.enabled!r}")
+        require_flag(self, "enabled")
         require_positive(self, "half_length_m", "half_width_m", "max_shift_m")
-        if isinstance(self.min_points, bool) or not (isinstance(self.min_points, int)
-                                                     and self.min_points >= 6):
-            raise InputError(None, "min_points",
-                             f"must be an integer >= 6 (the fit's terms), got {self.min_points!r}")
+        require_count(self, "min_points", 6)
 
 
 def _walls(u: np.ndarray, v: np.ndarray, crease_m: np.ndarray) -> np.ndarray:

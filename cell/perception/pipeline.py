@@ -52,6 +52,7 @@ from typing import Any, Literal
 import mujoco
 import numpy as np
 
+from cell.config import require_count, require_flag
 from cell.errors import InputError, PerceptionError
 from cell.perception.curvature import Curvature, surface_curvature
 from cell.perception.floor import FloorParams, find_floor
@@ -132,17 +133,14 @@ class PerceptionParams:
     fit: FitParams = field(default_factory=FitParams)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.enabled, bool):
-            raise InputError(None, "enabled", f"must be true or false, got {self.enabled!r}")
+        require_flag(self, "enabled")
         if not self.noise_sigma_at_1m_m >= 0.0:
             raise InputError(None, "noise_sigma_at_1m_m",
                              f"must be >= 0, got {self.noise_sigma_at_1m_m}")
         if not 0.0 <= self.dropout_fraction < 1.0:
             raise InputError(None, "dropout_fraction",
                              f"must be in [0, 1), got {self.dropout_fraction}")
-        if isinstance(self.bin_px, bool) or not (isinstance(self.bin_px, int)
-                                                 and self.bin_px >= 1):
-            raise InputError(None, "bin_px", f"must be an integer >= 1, got {self.bin_px!r}")
+        require_count(self, "bin_px", 1)
         for name in ("curvature_radius_m", "marker_tolerance_m", "max_interface_lean"):
             if not getattr(self, name) > 0.0:
                 raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
