@@ -69,7 +69,7 @@ class FloorParams:
         max_shift_m: a floor farther than this from the walked sample is not trusted, m.
 
     Raises:
-        InputError: a non-positive size or too few points for the fit's six terms.
+        InputError: a non-positive size, or a point count under 6 (the walls have four terms).
 
     Example:
         >>> FloorParams(half_width_m=0.01).max_shift_m
