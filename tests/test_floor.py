@@ -81,6 +81,12 @@ def test_samples_past_the_valley_take_the_nearest_trusted_floor() -> None:
     assert beyond.sum() >= 3
 
 
+def test_a_guideline_of_two_samples_finds_its_floor_too() -> None:
+    cloud = _cloud(_crease, np.random.default_rng(6), noise_m=0.0003)
+    floor = find_floor(_walked(count=2), cloud, FloorParams())
+    assert np.abs(floor.points_m[:, 1] - FLOOR_Y_M).max() <= 1e-3
+
+
 def test_a_disabled_floor_keeps_the_walk() -> None:
     walked = _walked()
     cloud = _cloud(_crease, np.random.default_rng(5))

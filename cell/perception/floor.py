@@ -102,6 +102,8 @@ def _crease(u: np.ndarray, v: np.ndarray, h: np.ndarray) -> tuple[float, np.ndar
     crease searched on a grid, and the walls' coefficients; None where no such pair fits
     (not a valley)."""
     candidates = np.arange(v.min(), v.max(), _CREASE_STEP_M)
+    if len(candidates) == 0:  # every point on one line along the guideline
+        return None
     terms = _walls(u, v, candidates)
     normal = np.einsum("cni,cnj->cij", terms, terms) + _RIDGE * np.eye(4)
     coef = np.linalg.solve(normal, np.einsum("cni,n->ci", terms, h)[..., None])[..., 0]
@@ -158,7 +160,8 @@ def find_floor(path: CutPath, cloud_m: np.ndarray, params: FloorParams) -> CutPa
     trusted = np.flatnonzero([offset is not None for offset in found])
     if len(trusted) == 0:
         return path
-    offsets = median_filter(np.array([found[i] for i in trusted]), _MEDIAN_SAMPLES,
-                            mode="mirror")
+    offsets = np.array([found[i] for i in trusted])
+    if len(offsets) >= _MEDIAN_SAMPLES:  # mirroring needs the window's length
+        offsets = median_filter(offsets, _MEDIAN_SAMPLES, mode="mirror")
     nearest = np.abs(np.arange(len(found))[:, None] - trusted).argmin(axis=1)
     return replace(path, points_m=path.points_m + offsets[nearest, None] * across)
