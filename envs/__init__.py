@@ -2,7 +2,8 @@
 
 - ``musclecell/MuscleSeparation-v0``: the policy drives the knife and the pull,
 - ``musclecell/Cut-v0``: the knife only (the pull follows the scripted plan),
-- ``musclecell/Pull-v0``: the pull only (the knife follows the scripted plan).
+- ``musclecell/Pull-v0``: the pull only (the knife follows the scripted plan, down to the
+  table, at a pace of its own).
 
 Keyword arguments of ``gymnasium.make`` go to :class:`MuscleSeparationEnv`.
 
@@ -13,12 +14,14 @@ Example:
 
 from gymnasium.envs.registration import register, registry
 
+from envs.observation import OBSERVATION_NAMES
 from envs.options import OPTION_KEYS, apply_options
 from envs.params import ActionLimits, RewardParams, TaskParams
 from envs.randomization import Randomization, draw, load_randomization
 from envs.separation import (
     COARSE_CELL_SIZE_M,
     CUT_TASK,
+    PULL_TASK,
     CutEnv,
     MuscleSeparationEnv,
     PullEnv,
@@ -43,7 +46,9 @@ register_envs()
 __all__ = [
     "COARSE_CELL_SIZE_M",
     "CUT_TASK",
+    "OBSERVATION_NAMES",
     "OPTION_KEYS",
+    "PULL_TASK",
     "ActionLimits",
     "CutEnv",
     "MuscleSeparationEnv",

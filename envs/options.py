@@ -24,6 +24,9 @@ Keys (every one optional; SI units):
 - ``cut_speed_m_s``: the planned (and scripted) knife's speed; ``cut_table_clearance_m``: the
   planned cut's clearance above the table (:class:`~controllers.knife.CutPlan`), which a
   planner sets from the interface's depth it believes, so it differs from carcass to carcass.
+- ``knife_pace``: the speed a scripted knife (``Pull-v0``'s) cuts at, as a fraction of its
+  plan's, in (0, 1]: a knife that the meat slows, so the plan's clock runs ahead of it (the
+  env reads it; the scenario keeps the plan's speed).
 
 Values are type-checked as a scenario file's are, and a bad one raises
 :class:`~cell.errors.InputError` naming the key. Of several layers of options the last that
@@ -164,6 +167,24 @@ def _offset(part: str, name: str, key: str) -> Callable[[Scenario, Any], Scenari
     return apply
 
 
+def knife_pace(options: Mapping[str, Any]) -> float:
+    """The option ``knife_pace`` of ``options`` (1 when absent), checked.
+
+    Example:
+        >>> knife_pace({"knife_pace": 0.8}), knife_pace({})
+        (0.8, 1.0)
+    """
+    pace = _number("knife_pace", options.get("knife_pace", 1.0), positive=True)
+    if pace > 1.0:
+        raise InputError(None, "knife_pace", f"must be in (0, 1], got {pace}")
+    return pace
+
+
+def _check_pace(scenario: Scenario, value: Any) -> Scenario:
+    knife_pace({"knife_pace": value})
+    return scenario
+
+
 # Applied in this order, so that factors, a fibre direction and its turns act on the material
 # given beside them.
 _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
@@ -190,6 +211,7 @@ _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
     "grasp_inset_offset_m": _offset("pull", "grasp_inset_m", "grasp_inset_offset_m"),
     "cut_speed_m_s": _field("cut", "speed_m_s", "cut_speed_m_s"),
     "cut_table_clearance_m": _field("cut", "table_clearance_m", "cut_table_clearance_m"),
+    "knife_pace": _check_pace,
 }
 #: Every key an env's options may hold.
 OPTION_KEYS = tuple(_OPTIONS)

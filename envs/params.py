@@ -12,14 +12,14 @@ from cell.errors import InputError
 class ActionLimits:
     """What an action of 1 means for each tool, and the bounds its target stays within (SI).
 
-    The knife moves in the frame of its planned path: ``along`` it (progress at up to
-    ``knife_along_speed_m_s``, forward or back), ``across`` it (the blade's normal) and in
-    ``depth`` (the blade's axis), each offset kept within ``knife_max_across_m`` and
-    ``knife_max_depth_m`` of the path, and turns its blade about its axis at up to
-    ``knife_yaw_rate_rad_s``, within ``knife_max_yaw_rad`` of the path's tangent. The grasp
-    site moves at up to ``pull_speed_m_s`` along each world axis, no further than
-    ``pull_max_distance_m`` from the grasp point and never more than ``pull_max_sink_m``
-    below it (the table lies beneath).
+    The knife moves in the frame of its planned path: ``along`` it (forward, at up to
+    ``knife_along_speed_m_s``), and to offsets ``across`` it (the blade's normal, within
+    ``knife_max_across_m``, at up to ``knife_across_speed_m_s``), in ``depth`` (the blade's
+    axis, within ``knife_max_depth_m``) and in yaw about its axis (within
+    ``knife_max_yaw_rad`` of the path's tangent, at up to ``knife_yaw_rate_rad_s``). The
+    grasp site moves to displacements within ``pull_max_distance_m`` of the grasp point
+    (never more than ``pull_max_sink_m`` below it: the table lies beneath) at up to
+    ``pull_speed_m_s`` along each world axis.
 
     Example:
         >>> ActionLimits(knife_along_speed_m_s=0.05).knife_max_across_m
@@ -31,7 +31,7 @@ class ActionLimits:
     knife_depth_speed_m_s: float = 0.02
     knife_yaw_rate_rad_s: float = 0.5
     knife_max_across_m: float = 0.01
-    knife_max_depth_m: float = 0.02
+    knife_max_depth_m: float = 0.03
     knife_max_yaw_rad: float = 0.35
     pull_speed_m_s: float = 0.05
     pull_max_distance_m: float = 0.2
@@ -46,9 +46,11 @@ class RewardParams:
     """Weights of the reward's terms; one step's reward is
 
     ``progress * d(released fraction) + cut_progress * d(knife's progress along its path)
-    - damage - force - tearing - uncut_depth - time_per_step``
+    + clearing * d(cleared fraction) - damage - force - tearing - uncut_depth - time_per_step``
 
-(the second term is dense shaping: the bindings release a few at a time)
+    (the second term is dense shaping: the bindings release a few at a time; the third counts
+    the grasp site's distance from where it held the shank, as a fraction of the task's
+    ``clear_distance_m``, up to 1, where the task asks for one)
 
     where damage is ``contact_per_step`` for each step the blade touches muscle with no
     binding under it, plus ``off_interface_per_m`` times the blade tip's distance from the true
@@ -77,6 +79,7 @@ class RewardParams:
 
     progress: float = 10.0
     cut_progress: float = 5.0
+    clearing: float = 3.0
     contact_per_step: float = 0.005
     off_interface_per_m: float = 2.0
     interface_tolerance_m: float = 0.003
@@ -85,7 +88,7 @@ class RewardParams:
     force_per_n: float = 0.01
     force_cap_per_step: float = 0.05
     tearing: float = 12.0
-    uncut_depth_per_m: float = 1.0
+    uncut_depth_per_m: float = 3.0
     cut_reach_m: float = 0.003
     time_per_step: float = 0.002
     divergence: float = 10.0
@@ -102,8 +105,10 @@ class TaskParams:
     """When an episode succeeds, and when the cell stops it (SI units).
 
     It succeeds when ``separated_fraction`` of the bindings are released with no more than
-    ``max_torn_fraction`` of them torn (rather than cut) since the policy took over: tearing
-    the muscles apart is the damage the knife is there to avoid. It fails, and ends at once,
+    ``max_torn_fraction`` of them torn (rather than cut) since the policy took over (tearing
+    the muscles apart is the damage the knife is there to avoid) and the grasp site has taken
+    the shank ``clear_distance_m`` away from where it held it then (0: the bindings' release
+    is enough). It fails, and ends at once,
     when more than ``max_torn_fraction`` have torn (it can no longer succeed), on a protective
     stop (the knife's force/torque sensor reads more than ``knife_stop_force_n`` or the
     gripper's more than ``pull_stop_force_n``, as a real cell's force limits stop the arms:
@@ -120,6 +125,7 @@ class TaskParams:
 
     separated_fraction: float = 0.95
     max_torn_fraction: float = 0.5
+    clear_distance_m: float = 0.05
     knife_stop_force_n: float = 35.0
     pull_stop_force_n: float = 80.0
     cycle_time_fails: bool = True
@@ -127,6 +133,7 @@ class TaskParams:
     def __post_init__(self) -> None:
         require_positive(self, "separated_fraction", "max_torn_fraction", "knife_stop_force_n",
                          "pull_stop_force_n")
+        require_non_negative(self, "clear_distance_m")
         require_flag(self, "cycle_time_fails")
         for name in ("separated_fraction", "max_torn_fraction"):
             if getattr(self, name) > 1.0:

@@ -14,6 +14,7 @@ from envs.params import ActionLimits
 from envs.separation import MuscleSeparationEnv
 
 _TIP_HEIGHT = OBSERVATION_NAMES.index("tip_height_cm")
+_TIP_DEPTH = OBSERVATION_NAMES.index("tip_depth_cm")
 
 
 def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
@@ -35,23 +36,25 @@ def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
 @dataclass(frozen=True)
 class TableSkimmingKnife:
     """A hand-written feedback policy of ``Cut-v0``'s observation: the knife at full speed
-    along its path, its tip servoed to ``height_m`` above the table (the lowest bindings hold
-    until the tip is within about 3 mm of it; the table stops the cell below about 0.5 mm).
+    along its path, its tip ``height_m`` above the table (the lowest bindings hold until the
+    tip is within about 3 mm of it; the table stops the cell below about 0.5 mm): the depth
+    wanted below the path is the path's height over the table (the tip's height plus its
+    depth below the path) less ``height_m``.
 
     Example:
         >>> obs = np.zeros(len(OBSERVATION_NAMES), np.float32)
-        >>> obs[_TIP_HEIGHT] = 1.0  # cm above the table
-        >>> TableSkimmingKnife()(obs)  # down, at full speed
-        array([1., 0., 1., 0.], dtype=float32)
+        >>> obs[_TIP_HEIGHT] = 1.7  # cm above the table, on the path
+        >>> TableSkimmingKnife()(obs)  # 15 mm down, of the depth's 30 mm bound
+        array([1. , 0. , 0.5, 0. ], dtype=float32)
     """
 
     height_m: float = 0.002
     limits: ActionLimits = field(default_factory=ActionLimits)
-    dt_s: float = 0.02
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        error_m = float(obs[_TIP_HEIGHT]) / 100.0 - self.height_m
-        depth = np.clip(error_m / (self.limits.knife_depth_speed_m_s * self.dt_s), -1.0, 1.0)
+        path_height_m = float(obs[_TIP_HEIGHT] + obs[_TIP_DEPTH]) / 100.0
+        depth = np.clip((path_height_m - self.height_m) / self.limits.knife_max_depth_m,
+                        -1.0, 1.0)
         return np.array([1.0, 0.0, depth, 0.0], dtype=np.float32)
 
 

@@ -7,10 +7,12 @@ from envs.params import RewardParams
 
 
 def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: float,
-                 cut_advance: float, policy_cutting: bool = False) -> dict[str, float]:
+                 cut_advance: float, policy_cutting: bool = False,
+                 clear_advance: float = 0.0) -> dict[str, float]:
     """The reward's terms for a step that led from ``before`` to ``after``, tore the fraction
-    ``torn`` of the bindings and moved the knife ``cut_advance`` (fraction of its path) along,
-    the policy's knife not yet through if ``policy_cutting``; the reward is their sum (costs are
+    ``torn`` of the bindings, moved the knife ``cut_advance`` (fraction of its path) along
+    and the shank ``clear_advance`` (fraction of the task's clearing distance) away, the
+    policy's knife not yet through if ``policy_cutting``; the reward is their sum (costs are
     negative).
 
     Example:
@@ -22,13 +24,13 @@ def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: fl
         >>> from dataclasses import replace
         >>> after = replace(before, released_fraction=0.52)
         >>> terms = reward_terms(RewardParams(), before, after, torn=0.0, cut_advance=0.01)
-        >>> sorted(terms)
-        ['cut_progress', 'damage', 'force', 'progress', 'tearing', 'time', 'uncut_depth']
+        >>> " ".join(sorted(terms))
+        'clearing cut_progress damage force progress tearing time uncut_depth'
         >>> terms["damage"], terms["force"], terms["uncut_depth"]
         (-0.0, -0.0, -0.0)
         >>> round(reward_terms(RewardParams(), before, after, 0.0, 0.01, policy_cutting=True
         ...                    )["uncut_depth"], 4)  # 10 mm up, 7 mm above the reach
-        -0.007
+        -0.021
     """
     touching = after.blade_contacts > 0
     damage = params.contact_per_step if after.blade_in_flesh else 0.0
@@ -43,6 +45,7 @@ def reward_terms(params: RewardParams, before: Reading, after: Reading, torn: fl
     return {
         "progress": params.progress * (after.released_fraction - before.released_fraction),
         "cut_progress": params.cut_progress * cut_advance,
+        "clearing": params.clearing * clear_advance,
         "damage": -damage,
         "force": -force,
         "tearing": -params.tearing * torn,

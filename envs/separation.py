@@ -35,7 +35,7 @@ from envs.observation import (
     Sensing,
     observe,
 )
-from envs.options import apply_options, merge_options
+from envs.options import apply_options, knife_pace, merge_options
 from envs.params import ActionLimits, RewardParams, TaskParams
 from envs.randomization import Randomization, check_ranges, draw, load_randomization
 from envs.render import CellRenderer
@@ -48,8 +48,14 @@ COARSE_CELL_SIZE_M = 0.05
 ENV_PULL_SPEED_M_S = 0.04
 #: ``Cut-v0``'s task: the knife must do the separating, so at most a quarter may tear (the
 #: scripted plan's 15 mm clearance above the table leaves the lowest bindings to the pull's
-#: tearing: 18 to 36 % of them on seeds 0-2).
-CUT_TASK = TaskParams(max_torn_fraction=0.25)
+#: tearing: 18 to 36 % of them on seeds 0-2); the scripted pull takes the shank away, so the
+#: knife's task ends when the bindings are released.
+CUT_TASK = TaskParams(max_torn_fraction=0.25, clear_distance_m=0.0)
+#: ``Pull-v0``'s task: the scripted knife cuts down to the table, so what tears beyond its own
+#: few is the pull's doing: at most a quarter, and the shank taken 5 cm away.
+PULL_TASK = TaskParams(max_torn_fraction=0.25, clear_distance_m=0.05)
+#: ``Pull-v0``'s planned cut runs this far above the table (m), under the reset's options.
+PULL_KNIFE_CLEARANCE_M = 0.002
 #: Simulated time past the scripted plan's end the default time limit allows, s.
 _TIME_MARGIN_S = 2.0
 #: Draws a reset makes before it gives up on a randomised world that fails to build or
@@ -66,22 +72,25 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
     """Separate the shank from the round: cut along the aponeurosis and pull.
 
     Actions (Box in [-1, 1], scaled by ``limits``; out-of-range entries are clipped and
-    counted in ``info["clipped_actions"]``): for the knife (along, across, depth, yaw rate)
-    in its planned path's frame, for the gripper the grasp site's velocity (x, y, z, world).
+    counted in ``info["clipped_actions"]``): for the knife its speed along its planned path
+    and the offsets from it it should go to (across, depth, yaw), for the gripper the grasp
+    site's displacement it should go to (x, y, z, world); the targets go there at the limits'
+    speeds (see :mod:`envs.commands`).
     ``driven`` picks which the policy drives; the other follows the scripted plan.
     Observations: see :mod:`envs.observation`. Reward: see :class:`RewardParams`.
     When the policy drives the knife alone, the scripted pull keeps pace with the knife: it
     follows the plan at the plan's time where the knife is, and pulls off once the knife is
     through. Terminated on success or failure as ``task`` (:class:`TaskParams`) defines them:
-    success when the bindings are released with few torn (``info["success"]``), failure when
-    too many tore, on a protective stop (``info["protective_stop"]``) or when the simulation
-    diverges (``info["diverged"]``, the last finite observation is returned), and at
-    ``time_limit_s`` of simulated time after the policy takes over (default: the scripted
-    plan's length plus 2 s): a failure of the cell's cycle time (``info["timed_out"]``), or a
-    truncation where ``task.cycle_time_fails`` is False. The final info also holds the
-    episode's peak tool forces
-    (``knife_force_peak_n``, ``pull_force_peak_n``), ``flesh_damage_s`` (time the blade
-    touched muscle with no binding under it) and ``elapsed_s``.
+    success when the bindings are released with few torn and the shank is clear
+    (``info["success"]``), failure when too many tore, on a protective stop
+    (``info["protective_stop"]``) or when the simulation diverges (``info["diverged"]``, the
+    last finite observation is returned), and at ``time_limit_s`` of simulated time after the
+    policy takes over (default: the scripted plan's length, the cut's part stretched by a
+    scripted knife's ``knife_pace``, plus 2 s): a failure of the cell's cycle time
+    (``info["timed_out"]``), or a truncation where ``task.cycle_time_fails`` is False. The
+    final info also holds the episode's peak tool forces (``knife_force_peak_n``,
+    ``pull_force_peak_n``), ``flesh_damage_s`` (time the blade touched muscle with no binding
+    under it) and ``elapsed_s``.
 
     Args:
         scenario: the base cell and plan (default :class:`Scenario` at the training
@@ -223,6 +232,7 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         self.protective_stop = self.timed_out = False
         self.knife_force_peak_n = self.pull_force_peak_n = self.flesh_damage_s = 0.0
         self._knife_through_s: float | None = None
+        self._pace = knife_pace(self.world)
         self._divergence = ""
         # The approach: both tools scripted until the knife is in at the entry and the jaws
         # hold the shank.
@@ -234,7 +244,11 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         except DivergenceError as exc:
             self._diverge(exc)
         self._start_s = episode.sim.time_s
-        self._limit_s = self.time_limit_s or plan.end_s - self._start_s + _TIME_MARGIN_S
+        # A scripted knife slower than its plan takes the cut's time over the pace.
+        slowed_s = (0.0 if self._drives_knife else
+                    (plan.cut_window_s.end_s - self._start_s) * (1.0 / self._pace - 1.0))
+        self._limit_s = (self.time_limit_s
+                         or plan.end_s - self._start_s + slowed_s + _TIME_MARGIN_S)
         self._pull = PullCommand(grasp_point(scenario, episode.scene.mesh),
                                  plan.pull.sample(self._start_s)[1], self.limits)
         self._reading = self._sensing.read(self._knife)
@@ -252,10 +266,10 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         clipped = np.clip(np.nan_to_num(raw, nan=0.0), -1.0, 1.0)
         self.clipped_actions += int(np.count_nonzero(clipped != raw))
         t_next = episode.sim.time_s + self._dt_s
-        progress = self._knife.progress
-        knife_target, grasp_target = self._targets(clipped, t_next)
+        progress, cleared = self._knife.progress, self._cleared_fraction()
+        knife_target, grasp_target, knife_s = self._targets(clipped, t_next)
         try:
-            released = episode.control_step(plan, knife_target, grasp_target)
+            released = episode.control_step(plan, knife_target, grasp_target, knife_s)
         except DivergenceError as exc:
             self._diverge(exc)
             return self._obs, -self.reward_params.divergence, True, False, self._info({})
@@ -265,7 +279,8 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         torn = torn_now / len(episode.scene.aponeurosis)
         terms = reward_terms(self.reward_params, before, self._reading, torn,
                              self._knife.progress - progress,
-                             policy_cutting=self._drives_knife and progress < 1.0)
+                             policy_cutting=self._drives_knife and progress < 1.0,
+                             clear_advance=self._cleared_fraction() - cleared)
         self._watch(terms)
         self._obs = self._observe()
         if self.success:
@@ -290,20 +305,35 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
             self.protective_stop = True
             terms["protective_stop"] = -self.reward_params.protective_stop
 
-    def _targets(self, action: np.ndarray, t_next: float) -> tuple[Pose, Pose]:
+    def _targets(self, action: np.ndarray, t_next: float) -> tuple[Pose, Pose, float]:
+        """The knife's and the grasp site's targets for the step to ``t_next``, and the plan's
+        time the knife is at."""
         plan = self.plan
         if self._drives_knife:
             knife_target, hits = self._knife.advance(action[:_KNIFE_DIMS], self._dt_s)
+            knife_s = self._knife.tau_s
             self.bounded_actions += hits
         else:
-            knife_target = plan.knife.sample(t_next)
-            self._knife.follow(t_next)
+            knife_s = self._knife_clock_s(t_next)
+            knife_target = plan.knife.sample(knife_s)
+            self._knife.follow(knife_s)
         if self._drives_pull:
             grasp_target, hits = self._pull.advance(action[-_PULL_DIMS:], self._dt_s)
             self.bounded_actions += hits
         else:
             grasp_target = plan.pull.sample(self._pull_clock_s(t_next))
-        return knife_target, grasp_target
+        return knife_target, grasp_target, knife_s
+
+    def _knife_clock_s(self, t_next: float) -> float:
+        """The plan's time the scripted knife is at: it cuts at ``knife_pace`` of the plan's
+        speed, then leaves the cut as planned."""
+        start, end = self.plan.cut_window_s
+        if self._knife_through_s is None:
+            knife_s = self._start_s + (t_next - self._start_s) * self._pace
+            if knife_s < end:
+                return max(knife_s, start)
+            self._knife_through_s = t_next
+        return end + t_next - self._knife_through_s
 
     def _pull_clock_s(self, t_next: float) -> float:
         """The plan's time the scripted pull follows: the policy's knife's while it cuts (a
@@ -358,11 +388,22 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
 
     @property
     def success(self) -> bool:
-        """The task's fraction released with no more than its fraction torn, the cell
-        running (no protective stop, no divergence)."""
+        """The task's fraction released with no more than its fraction torn, the shank its
+        clearing distance away, the cell running (no protective stop, no divergence)."""
         return (self._reading.released_fraction >= self.task.separated_fraction
                 and self.torn_fraction <= self.task.max_torn_fraction
+                and self.cleared_m >= self.task.clear_distance_m
                 and not self.protective_stop and not self.diverged)
+
+    def _cleared_fraction(self) -> float:
+        clear_m = self.task.clear_distance_m
+        return min(1.0, self.cleared_m / clear_m) if clear_m > 0 else 0.0
+
+    @property
+    def cleared_m(self) -> float:
+        """How far the grasp site is from where it held the shank when the policy took over,
+        m."""
+        return float(np.linalg.norm(self._reading.grasp_m - self._pull.origin_m))
 
     @property
     def elapsed_s(self) -> float:
@@ -373,17 +414,17 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def scripted_action(self) -> np.ndarray:
         """The action that replays the scripted episode's plan from here: the knife along its
-        path at the plan's speed, the grasp site toward the plan's next point. It reads the
-        plan, so it is a privileged baseline, not a policy of the observation."""
+        path at the plan's speed with no offset, the grasp site at the plan's next point, on
+        the plan's clock. It reads the plan, so it is a privileged baseline, not a policy of
+        the observation."""
         parts = []
         if self._drives_knife:
-            along = (self._knife.speed_m_s / self.limits.knife_along_speed_m_s
-                     if self._knife.progress < 1.0 else 0.0)
+            along = (2.0 * self._knife.speed_m_s / self.limits.knife_along_speed_m_s - 1.0
+                     if self._knife.progress < 1.0 else -1.0)
             parts.append([along, 0.0, 0.0, 0.0])
         if self._drives_pull:
             goal = self.plan.pull.sample(self.episode.sim.time_s + self._dt_s)[0]
-            velocity = (goal - self._pull.target()[0]) / self._dt_s
-            parts.append(velocity / self.limits.pull_speed_m_s)
+            parts.append(np.cbrt((goal - self._pull.origin_m) / self.limits.pull_max_distance_m))
         return np.clip(np.concatenate(parts), -1.0, 1.0).astype(np.float32)
 
     # -- rendering ------------------------------------------------------------------------
@@ -432,12 +473,20 @@ class CutEnv(MuscleSeparationEnv):
 
 
 class PullEnv(MuscleSeparationEnv):
-    """:class:`MuscleSeparationEnv` with the policy on the pull only; the knife is scripted.
+    """:class:`MuscleSeparationEnv` with the policy on the pull only; the knife is scripted:
+    its plan cuts ``PULL_KNIFE_CLEARANCE_M`` above the table (unless the options set
+    ``cut_table_clearance_m``) at the world's ``knife_pace`` of the plan's speed, so that the
+    pull must keep pace with the knife it sees, not with the plan's clock (``PULL_TASK``).
 
     Example:
         >>> env = PullEnv(cell_size_m=0.05)
     """
 
     def __init__(self, **kwargs: Any) -> None:
+        if isinstance(kwargs.get("task"), Mapping):
+            kwargs["task"] = updated(PULL_TASK, kwargs["task"], section="task")
+        kwargs.setdefault("task", PULL_TASK)
+        kwargs["options"] = {"cut_table_clearance_m": PULL_KNIFE_CLEARANCE_M,
+                             **(kwargs.get("options") or {})}
         super().__init__(driven="pull", **kwargs)
 

@@ -59,6 +59,35 @@ def test_out_of_range_actions_are_clipped_and_counted() -> None:
     assert env._knife.across_m == pytest.approx(-env.limits.knife_across_speed_m_s * 0.02)
 
 
+def test_knife_offsets_go_to_the_place_an_action_wants_at_the_speed_limit() -> None:
+    env = CutEnv(time_limit_s=1.0, randomize=False)
+    env.reset(seed=0)
+    limits = env.limits
+    for _ in range(40):  # 0.8 s at 20 mm/s: there by 15 mm, then held
+        env.step(np.array([0.5, 0.0, 0.5, 0.0], np.float32))
+    assert env._knife.depth_m == pytest.approx(0.5 * limits.knife_max_depth_m)
+    noise = np.random.default_rng(0).normal(0.0, 0.6, (50, 4)).astype(np.float32)
+    depths = []
+    for action in np.clip(noise + np.array([0.5, 0.0, 0.5, 0.0]), -1, 1):
+        env.step(action)
+        depths.append(env._knife.depth_m)
+    # Noise on a place averages out under the speed limit; on a speed it would random-walk.
+    assert np.abs(np.array(depths) - 0.5 * limits.knife_max_depth_m).max() < 0.004
+
+
+def test_a_pull_timed_by_the_plans_clock_tears_ahead_of_a_slow_knife() -> None:
+    progress = envs.OBSERVATION_NAMES.index("path_progress")
+    def pull_after_the_knife(obs: np.ndarray) -> np.ndarray:
+        done = obs[progress] >= 1.0
+        return np.array([0.0, 0.8, 0.8] if done else [0.0, 0.0, 0.0], np.float32)
+
+    slow = {"knife_pace": 0.6}
+    _, _, clock = _run(PullEnv(randomize=False, options=slow), "scripted")
+    _, _, pace = _run(PullEnv(randomize=False, options=slow), pull_after_the_knife)
+    assert not clock["success"] and clock["torn_fraction"] > envs.PULL_TASK.max_torn_fraction
+    assert pace["success"] and pace["torn_fraction"] < 0.5 * clock["torn_fraction"]
+
+
 def test_bad_reset_option_names_the_key() -> None:
     env = CutEnv(time_limit_s=1.0)
     with pytest.raises(InputError, match="stiffnes_n_m"):
@@ -103,6 +132,16 @@ def test_bad_option_values_are_refused_with_the_key() -> None:
         apply_options(Scenario(), {"binding_stiffness_n_m": -1.0})
     with pytest.raises(InputError, match="fibre_direction: expected 3 values"):
         apply_options(Scenario(), {"fibre_direction": [1.0, 0.0]})
+    with pytest.raises(InputError, match=r"knife_pace: must be in \(0, 1\]"):
+        apply_options(Scenario(), {"knife_pace": 1.5})
+
+
+def test_a_pull_must_take_the_shank_clear() -> None:
+    # Pull-v0's knife cuts down to the table: the bindings it releases are not the task.
+    terminated, _, still = _run(PullEnv(randomize=False), lambda _obs: np.zeros(
+        3, np.float32))
+    assert terminated and still["timed_out"] and not still["success"]
+    assert still["released_fraction"] >= envs.PULL_TASK.separated_fraction
 
 
 def test_divergence_ends_the_episode_with_a_finite_observation() -> None:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from cell.cli import main
-from cell.learning.baselines import PolicySpec, load_learned
+from cell.learning.baselines import PolicySpec, constant_grid, constant_pairs, load_learned
 from cell.learning.evaluate import EpisodeTask, episode_runner
 from cell.learning.table import MEAN_COLUMNS
 from envs.observation import OBSERVATION_NAMES
@@ -95,6 +95,23 @@ def test_the_evaluation_table_has_every_column_for_every_policy(run: Path, tmp_p
     assert [(row["policy"], row["seed"]) for row in episodes][:3] == [
         ("random", "100000"), ("random", "100001"), ("best-constant", "100000")]
     assert "| learned | 2 |" in (tmp_path / "evaluation.md").read_text()
+
+
+def test_the_best_constant_is_searched_on_one_axis_then_on_two(run: Path, tmp_path: Path
+                                                               ) -> None:
+    assert main(["evaluate", str(run), ENV_ID, "--episodes", "1", "--workers", "2",
+                 "--env-kwargs", json.dumps(ENV_KWARGS), "--constant-search-seeds", "1",
+                 "--out", str(tmp_path)]) == 0
+    search = json.loads((tmp_path / "evaluation.json").read_text())["best_constant"]
+    actions = [tuple(score["action"]) for score in search["scores"]]
+    single = constant_grid(4)
+    assert actions[:len(single)] == single
+    best_single = max(search["scores"][:len(single)],
+                      key=lambda score: (score["success_rate"], score["mean_return"]))
+    assert actions[len(single):] == [a for a in constant_pairs(tuple(best_single["action"]))
+                                     if a not in single]
+    assert search["chosen"] == max(search["scores"], key=lambda score: (
+        score["success_rate"], score["mean_return"]))
 
 
 def test_worker_processes_play_the_episodes_as_this_process_does() -> None:

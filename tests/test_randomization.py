@@ -15,6 +15,7 @@ from cell.sim.simulation import Simulation
 from cell.tissue.geometry import MuscleShape
 from envs import CutEnv, PullEnv, apply_options
 from envs.randomization import Distribution, Randomization, draw, load_randomization
+from envs.separation import PULL_KNIFE_CLEARANCE_M
 
 DEFAULT = load_randomization()
 
@@ -110,7 +111,9 @@ def test_the_env_applies_the_drawn_world() -> None:
     assert env.episode.scenario.tissue.length_m == 0.42
     assert info["world"]["force_scale"] == 1.0 and "round_width_m" in info["world"]["shape"]
     _, info = env.reset(seed=0, options={"randomize": False})
-    assert info["world"] == {} and env.episode.scenario.tissue.length_m == 0.45
+    # Pull-v0's own option stays: its knife's plan cuts down to the table.
+    assert info["world"] == {"cut_table_clearance_m": PULL_KNIFE_CLEARANCE_M}
+    assert env.episode.scenario.tissue.length_m == 0.45
 
 
 def test_a_sensor_bias_survives_the_tare() -> None:

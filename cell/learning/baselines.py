@@ -19,7 +19,7 @@ from envs.policies import scripted_policy
 #: The policies of an evaluation, in the table's order.
 POLICIES = ("random", "best-constant", "scripted", "learned")
 #: Levels of the constant grid along each action axis (the zero action is in it too).
-CONSTANT_LEVELS = (0.5, 1.0)
+CONSTANT_LEVELS = (0.25, 0.5, 1.0)
 POLICY_FILE = "policy.zip"
 NORMALIZE_FILE = "vecnormalize.pkl"
 
@@ -53,6 +53,28 @@ def constant_grid(dims: int, levels: tuple[float, ...] = CONSTANT_LEVELS
                 action[axis] = sign * level
                 grid.append(tuple(action))
     return grid
+
+
+def constant_pairs(best: tuple[float, ...], levels: tuple[float, ...] = CONSTANT_LEVELS
+                   ) -> list[tuple[float, ...]]:
+    """The second round of the constant search: ``best`` with each of its zero axes set to
+    plus and minus each of ``levels`` (a task may need two axes at once, such as a knife's
+    speed and its depth).
+
+    Example:
+        >>> constant_pairs((1.0, 0.0), levels=(0.5,))
+        [(1.0, 0.5), (1.0, -0.5)]
+    """
+    pairs = []
+    for axis, value in enumerate(best):
+        if value != 0.0:
+            continue
+        for level in levels:
+            for sign in (1.0, -1.0):
+                action = list(best)
+                action[axis] = sign * level
+                pairs.append(tuple(action))
+    return pairs
 
 
 def policy_folder(path: str | Path) -> Path:

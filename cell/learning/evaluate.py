@@ -33,6 +33,7 @@ from cell.learning.baselines import (
     POLICY_FILE,
     PolicySpec,
     constant_grid,
+    constant_pairs,
     make_policy,
     policy_folder,
 )
@@ -58,8 +59,9 @@ class EvaluationSettings:
             evaluation's seeds below :data:`TUNING_SEED_START`.
         workers: processes playing episodes (1: in this process).
         constant_search_seeds: episodes per constant action on the tuning seeds.
-        constant_actions: the constant actions to choose from (None:
-            :func:`~cell.learning.baselines.constant_grid` of the env's action size).
+        constant_actions: the constant actions to choose from (None: a search in two
+            rounds, :func:`~cell.learning.baselines.constant_grid` of the env's action size,
+            then :func:`~cell.learning.baselines.constant_pairs` of the first round's best).
 
     Example:
         >>> EvaluationSettings(episodes=2, workers=1).seed_start
@@ -193,9 +195,10 @@ def _choose_constant(grid: list[tuple[float, ...]], rows: list[dict[str, Any]]
 
 def evaluate(policy_path: str | Path, env_id: str, env_kwargs: dict[str, Any],
              settings: EvaluationSettings) -> dict[str, Any]:
-    """Tune the best constant action, then play every policy of :data:`POLICIES` on the
-    evaluation seeds; the report holds the table (:func:`~cell.learning.table.summarize` per
-    policy), the tuning and every episode's row (ordered by policy, then seed).
+    """Tune the best constant action (see :class:`EvaluationSettings`), then play every policy
+    of :data:`POLICIES` on the evaluation seeds; the report holds the table
+    (:func:`~cell.learning.table.summarize` per policy), the tuning and every episode's row
+    (ordered by policy, then seed).
 
     Raises:
         LearningError: no policy at ``policy_path``, a policy of another env, a constant
@@ -212,18 +215,32 @@ def evaluate(policy_path: str | Path, env_id: str, env_kwargs: dict[str, Any],
             raise LearningError(None, "--constant-actions", f"{list(action)}: need {dims} "
                                 f"values in [-1, 1]")
     kwargs_json = json.dumps(env_kwargs, sort_keys=True)
-    tuning = [EpisodeTask(env_id, kwargs_json, PolicySpec("constant", action), seed)
-              for action in grid for seed in settings.tuning_seeds]
+
+    def tuning(actions: list[tuple[float, ...]]) -> list[EpisodeTask]:
+        return [EpisodeTask(env_id, kwargs_json, PolicySpec("constant", action), seed)
+                for action in actions for seed in settings.tuning_seeds]
+
+    def scored(tasks: list[EpisodeTask], rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return [{**row, "action": task.policy.action}
+                for row, task in zip(rows, tasks, strict=True)]
+
+    first = tuning(grid)
     others = [EpisodeTask(env_id, kwargs_json, PolicySpec(name, folder=str(folder)), seed)
               for name in POLICIES if name != "best-constant" for seed in settings.seeds]
-    # Tuning and the policies that need no tuning share one pool, then the chosen constant.
+    # The first round and the policies that need no tuning share one pool, then the second
+    # round, then the chosen constant.
     with episode_runner(settings.workers) as run:
-        rows = run(tuning + others)
-        tuned = [{**row, "action": task.policy.action}
-                 for row, task in zip(rows[:len(tuning)], tuning, strict=True)]
+        rows = run(first + others)
+        tuned = scored(first, rows[:len(first)])
+        if settings.constant_actions is None:
+            best = tuple(_choose_constant(grid, tuned)["chosen"]["action"])
+            pairs = [a for a in constant_pairs(best) if a not in grid]
+            second = tuning(pairs)
+            tuned += scored(second, run(second))
+            grid += pairs
         constant = _choose_constant(grid, tuned)
         chosen = PolicySpec("best-constant", tuple(constant["chosen"]["action"]))
-        rows = rows[len(tuning):] + run(
+        rows = rows[len(first):] + run(
             [EpisodeTask(env_id, kwargs_json, chosen, seed) for seed in settings.seeds])
     rows.sort(key=lambda row: (POLICIES.index(row["policy"]), row["seed"]))
     return {"env_id": env_id, "env_kwargs": env_kwargs, "policy": str(folder),

@@ -286,10 +286,15 @@ class Episode:
     def control_step(self, plan: EpisodePlan,
                      knife_target: tuple[np.ndarray, np.ndarray] | None,
                      grasp_target: tuple[np.ndarray, np.ndarray] | None,
+                     knife_plan_s: float | None = None,
                      ) -> dict[ReleaseRule, np.ndarray]:
         """One control step: IK toward the tool targets (position m, rotation; None keeps the
         last target), the joint controls ramped over the physics steps, then the plan's
         timed events (sensor tares, closing the jaws, the grasp) and the release rules.
+        ``knife_plan_s`` is the plan's time the knife target is at (None: the step's own
+        time, for a knife on the plan's clock): whether the knife cuts, and how far into its
+        cutting-force curve, follow the knife, so that a knife slower or faster than its
+        plan cuts for as long as it is in its cut.
 
         Returns:
             The bindings released in this step, by rule.
@@ -326,10 +331,11 @@ class Episode:
         if scenario.pull.enabled and not self._grasped and t >= schedule.grasp_s:
             sim.grasp(self._jaw_half_m)
             self._grasped = True
-        cutting = plan.passes.pass_at(t) if scenario.cut.enabled else None
+        knife_s = t if knife_plan_s is None else knife_plan_s
+        cutting = plan.passes.pass_at(knife_s) if scenario.cut.enabled else None
         # The measured cutting force runs from each pass's start.
         return sim.apply_release_rules(
-            None if cutting is None else t - plan.passes.windows_s[cutting].start_s)
+            None if cutting is None else knife_s - plan.passes.windows_s[cutting].start_s)
 
     def perceive(self, rig: CameraRig) -> PerceivedPlan:
         """Look at the meat from the camera arm's pose and plan the cut (paper Sec. 5); the
