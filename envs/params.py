@@ -54,7 +54,9 @@ class RewardParams:
 
     (the second term is dense shaping: the bindings release a few at a time; the third counts
     the grasp site's distance from where it held the shank, as a fraction of the task's
-    ``clear_distance_m``, up to 1, where the task asks for one)
+    ``clear_distance_m``, up to 1, where the task asks for one, from the step the knife is
+    through: before it, moving the shank tears what the knife has not cut, and a PPO pull
+    paid for the distance then learned to pull early)
 
     where damage is ``contact_per_step`` for each step the blade touches muscle with no
     binding under it, plus ``off_interface_per_m`` times the blade tip's distance from the true

@@ -266,7 +266,8 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         clipped = np.clip(np.nan_to_num(raw, nan=0.0), -1.0, 1.0)
         self.clipped_actions += int(np.count_nonzero(clipped != raw))
         t_next = episode.sim.time_s + self._dt_s
-        progress, cleared = self._knife.progress, self._cleared_fraction()
+        progress = self._knife.progress
+        cleared = self._cleared_fraction() if progress >= 1.0 else None
         knife_target, grasp_target, knife_s = self._targets(clipped, t_next)
         try:
             released = episode.control_step(plan, knife_target, grasp_target, knife_s)
@@ -280,7 +281,8 @@ class MuscleSeparationEnv(gym.Env[np.ndarray, np.ndarray]):
         terms = reward_terms(self.reward_params, before, self._reading, torn,
                              self._knife.progress - progress,
                              policy_cutting=self._drives_knife and progress < 1.0,
-                             clear_advance=self._cleared_fraction() - cleared)
+                             clear_advance=0.0 if cleared is None
+                             else self._cleared_fraction() - cleared)
         self._watch(terms)
         self._obs = self._observe()
         if self.success:
