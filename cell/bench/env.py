@@ -21,8 +21,7 @@ import numpy as np
 
 from cell.tissue.geometry import MuscleShape
 
-#: Target for one env at the coarse resolution on one core, env steps per second (issue 11;
-#: MuJoCo's own step takes about 3 ms of an env step's 7, so it is not met yet).
+#: Target for one env at the coarse resolution on one core, env steps per second (issue 11).
 TARGET_STEPS_PER_S = 500.0
 
 
