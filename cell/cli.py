@@ -285,20 +285,24 @@ def _learn(args: argparse.Namespace) -> int:
     _require_learn_extra()
     from cell.learning import ppo
     from cell.learning.environments import resolve_env_id
-    from cell.learning.hyper import LearnSettings, PPOHyper, parse_json_object
+    from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, parse_json_object
 
     env_id = resolve_env_id(args.env)
     envs = args.envs if args.envs is not None else os.cpu_count() or 1
     if args.resume:
-        if args.env_kwargs is not None or args.hyper is not None:
-            raise LearningError(None, "--resume", "continues with the run's own env kwargs "
-                                "and hyper-parameters: drop --env-kwargs and --hyper")
+        if args.env_kwargs is not None or args.hyper is not None or args.warm_start:
+            raise LearningError(None, "--resume", "continues the run as it was set: drop "
+                                "--env-kwargs, --hyper and --warm-start")
         result = ppo.resume(args.out, env_id, args.steps, envs, args.minutes,
                             args.checkpoint_every)
     else:
+        if args.warm_start_anchor and not args.warm_start:
+            raise LearningError(None, "--warm-start-anchor", "needs --warm-start")
+        warm = (WarmStart(args.warm_start, episodes=args.warm_start_episodes,
+                          anchor_epochs=args.warm_start_anchor) if args.warm_start else None)
         settings = LearnSettings(env_id, parse_json_object(args.env_kwargs, "--env-kwargs"),
                                  args.seed, envs, args.steps, args.minutes,
-                                 args.checkpoint_every)
+                                 args.checkpoint_every, warm)
         hyper = PPOHyper().with_overrides(parse_json_object(args.hyper, "--hyper"))
         result = ppo.learn(settings, hyper, args.out)
     print(f"trained {result.steps} env steps in {result.wall_s:.1f} s (stopped by "
@@ -357,6 +361,14 @@ def _add_learning(commands: argparse._SubParsersAction) -> None:
                        '\'{"time_limit_s": 3.0}\'')
     learn.add_argument("--hyper", help='JSON overrides of the PPO hyper-parameters, e.g. '
                        '\'{"n_steps": 512}\'')
+    learn.add_argument("--warm-start", metavar="DEMONSTRATOR", help="clone this policy of "
+                       "the observation before PPO: table-skimming-knife (Cut-v0), "
+                       "hold-then-pull-away (Pull-v0)")
+    learn.add_argument("--warm-start-episodes", type=int, default=24,
+                       help="the demonstrator's episodes to clone (default 24)")
+    learn.add_argument("--warm-start-anchor", type=int, default=0, metavar="EPOCHS",
+                       help="after each PPO update, passes of the cloning loss over its "
+                       "rollout, holding PPO near the demonstrator (default 0: none)")
     learn.set_defaults(handler=_learn)
 
     evaluation = commands.add_parser(

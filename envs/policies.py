@@ -15,6 +15,7 @@ from envs.separation import MuscleSeparationEnv
 
 _TIP_HEIGHT = OBSERVATION_NAMES.index("tip_height_cm")
 _TIP_DEPTH = OBSERVATION_NAMES.index("tip_depth_cm")
+_PROGRESS = OBSERVATION_NAMES.index("path_progress")
 
 
 def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
@@ -56,6 +57,38 @@ class TableSkimmingKnife:
         depth = np.clip((path_height_m - self.height_m) / self.limits.knife_max_depth_m,
                         -1.0, 1.0)
         return np.array([1.0, 0.0, depth, 0.0], dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class HoldThenPullAway:
+    """A hand-written feedback policy of ``Pull-v0``'s observation: the shank held where it
+    was grasped while the knife cuts (its path progress below 1), since a pull ahead of the
+    knife tears what the blade has not reached, then taken away by the action ``away`` (cubed
+    times 0.2 m per axis: (0, 0.8, 0.8) is 10 cm across and 10 cm up).
+
+    Example:
+        >>> obs = np.zeros(len(OBSERVATION_NAMES), np.float32)
+        >>> HoldThenPullAway()(obs)  # the knife has not come through
+        array([0., 0., 0.], dtype=float32)
+        >>> obs[_PROGRESS] = 1.0
+        >>> HoldThenPullAway()(obs)
+        array([0. , 0.8, 0.8], dtype=float32)
+    """
+
+    away: tuple[float, float, float] = (0.0, 0.8, 0.8)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        if obs[_PROGRESS] < 0.999:  # float32 of the last step short of the end
+            return np.zeros(3, dtype=np.float32)
+        return np.array(self.away, dtype=np.float32)
+
+
+#: The hand-written feedback policies of the observation, by name: what a warm start of
+#: ``musclecell learn`` clones (each reads nothing but the observation).
+DEMONSTRATORS: dict[str, Callable[[], Callable[[np.ndarray], np.ndarray]]] = {
+    "table-skimming-knife": TableSkimmingKnife,
+    "hold-then-pull-away": HoldThenPullAway,
+}
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from cell.sim.scenario import Scenario
 from cell.tissue.geometry import MuscleShape
 from envs import CutEnv, MuscleSeparationEnv, PullEnv, RewardParams, apply_options
 from envs.observation import Reading
-from envs.policies import TableSkimmingKnife
+from envs.policies import HoldThenPullAway, TableSkimmingKnife
 from envs.reward import reward_terms
 
 IDS = ("musclecell/MuscleSeparation-v0", "musclecell/Cut-v0", "musclecell/Pull-v0")
@@ -76,14 +76,9 @@ def test_knife_offsets_go_to_the_place_an_action_wants_at_the_speed_limit() -> N
 
 
 def test_a_pull_timed_by_the_plans_clock_tears_ahead_of_a_slow_knife() -> None:
-    progress = envs.OBSERVATION_NAMES.index("path_progress")
-    def pull_after_the_knife(obs: np.ndarray) -> np.ndarray:
-        done = obs[progress] >= 1.0
-        return np.array([0.0, 0.8, 0.8] if done else [0.0, 0.0, 0.0], np.float32)
-
     slow = {"knife_pace": 0.6}
     _, _, clock = _run(PullEnv(randomize=False, options=slow), "scripted")
-    _, _, pace = _run(PullEnv(randomize=False, options=slow), pull_after_the_knife)
+    _, _, pace = _run(PullEnv(randomize=False, options=slow), HoldThenPullAway())
     assert not clock["success"] and clock["torn_fraction"] > envs.PULL_TASK.max_torn_fraction
     assert pace["success"] and pace["torn_fraction"] < 0.5 * clock["torn_fraction"]
 

@@ -11,9 +11,11 @@ import pytest
 
 from cell.cli import main
 from cell.learning.baselines import PolicySpec, constant_grid, constant_pairs, load_learned
+from cell.learning.environments import make_env
 from cell.learning.evaluate import EpisodeTask, episode_runner
 from cell.learning.table import MEAN_COLUMNS
 from envs.observation import OBSERVATION_NAMES
+from envs.policies import TableSkimmingKnife
 
 ENV_ID = "musclecell/Cut-v0"
 #: Short, coarse episodes: 10 control steps on a short muscle pair.
@@ -114,6 +116,74 @@ def test_the_best_constant_is_searched_on_one_axis_then_on_two(run: Path, tmp_pa
         score["success_rate"], score["mean_return"]))
 
 
+def test_a_warm_start_clones_the_demonstrator_before_ppo(run: Path, tmp_path: Path) -> None:
+    from stable_baselines3 import PPO
+
+    out = tmp_path / "warm"
+    hyper = {**HYPER, "log_std_init": -3.0, "learn_log_std": False}
+    assert main([*LEARN, "--steps", "16", "--out", str(out), "--seed", "5",
+                 "--env-kwargs", json.dumps(ENV_KWARGS), "--hyper", json.dumps(hyper),
+                 "--warm-start", "table-skimming-knife", "--warm-start-episodes", "3",
+                 "--warm-start-anchor", "1"]) == 0
+    warm_start = json.loads((out / "learn.json").read_text())["warm_start"]
+    assert warm_start["settings"]["anchor_epochs"] == 1
+    record = warm_start["result"]
+    assert record["demonstrator"] == "table-skimming-knife"
+    assert record["env_steps"] == 3 * 10 * (1 + record["rounds"])  # 10-step episodes
+    assert record["action_mse"] < 1e-3
+    # On the first demonstrated world (the training env's first seed), after one PPO update,
+    # the warm-started policy acts as the demonstrator does and a cold-started one does not.
+    env = make_env(ENV_ID, ENV_KWARGS)
+    obs, _ = env.reset(seed=5)
+    warm, cold, demonstrator = load_learned(str(out)), load_learned(str(run)), TableSkimmingKnife()
+    warm_errors, cold_errors = [], []
+    for _ in range(10):
+        wanted = demonstrator(obs)
+        warm_errors.append(np.abs(warm(obs) - wanted).mean())
+        cold_errors.append(np.abs(cold(obs) - wanted).mean())
+        obs, *_ = env.step(wanted)
+    assert np.mean(warm_errors) < 0.03 < 0.1 < np.mean(cold_errors)
+    # The action noise stayed where it was set.
+    log_std = PPO.load(out / "policy.zip", device="cpu").policy.log_std.detach().numpy()
+    np.testing.assert_array_equal(log_std, np.full(4, -3.0, np.float32))
+    # A resume keeps the warm start's record and its anchor.
+    assert main([*LEARN[:2], "--envs", "1", "--steps", "32", "--out", str(out),
+                 "--resume"]) == 0
+    assert json.loads((out / "learn.json").read_text())["warm_start"] == warm_start
+
+
+def test_the_anchor_fits_ppo_to_the_demonstrator_on_the_rollout_after_the_update() -> None:
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from cell.learning.hyper import WarmStart
+    from cell.learning.warmstart import DemonstratorAnchor
+
+    normalize = VecNormalize(DummyVecEnv([lambda: make_env(ENV_ID, ENV_KWARGS)]))
+    model = PPO("MlpPolicy", normalize, n_steps=10, batch_size=10, seed=0, device="cpu")
+    env, demonstrator = make_env(ENV_ID, ENV_KWARGS), TableSkimmingKnife()
+    observations = [env.reset(seed=5)[0]]
+    for _ in range(9):
+        observations.append(env.step(demonstrator(observations[-1]))[0])
+    raw = np.array(observations)
+    normalize.obs_rms.update(raw)
+    inputs = normalize.normalize_obs(raw)
+    wanted = np.stack([demonstrator(obs) for obs in raw])
+
+    def error() -> float:
+        return float(np.abs(model.predict(inputs, deterministic=True)[0] - wanted).mean())
+
+    anchor = DemonstratorAnchor(normalize, WarmStart("table-skimming-knife", anchor_epochs=100),
+                                seed=0)
+    anchor.init_callback(model)
+    model.rollout_buffer.observations[:] = inputs[:, None, :]
+    before = error()
+    anchor.on_rollout_end()  # the rollout's observations, kept
+    assert error() == before  # nothing moves before PPO's update
+    anchor.on_rollout_start()  # the next rollout, after the update: held
+    assert error() < 0.2 * before
+
+
 def test_worker_processes_play_the_episodes_as_this_process_does() -> None:
     tasks = [EpisodeTask(ENV_ID, json.dumps(ENV_KWARGS), PolicySpec("random"), seed)
              for seed in (100000, 100001)]
@@ -132,6 +202,14 @@ def test_worker_processes_play_the_episodes_as_this_process_does() -> None:
      "training seeds 99999..100000"),
     (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--hyper", '{"n_step": 8}'],
      "hyper.n_step: unknown"),
+    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--hyper",
+      '{"learn_log_std": 1}'], "hyper.learn_log_std: must be true or false"),
+    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--warm-start", "butcher"],
+     "--warm-start: unknown demonstrator 'butcher'"),
+    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--warm-start",
+      "table-skimming-knife", "--warm-start-episodes", "0"], "warm_start.episodes: must be >= 1"),
+    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--warm-start-anchor", "10"],
+     "--warm-start-anchor: needs --warm-start"),
     (["evaluate", "no/such/run", "Cut-v0"], "no/such/run/policy.zip: not found"),
     (["evaluate", "no/such/run", "Cut-v0", "--episodes", "0"], "--episodes: must be >= 1"),
 ])

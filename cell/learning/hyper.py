@@ -33,6 +33,9 @@ class PPOHyper:
         max_grad_norm: gradient norm clipping.
         log_std_init: initial log standard deviation of the Gaussian actions (in action
             units of the [-1, 1] box).
+        learn_log_std: whether PPO adapts that deviation (False keeps it: after a warm
+            start, a clone precise to a fraction of a millimetre is moved off by the noisy
+            policy's own optimum when the noise may grow).
         net_arch: hidden layer widths of the policy and value networks (separate, alike).
 
     Example:
@@ -50,6 +53,7 @@ class PPOHyper:
     clip_range: float = 0.2
     max_grad_norm: float = 0.5
     log_std_init: float = -0.5
+    learn_log_std: bool = True
     net_arch: tuple[int, ...] = (64, 64)
 
     def __post_init__(self) -> None:
@@ -67,6 +71,9 @@ class PPOHyper:
             if not 0 < getattr(self, name) <= 1:
                 raise LearningError(None, f"hyper.{name}", f"must be in (0, 1], got "
                                     f"{getattr(self, name)}")
+        if not isinstance(self.learn_log_std, bool):
+            raise LearningError(None, "hyper.learn_log_std", f"must be true or false, got "
+                                f"{self.learn_log_std!r}")
         if not self.ent_coef >= 0:
             raise LearningError(None, "hyper.ent_coef", f"must be >= 0, got {self.ent_coef}")
         if not self.net_arch or any(int(width) < 1 for width in self.net_arch):
@@ -94,8 +101,52 @@ class PPOHyper:
         values = asdict(self)
         arch = list(values.pop("net_arch"))
         log_std_init = values.pop("log_std_init")
+        values.pop("learn_log_std")  # applied to the built policy (:func:`ppo._train`)
         return {**values, "policy_kwargs": {"net_arch": {"pi": arch, "vf": arch},
                                             "log_std_init": log_std_init}}
+
+
+@dataclass(frozen=True)
+class WarmStart:
+    """Behaviour cloning before PPO (see :mod:`cell.learning.warmstart`): ``episodes`` of the
+    demonstrator ``demonstrator`` (a name of :data:`envs.policies.DEMONSTRATORS`) played in
+    the training envs, each fit ``epochs`` passes of Adam (``learning_rate``, ``batch_size``)
+    over the actor's squared action error plus ``value_weight`` times the critic's, then
+    ``rounds`` of ``episodes`` played by the clone, labelled by the demonstrator and refitted
+    with all before.
+
+    Example:
+        >>> WarmStart("table-skimming-knife").episodes
+        24
+    """
+
+    demonstrator: str
+    episodes: int = 24
+    epochs: int = 100
+    rounds: int = 2
+    anchor_epochs: int = 0
+    learning_rate: float = 1e-3
+    batch_size: int = 256
+    value_weight: float = 0.5
+
+    def __post_init__(self) -> None:
+        from envs.policies import DEMONSTRATORS
+
+        if self.demonstrator not in DEMONSTRATORS:
+            raise LearningError(None, "--warm-start", f"unknown demonstrator "
+                                f"{self.demonstrator!r}; known: {', '.join(DEMONSTRATORS)}")
+        for name in ("rounds", "anchor_epochs"):
+            if not getattr(self, name) >= 0:
+                raise LearningError(None, f"warm_start.{name}", f"must be >= 0, got "
+                                    f"{getattr(self, name)}")
+        for name in ("episodes", "epochs", "batch_size"):
+            if not getattr(self, name) >= 1:
+                raise LearningError(None, f"warm_start.{name}", f"must be >= 1, got "
+                                    f"{getattr(self, name)}")
+        for name in ("learning_rate", "value_weight"):
+            if not getattr(self, name) > 0:
+                raise LearningError(None, f"warm_start.{name}", f"must be > 0, got "
+                                    f"{getattr(self, name)}")
 
 
 @dataclass(frozen=True)
@@ -111,6 +162,9 @@ class LearnSettings:
         steps: env steps of the whole run, those before a resume included.
         minutes: wall-clock budget of this invocation, min (None: no limit).
         checkpoint_every: env steps between checkpoints (at the end of a rollout).
+        warm_start: behaviour cloning of a demonstrator before PPO (None: PPO from a random
+            network); its env steps are not counted in ``steps``, its time is in
+            ``minutes``.
 
     Example:
         >>> LearnSettings("musclecell/Cut-v0", {}, seed=0, envs=2, steps=1000).seed
@@ -124,6 +178,7 @@ class LearnSettings:
     steps: int
     minutes: float | None = None
     checkpoint_every: int = 50_000
+    warm_start: WarmStart | None = None
 
     def __post_init__(self) -> None:
         if not self.envs >= 1:

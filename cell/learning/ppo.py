@@ -3,8 +3,8 @@ one and a wall-clock limit.
 
 A run's folder holds, at the end: ``policy.zip`` (the model), ``vecnormalize.pkl`` (the
 observation and reward statistics of ``VecNormalize``, which the policy's inputs need),
-``learn.json`` (env, kwargs, seeds, steps, wall time, hyper-parameters), ``progress.csv``
-(PPO's values per update), ``episodes.csv`` (one row per training episode),
+``learn.json`` (env, kwargs, seeds, steps, wall time, hyper-parameters, the warm start),
+``progress.csv`` (PPO's values per update), ``episodes.csv`` (one row per training episode),
 ``learning_curve.png`` and ``checkpoints/steps_NNNNNNNNN/`` (model, statistics, state). This
 module imports Stable-Baselines3 and torch: the command line imports it when it trains.
 """
@@ -22,7 +22,7 @@ from typing import Any
 
 import torch
 from stable_baselines3 import PPO
-from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.logger import HumanOutputFormat, Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
@@ -30,7 +30,7 @@ from cell.errors import LearningError
 from cell.io import write_atomic, write_json
 from cell.learning.baselines import NORMALIZE_FILE, POLICY_FILE
 from cell.learning.environments import make_training_envs
-from cell.learning.hyper import LearnSettings, PPOHyper, check_training_seeds
+from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, check_training_seeds
 from cell.learning.logs import EpisodeLog, ProgressCsv
 
 STATE_FILE = "state.json"
@@ -103,6 +103,10 @@ class _Run:
         self.deadline = self.started + (float("inf") if minutes is None else 60.0 * minutes)
         self.episodes = EpisodeLog(out / "episodes.csv")
         self.normalize: VecNormalize | None = None
+        # The warm start's settings and what it did; a resume keeps the anchor it set.
+        self.warm_start = (None if previous is None else previous.get("warm_start")) or (
+            None if settings.warm_start is None
+            else {"settings": asdict(settings.warm_start), "result": None})
 
     def state(self, model: PPO) -> dict[str, Any]:
         """The run's description and progress, as the checkpoints and learn.json hold it."""
@@ -112,7 +116,7 @@ class _Run:
                 "next_seed": self.first_seed + self.settings.envs,
                 "wall_s": self.wall_before_s + time.monotonic() - self.started,
                 "checkpoint_every": self.settings.checkpoint_every,
-                "hyper": asdict(self.hyper)}
+                "hyper": asdict(self.hyper), "warm_start": self.warm_start}
 
     def checkpoint(self, model: PPO) -> Path:
         """Save a checkpoint and rewrite the logs and the learning curve."""
@@ -168,15 +172,21 @@ def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
             run.normalize = VecNormalize(venv, gamma=run.hyper.gamma)
             model = PPO("MlpPolicy", run.normalize, seed=run.first_seed, device="cpu",
                         **run.hyper.sb3_kwargs())
+            if settings.warm_start is not None:
+                from cell.learning.warmstart import warm_start
+
+                run.warm_start["result"] = warm_start(model, run.normalize,
+                                                      settings.warm_start, run.first_seed)
         else:
             run.normalize = VecNormalize.load(str(checkpoint / NORMALIZE_FILE), venv)
             model = PPO.load(checkpoint / POLICY_FILE, env=run.normalize, device="cpu")
             model.set_random_seed(run.first_seed)  # env i's first reset: first_seed + i
+        model.policy.log_std.requires_grad_(run.hyper.learn_log_std)
         model.set_logger(Logger(None, [HumanOutputFormat(sys.stdout),
                                        ProgressCsv(run.out / "progress.csv")]))
         remaining = settings.steps - model.num_timesteps
         if remaining > 0:
-            model.learn(remaining, callback=_Progress(run), reset_num_timesteps=False)
+            model.learn(remaining, callback=_callbacks(run), reset_num_timesteps=False)
         run.checkpoint(model)
         state = run.state(model)
         stopped_by = "steps" if state["steps"] >= settings.steps else "minutes"
@@ -186,6 +196,18 @@ def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
     finally:
         venv.close()
     return LearnResult(run.out, state["steps"], state["wall_s"], stopped_by)
+
+
+def _callbacks(run: _Run) -> CallbackList:
+    """The run's progress and, after a warm start with an anchor, the anchor."""
+    callbacks: list[BaseCallback] = [_Progress(run)]
+    if run.warm_start is not None:
+        from cell.learning.warmstart import DemonstratorAnchor
+
+        warm = WarmStart(**run.warm_start["settings"])
+        if warm.anchor_epochs:
+            callbacks.append(DemonstratorAnchor(run.normalize, warm, run.first_seed))
+    return CallbackList(callbacks)
 
 
 def _versions() -> dict[str, str]:
