@@ -9,8 +9,9 @@ One env step is one control step (20 ms: 4 physics steps of 5 ms, the implicit t
 Each single-env entry splits a step's wall time into physics (:meth:`Simulation.step`, MuJoCo
 and the tissue forces), IK (the three-arm mink solve) and the rest (release rules, sensing,
 observation, reward: Python overhead). Independent processes scale near the core count (1.87
-on this project's two cores); the vector env less (1.2-1.4), because each of its steps waits
-for the slowest env and for the pipes, and its main process takes a share of the cores.
+on this project's two cores); the vector env less (1.2-1.4), likely (not profiled) because
+each of its steps waits for the slower env and for the pipes, and its main process takes a
+share of the cores.
 """
 
 from __future__ import annotations
