@@ -78,7 +78,7 @@ class HoldThenPullAway:
     away: tuple[float, float, float] = (0.0, 0.8, 0.8)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        if obs[_PROGRESS] < 0.999:  # float32 of the last step short of the end
+        if obs[_PROGRESS] < 0.999:  # within 0.1 % of the path's end counts as through
             return np.zeros(3, dtype=np.float32)
         return np.array(self.away, dtype=np.float32)
 

@@ -11,8 +11,8 @@ run's wall clock. The actor's mean is fitted to the demonstrator's actions, then
 demonstrator's actions at the states the clone itself reaches (DAgger: a plain clone of the
 knife, off by a fraction of a millimetre, drove into the table on 6 of 10 tuning worlds), and
 the critic to the episodes' discounted, normalised returns, so that PPO's first updates start
-from a value estimate rather than from noise. The observation statistics stay those of the
-demonstrations from then on: the clone's inputs keep their meaning.
+from a value estimate rather than from noise. The observation and reward statistics stay those
+of the demonstrations from then on: the clone's inputs keep their meaning.
 """
 
 from __future__ import annotations
@@ -143,7 +143,8 @@ def warm_start(model: PPO, normalize: VecNormalize, warm: WarmStart, seed: int
         losses = clone(model, normalize, Demonstrations.merge(parts), warm,
                        seed + round_index + 1)
     # The clone is precise to a fraction of a millimetre in inputs normalised by these
-    # statistics; statistics drifting under PPO would move it off the demonstrator.
+    # statistics; statistics drifting under PPO would move it off the demonstrator. (The
+    # reward's scale, which the critic was fitted in, stays with them.)
     normalize.training = False
     return {"demonstrator": warm.demonstrator, "rounds": warm.rounds,
             "env_steps": sum(len(part.actions) for part in parts),
