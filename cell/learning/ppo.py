@@ -104,9 +104,11 @@ class _Run:
         self.episodes = EpisodeLog(out / "episodes.csv")
         self.normalize: VecNormalize | None = None
         # The warm start's settings and what it did; a resume keeps the anchor it set.
-        self.warm_start = (None if previous is None else previous.get("warm_start")) or (
-            None if settings.warm_start is None
-            else {"settings": asdict(settings.warm_start), "result": None})
+        self.warm_start: dict[str, Any] | None = None
+        if previous is not None:
+            self.warm_start = previous.get("warm_start")
+        elif settings.warm_start is not None:
+            self.warm_start = {"settings": asdict(settings.warm_start), "result": None}
 
     def state(self, model: PPO) -> dict[str, Any]:
         """The run's description and progress, as the checkpoints and learn.json hold it."""

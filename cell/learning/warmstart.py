@@ -24,6 +24,7 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.vec_env import VecNormalize
 
 from cell.learning.hyper import WarmStart
@@ -98,31 +99,41 @@ def _discounted(rewards: np.ndarray, gamma: float) -> np.ndarray:
     return returns
 
 
+def _fit(policy: ActorCriticPolicy, optimizer: torch.optim.Optimizer,
+         generator: torch.Generator, warm: WarmStart, epochs: int, inputs: torch.Tensor,
+         actions: torch.Tensor, returns: torch.Tensor | None = None) -> dict[str, float]:
+    """``epochs`` passes of ``optimizer`` over shuffled batches of the squared error of the
+    action mean to ``actions`` plus, given ``returns``, ``warm.value_weight`` times the
+    value's; returns the last pass's mean losses."""
+    for _ in range(epochs):
+        action_losses, value_losses = [], []
+        for batch in torch.randperm(len(actions), generator=generator).split(warm.batch_size):
+            mean = policy.get_distribution(inputs[batch]).distribution.mean
+            loss = action_loss = torch.mean((mean - actions[batch]) ** 2)
+            if returns is not None:
+                value = policy.predict_values(inputs[batch]).squeeze(-1)
+                value_loss = torch.mean((value - returns[batch]) ** 2)
+                loss = action_loss + warm.value_weight * value_loss
+                value_losses.append(value_loss.item())
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            action_losses.append(action_loss.item())
+    return {"action_mse": float(np.mean(action_losses)),
+            "value_mse": float(np.mean(value_losses)) if value_losses else float("nan")}
+
+
 def clone(model: PPO, normalize: VecNormalize, demonstrations: Demonstrations,
           warm: WarmStart, seed: int) -> dict[str, float]:
     """Fit ``model``'s action mean to the demonstrated actions and its value to their
     returns (mean squared errors, Adam); returns the last epoch's mean losses."""
     inputs = torch.as_tensor(normalize.normalize_obs(demonstrations.observations),
                              dtype=torch.float32)
-    actions = torch.as_tensor(demonstrations.actions, dtype=torch.float32)
-    returns = torch.as_tensor(demonstrations.returns, dtype=torch.float32)
-    policy = model.policy
-    optimizer = torch.optim.Adam(policy.parameters(), lr=warm.learning_rate)
-    generator = torch.Generator().manual_seed(seed)
-    for _ in range(warm.epochs):
-        action_losses, value_losses = [], []
-        for batch in torch.randperm(len(actions), generator=generator).split(warm.batch_size):
-            mean = policy.get_distribution(inputs[batch]).distribution.mean
-            value = policy.predict_values(inputs[batch]).squeeze(-1)
-            action_loss = torch.mean((mean - actions[batch]) ** 2)
-            value_loss = torch.mean((value - returns[batch]) ** 2)
-            optimizer.zero_grad()
-            (action_loss + warm.value_weight * value_loss).backward()
-            optimizer.step()
-            action_losses.append(action_loss.item())
-            value_losses.append(value_loss.item())
-    return {"action_mse": float(np.mean(action_losses)),
-            "value_mse": float(np.mean(value_losses))}
+    optimizer = torch.optim.Adam(model.policy.parameters(), lr=warm.learning_rate)
+    return _fit(model.policy, optimizer, torch.Generator().manual_seed(seed), warm,
+                warm.epochs, inputs,
+                torch.as_tensor(demonstrations.actions, dtype=torch.float32),
+                torch.as_tensor(demonstrations.returns, dtype=torch.float32))
 
 
 def warm_start(model: PPO, normalize: VecNormalize, warm: WarmStart, seed: int
@@ -199,11 +210,5 @@ class DemonstratorAnchor(BaseCallback):
         policy = self.model.policy
         if self.optimizer is None:
             self.optimizer = torch.optim.Adam(policy.parameters(), lr=self.warm.learning_rate)
-        for _ in range(self.warm.anchor_epochs):
-            for batch in torch.randperm(len(labels), generator=self.generator).split(
-                    self.warm.batch_size):
-                mean = policy.get_distribution(inputs[batch]).distribution.mean
-                loss = torch.mean((mean - labels[batch]) ** 2)
-                self.optimizer.zero_grad()
-                loss.backward()
-                self.optimizer.step()
+        _fit(policy, self.optimizer, self.generator, self.warm, self.warm.anchor_epochs,
+             inputs, labels)
