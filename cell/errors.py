@@ -5,6 +5,7 @@ All derive from :class:`MusclecellError`, so a caller can catch the family.
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 
@@ -33,6 +34,81 @@ class InputError(MusclecellError):
         return type(self), (self.file, self.field, self.message)
 
 
+class OutputError(InputError):
+    """An output path that cannot be written: a folder where a file goes (or a file where a
+    folder goes), a parent that is not a folder or not writable, the same file as an input.
+    Raised before any work, so that nothing is written. ``field`` is the option that named it.
+
+    Example:
+        >>> raise OutputError("scenarios/default.toml", "output", "is the scenario read")
+        Traceback (most recent call last):
+        cell.errors.OutputError: scenarios/default.toml, output: is the scenario read
+    """
+
+
+class FileReadError(InputError):
+    """An input file that cannot be read as text of its kind (:func:`cell.io.read_text`).
+
+    The reader raises the fault's own class combined with the error of what was being read
+    (:func:`file_read_error`): a scenario that is a folder is both a :class:`NotAFileError` and
+    a :class:`ScenarioError`.
+
+    Example:
+        >>> raise file_read_error(NotTextError, ScenarioError)("s.toml", None, "not UTF-8 text")
+        Traceback (most recent call last):
+        cell.errors.NotTextError: s.toml: not UTF-8 text
+    """
+
+    def __reduce__(self) -> tuple:
+        parts = getattr(type(self), "_parts", None)
+        if parts is None:
+            return super().__reduce__()
+        return _rebuilt_read_error, (*parts, self.file, self.field, self.message)
+
+
+class MissingFileError(FileReadError):
+    """No file at the path given."""
+
+
+class NotAFileError(FileReadError):
+    """A folder (or a device, a socket) where a file is expected."""
+
+
+class UnreadableFileError(FileReadError):
+    """A file the operating system does not let us read (permissions, an I/O error)."""
+
+
+class FileTooLargeError(FileReadError):
+    """A file larger than any real input of its kind (limits in :mod:`cell.io`)."""
+
+
+class NotTextError(FileReadError):
+    """A file that is not UTF-8 text (a binary file, another encoding) where text is
+    expected."""
+
+
+@functools.cache
+def file_read_error(fault: type[FileReadError], reading: type[InputError]
+                    ) -> type[FileReadError]:
+    """``fault`` that is also ``reading`` (the error of what was being read), so that a caller
+    catching either catches it. One class per pair.
+
+    Example:
+        >>> issubclass(file_read_error(MissingFileError, SweepError), SweepError)
+        True
+    """
+    if issubclass(fault, reading):
+        return fault
+    return type(fault.__name__, (fault, reading),
+                {"__module__": __name__, "__doc__": fault.__doc__, "_parts": (fault, reading)})
+
+
+def _rebuilt_read_error(fault: type[FileReadError], reading: type[InputError], file: str | None,
+                        field: str | None, message: str) -> FileReadError:
+    """The error :func:`file_read_error` made, rebuilt after crossing a process boundary."""
+    return file_read_error(fault, reading)(file, field, message)
+
+
 class ScenarioError(InputError):
     """A scenario TOML file with a wrong key, type or value."""
 
@@ -49,6 +125,28 @@ class MeasurementError(InputError):
     """A measurement set, or a request for one, with a wrong value (an unknown effect, no seed)."""
 
 
+class CutTestError(MeasurementError):
+    """A set's cut tests, or its ``[block]`` and ``[blade]`` tables, with a missing or wrong
+    value: no ``[block]`` or ``[blade]`` where the set holds cuts, a missing column of the cut
+    rows, time that does not increase within a cut test.
+
+    Example:
+        >>> raise CutTestError("set/specimen.toml", "blade", "missing table: the set holds cuts")
+        Traceback (most recent call last):
+        cell.errors.CutTestError: set/specimen.toml, blade: missing table: the set holds cuts
+    """
+
+
+class DirectionError(CutTestError):
+    """A direction of the block or the blade that is not a unit vector, or a blade normal that
+    is not perpendicular to the blade's edge."""
+
+
+class EdgeInsideBlockError(CutTestError):
+    """A cut test whose first sample puts the blade's edge inside the block: a cut starts with
+    the edge outside the block or on its surface."""
+
+
 class DiagnosisError(InputError):
     """Diagnosis settings out of range, or a cause the catalogue does not have."""
 
@@ -61,6 +159,26 @@ class LearningError(InputError):
     """A training or evaluation request that cannot run: an unknown env, a bad
     hyper-parameter, a seed in the evaluation range, no policy or checkpoint where one is
     named."""
+
+
+class PickledPolicyError(LearningError):
+    """A learned policy saved in an earlier release's pickled format (``policy.zip``,
+    ``vecnormalize.pkl``): loading it would run whatever code its pickles hold, so it is
+    refused; ``musclecell convert-policy RUN --trust-pickle`` converts a run you trust.
+
+    Example:
+        >>> raise PickledPolicyError("out/cut")
+        Traceback (most recent call last):
+        cell.errors.PickledPolicyError: out/cut: a policy in the pickled format of earlier ...
+    """
+
+    def __init__(self, file: str | Path | None, field: str | None = None,
+                 message: str | None = None) -> None:
+        super().__init__(file, field, message or (
+            "a policy in the pickled format of earlier releases (policy.zip, "
+            "vecnormalize.pkl), which is refused: loading it would run any code its pickles "
+            "hold. If you trust where it came from, convert it once to the numbers-and-JSON "
+            f"format: musclecell convert-policy {file} --trust-pickle"))
 
 
 class SweepError(InputError):
@@ -130,3 +248,58 @@ class PerceptionError(MusclecellError):
 
 class ControlError(MusclecellError):
     """An IK target that cannot be reached or a controller used out of order."""
+
+
+class NotFiniteResultError(DivergenceError):
+    """A result about to be written holds NaN or infinity: the computation that made it
+    diverged, and its output is not data, so nothing is written (exit code 3, as a diverged
+    simulation).
+
+    Attributes:
+        path: the file that was to be written.
+        key: where in it the first non-finite value is (``baseline.rmse_n``, ``rows[3].gain``).
+
+    Example:
+        >>> raise NotFiniteResultError("out/d.json", "gain", "nan")
+        Traceback (most recent call last):
+        cell.errors.NotFiniteResultError: out/d.json, gain: nan is not a finite number;
+        nothing written
+    """
+
+    def __init__(self, path: str | Path, key: str, value: str) -> None:
+        self.path, self.key, self.value = str(path), key, value
+        self.time_s = float("nan")
+        self.reason = f"{key} is {value}"
+        MusclecellError.__init__(self, f"{path}, {key}: {value} is not a finite number; "
+                                 "nothing written")
+
+    def __reduce__(self) -> tuple:
+        return type(self), (self.path, self.key, self.value)
+
+
+class Stopped(KeyboardInterrupt):
+    """The process was asked to stop by a signal (SIGTERM; SIGINT stays a plain
+    :class:`KeyboardInterrupt`). Raised from the signal handler the command line installs, so
+    that every ``finally`` and ``except BaseException`` on the way out removes its temporary
+    files, as it does for Ctrl-C.
+
+    Attributes:
+        signal_number: the signal received; the command exits with 128 plus it.
+
+    Example:
+        >>> import signal
+        >>> Stopped(signal.SIGTERM).exit_code
+        143
+    """
+
+    def __init__(self, signal_number: int) -> None:
+        self.signal_number = int(signal_number)
+        super().__init__(f"stopped by signal {self.signal_number}")
+
+    @property
+    def exit_code(self) -> int:
+        """The shell's convention for a process ended by a signal: 128 + its number."""
+        return 128 + self.signal_number
+
+    def __reduce__(self) -> tuple:
+        return type(self), (self.signal_number,)

@@ -2,7 +2,7 @@
 
 A process that builds and drops many MuJoCo models (each env reset builds a fresh cell) leaves
 glibc's heap holding the freed model and data buffers: the resident set grows over hundreds of
-resets though nothing leaks (``scripts/soak_env.py``: +23 % from reset 100 to 1000). Trimming
+resets though nothing leaks (``scripts/soak_env.py`` shows it). Trimming
 the heap when a cell is dropped keeps it flat.
 """
 
@@ -29,8 +29,8 @@ def _malloc_trim() -> Callable[[int], int] | None:
 def return_freed_memory() -> bool:
     """Ask the C allocator to give its free heap pages back; False where the C library cannot.
 
-    Cheap (microseconds when little is free). No ``gc.collect`` here: it costs about 0.1 s
-    with a cell in memory, and objects that only a cycle holds are freed by the collector's
+    Cheap when little is free. No ``gc.collect`` here: it costs far more than the trim with a
+    cell in memory, and objects that only a cycle holds are freed by the collector's
     own runs and handed back at the next call.
 
     Example:

@@ -42,7 +42,7 @@ class CutPlan:
     enabled: bool = True
     speed_m_s: float = 0.03
     depth_m: float | None = None
-    table_clearance_m: float = 0.015
+    table_clearance_m: float = 0.0025
     approach_height_m: float = 0.06
     lead_in_m: float = 0.04
     lead_out_m: float = 0.04
@@ -197,8 +197,8 @@ class PassPlan:
         >>> path = np.array([[-0.2, 0.0, 0.65], [0.0, 0.0, 0.66], [0.2, 0.0, 0.65]])
         >>> passes = plan_passes(path, CutPlan(passes=2), 0.6, 0.0, path[0] + [0, 0, 0.1],
         ...                      np.eye(3))
-        >>> [round(d, 4) for d in passes.depths_m], len(passes.looks_s)  # to 0.615 m at last
-        ([0.0225, 0.045], 1)
+        >>> [round(d, 4) for d in passes.depths_m], len(passes.looks_s)  # to 0.6025 m at last
+        ([0.0287, 0.0575], 1)
         >>> passes.windows_s[0].end_s < passes.looks_s[0] < passes.windows_s[1].start_s
         True
     """

@@ -2,30 +2,24 @@
 from the knife's lateral load while it cuts.
 
 The camera's top view does not show how the interface leans (the knife tip's error at depth
-is about 40 mm times the lean's error), but the flesh does: it pushes the blade back towards
-the interface. Measured on the default shape at full resolution, the load across the cut
-was +5.6 N with the tip 6.7 mm to one side of the interface and -1.3 N with it 7.2 mm to the
-other: the pulled muscle's side gives less, and mid-cut, under the pull, hardly anything
-(tuning seed 1062, lean 0.199: 0.5 to 0.9 N with the tip 5.8 mm on that side, 0.45 to 1.1 N
-on the interface of the default shape). The steering low-passes that load and integrates
-what lies beyond a dead band around the load it holds (a little above the on-interface one,
-so that a blade on the side that feels little drifts back) into a change of the lean, a load
-towards the pulled side counting ``pulled_side_gain`` times: the target at depth ``d`` below
-the guideline moves across the cut by ``-lean_change * d``. The load across can read as the
-pulled side's where the blade runs in the other muscle (tuning seed 9004: -0.4 to -1.3 N with
-the tip 5 mm into it), and the pulled side's weight then drives the tip deeper, to the lean's
-bound; but that muscle lifts the blade (1.4 to 4.7 N with the tip 3 to 16 mm into it, under
-0.4 N on the interface or on the pulled side; seeds 1062, 1438, 9004), so above
-``in_flesh_lift_n`` of lift the correction moves the tip towards the pulled side only. It
-learns only where the load tells the lean: the tip deeper than ``min_depth_m`` and in the
-middle of the cut, away from the meat's ends (where the load on a blade on the interface runs
-from -1.7 N at the entry to +2.4 N at the exit).
+is the depth times the lean's error), but the flesh does: it pushes the blade back towards
+the interface. The pulled muscle's side gives less than the other, and mid-cut, under the
+pull, hardly anything. The steering low-passes that load and integrates what lies beyond a
+dead band around the load it holds (a little above the on-interface one, so that a blade on
+the side that feels little drifts back) into a change of the lean, a load towards the pulled
+side counting ``pulled_side_gain`` times: the target at depth ``d`` below the guideline moves
+across the cut by ``-lean_change * d``. The load across can read as the pulled side's where
+the blade runs in the other muscle, and the pulled side's weight then drives the tip deeper,
+to the lean's bound; but that muscle lifts the blade, much more than the interface or the
+pulled side do, so above ``in_flesh_lift_n`` of lift the correction moves the tip towards the
+pulled side only. It learns only where the load tells the lean: the tip deeper than
+``min_depth_m`` and in the middle of the cut, away from the meat's ends (where the load on a
+blade on the interface swings from one side at the entry to the other at the exit).
 
-Chosen on tuning shapes (seeds 1016-1112 of lean 0.19-0.2, 1023-1082 of lean 0.005-0.018,
-1200-1447): on the six of lean about 0.2 the tip's mean distance to the interface went from
-2.9-3.9 mm to 1.0-2.5 mm and the torn fraction from 0.15-0.21 to 0.05-0.14; the default
-shape's from 0.34 to 0.72 mm. The pulled side's weight also rectifies a noisy load: where
-the tissue tears in jerks (tuning seed 1438, -3.8 to +4.5 N) the lean drifts to its bound.
+The settings were chosen on tuning shapes, steep and nearly upright interfaces, for the tip's
+distance to the interface and the torn fraction (docs/benchmarks.md gives the loads measured
+and the effect). The pulled side's weight also rectifies a noisy load: where the tissue tears
+in jerks the lean drifts to its bound.
 
 Example (the load pushing the blade 2 N towards +y, as when the tip runs on the -y side):
     >>> guideline = np.array([[-0.2, 0.0, 0.66], [0.2, 0.0, 0.66]])
@@ -57,26 +51,24 @@ class SteeringParams:
         enabled: steer by the load; false keeps the planned lean.
         gain_per_n_s: lean change per second per newton of load beyond the dead band.
         on_interface_load_n: the load across the cut the steering holds, N: a little more
-            than a blade on the interface feels mid-cut (0.45 to 1.1 N on the default shape),
-            so that a blade on the pulled muscle's side, which barely feels it there (0.5 to
-            0.9 N at 5.8 mm on that side, tuning seed 1062), drifts back to where the other
-            side pushes.
+            than a blade on the interface feels mid-cut on the default shape, so that a blade
+            on the pulled muscle's side, which barely feels more there, drifts back to where
+            the other side pushes.
         dead_band_n: loads within this of it change nothing, N.
         filter_s: time constant of the load's low-pass filter, s.
         min_depth_m: the tip's least depth below the guideline for the load to count, m.
         middle_fraction: the part of the guideline's length, about its middle, where the
             load counts.
-        max_lean_change: the largest change of the lean (|dy/dz|) either way.
+        max_lean_change: the largest change of the lean (``|dy/dz|``) either way.
         pulled_side_gain: a load beyond the dead band away from the pulled side (the tip on
             that side) counts this many times: that side pushes back about a fifth as hard
             per millimetre.
         in_flesh_lift_n: an upward load on the blade above this (filtered, N) says the tip
             runs in the muscle that is not pulled, whatever the load across says: the
             correction then moves it towards the pulled side only, by what the lift exceeds
-            this. Measured: 1.4 to 4.7 N with the tip 3 to 16 mm into that muscle, under
-            0.4 N on the interface and with the tip on the pulled side (tuning seeds 1062,
-            1438, 9004), where a load across of -0.4 to -3 N had turned the pulled side's
-            weight the wrong way and the lean ran to its bound.
+            this: the lift of a tip in that muscle is several times that of a tip on the
+            interface or on the pulled side, and there a load across the wrong way had turned
+            the pulled side's weight against the interface and run the lean to its bound.
 
     Example:
         >>> SteeringParams(gain_per_n_s=0.02).dead_band_n

@@ -82,8 +82,8 @@ class CartesianTrajectory:
         self.arrivals_s = np.array(arrivals)
         self.departures_s = np.array(departures)
         self.positions_m = np.array(positions)
-        # Sampled at every control step: scipy's Slerp costs about 0.1 ms a call, so the
-        # knots' quaternions and each segment's rotation vector are kept for _slerp_matrix.
+        # Sampled at every control step, where scipy's Slerp objects are dear: the knots'
+        # quaternions and each segment's rotation vector are kept for _slerp_matrix.
         knots = Rotation.from_matrix(np.array(rotations))
         self._quats = knots[:-1].as_quat(scalar_first=True)
         self._turns = (knots[:-1].inv() * knots[1:]).as_rotvec()

@@ -1,54 +1,41 @@
 """Gymnasium envs of the muscle separation cell, registered on import under ``musclecell/``:
 
-- ``musclecell/MuscleSeparation-v0``: the policy drives the knife and the pull,
-- ``musclecell/Cut-v0``: the knife only (the pull follows the scripted plan),
-- ``musclecell/Pull-v0``: the pull only (the knife follows the scripted plan, down to the
-  table, at a pace of its own).
+- ``musclecell/MuscleSeparation-v1``: the policy drives the knife and the pull
+  (:class:`envs.separation.MuscleSeparationEnv`),
+- ``musclecell/Cut-v1``: the knife only, the pull follows the scripted plan
+  (:class:`envs.tasks.CutEnv`),
+- ``musclecell/Pull-v1``: the pull only, the knife follows the scripted plan, down to the
+  table, at a pace of its own (:class:`envs.tasks.PullEnv`).
 
-Keyword arguments of ``gymnasium.make`` go to :class:`MuscleSeparationEnv`.
+Each class's docstring is its manual. Keyword arguments of ``gymnasium.make`` go to the
+class. The ``-v0`` ids of the previous release make the same envs with a warning
+(:mod:`envs.registration`).
 
 Example:
     >>> import gymnasium, envs
-    >>> env = gymnasium.make("musclecell/Cut-v0", cell_size_m=0.05)
+    >>> env = gymnasium.make("musclecell/Cut-v1", cell_size_m=0.05)
 """
 
-from gymnasium.envs.registration import register, registry
-
 from envs.observation import OBSERVATION_NAMES
-from envs.options import OPTION_KEYS, apply_options
+from envs.options import OPTION_KEYS, RENAMED_OPTIONS, apply_options
 from envs.params import ActionLimits, RewardParams, TaskParams
 from envs.randomization import Randomization, draw, load_randomization
-from envs.separation import (
-    COARSE_CELL_SIZE_M,
-    CUT_TASK,
-    PULL_TASK,
-    CutEnv,
-    MuscleSeparationEnv,
-    PullEnv,
-)
-
-_ENTRY_POINTS = {
-    "musclecell/MuscleSeparation-v0": "envs.separation:MuscleSeparationEnv",
-    "musclecell/Cut-v0": "envs.separation:CutEnv",
-    "musclecell/Pull-v0": "envs.separation:PullEnv",
-}
-
-
-def register_envs() -> None:
-    """Register the three envs with Gymnasium (once; importing :mod:`envs` does it)."""
-    for env_id, entry_point in _ENTRY_POINTS.items():
-        if env_id not in registry:
-            register(id=env_id, entry_point=entry_point, disable_env_checker=False)
-
+from envs.registration import DEPRECATED_IDS, ENV_IDS, register_envs
+from envs.separation import MuscleSeparationEnv
+from envs.settings import COARSE_CELL_SIZE_M, CUT_TASK, PULL_TASK, task_scenario
+from envs.tasks import CutEnv, PullEnv
 
 register_envs()
 
 __all__ = [
     "COARSE_CELL_SIZE_M",
     "CUT_TASK",
+    "DEPRECATED_IDS",
+    "ENV_IDS",
     "OBSERVATION_NAMES",
     "OPTION_KEYS",
     "PULL_TASK",
+    "RENAMED_OPTIONS",
     "ActionLimits",
     "CutEnv",
     "MuscleSeparationEnv",
@@ -60,4 +47,5 @@ __all__ = [
     "draw",
     "load_randomization",
     "register_envs",
+    "task_scenario",
 ]

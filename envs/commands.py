@@ -3,9 +3,9 @@ the path and the grasp site's displacement as places that the target moves to at
 limit.
 
 Offsets are places, not velocities, because a policy learns by the noise on its actions: a
-velocity's noise integrates into a random walk, so PPO exploring the depth by speed never
-found the table 6-20 mm down (0 successes in 300 000 steps), whereas a place's noise
-averages out under the speed limit (about 1 mm either side of the mean's place)."""
+velocity's noise integrates into a random walk, so PPO exploring the depth by speed does not
+find the table below the path (the design notes say how it failed), whereas a place's noise
+averages out under the speed limit."""
 
 from __future__ import annotations
 
@@ -47,7 +47,8 @@ class KnifeCommand:
     which the target's offsets move to at the limits' speeds.
 
     Args:
-        trajectory: the planned knife trajectory (:attr:`cell.sim.episode.EpisodePlan.knife`).
+        trajectory: the planned knife trajectory (``knife`` of
+            :class:`cell.sim.episode.EpisodePlan`).
         window_s: its cutting window, s.
         speed_m_s: the plan's cutting speed.
         limits: speeds and bounds.
@@ -55,7 +56,7 @@ class KnifeCommand:
     Example:
         >>> from cell.sim.episode import Episode
         >>> from cell.sim.scenario import Scenario
-        >>> from cell.tissue.geometry import MuscleShape
+        >>> from cell.tissue.shape import MuscleShape
         >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
         >>> plan = episode.plan()
         >>> command = KnifeCommand(plan.knife, plan.cut_window_s, 0.03, ActionLimits())

@@ -15,13 +15,14 @@ Needs the ``dm`` extra (``pip install 'musclecell[dm]'``).
 
 Example:
     >>> from envs.dm import make
-    >>> env = make("Cut-v0", seed=0, cell_size_m=0.05)
+    >>> env = make("Cut-v1", seed=0, cell_size_m=0.05)
     >>> env.action_spec().shape, env.observation_spec().name
     ((4,), 'observation')
 """
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -29,16 +30,20 @@ import numpy as np
 from cell.errors import InputError
 from cell.extras import optional
 from envs.observation import OBSERVATION_BOUND, OBSERVATION_NAMES
-from envs.separation import CutEnv, MuscleSeparationEnv, PullEnv
+from envs.registration import DEPRECATED_IDS
+from envs.separation import MuscleSeparationEnv
+from envs.tasks import CutEnv, PullEnv
 
 dm_env = optional("dm_env", "dm", "envs.dm (the DeepMind environment API)")
 specs = dm_env.specs
+#: The Gymnasium ids' namespace, which the task names here leave out.
+NAMESPACE = "musclecell"
 
 #: The tasks by their Gymnasium ids (without the ``musclecell/`` namespace).
 TASKS: dict[str, type[MuscleSeparationEnv]] = {
-    "MuscleSeparation-v0": MuscleSeparationEnv,
-    "Cut-v0": CutEnv,
-    "Pull-v0": PullEnv,
+    "MuscleSeparation-v1": MuscleSeparationEnv,
+    "Cut-v1": CutEnv,
+    "Pull-v1": PullEnv,
 }
 
 
@@ -99,12 +104,19 @@ class SeparationEnvironment(dm_env.Environment):
 
 
 def make(name: str, /, seed: int | None = None, **kwargs: Any) -> SeparationEnvironment:
-    """The ``dm_env`` environment of the task ``name`` (a key of :data:`TASKS`); ``kwargs``
-    go to the Gymnasium env as ``gymnasium.make``'s do (``task=`` among them).
+    """The ``dm_env`` environment of the task ``name`` (a key of :data:`TASKS`, or its ``-v0``
+    name of the previous release, which warns); ``kwargs`` go to the Gymnasium env as
+    ``gymnasium.make``'s do (``task=`` among them).
 
     Raises:
         InputError: an unknown task.
     """
+    old_id = f"{NAMESPACE}/{name}"
+    if old_id in DEPRECATED_IDS:
+        name = DEPRECATED_IDS[old_id].removeprefix(f"{NAMESPACE}/")
+        warnings.warn(f"{old_id.removeprefix(f'{NAMESPACE}/')} is deprecated and goes in the "
+                      f"next release: use {name}, the same task under its new version",
+                      FutureWarning, stacklevel=2)
     if name not in TASKS:
         raise InputError(None, "task", f"unknown task {name!r}; known: {', '.join(TASKS)}")
     return SeparationEnvironment(TASKS[name](**kwargs), seed=seed)

@@ -28,6 +28,8 @@ _CM = 100.0
 _FORCE_SCALE_N = 10.0
 _PULL_SCALE_M = 0.1
 
+#: The observation's entries by name, in order (units in the names, see the module docstring;
+#: the table with their meaning: :class:`envs.separation.MuscleSeparationEnv`).
 OBSERVATION_NAMES = (
     "tip_along_cm", "tip_across_cm", "tip_depth_cm", "tip_height_cm", "blade_yaw_rad",
     "path_progress",
@@ -110,7 +112,7 @@ class Sensing:
     Example:
         >>> from cell.sim.episode import Episode
         >>> from cell.sim.scenario import Scenario
-        >>> from cell.tissue.geometry import MuscleShape
+        >>> from cell.tissue.shape import MuscleShape
         >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
         >>> from envs.commands import KnifeCommand
         >>> from envs.params import ActionLimits

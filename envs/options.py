@@ -2,8 +2,8 @@
 
 Keys (every one optional; SI units):
 
-- ``shape``: a mapping of :class:`~cell.tissue.geometry.MuscleShape` fields but ``cell_size_m`` (the
-  resolution is the env's constructor argument),
+- ``tissue``: a mapping of :class:`~cell.tissue.shape.MuscleShape` fields (a scenario's
+  ``[tissue]`` table) but ``cell_size_m`` (the resolution is the env's constructor argument),
 - ``material``: a material object or the path of a material TOML file,
 - ``longitudinal_scale``, ``transverse_scale``: factors on a mass-spring material's modulus
   curves along and across the fibres (tension and compression), ``stiffening_scale`` a factor
@@ -12,30 +12,37 @@ Keys (every one optional; SI units):
 - ``fibre_direction``: the fibres' direction, world frame (a mass-spring material's), three
   numbers; ``fibre_yaw_rad`` turns it about the vertical, then ``fibre_pitch_rad`` tilts it
   up out of the table's plane,
-- ``binding_stiffness_n_m``, ``tearing_stretch_m``, ``tearing_force_n``: the aponeurosis'
-  stiffness and strength; ``force_scale``: a factor on the measured cutting-force curve,
+- ``aponeurosis_stiffness_n_m``, ``tearing_stretch_m``, ``tearing_force_n``: the aponeurosis'
+  stiffness and strength (``aponeurosis.stiffness_n_m``, ``.tearing_stretch_m``,
+  ``.tearing_force_n``); ``force_scale``: a factor on the measured cutting-force curve,
 - ``table_friction``, ``tissue_friction``: the contact friction coefficients of the table
   and of the muscles' surface (:class:`~cell.sim.scenario.SimulationParams`),
 - ``force_noise_n``, ``torque_noise_nm``: the force/torque sensors' noise; ``force_bias_n``,
   ``torque_bias_nm``: their bias, three numbers each,
-- ``camera_noise_at_1m_m``: the depth camera's noise at 1 m,
+- ``perception_noise_sigma_at_1m_m``: the depth camera's noise at 1 m
+  (``perception.noise_sigma_at_1m_m``),
 - ``grasp_x_offset``, ``grasp_inset_offset_m``: offsets added to the pull plan's grasp point
   (fraction of the shank's length, and m in from its outer side),
 - ``cut_speed_m_s``: the planned (and scripted) knife's speed; ``cut_table_clearance_m``: the
   planned cut's clearance above the table (:class:`~controllers.knife.CutPlan`), which a
   planner sets from the interface's depth it believes, so it differs from carcass to carcass.
-- ``knife_pace``: the speed a scripted knife (``Pull-v0``'s) cuts at, as a fraction of its
+- ``knife_pace``: the speed a scripted knife (``Pull-v1``'s) cuts at, as a fraction of its
   plan's, in (0, 1]: a knife that the meat slows, so the plan's clock runs ahead of it (the
   env reads it; the scenario keeps the plan's speed).
 
+An option that sets one scenario key has the key's name, with its section's name in front
+where the key alone would not say what it is (``aponeurosis_stiffness_n_m``,
+``cut_speed_m_s``). The previous release's names (:data:`RENAMED_OPTIONS`) still work for one
+release, with a ``FutureWarning`` naming the new one.
+
 Values are type-checked as a scenario file's are, and a bad one raises
 :class:`~cell.errors.InputError` naming the key. Of several layers of options the last that
-holds a key gives its value (a shape merges field by field), so a factor or an offset applies
+holds a key gives its value (the tissue merges field by field), so a factor or an offset applies
 once.
 
 Example:
     >>> from cell.sim.scenario import Scenario
-    >>> scenario = apply_options(Scenario(), {"shape": {"length_m": 0.4}, "force_noise_n": 0.1})
+    >>> scenario = apply_options(Scenario(), {"tissue": {"length_m": 0.4}, "force_noise_n": 0.1})
     >>> scenario.tissue.length_m, scenario.sensors.force_noise_n
     (0.4, 0.1)
     >>> apply_options(Scenario(), {"grasp_x_offset": 0.1}, {"grasp_x_offset": -0.1}
@@ -49,6 +56,7 @@ Example:
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -64,11 +72,11 @@ from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
 from cell.tissue.materialfile import load_material
 
 
-def _shape(scenario: Scenario, value: Any) -> Scenario:
+def _tissue(scenario: Scenario, value: Any) -> Scenario:
     if isinstance(value, Mapping) and "cell_size_m" in value:
-        raise InputError(None, "shape.cell_size_m",
-                         "not a shape option: the resolution is the env's cell_size_m argument")
-    return replace(scenario, tissue=updated(scenario.tissue, value, section="shape"))
+        raise InputError(None, "tissue.cell_size_m",
+                         "not a tissue option: the resolution is the env's cell_size_m argument")
+    return replace(scenario, tissue=updated(scenario.tissue, value, section="tissue"))
 
 
 def _material(scenario: Scenario, value: Any) -> Scenario:
@@ -188,7 +196,7 @@ def _check_pace(scenario: Scenario, value: Any) -> Scenario:
 # Applied in this order, so that factors, a fibre direction and its turns act on the material
 # given beside them.
 _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
-    "shape": _shape,
+    "tissue": _tissue,
     "material": _material,
     "longitudinal_scale": _scale_moduli("longitudinal_scale"),
     "transverse_scale": _scale_moduli("transverse_scale"),
@@ -196,7 +204,8 @@ _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
     "fibre_direction": _fibre_direction,
     "fibre_yaw_rad": _turn_fibres("fibre_yaw_rad"),
     "fibre_pitch_rad": _turn_fibres("fibre_pitch_rad"),
-    "binding_stiffness_n_m": _field("aponeurosis", "stiffness_n_m", "binding_stiffness_n_m"),
+    "aponeurosis_stiffness_n_m": _field("aponeurosis", "stiffness_n_m",
+                                        "aponeurosis_stiffness_n_m"),
     "tearing_stretch_m": _field("aponeurosis", "tearing_stretch_m", "tearing_stretch_m"),
     "tearing_force_n": _field("aponeurosis", "tearing_force_n", "tearing_force_n"),
     "force_scale": _field("aponeurosis", "force_scale", "force_scale"),
@@ -206,7 +215,8 @@ _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
     "torque_noise_nm": _field("sensors", "torque_noise_nm", "torque_noise_nm"),
     "force_bias_n": _field("sensors", "force_bias_n", "force_bias_n"),
     "torque_bias_nm": _field("sensors", "torque_bias_nm", "torque_bias_nm"),
-    "camera_noise_at_1m_m": _field("perception", "noise_sigma_at_1m_m", "camera_noise_at_1m_m"),
+    "perception_noise_sigma_at_1m_m": _field("perception", "noise_sigma_at_1m_m",
+                                             "perception_noise_sigma_at_1m_m"),
     "grasp_x_offset": _offset("pull", "grasp_x_fraction", "grasp_x_offset"),
     "grasp_inset_offset_m": _offset("pull", "grasp_inset_m", "grasp_inset_offset_m"),
     "cut_speed_m_s": _field("cut", "speed_m_s", "cut_speed_m_s"),
@@ -215,22 +225,51 @@ _OPTIONS: dict[str, Callable[[Scenario, Any], Scenario]] = {
 }
 #: Every key an env's options may hold.
 OPTION_KEYS = tuple(_OPTIONS)
+#: The previous release's option names and their new ones (the scenario keys' names): the old
+#: ones work, with a ``FutureWarning``, until the next release.
+RENAMED_OPTIONS = {"shape": "tissue", "binding_stiffness_n_m": "aponeurosis_stiffness_n_m",
+                   "camera_noise_at_1m_m": "perception_noise_sigma_at_1m_m"}
+
+
+def renamed(options: Mapping[str, Any], source: str | None = None) -> dict[str, Any]:
+    """``options`` with each old name of :data:`RENAMED_OPTIONS` replaced by its new one, a
+    ``FutureWarning`` for each (``source``, a file, is named in it).
+
+    Raises:
+        InputError: an option given under both its names.
+
+    Example:
+        >>> import pytest
+        >>> with pytest.warns(FutureWarning, match="use aponeurosis_stiffness_n_m"):
+        ...     renamed({"binding_stiffness_n_m": 40.0})
+        {'aponeurosis_stiffness_n_m': 40.0}
+    """
+    for old, new in RENAMED_OPTIONS.items():
+        if old not in options:
+            continue
+        if new in options:
+            raise InputError(source, old, f"given beside its new name {new}: give {new} alone")
+        where = f"{source}: " if source else ""
+        warnings.warn(f"{where}the env option {old} is renamed: use {new} (the old name goes "
+                      "in the next release)", FutureWarning, stacklevel=3)
+    # In the given order: a randomisation draws its keys in their order.
+    return {RENAMED_OPTIONS.get(key, key): value for key, value in options.items()}
 
 
 def merge_options(*layers: Mapping[str, Any]) -> dict[str, Any]:
-    """One set of options from ``layers``, later ones over earlier ones key by key (a shape
-    field by field).
+    """One set of options from ``layers``, later ones over earlier ones key by key (the tissue
+    field by field), old names renamed (:func:`renamed`).
 
     Example:
-        >>> merge_options({"shape": {"length_m": 0.4}, "force_noise_n": 0.1},
-        ...               {"shape": {"gap_m": 0.004}, "force_noise_n": 0.0})
-        {'shape': {'length_m': 0.4, 'gap_m': 0.004}, 'force_noise_n': 0.0}
+        >>> merge_options({"tissue": {"length_m": 0.4}, "force_noise_n": 0.1},
+        ...               {"tissue": {"gap_m": 0.004}, "force_noise_n": 0.0})
+        {'tissue': {'length_m': 0.4, 'gap_m': 0.004}, 'force_noise_n': 0.0}
     """
     merged: dict[str, Any] = {}
     for options in layers:
-        for key, value in options.items():
+        for key, value in renamed(options).items():
             before = merged.get(key)
-            if key == "shape" and isinstance(before, Mapping) and isinstance(value, Mapping):
+            if key == "tissue" and isinstance(before, Mapping) and isinstance(value, Mapping):
                 value = {**before, **value}
             merged[key] = value
     return merged

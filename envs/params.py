@@ -30,10 +30,10 @@ class ActionLimits:
     knife_across_speed_m_s: float = 0.01
     knife_depth_speed_m_s: float = 0.02
     knife_yaw_rate_rad_s: float = 0.5
-    # The knife's offsets are corrections of a perceived path, whose error is 1-3 mm (README,
-    # "The cut against the true interface"): 4 mm across and 0.1 rad of yaw (5 mm at the
+    # The knife's offsets are corrections of a perceived path, whose error is millimetres (the
+    # perception page of the docs): 4 mm across and 0.1 rad of yaw (5 mm at the
     # blade's back) cover them, and wider ones only let a policy's exploration plough the
-    # muscles sideways (a PPO knife with 10 mm and 0.35 rad tore a quarter of the bindings).
+    # muscles sideways (design notes: a PPO knife with wider bounds tore the bindings).
     knife_max_across_m: float = 0.004
     knife_max_depth_m: float = 0.03
     knife_max_yaw_rad: float = 0.1
@@ -62,7 +62,7 @@ class RewardParams:
     binding under it, plus ``off_interface_per_m`` times the blade tip's distance from the true
     interface beyond ``interface_tolerance_m`` while it touches muscle; force is
     ``force_per_n`` times the knife force (N) above ``knife_force_limit_n`` plus the pull force
-    above ``pull_force_limit_n`` (80 % of :class:`TaskParams`' stops: a cut's 9 to 19 N stays
+    above ``pull_force_limit_n`` (80 % of :class:`TaskParams`' stops: a cut's force stays
     clear of them, as it must for a policy to learn that cutting pays), at most
     ``force_cap_per_step`` (a blade jammed on the table would otherwise outweigh everything
     else); uncut_depth is ``uncut_depth_per_m`` times the policy's blade tip's height above
@@ -118,7 +118,7 @@ class TaskParams:
     when more than ``max_torn_fraction`` have torn (it can no longer succeed), on a protective
     stop (the knife's force/torque sensor reads more than ``knife_stop_force_n`` or the
     gripper's more than ``pull_stop_force_n``, as a real cell's force limits stop the arms:
-    a blade driven into the table reads hundreds of newtons, a cut 9 to 19 N) or when the
+    a blade driven into the table reads far more than a cut does) or when the
     simulation diverges. At the time limit it fails too (``cycle_time_fails``: the cell's
     cycle time is part of the task, and the observation carries the time, so a policy cannot
     wait out a cut it has not finished), or, with ``cycle_time_fails=False``, is truncated

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import gymnasium as gym
 import numpy as np
 
 from envs.observation import OBSERVATION_NAMES
 from envs.params import ActionLimits
+from envs.registration import DEPRECATED_IDS
 from envs.separation import MuscleSeparationEnv
 
 _TIP_HEIGHT = OBSERVATION_NAMES.index("tip_height_cm")
@@ -36,11 +38,11 @@ def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
 
 @dataclass(frozen=True)
 class TableSkimmingKnife:
-    """A hand-written feedback policy of ``Cut-v0``'s observation: the knife at full speed
+    """A hand-written feedback policy of ``Cut-v1``'s observation: the knife at full speed
     along its path, its tip ``height_m`` above the table (the lowest bindings hold until the
-    tip is within about 3 mm of it; the table stops the cell below about 0.5 mm): the depth
-    wanted below the path is the path's height over the table (the tip's height plus its
-    depth below the path) less ``height_m``.
+    tip is within the aponeurosis' knife margin of it, and a blade pressed on the table trips
+    the protective stop): the depth wanted below the path is the path's height over the table
+    (the tip's height plus its depth below the path) less ``height_m``.
 
     Example:
         >>> obs = np.zeros(len(OBSERVATION_NAMES), np.float32)
@@ -49,6 +51,8 @@ class TableSkimmingKnife:
         array([1. , 0. , 0.5, 0. ], dtype=float32)
     """
 
+    #: The envs whose observation and action this policy is written for.
+    fits: ClassVar[tuple[str, ...]] = ("musclecell/Cut-v1",)
     height_m: float = 0.002
     limits: ActionLimits = field(default_factory=ActionLimits)
 
@@ -61,7 +65,7 @@ class TableSkimmingKnife:
 
 @dataclass(frozen=True)
 class HoldThenPullAway:
-    """A hand-written feedback policy of ``Pull-v0``'s observation: the shank held where it
+    """A hand-written feedback policy of ``Pull-v1``'s observation: the shank held where it
     was grasped while the knife cuts (its path progress below 1), since a pull ahead of the
     knife tears what the blade has not reached, then taken away by the action ``away`` (cubed
     times 0.2 m per axis: (0, 0.8, 0.8) is 10 cm across and 10 cm up).
@@ -75,6 +79,8 @@ class HoldThenPullAway:
         array([0. , 0.8, 0.8], dtype=float32)
     """
 
+    #: The envs whose observation and action this policy is written for.
+    fits: ClassVar[tuple[str, ...]] = ("musclecell/Pull-v1",)
     away: tuple[float, float, float] = (0.0, 0.8, 0.8)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
@@ -84,11 +90,27 @@ class HoldThenPullAway:
 
 
 #: The hand-written feedback policies of the observation, by name: what a warm start of
-#: ``musclecell learn`` clones (each reads nothing but the observation).
-DEMONSTRATORS: dict[str, Callable[[], Callable[[np.ndarray], np.ndarray]]] = {
+#: ``musclecell learn`` clones and ``musclecell evaluate`` plays beside the learned policy
+#: (each reads nothing but the observation, and its class attribute ``fits`` names the env
+#: ids it is written for).
+DEMONSTRATORS: dict[str, type[TableSkimmingKnife] | type[HoldThenPullAway]] = {
     "table-skimming-knife": TableSkimmingKnife,
     "hold-then-pull-away": HoldThenPullAway,
 }
+
+
+def demonstrators_for(env_id: str) -> list[str]:
+    """The names of the :data:`DEMONSTRATORS` that fit ``env_id`` (a deprecated id counts as
+    the id that replaces it), in the dict's order.
+
+    Example:
+        >>> demonstrators_for("musclecell/Pull-v1")
+        ['hold-then-pull-away']
+        >>> demonstrators_for("musclecell/MuscleSeparation-v1")
+        []
+    """
+    current = DEPRECATED_IDS.get(env_id, env_id)
+    return [name for name, policy in DEMONSTRATORS.items() if current in policy.fits]
 
 
 @dataclass(frozen=True)

@@ -3,12 +3,15 @@ as a distribution the envs draw their reset options from.
 
 A randomisation file (TOML; the package's default is ``assets/randomization/default.toml``)
 holds one table per varied option of :mod:`envs.options` (the muscle shape's fields under
-``[shape.<field>]``), each a :class:`Distribution` in the option's own SI units::
+``[tissue.<field>]``), each a :class:`Distribution` in the option's own SI units::
 
-    [binding_stiffness_n_m]
+    [aponeurosis_stiffness_n_m]
     kind = "uniform"
     low = 35.0
     high = 65.0
+
+The previous release's option names (:data:`envs.options.RENAMED_OPTIONS`, ``[shape.*]``
+among them) still load, with a ``FutureWarning`` naming the file and the new name.
 
 Every range is checked where it is loaded: its bounds (all corners of the shape's ranges
 together; a choice's smallest and largest values) must make a valid scenario, so a draw holds
@@ -20,8 +23,10 @@ Example:
     >>> import numpy as np
     >>> randomization = load_randomization()
     >>> world = draw(randomization, np.random.default_rng(0))
-    >>> 35.0 <= world["binding_stiffness_n_m"] <= 65.0, 0.40 <= world["shape"]["length_m"] <= 0.50
-    (True, True)
+    >>> 35.0 <= world["aponeurosis_stiffness_n_m"] <= 65.0
+    True
+    >>> 0.40 <= world["tissue"]["length_m"] <= 0.50
+    True
 """
 
 from __future__ import annotations
@@ -37,13 +42,13 @@ from cell.assets import asset_path
 from cell.config import from_table, read_toml
 from cell.errors import InputError, RandomizationError
 from cell.sim.scenario import Scenario
-from cell.tissue.geometry import MuscleShape
-from envs.options import OPTION_KEYS, apply_options
+from cell.tissue.shape import MuscleShape
+from envs.options import OPTION_KEYS, apply_options, renamed
 
 #: The package's default distribution.
 DEFAULT_RANDOMIZATION = asset_path("randomization/default.toml")
-#: Options that are no single number and so are not drawn (a shape is drawn field by field).
-_NOT_DRAWN = ("shape", "material", "fibre_direction")
+#: Options that are no single number and so are not drawn (the tissue is drawn field by field).
+_NOT_DRAWN = ("tissue", "material", "fibre_direction")
 #: A scan's files are no number to draw either.
 _SHAPE_FIELDS = tuple(f.name for f in fields(MuscleShape)
                       if f.name not in ("cell_size_m", "surface_mesh"))
@@ -117,7 +122,7 @@ class Distribution:
 @dataclass(frozen=True)
 class Randomization:
     """A distribution over the envs' reset options: (dotted key, distribution) pairs, drawn
-    in this order; shape fields are keyed ``shape.<field>``. ``source`` names the file.
+    in this order; shape fields are keyed ``tissue.<field>``. ``source`` names the file.
 
     Example:
         >>> Randomization((("force_scale", Distribution("uniform", low=0.8, high=1.2)),)
@@ -144,19 +149,23 @@ def load_randomization(path: str | Path | None = None,
             range its option refuses; names the file and the dotted key.
     """
     path = Path(DEFAULT_RANDOMIZATION if path is None else path)
-    raw = read_toml(path, error=RandomizationError)
+    document = read_toml(path, error=RandomizationError)
+    try:
+        raw = renamed(document, str(path))
+    except InputError as exc:
+        raise RandomizationError(path, exc.field, exc.message) from None
     entries: list[tuple[str, Distribution]] = []
     for key, table in raw.items():
-        if key == "shape" and isinstance(table, dict):
+        if key == "tissue" and isinstance(table, dict):
             for name, sub in table.items():
                 if name not in _SHAPE_FIELDS:
-                    raise RandomizationError(path, f"shape.{name}", "unknown shape field "
+                    raise RandomizationError(path, f"tissue.{name}", "unknown shape field "
                                              f"(known: {', '.join(_SHAPE_FIELDS)})")
-                entries.append((f"shape.{name}", _distribution(path, f"shape.{name}", sub)))
+                entries.append((f"tissue.{name}", _distribution(path, f"tissue.{name}", sub)))
         elif key in OPTION_KEYS and key not in _NOT_DRAWN:
             entries.append((key, _distribution(path, key, table)))
         else:
-            known = ("shape", *(k for k in OPTION_KEYS if k not in _NOT_DRAWN))
+            known = ("tissue", *(k for k in OPTION_KEYS if k not in _NOT_DRAWN))
             raise RandomizationError(path, key, f"unknown key (known: {', '.join(known)})")
     randomization = Randomization(tuple(entries), str(path))
     check_ranges(randomization, Scenario() if scenario is None else scenario)
@@ -175,15 +184,15 @@ def check_ranges(randomization: Randomization, scenario: Scenario) -> None:
     ranges (its checks couple fields)."""
     shape_ranges: dict[str, tuple[float, float]] = {}
     for key, distribution in randomization.entries:
-        if key.startswith("shape."):
-            shape_ranges[key.removeprefix("shape.")] = distribution.bounds
+        if key.startswith("tissue."):
+            shape_ranges[key.removeprefix("tissue.")] = distribution.bounds
             continue
         for bound in distribution.bounds:
             value = bound if distribution.size == 1 else [bound] * distribution.size
             _check(randomization, scenario, key, {key: value})
     for corner in itertools.product(*shape_ranges.values()):
-        _check(randomization, scenario, "shape", {"shape": dict(zip(shape_ranges, corner,
-                                                                   strict=True))})
+        _check(randomization, scenario, "tissue", {"tissue": dict(zip(shape_ranges, corner,
+                                                                     strict=True))})
 
 
 def _check(randomization: Randomization, scenario: Scenario, key: str,
@@ -197,18 +206,18 @@ def _check(randomization: Randomization, scenario: Scenario, key: str,
 
 def draw(randomization: Randomization, rng: np.random.Generator) -> dict[str, Any]:
     """Reset options drawn from ``randomization`` (see :mod:`envs.options`): one value per
-    key, the shape's fields gathered under ``"shape"``. Pure: no scene is built.
+    key, the shape's fields gathered under ``"tissue"``. Pure: no scene is built.
 
     Example:
-        >>> r = Randomization((("shape.length_m", Distribution("choice", values=(0.4,))),))
+        >>> r = Randomization((("tissue.length_m", Distribution("choice", values=(0.4,))),))
         >>> draw(r, np.random.default_rng(1))
-        {'shape': {'length_m': 0.4}}
+        {'tissue': {'length_m': 0.4}}
     """
     options: dict[str, Any] = {}
     for key, distribution in randomization.entries:
         value = distribution.sample(rng)
-        if key.startswith("shape."):
-            options.setdefault("shape", {})[key.removeprefix("shape.")] = value
+        if key.startswith("tissue."):
+            options.setdefault("tissue", {})[key.removeprefix("tissue.")] = value
         else:
             options[key] = value
     return options

@@ -24,7 +24,7 @@ class CellRenderer:
     Example:
         >>> from cell.sim.episode import Episode
         >>> from cell.sim.scenario import Scenario
-        >>> from cell.tissue.geometry import MuscleShape
+        >>> from cell.tissue.shape import MuscleShape
         >>> episode = Episode(Scenario(tissue=MuscleShape(cell_size_m=0.05)))  # arms ready
         >>> renderer = CellRenderer(episode.sim.model, np.array([0.0, 0.0, 0.65]))
         >>> renderer.render(episode.sim.data).shape

@@ -7,9 +7,9 @@ import numpy as np
 
 from cell.rheology.acceptance import accepts
 from cell.rheology.causes import CandidateMaterial
-from cell.rheology.diagnosis import DiagnosisParams
 from cell.rheology.fitting import ModelFit
 from cell.rheology.measured import MechanicalTest
+from cell.rheology.settings import DiagnosisParams
 from cell.tissue.material import MassSpringMaterial
 
 _TIME = np.linspace(0.0, 10.0, 50)

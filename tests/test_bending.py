@@ -51,7 +51,8 @@ def _deflection_m(mesh: TetMesh, el_pa: float, implicit: bool = False) -> float:
           <contact contype="0" conaffinity="0"/><pin id="{" ".join(map(str, ends))}"/>
         </flexcomp></worldbody></mujoco>"""
     )
-    springs = MassSpringModel(model, ("cylinder",), material, implicit=implicit)
+    springs = MassSpringModel(model, ("cylinder",), material, implicit=implicit,
+                              law_refresh_steps=SimulationParams().control_substeps)
     # The sag is several radii: stretched and turned springs leave less margin than the
     # stable step at rest (0.9 of it diverged at El = 3 kPa, 0.7 held).
     model.opt.timestep = (SimulationParams().timestep_s if implicit

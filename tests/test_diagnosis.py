@@ -13,8 +13,9 @@ import pytest
 from cell.cli import main
 from cell.errors import DiagnosisError
 from cell.rheology.causes import CAUSES, UNEXPLAINED
-from cell.rheology.diagnosis import DiagnosisParams, diagnose
+from cell.rheology.diagnosis import diagnose
 from cell.rheology.measured import load_measurement_set, load_specimen
+from cell.rheology.settings import DiagnosisParams
 from cell.rheology.synthetic import write_hidden_effect_set
 from cell.sim.episode import Episode
 from cell.sim.scenario import load_scenario

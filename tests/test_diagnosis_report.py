@@ -6,9 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from cell.rheology.diagnosis import DiagnosisParams, diagnose
+from cell.rheology.diagnosis import diagnose
 from cell.rheology.measured import load_measurement_set
 from cell.rheology.report import write_report
+from cell.rheology.settings import DiagnosisParams
 from cell.rheology.synthetic import write_hidden_effect_set
 
 

@@ -11,7 +11,7 @@ from dm_env import test_utils
 
 from cell.errors import InputError
 from envs.dm import make
-from envs.separation import CutEnv
+from envs.tasks import CutEnv
 
 # Episodes of five steps, so that dm_env's longer action sequence crosses an episode's end.
 QUICK = {"cell_size_m": 0.05, "time_limit_s": 0.1}
@@ -21,7 +21,7 @@ class CutEnvironmentConforms(test_utils.EnvironmentTestMixin, absltest.TestCase)
     """dm_env's contract: specs, FIRST / MID / LAST, a reset after the last step."""
 
     def make_object_under_test(self) -> dm_env.Environment:
-        return make("Cut-v0", seed=11, **QUICK)
+        return make("Cut-v1", seed=11, **QUICK)
 
     def make_action_sequence(self):
         # The fifth step ends an episode, the sixth starts the next.
@@ -33,7 +33,7 @@ def test_the_dm_env_steps_as_the_gymnasium_env_for_the_same_seed_and_actions() -
     # The time limit as a truncation (not the cell's cycle time), whose discount is 1.
     kwargs = {"cell_size_m": 0.05, "time_limit_s": 0.2, "task": {"cycle_time_fails": False}}
     gym_env = CutEnv(**kwargs)
-    dm = make("Cut-v0", seed=12, **kwargs)
+    dm = make("Cut-v1", seed=12, **kwargs)
     actions = np.random.default_rng(13).uniform(-1.0, 1.0, (10, 4)).astype(np.float32)
     observation, _ = gym_env.reset(seed=12)
     first = dm.reset()
@@ -61,7 +61,7 @@ def test_the_dm_env_steps_as_the_gymnasium_env_for_the_same_seed_and_actions() -
 
 
 def test_specs_match_the_gymnasium_spaces() -> None:
-    env = make("MuscleSeparation-v0", cell_size_m=0.05)
+    env = make("MuscleSeparation-v1", cell_size_m=0.05)
     box = env.gym_env.observation_space
     assert env.action_spec().shape == (7,)
     assert env.observation_spec().shape == box.shape

@@ -12,16 +12,16 @@ from gymnasium.utils.env_checker import check_env
 import envs
 from cell.errors import InputError
 from cell.sim.scenario import Scenario
-from cell.tissue.geometry import MuscleShape
+from cell.tissue.shape import MuscleShape
 from envs import CutEnv, MuscleSeparationEnv, PullEnv, RewardParams, apply_options
 from envs.observation import Reading
 from envs.policies import HoldThenPullAway, TableSkimmingKnife
 from envs.reward import reward_terms
 
-IDS = ("musclecell/MuscleSeparation-v0", "musclecell/Cut-v0", "musclecell/Pull-v0")
+IDS = ("musclecell/MuscleSeparation-v1", "musclecell/Cut-v1", "musclecell/Pull-v1")
 
 
-# Cut-v0's check: tests/test_randomization.py (with its drawn worlds).
+# Cut-v1's check: tests/test_randomization.py (with its drawn worlds).
 @pytest.mark.parametrize("env_class", [MuscleSeparationEnv, PullEnv])
 def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
     env = env_class(time_limit_s=1.0)
@@ -31,7 +31,7 @@ def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
 
 def test_make_after_import_and_render() -> None:
     assert all(env_id in gym.registry for env_id in IDS)
-    env = gym.make("musclecell/Cut-v0", render_mode="rgb_array", time_limit_s=0.5)
+    env = gym.make("musclecell/Cut-v1", render_mode="rgb_array", time_limit_s=0.5)
     env.reset(seed=1)
     frame = env.render()
     assert frame.shape == (240, 640, 3) and frame.dtype == np.uint8 and frame.any()
@@ -83,17 +83,26 @@ def test_a_pull_timed_by_the_plans_clock_tears_ahead_of_a_slow_knife() -> None:
     assert pace["success"] and pace["torn_fraction"] < 0.5 * clock["torn_fraction"]
 
 
+@pytest.mark.parametrize("action", [np.zeros(3), np.zeros((2, 4)), [0.0] * 7, "fast"])
+def test_a_wrongly_shaped_action_is_refused_by_name(action: object) -> None:
+    env = CutEnv(time_limit_s=1.0)
+    env.reset(seed=0)
+    with pytest.raises(InputError, match=r"action: expected"):
+        env.step(action)
+    env.step(np.zeros((1, 4)))  # a batch of one is the action
+
+
 def test_bad_reset_option_names_the_key() -> None:
     env = CutEnv(time_limit_s=1.0)
     with pytest.raises(InputError, match="stiffnes_n_m"):
         env.reset(seed=0, options={"stiffnes_n_m": 80.0})
-    with pytest.raises(InputError, match=r"shape\.cell_size_m"):
-        env.reset(seed=0, options={"shape": {"cell_size_m": 0.1}})
+    with pytest.raises(InputError, match=r"tissue\.cell_size_m"):
+        env.reset(seed=0, options={"tissue": {"cell_size_m": 0.1}})
 
 
 def test_reset_options_change_the_cell() -> None:
     env = PullEnv(time_limit_s=1.0, options={"force_noise_n": 0.0}, randomize=False)
-    env.reset(seed=0, options={"shape": {"length_m": 0.35}, "binding_stiffness_n_m": 80.0,
+    env.reset(seed=0, options={"tissue": {"length_m": 0.35}, "aponeurosis_stiffness_n_m": 80.0,
                                "fibre_direction": (0.0, 1.0, 0.0),
                                "material": "assets/materials/beef_default.toml"})
     scenario = env.episode.scenario
@@ -106,9 +115,9 @@ def test_reset_options_keep_the_constructors() -> None:
     # A reset's material keeps the constructor's fibre direction; a reset's shape its other
     # shape fields.
     scenario = apply_options(Scenario(), {"fibre_direction": (0.0, 1.0, 0.0),
-                                          "shape": {"length_m": 0.35}},
+                                          "tissue": {"length_m": 0.35}},
                              {"material": "assets/materials/beef_default.toml",
-                              "shape": {"gap_m": 0.004}})
+                              "tissue": {"gap_m": 0.004}})
     assert scenario.material.fibre_direction == (0.0, 1.0, 0.0)
     assert (scenario.tissue.length_m, scenario.tissue.gap_m) == (0.35, 0.004)
 
@@ -121,10 +130,10 @@ def test_constructor_keeps_the_scenarios_resolution() -> None:
 
 
 def test_bad_option_values_are_refused_with_the_key() -> None:
-    with pytest.raises(InputError, match=r"shape\.length_m: expected a number"):
-        apply_options(Scenario(), {"shape": {"length_m": "long"}})
-    with pytest.raises(InputError, match="binding_stiffness_n_m: must be > 0"):
-        apply_options(Scenario(), {"binding_stiffness_n_m": -1.0})
+    with pytest.raises(InputError, match=r"tissue\.length_m: expected a number"):
+        apply_options(Scenario(), {"tissue": {"length_m": "long"}})
+    with pytest.raises(InputError, match="aponeurosis_stiffness_n_m: must be > 0"):
+        apply_options(Scenario(), {"aponeurosis_stiffness_n_m": -1.0})
     with pytest.raises(InputError, match="fibre_direction: expected 3 values"):
         apply_options(Scenario(), {"fibre_direction": [1.0, 0.0]})
     with pytest.raises(InputError, match=r"knife_pace: must be in \(0, 1\]"):
@@ -132,7 +141,7 @@ def test_bad_option_values_are_refused_with_the_key() -> None:
 
 
 def test_a_pull_must_take_the_shank_clear() -> None:
-    # Pull-v0's knife cuts down to the table: the bindings it releases are not the task.
+    # Pull-v1's knife cuts down to the table: the bindings it releases are not the task.
     terminated, _, still = _run(PullEnv(randomize=False), lambda _obs: np.zeros(
         3, np.float32))
     assert terminated and still["timed_out"] and not still["success"]
@@ -186,7 +195,7 @@ def test_scripted_policy_separates_the_muscles(env_class: type[MuscleSeparationE
 
 def test_cut_needs_the_knife_down_to_the_lowest_bindings() -> None:
     # The plan's 15 mm above the table leaves the lowest bindings to the pull, which tears
-    # them: too many for Cut-v0. A knife that skims the table cuts them.
+    # them: too many for Cut-v1. A knife that skims the table cuts them.
     terminated, _, planned = _run(CutEnv(randomize=False), "scripted")
     assert terminated and not planned["success"]
     assert planned["torn_fraction"] > envs.CUT_TASK.max_torn_fraction
@@ -225,7 +234,7 @@ def test_random_policy_does_not_separate(env_class: type[MuscleSeparationEnv]) -
 
 @pytest.mark.parametrize("mode", ["sync", "async"])
 def test_make_vec_steps(mode: str) -> None:
-    vec = gym.make_vec("musclecell/Cut-v0", num_envs=2, vectorization_mode=mode,
+    vec = gym.make_vec("musclecell/Cut-v1", num_envs=2, vectorization_mode=mode,
                        time_limit_s=0.5)
     obs, _ = vec.reset(seed=3)
     assert obs.shape == (2, vec.single_observation_space.shape[0])
@@ -239,6 +248,6 @@ def test_parameters_come_as_objects_or_json_mappings() -> None:
     env = CutEnv(reward={"success": 2.0}, task={"knife_stop_force_n": 50.0})
     assert env.reward_params.success == 2.0 and env.reward_params.progress == 10.0
     assert env.task.knife_stop_force_n == 50.0
-    assert env.task.max_torn_fraction == envs.CUT_TASK.max_torn_fraction  # Cut-v0's own
+    assert env.task.max_torn_fraction == envs.CUT_TASK.max_torn_fraction  # Cut-v1's own
     with pytest.raises(InputError, match=r"reward\.sucess"):
         CutEnv(reward={"sucess": 2.0})

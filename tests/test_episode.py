@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from cell.cli import main
-from cell.perception.pipeline import PerceptionParams
+from cell.perception.params import PerceptionParams
 from cell.robots.names import KNIFE_BLADE_GEOM
 from cell.sim.episode import Episode
 from cell.sim.scenario import AponeurosisParams, Scenario, SensorParams, load_scenario

@@ -147,7 +147,8 @@ def test_each_effect_shows_in_the_data(tmp_path: Path, effect: str | None) -> No
      for i, effect in enumerate(EFFECTS) for k in range(3)])
 def test_diagnosis_names_the_hidden_effect(tmp_path: Path, effect: str | None,
                                            seed: int) -> None:
-    from cell.rheology.diagnosis import DiagnosisParams, diagnose
+    from cell.rheology.diagnosis import diagnose
+    from cell.rheology.settings import DiagnosisParams
 
     truth: HiddenEffect = write_hidden_effect_set(tmp_path, seed=seed, effect=effect)
     result = diagnose(load_measurement_set(tmp_path), DiagnosisParams())

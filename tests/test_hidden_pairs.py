@@ -16,8 +16,9 @@ import pytest
 
 from cell.bench.diagnose import PAIRS
 from cell.errors import MeasurementError
-from cell.rheology.diagnosis import DiagnosisParams, diagnose
+from cell.rheology.diagnosis import diagnose
 from cell.rheology.measured import load_measurement_set
+from cell.rheology.settings import DiagnosisParams
 from cell.rheology.synthetic import write_hidden_effect_set, write_relaxation_set
 
 DEFAULT_PAIRS = (

@@ -25,8 +25,9 @@ import json
 import numpy as np
 import springlaw
 from cell.tissue.material import MassSpringMaterial
+from cell.tissue.packedlaw import SpringLaw
 
-law = springlaw.SpringLaw.of(MassSpringMaterial.isotropic(3e4))
+law = SpringLaw.of(MassSpringMaterial.isotropic(3e4))
 stress, _, _ = springlaw.spring_stress(0.1, 1.0, law.curves, law.params, law.history(1), 0, 0.0,
                                     True)
 # One spring along x between a pinned vertex and a free one stretched by 10%.
@@ -61,7 +62,7 @@ def test_a_changed_law_reaches_every_cached_kernel(tmp_path: Path) -> None:
     assert before[1] == pytest.approx(before[0]) and before[2] > 0.0
     assert list((tmp_path / "cache").rglob("*.nbi")), "the kernels were not cached"
     source = module.read_text()
-    law = "    stress = modulus * elastic / (1.0 + params[_GEOMETRY] * x)\n"
+    law = "    stress = modulus * elastic / (1.0 + params[PARAM_GEOMETRY] * x)\n"
     assert law in source
     module.write_text(source.replace(law, law.replace("stress = ", "stress = 2.0 * ")))
     after = _run(tmp_path)

@@ -1,12 +1,13 @@
-"""The house: every package imports only the layers below it, modules and functions stay small,
-the diagnosis side runs without MuJoCo, and the package ships every sub-package."""
+"""The house: every package imports only the layers below it, no module imports itself back
+through others, modules and functions stay small, the diagnosis side runs without MuJoCo, and
+the package ships every sub-package."""
 
 import subprocess
 import sys
 import tomllib
 from pathlib import Path
 
-from tests.layout_rules import import_violations, size_violations
+from tests.layout_rules import import_cycles, import_violations, size_violations
 from tests.paths import PROJECT_ROOT
 
 
@@ -35,6 +36,41 @@ def test_an_upward_import_is_caught(tmp_path: Path) -> None:
         "cell.sim.episode.Episode",
         "controllers/knife.py:1: controllers.knife (controllers) imports envs",
         "controllers/knife.py:2: the library imports tests.paths",
+    ]
+
+
+def test_no_import_circle() -> None:
+    assert [str(v) for v in import_cycles(PROJECT_ROOT)] == []
+
+
+def test_an_import_circle_is_caught(tmp_path: Path) -> None:
+    """Circles hidden in a function or under ``TYPE_CHECKING`` count, inside a sub-package
+    and across packages; a package's ``__init__`` importing its own modules does not."""
+    files = {
+        "cell/__init__.py": "",
+        "cell/rheology/__init__.py": "",
+        "cell/rheology/diagnosis.py": "from cell.rheology.search import Search\n",
+        "cell/rheology/search.py": ("from typing import TYPE_CHECKING\n"
+                                    "from . import acceptance\n"),
+        "cell/rheology/acceptance.py": ("from typing import TYPE_CHECKING\n"
+                                        "if TYPE_CHECKING:\n"
+                                        "    from cell.rheology.diagnosis import Params\n"),
+        "cell/sim/__init__.py": "",
+        "cell/sim/episode.py": "def run():\n    import controllers.knife\n",
+        "controllers/__init__.py": "",
+        "controllers/knife.py": "from cell.sim import episode\n",
+        "envs/__init__.py": "from envs.separation import SeparationEnv\n",
+        "envs/separation.py": "import envs.params\nclass SeparationEnv: ...\n",
+        "envs/params.py": "",
+    }
+    for name, text in files.items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(text)
+    assert sorted(str(v) for v in import_cycles(tmp_path)) == [
+        "cell/rheology/acceptance.py:3: import circle: cell.rheology.acceptance -> "
+        "cell.rheology.diagnosis -> cell.rheology.search -> cell.rheology.acceptance",
+        "cell/sim/episode.py:2: import circle: cell.sim.episode -> controllers.knife -> "
+        "cell.sim.episode",
     ]
 
 

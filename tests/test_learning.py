@@ -1,6 +1,7 @@
 """`musclecell learn` and `musclecell evaluate` end to end on short, coarse episodes: the files
-a run writes, a checkpoint that acts as the saved model, a resume, the evaluation table, episodes
-in worker processes, and bad input as named errors with exit code 2."""
+a run writes, a checkpoint that acts as the saved model, a resume, the evaluation table with the
+demonstrator's row and the paired comparison, the baselines alone, episodes in worker
+processes, and bad input as named errors with exit code 2."""
 
 import csv
 import json
@@ -17,9 +18,9 @@ from cell.learning.table import MEAN_COLUMNS
 from envs.observation import OBSERVATION_NAMES
 from envs.policies import TableSkimmingKnife
 
-ENV_ID = "musclecell/Cut-v0"
+ENV_ID = "musclecell/Cut-v1"
 #: Short, coarse episodes: 10 control steps on a short muscle pair.
-ENV_KWARGS = {"time_limit_s": 0.2, "cell_size_m": 0.08, "options": {"shape": {"length_m": 0.3}}}
+ENV_KWARGS = {"time_limit_s": 0.2, "cell_size_m": 0.08, "options": {"tissue": {"length_m": 0.3}}}
 HYPER = {"n_steps": 16, "batch_size": 16, "n_epochs": 2}
 LEARN = ["learn", ENV_ID, "--envs", "1", "--checkpoint-every", "16"]
 
@@ -41,7 +42,8 @@ def test_a_run_writes_its_policy_checkpoints_logs_and_curve(run: Path) -> None:
     learned = json.loads((run / "learn.json").read_text())
     assert (learned["env_id"], learned["steps"], learned["seed"]) == (ENV_ID, 32, 3)
     assert learned["hyper"]["n_steps"] == 16 and learned["stopped_by"] == "steps"
-    for name in ("policy.zip", "vecnormalize.pkl", "progress.csv", "learning_curve.png"):
+    for name in ("policy.npz", "policy.json", "normalization.json", "optimizer.npz",
+                 "progress.csv", "learning_curve.png"):
         assert (run / name).stat().st_size > 0
     assert sorted(p.name for p in (run / "checkpoints").iterdir()) == [
         "steps_000000016", "steps_000000032"]
@@ -80,12 +82,13 @@ def test_a_resume_continues_the_steps_with_the_next_seeds(run: Path, tmp_path: P
 
 def test_the_evaluation_table_has_every_column_for_every_policy(run: Path, tmp_path: Path
                                                                 ) -> None:
-    assert main(["evaluate", str(run / "policy.zip"), ENV_ID, "--episodes", "2",
+    assert main(["evaluate", str(run / "policy.json"), ENV_ID, "--episodes", "2",
                  "--workers", "1", "--env-kwargs", json.dumps(ENV_KWARGS),
                  "--constant-search-seeds", "1", "--constant-actions", "[[0,0,0,0],[1,0,0,0]]",
                  "--out", str(tmp_path)]) == 0
     report = json.loads((tmp_path / "evaluation.json").read_text())
-    assert list(report["policies"]) == ["random", "best-constant", "scripted", "learned"]
+    assert list(report["policies"]) == ["random", "best-constant", "scripted",
+                                        "table-skimming-knife", "learned"]
     for entry in report["policies"].values():
         assert entry["episodes"] == 2
         assert 0 <= entry["success_rate"]["low"] <= entry["success_rate"]["high"] <= 1
@@ -96,7 +99,31 @@ def test_the_evaluation_table_has_every_column_for_every_policy(run: Path, tmp_p
     episodes = _rows(tmp_path / "episodes.csv")
     assert [(row["policy"], row["seed"]) for row in episodes][:3] == [
         ("random", "100000"), ("random", "100001"), ("best-constant", "100000")]
-    assert "| learned | 2 |" in (tmp_path / "evaluation.md").read_text()
+    markdown = (tmp_path / "evaluation.md").read_text()
+    assert "| learned | 2 |" in markdown and "| table-skimming-knife | 2 |" in markdown
+    # The learned policy paired with the demonstrator on the same seeds.
+    comparison = report["comparison"]
+    assert (comparison["policy"], comparison["against"], comparison["episodes"]) == (
+        "learned", "table-skimming-knife", 2)
+    pairs = {(row["policy"], row["seed"]): row for row in report["episodes"]}
+    torn = [pairs["learned", s]["torn_fraction"] - pairs["table-skimming-knife", s]["torn_fraction"]
+            for s in (100000, 100001)]
+    assert comparison["torn_fraction"]["mean"] == pytest.approx(np.mean(torn))
+    assert comparison["success"]["low"] <= comparison["success"]["difference"] <= comparison[
+        "success"]["high"]
+    assert "Paired on the same 2 seeds: learned less table-skimming-knife" in markdown
+
+
+def test_the_baselines_alone_with_the_demonstrator_that_fits(tmp_path: Path) -> None:
+    assert main(["evaluate", "Pull-v1", "--episodes", "1", "--workers", "1",
+                 "--env-kwargs", json.dumps(ENV_KWARGS), "--constant-search-seeds", "1",
+                 "--constant-actions", "[[0,0,0]]", "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "evaluation.json").read_text())
+    assert list(report["policies"]) == ["random", "best-constant", "scripted",
+                                        "hold-then-pull-away"]
+    assert report["policy"] is None and report["comparison"] is None
+    assert "Evaluation of the baselines on musclecell/Pull-v1" in (
+        tmp_path / "evaluation.md").read_text()
 
 
 def test_the_best_constant_is_searched_on_one_axis_then_on_two(run: Path, tmp_path: Path
@@ -117,8 +144,6 @@ def test_the_best_constant_is_searched_on_one_axis_then_on_two(run: Path, tmp_pa
 
 
 def test_a_warm_start_clones_the_demonstrator_before_ppo(run: Path, tmp_path: Path) -> None:
-    from stable_baselines3 import PPO
-
     out = tmp_path / "warm"
     hyper = {**HYPER, "log_std_init": -3.0, "learn_log_std": False}
     assert main([*LEARN, "--steps", "16", "--out", str(out), "--seed", "5",
@@ -144,7 +169,7 @@ def test_a_warm_start_clones_the_demonstrator_before_ppo(run: Path, tmp_path: Pa
         obs, *_ = env.step(wanted)
     assert np.mean(warm_errors) < 0.03 < 0.1 < np.mean(cold_errors)
     # The action noise stayed where it was set.
-    log_std = PPO.load(out / "policy.zip", device="cpu").policy.log_std.detach().numpy()
+    log_std = load_learned(str(out)).network.log_std.detach().numpy()
     np.testing.assert_array_equal(log_std, np.full(4, -3.0, np.float32))
     # A resume keeps the warm start's record and its anchor.
     assert main([*LEARN[:2], "--envs", "1", "--steps", "32", "--out", str(out),
@@ -198,20 +223,21 @@ def test_worker_processes_play_the_episodes_as_this_process_does() -> None:
 
 @pytest.mark.parametrize(("argv", "message"), [
     (["learn", "Nope-v0", "--steps", "8", "--out", "unused"], "unknown env 'Nope-v0'"),
-    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--seed", "99999", "--envs", "2"],
+    (["learn", "Cut-v1", "--steps", "8", "--out", "unused", "--seed", "99999", "--envs", "2"],
      "training seeds 99999..100000"),
-    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--hyper", '{"n_step": 8}'],
+    (["learn", "Cut-v1", "--steps", "8", "--out", "unused", "--hyper", '{"n_step": 8}'],
      "hyper.n_step: unknown"),
-    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--hyper",
+    (["learn", "Cut-v1", "--steps", "8", "--out", "unused", "--hyper",
       '{"learn_log_std": 1}'], "hyper.learn_log_std: must be true or false"),
-    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--warm-start", "butcher"],
+    (["learn", "Cut-v1", "--steps", "8", "--out", "unused", "--warm-start", "butcher"],
      "--warm-start: unknown demonstrator 'butcher'"),
-    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--warm-start",
+    (["learn", "Cut-v1", "--steps", "8", "--out", "unused", "--warm-start",
       "table-skimming-knife", "--warm-start-episodes", "0"], "warm_start.episodes: must be >= 1"),
-    (["learn", "Cut-v0", "--steps", "8", "--out", "unused", "--warm-start-anchor", "10"],
+    (["learn", "Cut-v1", "--steps", "8", "--out", "unused", "--warm-start-anchor", "10"],
      "--warm-start-anchor: needs --warm-start"),
-    (["evaluate", "no/such/run", "Cut-v0"], "no/such/run/policy.zip: not found"),
-    (["evaluate", "no/such/run", "Cut-v0", "--episodes", "0"], "--episodes: must be >= 1"),
+    (["evaluate", "no/such/run", "Cut-v1"], "no/such/run/policy.npz: not found"),
+    (["evaluate", "Cut-v1"], "--out: needed when no POLICY is given"),
+    (["evaluate", "no/such/run", "Cut-v1", "--episodes", "0"], "--episodes: must be >= 1"),
 ])
 def test_bad_input_is_a_named_error_and_exit_code_2(
         argv: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:

@@ -64,7 +64,8 @@ def _static_stretch(material: MassSpringMaterial, stress_pa: float,
     the scenario's default step, the explicit one at its stable step."""
     mesh = _block(_CELLS, _SIZE_M)
     model = _block_model(mesh, material, pinned_bottom=True)
-    springs = MassSpringModel(model, ("block",), material, implicit=implicit)
+    springs = MassSpringModel(model, ("block",), material, implicit=implicit,
+                              law_refresh_steps=SimulationParams().control_substeps)
     model.opt.timestep = (SimulationParams().timestep_s if implicit
                           else springs.stable_timestep_s())
     data = mujoco.MjData(model)
@@ -308,7 +309,8 @@ def _tip_history(material: MassSpringMaterial, timestep_s: float, implicit: bool
     mode settling the transient as in :func:`_static_stretch`."""
     mesh = _block(_CELLS, _SIZE_M)
     model = _block_model(mesh, material, pinned_bottom=True)
-    springs = MassSpringModel(model, ("block",), material, implicit=implicit)
+    springs = MassSpringModel(model, ("block",), material, implicit=implicit,
+                              law_refresh_steps=SimulationParams().control_substeps)
     model.opt.timestep = timestep_s
     data = mujoco.MjData(model)
     z = mesh.points[:, 2]

@@ -187,7 +187,7 @@ SPECIMEN_CASES = [
     ("unknown key", SPECIMEN + "colour = 'red'\n", "specimen.colour", "unknown key"),
     ("unknown table", SPECIMEN + "[notes]\ntext = 'x'\n", "notes", "unknown table"),
     ("missing table", "[rig]\nmachine = 'x'\n", "specimen", "missing table"),
-    ("missing size", '[specimen]\nname = "cube"\n', "specimen", "size_m"),
+    ("missing size", '[specimen]\nname = "cube"\n', "specimen.size_m", "missing key"),
     ("bad toml", "[specimen\n", None, "not valid TOML"),
 ]
 

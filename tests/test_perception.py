@@ -13,14 +13,10 @@ import pytest
 
 from cell.cli import main
 from cell.errors import InputError, PerceptionError
-from cell.perception.pipeline import (
-    PerceivedPlan,
-    PerceptionParams,
-    PredictedInterface,
-    generic_model,
-    marker_position,
-    perceive,
-)
+from cell.perception.look import marker_position
+from cell.perception.params import PerceptionParams
+from cell.perception.pipeline import PerceivedPlan, generic_model, perceive
+from cell.perception.predicted import PredictedInterface
 from cell.perception.registration import AffineFit, predict_interface
 from cell.robots.camera import CameraRig
 from cell.robots.names import CAMERA, KNIFE_TIP

@@ -12,17 +12,17 @@ from cell.errors import InputError, RandomizationError
 from cell.sim.assembly import build_scene
 from cell.sim.scenario import Scenario
 from cell.sim.simulation import Simulation
-from cell.tissue.geometry import MuscleShape
+from cell.tissue.shape import MuscleShape
 from envs import CutEnv, PullEnv, apply_options
 from envs.randomization import Distribution, Randomization, draw, load_randomization
-from envs.separation import PULL_KNIFE_CLEARANCE_M
+from envs.settings import PULL_KNIFE_CLEARANCE_M
 
 DEFAULT = load_randomization()
 
 
 def _values(world: dict, key: str) -> list[float]:
-    name = key.removeprefix("shape.")
-    value = world["shape"][name] if name != key else world[key]
+    name = key.removeprefix("tissue.")
+    value = world["tissue"][name] if name != key else world[key]
     return value if isinstance(value, list) else [value]
 
 
@@ -61,7 +61,7 @@ def _file(tmp_path: Path, text: str) -> Path:
 
 @pytest.mark.parametrize(("text", "key", "message"), [
     ('[stiffnes_n_m]\nkind = "uniform"\nlow = 1.0\nhigh = 2.0\n', "stiffnes_n_m", "unknown key"),
-    ('[shape.length]\nkind = "uniform"\nlow = 0.4\nhigh = 0.5\n', "shape.length",
+    ('[tissue.length]\nkind = "uniform"\nlow = 0.4\nhigh = 0.5\n', "tissue.length",
      "unknown shape field"),
     ('[force_scale]\nkind = "uniform"\nlow = "low"\nhigh = 2.0\n', "force_scale.low",
      "expected"),
@@ -71,8 +71,8 @@ def _file(tmp_path: Path, text: str) -> Path:
      "must be <= high"),
     ('[force_scale]\nkind = "uniform"\nlow = -0.5\nhigh = 1.0\n', "force_scale",
      "must be > 0"),
-    ('[shape.valley_depth_m]\nkind = "uniform"\nlow = 0.01\nhigh = 0.2\n',
-     "shape.valley_depth_m", "must be in"),
+    ('[tissue.valley_depth_m]\nkind = "uniform"\nlow = 0.01\nhigh = 0.2\n',
+     "tissue.valley_depth_m", "must be in"),
     ('[force_bias_n]\nkind = "uniform"\nlow = 0.0\nhigh = 0.1\n', "force_bias_n",
      "expected a list"),
     ('[table_friction]\nkind = "normal"\nlow = 0.4\nhigh = 0.8\n', "table_friction.mean",
@@ -97,8 +97,8 @@ def test_the_env_applies_the_drawn_world() -> None:
     env = PullEnv(time_limit_s=0.5)
     _, info = env.reset(seed=0)
     scenario = env.episode.scenario
-    assert scenario.tissue.length_m == info["world"]["shape"]["length_m"] != 0.45
-    assert scenario.aponeurosis.stiffness_n_m == info["world"]["binding_stiffness_n_m"]
+    assert scenario.tissue.length_m == info["world"]["tissue"]["length_m"] != 0.45
+    assert scenario.aponeurosis.stiffness_n_m == info["world"]["aponeurosis_stiffness_n_m"]
     assert scenario.sensors.force_bias_n == tuple(info["world"]["force_bias_n"])
     table = env.episode.sim.model.geom("table")
     assert table.friction[0] == pytest.approx(info["world"]["table_friction"])
@@ -107,11 +107,11 @@ def test_the_env_applies_the_drawn_world() -> None:
     assert env.episode.scene.mesh.shank.points.shape != first.shape or not np.allclose(
         env.episode.scene.mesh.shank.points, first)
     # Explicit options override the draw key by key; the nominal world is one option away.
-    _, info = env.reset(seed=0, options={"shape": {"length_m": 0.42}, "force_scale": 1.0})
+    _, info = env.reset(seed=0, options={"tissue": {"length_m": 0.42}, "force_scale": 1.0})
     assert env.episode.scenario.tissue.length_m == 0.42
-    assert info["world"]["force_scale"] == 1.0 and "round_width_m" in info["world"]["shape"]
+    assert info["world"]["force_scale"] == 1.0 and "round_width_m" in info["world"]["tissue"]
     _, info = env.reset(seed=0, options={"randomize": False})
-    # Pull-v0's own option stays: its knife's plan cuts down to the table.
+    # Pull-v1's own option stays: its knife's plan cuts down to the table.
     assert info["world"] == {"cut_table_clearance_m": PULL_KNIFE_CLEARANCE_M}
     assert env.episode.scenario.tissue.length_m == 0.45
 
@@ -136,7 +136,7 @@ def test_check_env_passes_with_randomisation() -> None:
 
 
 @pytest.mark.parametrize(("key", "good", "bad", "reason"), [
-    ("binding_stiffness_n_m", 50.0, 1e9, "diverged"),  # blows up on the approach
+    ("aponeurosis_stiffness_n_m", 50.0, 1e9, "diverged"),  # blows up on the approach
     ("longitudinal_scale", 1.0, 1e3, "springs can give"),  # refused as the cell is built
 ])
 def test_a_world_that_fails_is_drawn_again(key: str, good: float, bad: float,
@@ -150,7 +150,7 @@ def test_a_world_that_fails_is_drawn_again(key: str, good: float, bad: float,
 
 def test_a_divergence_ends_the_step_not_the_program() -> None:
     env = CutEnv(time_limit_s=0.5, randomize=False,
-                 options={"binding_stiffness_n_m": 1e9})
+                 options={"aponeurosis_stiffness_n_m": 1e9})
     env.reset(seed=0)
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
     assert info["diverged"] and terminated and not truncated

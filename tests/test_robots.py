@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from cell.errors import InputError
-from cell.robots.arms import build_arm, torque_limits_nm
+from cell.robots.arms import build_arm
 from cell.robots.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription
+from cell.robots.servos import torque_limits_nm
 from tests.kinematics import forward_kinematics
 
 ARMS = [VIPER_S1700D, KUKA_LWR4]

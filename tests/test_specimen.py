@@ -11,7 +11,7 @@ from cell.rheology.measured import MechanicalTest, Specimen, load_measurement_se
 from cell.rheology.specimen import fibre_direction, simulate_set, simulate_test, specimen_mesh
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import LATTICE_STIFFENING
+from cell.tissue.packedlaw import LATTICE_STIFFENING
 from tests.paths import EXAMPLE_SET
 from tests.specimen_reference import SpecimenSimParams, simulate_meshed
 

@@ -8,7 +8,8 @@ import pytest
 
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.material import MassSpringMaterial, default_meat
-from cell.tissue.springlaw import SpringLaw, spring_stress
+from cell.tissue.packedlaw import SpringLaw
+from cell.tissue.springlaw import spring_stress
 
 _POLYNOMIAL = ModulusCurve((3e4, 1e5, 2e5, 5e5, 0.0, 0.0), r_min=0.8, r_max=1.25)
 _MATERIALS = {

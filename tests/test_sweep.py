@@ -84,7 +84,7 @@ def test_the_example_sweep_is_a_24_run_grid_on_coarse_tissue() -> None:
      "policy"),
     ("[sweep]\nscenario = '{s}'\nseed = -1\n[variables]\ncut.speed_m_s = [0.01]\n",
      "sweep.seed"),
-    ("[sweep]\nrun = 'policy'\nrecord = true\n[policy]\nenv = 'musclecell/Cut-v0'\n"
+    ("[sweep]\nrun = 'policy'\nrecord = true\n[policy]\nenv = 'musclecell/Cut-v1'\n"
      "[variables]\ncell_size_m = [0.05]\n", "sweep.record"),
 ])
 def test_a_bad_sweep_file_is_refused_naming_the_file_and_the_key(tmp_path: Path, text: str,
@@ -186,7 +186,7 @@ def test_a_batch_needs_a_folder_of_sets(tmp_path: Path) -> None:
 
 def test_a_policy_sweep_plays_one_env_episode_per_run(tmp_path: Path) -> None:
     path = write(tmp_path, "[sweep]\nrun = 'policy'\nseed = 100\n[policy]\n"
-                 "env = 'musclecell/Cut-v0'\nname = 'scripted'\n[overrides]\ncell_size_m = 0.05\n"
+                 "env = 'musclecell/Cut-v1'\nname = 'scripted'\n[overrides]\ncell_size_m = 0.05\n"
                  "[variables]\ntime_limit_s = [0.3]\n")
     rows = run_sweep(path, tmp_path / "out", Workers(1), progress=False).rows
     assert [(row["status"], row["seed"], row["policy"]) for row in rows] == [
@@ -196,7 +196,7 @@ def test_a_policy_sweep_plays_one_env_episode_per_run(tmp_path: Path) -> None:
 
 
 def test_a_policy_sweep_refuses_an_unknown_env_keyword(tmp_path: Path) -> None:
-    path = write(tmp_path, "[sweep]\nrun = 'policy'\n[policy]\nenv = 'musclecell/Cut-v0'\n"
+    path = write(tmp_path, "[sweep]\nrun = 'policy'\n[policy]\nenv = 'musclecell/Cut-v1'\n"
                  "[variables]\ncell_sise_m = [0.05]\n")
     with pytest.raises(SweepError, match="cell_sise_m") as error:
         prepare(load_sweep(path))
@@ -204,7 +204,7 @@ def test_a_policy_sweep_refuses_an_unknown_env_keyword(tmp_path: Path) -> None:
 
 
 def test_a_batch_diagnoses_every_set_records_a_broken_one_and_resumes(tmp_path: Path) -> None:
-    from cell.rheology.diagnosis import DiagnosisParams
+    from cell.rheology.settings import DiagnosisParams
     from cell.rheology.synthetic import write_hidden_effect_set
     from cell.scale.batch import diagnose_batch
 

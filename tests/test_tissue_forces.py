@@ -1,5 +1,6 @@
 """One physics step: the tissue bench's run on the muscles alone and the cell's simulation
-write the same tissue forces, and a reset puts the springs' history back at rest."""
+write the same tissue forces, a reset puts the springs' history back at rest, and the implicit
+step runs the spring law once per control step at any timestep."""
 
 from __future__ import annotations
 
@@ -9,11 +10,12 @@ import mujoco
 import numpy as np
 import pytest
 
+import cell.tissue.massspring as massspring
 from cell.bench.tissue_variants import bench_scenario, tissue_run
 from cell.errors import ScenarioError
 from cell.sim.assembly import build_scene
-from cell.sim.scenario import Scenario
-from cell.sim.simulation import Simulation
+from cell.sim.scenario import Scenario, SimulationParams
+from cell.sim.simulation import Simulation, TissueSimulation
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.geometry import MuscleShape
 from cell.tissue.material import MassSpringMaterial, default_meat
@@ -84,3 +86,26 @@ def test_a_material_twenty_times_stiffer_runs_at_the_default_step() -> None:
                                                     tissue_step="explicit"))
     with pytest.raises(ScenarioError, match="stable step"):
         Simulation(build_scene(explicit), explicit)
+
+
+@pytest.mark.parametrize(("timestep_s", "substeps"), [(0.0025, 8), (0.01, 2)])
+def test_the_spring_law_runs_once_per_control_step(
+        timestep_s: float, substeps: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    simulation = SimulationParams(timestep_s=timestep_s, control_rate_hz=50.0)
+    assert simulation.control_substeps == substeps  # 20 ms control step
+    scenario = Scenario(tissue=MuscleShape(cell_size_m=0.05), simulation=simulation)
+    sim = TissueSimulation(build_scene(scenario, robots=False), scenario)
+    runs: list[bool] = []  # per kernel call (one per muscle and step): whether the law ran
+    kernel = massspring.muscle_forces
+
+    def spy(*args: object) -> None:
+        runs.append(bool(args[-1]))
+        kernel(*args)
+
+    monkeypatch.setattr(massspring, "muscle_forces", spy)
+    control_steps = 3
+    sim.step(control_steps * substeps)
+    muscles = len(sim.springs)
+    per_step = np.array(runs).reshape(control_steps, substeps, muscles)
+    assert per_step.sum(axis=1).tolist() == [[1] * muscles] * control_steps
+    assert per_step[:, 0].all()  # at each control step's first physics step

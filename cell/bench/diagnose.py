@@ -119,7 +119,8 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
         raise MeasurementError(None, "seeds", "the diagnose bench needs at least one seed")
     if kind not in KINDS:
         raise MeasurementError(None, "kind", f"must be one of {KINDS}, got {kind!r}")
-    from cell.rheology.diagnosis import CAUSES, DiagnosisParams
+    from cell.rheology.diagnosis import CAUSES
+    from cell.rheology.settings import DiagnosisParams
 
     params = DiagnosisParams() if workers is None else DiagnosisParams(workers=workers)
     sets: list[dict[str, Any]] = []

@@ -1,9 +1,11 @@
-"""``musclecell bench env``: env steps per second of ``musclecell/Cut-v0``, one env and eight
+"""``musclecell bench env``: env steps per second of ``musclecell/Cut-v1``, one env and eight
 vectorised (synchronously, in one process), at the coarse and the default tissue resolution,
 one env per core each alone in its own process (``processes``: parallel runs, evaluation
 workers) and one env per core in an asynchronous vector env (``async``: lock-step, as
 training's ``--envs``), each with its ``scaling``, its rate over the single env's: near the
-core count when the processes scale.
+core count when the processes scale; and, with the learn extra, ``learn_scaling_2_over_1``:
+``musclecell learn`` with two envs over one, its training loop whole (resets, the policy, PPO's
+updates).
 
 One env step is one control step (20 ms: 4 physics steps of 5 ms, the implicit tissue step).
 Each single-env entry splits a step's wall time into physics (:meth:`Simulation.step`, MuJoCo
@@ -16,10 +18,12 @@ share of the cores.
 
 from __future__ import annotations
 
+import importlib.util
 import multiprocessing
 import os
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -30,6 +34,8 @@ from cell.tissue.geometry import MuscleShape
 
 #: Target for one env at the coarse resolution on one core, env steps per second (issue 11).
 TARGET_STEPS_PER_S = 500.0
+#: Target of ``learn --envs 2`` over ``--envs 1``, env steps per second (issue 36).
+LEARN_SCALING_TARGET = 1.6
 
 
 class _Stopwatch:
@@ -77,7 +83,7 @@ def bench_vector(cell_size_m: float, steps: int, num_envs: int = 8,
     import envs  # noqa: F401  (registers the ids)
 
     vector_kwargs = {"context": START_METHOD} if mode == "async" else {}
-    vec = gym.make_vec("musclecell/Cut-v0", num_envs=num_envs, vectorization_mode=mode,
+    vec = gym.make_vec("musclecell/Cut-v1", num_envs=num_envs, vectorization_mode=mode,
                        vector_kwargs=vector_kwargs, cell_size_m=cell_size_m,
                        time_limit_s=10 * steps)
     vec.reset(seed=0)
@@ -105,8 +111,39 @@ def bench_processes(cell_size_m: float, steps: int, processes: int) -> dict[str,
             "per_process": rates, "cell_size_m": cell_size_m}
 
 
+def _learn_rate(envs: int, steps_per_env: int, n_steps: int, folder: Path) -> dict[str, Any]:
+    """``musclecell learn Cut-v1`` on ``envs`` envs for ``steps_per_env`` env steps each,
+    ``n_steps`` per env between updates: Stable-Baselines3's own rate over the training loop
+    (its last ``time/fps``: env steps since the loop began over its wall time, resets,
+    policy, PPO updates and checkpoints included; env construction not)."""
+    from cell.learning import ppo
+    from cell.learning.hyper import LearnSettings, PPOHyper
+    from cell.learning.logs import read_rows
+
+    settings = LearnSettings("musclecell/Cut-v1", {}, seed=0, envs=envs,
+                             steps=envs * steps_per_env, checkpoint_every=10**9)
+    hyper = PPOHyper(n_steps=n_steps, batch_size=min(256, n_steps))
+    result = ppo.learn(settings, hyper, folder)
+    fps = float(read_rows(folder / "progress.csv")[-1]["time/fps"])
+    return {"value": fps, "unit": "env steps/s", "envs": envs, "steps": result.steps,
+            "n_steps": n_steps, "wall_s": result.wall_s}
+
+
+def bench_learn_scaling(steps_per_env: int, n_steps: int) -> dict[str, Any]:
+    """``learn --envs 2`` over ``learn --envs 1``, the same steps per env and per update:
+    each run's rate (:func:`_learn_rate`) and their ratio, ``scaling``."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        runs = {envs: _learn_rate(envs, steps_per_env, n_steps, Path(folder) / f"envs{envs}")
+                for envs in (1, 2)}
+    return {"value": runs[2]["value"] / runs[1]["value"], "unit": "ratio",
+            "envs1": runs[1], "envs2": runs[2]}
+
+
 def run_env_bench(quick: bool = False) -> dict[str, Any]:
-    """Every entry; returns the JSON-ready report."""
+    """Every entry (``learn_scaling_2_over_1`` with the learn extra only); returns the
+    JSON-ready report."""
     steps = 30 if quick else 200
     coarse, default = 0.05, MuscleShape().cell_size_m
     entries = {
@@ -122,4 +159,8 @@ def run_env_bench(quick: bool = False) -> dict[str, Any]:
         entries[name]["scaling"] = entries[name]["value"] / entries["single_coarse"]["value"]
     entries["single_coarse"]["target"] = TARGET_STEPS_PER_S
     entries["single_coarse"]["pass"] = entries["single_coarse"]["value"] >= TARGET_STEPS_PER_S
-    return {"env": "musclecell/Cut-v0", "entries": entries}
+    if importlib.util.find_spec("stable_baselines3") is not None:
+        entries["learn_scaling_2_over_1"] = (bench_learn_scaling(128, 64) if quick
+                                             else bench_learn_scaling(8192, 1024))
+        entries["learn_scaling_2_over_1"]["target"] = LEARN_SCALING_TARGET
+    return {"env": "musclecell/Cut-v1", "entries": entries}

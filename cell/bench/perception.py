@@ -51,7 +51,8 @@ from scipy.spatial.transform import Rotation
 from cell.bench.shapes import bench_shapes
 from cell.perception.curvature import surface_curvature
 from cell.perception.guideline import find_cut_path
-from cell.perception.pipeline import PerceptionParams, generic_model, perceive
+from cell.perception.params import PerceptionParams
+from cell.perception.pipeline import generic_model, perceive
 from cell.perception.pointcloud import SurfaceMesh, capture
 from cell.perception.registration import AffineFit, fit_generic_model, model_surface
 from cell.robots.camera import CameraRig

@@ -1,4 +1,4 @@
-"""Muscle shapes drawn from the documented ranges: the default randomisation's ``[shape.*]``
+"""Muscle shapes drawn from the documented ranges: the default randomisation's ``[tissue.*]``
 tables (``assets/randomization/default.toml``), one shape per seed; and the scenario's episode
 on each (``musclecell bench perception --shapes N``): how well the cut follows the interface
 on meat the generic model does not know.
@@ -50,8 +50,8 @@ def documented_shape(seed: int, base: MuscleShape | None = None,
     rng = np.random.default_rng(seed)
     drawn = {}
     for key, distribution in randomization.entries:
-        if key.startswith("shape."):
-            drawn[key.removeprefix("shape.")] = float(distribution.sample(rng))
+        if key.startswith("tissue."):
+            drawn[key.removeprefix("tissue.")] = float(distribution.sample(rng))
     kept = {name: value for name, value in drawn.items() if name not in DERIVED_FIELDS}
     return replace(MuscleShape() if base is None else base, **kept)
 

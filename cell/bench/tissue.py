@@ -30,9 +30,10 @@ Peers, timed the same way (:mod:`cell.bench.tissue_peers`): the numpy mass-sprin
 stock flex (``<elasticity>``, bindings as ``connect`` equalities, MuJoCo's default solver
 options).
 The paper's Table 1 figures are carried as constants, not measured here. The targets (issue
-14): the default meat with the implicit step at most 0.5 us per node and step at about 1000
-nodes (the explicit step's old target, 1 us, beside it), and at about 2000 nodes at least 2x
-real time with :func:`default_meat` and 1x with the paper's Fig. 10 moduli (and its
+14), their limits in :data:`US_PER_NODE_STEP_LIMITS` and :data:`REAL_TIME_FACTOR_LIMITS`: the
+default meat's time per node and step at about 1000 nodes with the implicit step (the explicit
+step's older, looser limit beside it), and at about 2000 nodes the real-time factor of
+:func:`~cell.tissue.material.default_meat` and of the paper's Fig. 10 moduli (and its
 D = 0.1 N s/m, :func:`~cell.bench.tissue_variants.paper_damping_s`), both with the implicit
 step; the explicit step of both materials at its stable step is their peer. One thread:
 MuJoCo has no thread pool here and the spring kernel is serial numba.
@@ -44,23 +45,20 @@ Example:
 
 from __future__ import annotations
 
-import math
 import os
 import platform
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any
 
 import mujoco
-import numpy as np
 
 from cell.bench.cell import cpu_count
-from cell.bench.stability import largest_stable_timestep_s, quiet_mujoco, survives
-from cell.bench.timing import StepTime, TimingJob, best_step_times
 from cell.bench.tissue_accuracy import force_errors
-from cell.bench.tissue_peers import NumpyMassSpring, stock_flex_run
+from cell.bench.tissue_peers import stock_flex_run
 from cell.bench.tissue_profile import step_profile
+from cell.bench.tissue_timing import TissueBenchParams, time_runs, timing_steps
 from cell.bench.tissue_variants import (
     bench_scenario,
     paper_damping_s,
@@ -68,8 +66,6 @@ from cell.bench.tissue_variants import (
     tissue_run,
     tissue_variants,
 )
-from cell.errors import DivergenceError
-from cell.sim.simulation import TissueSimulation
 from cell.tissue.material import default_meat
 
 #: The paper's Table 1 (Nabil et al. 2015, Core 2 Duo 3 GHz), wall time per node per iteration,
@@ -80,138 +76,11 @@ PAPER_TABLE_1_US = {
     "tensor_mass_matlab": 430.0,
     "tensor_mass_sofa": 141.0,
 }
-# The runtime refuses steps above 0.9 times the springs' stable step; the bench runs there too.
-_RUN_SAFETY = 0.9
-
-
-@dataclass(frozen=True)
-class TissueBenchParams:
-    """What the bench runs and how long.
-
-    Attributes:
-        cell_sizes_m: muscle mesh cell sizes (:class:`MuscleShape`); 0.05, 0.028 and 0.0165 m
-            give 240, 990 and 3944 nodes.
-        realtime_cell_size_m: mesh of the real-time targets (0.021 m: 2070 nodes); ``None``
-            skips them.
-        max_timestep_s: cap of the stable step search, s.
-        stability_steps: steps of each trial run of the stable step search.
-        stability_tolerance: relative width at which the search stops.
-        warmup_steps: steps before timing (the muscles settle on the table).
-        timing_steps: steps per timed repetition at the smallest size; larger meshes run
-            proportionally fewer, at least ``min_timing_steps``.
-        min_timing_steps: fewest steps per timed repetition.
-        repetitions: timed repetitions, interleaved across the runs of a size; the best
-            counts.
-        block_side_m: edge of the tension test cube, m.
-        block_strain: displacement of its top face over its height.
-        reference_cells: cells per edge of the three fine meshes of the tension test whose
-            forces are extrapolated to the reference (:func:`extrapolated_force_n`).
-
-    Example:
-        >>> TissueBenchParams.quick().cell_sizes_m
-        (0.05,)
-    """
-
-    cell_sizes_m: tuple[float, ...] = (0.05, 0.028, 0.0165)
-    realtime_cell_size_m: float | None = 0.021
-    max_timestep_s: float = 0.01
-    stability_steps: int = 300
-    stability_tolerance: float = 0.05
-    warmup_steps: int = 100
-    timing_steps: int = 400
-    min_timing_steps: int = 30
-    repetitions: int = 3
-    block_side_m: float = 0.1
-    block_strain: float = 0.1
-    reference_cells: tuple[int, int, int] = (8, 12, 16)
-
-    @classmethod
-    def quick(cls) -> TissueBenchParams:
-        """The smallest mesh only, short runs, a coarse reference: a smoke test."""
-        return cls(cell_sizes_m=(0.05,), realtime_cell_size_m=None, stability_steps=60,
-                   stability_tolerance=0.25, warmup_steps=20, timing_steps=40,
-                   min_timing_steps=10, reference_cells=(3, 4, 6))
-
-
-
-def _prepared(run: TissueSimulation, params: TissueBenchParams) -> tuple[dict[str, Any], TimingJob]:
-    """Stable step search of ``run``, then a warm-up at 0.9 times the stable step; returns
-    the entry so far and the timing job, which starts from the warmed-up state."""
-    formula = run.tissue.stable_timestep_s(safety=1.0)
-    with quiet_mujoco():
-        stable, capped = largest_stable_timestep_s(
-            lambda h: survives(run, h, params.stability_steps),
-            formula if formula is not None else params.max_timestep_s / 2.0,
-            params.max_timestep_s, params.stability_tolerance)
-    # The runtime refuses an explicit step above 0.9 times the springs' own stable step; the
-    # implicit step runs at the scenario's.
-    timestep = (run.scenario.simulation.timestep_s if run.tissue.implicit
-                else _RUN_SAFETY * min(stable, formula or math.inf))
-    run.model.opt.timestep = timestep
-    run.reset()
-    run.step(params.warmup_steps)
-    warm = mujoco.MjData(run.model)
-    mujoco.mj_copyData(warm, run.model, run.data)
-    nodes = run.scene.node_count
-    steps = _timing_steps(params, nodes)
-    entry = {"nodes": nodes, "stable_timestep_s": stable, "stable_timestep_capped": capped,
-             "formula_timestep_s": formula, "run_timestep_s": timestep, "timed_steps": steps}
-    return entry, TimingJob(run.step, lambda: run.reset(warm), steps)
-
-
-def _timed(entry: dict[str, Any], timing: StepTime) -> dict[str, Any]:
-    """``entry`` with its timing figures."""
-    return {**entry,
-            "us_per_node_step": timing.wall_s / entry["nodes"] * 1e6,
-            "cpu_us_per_node_step": timing.cpu_s / entry["nodes"] * 1e6,
-            "real_time_factor": entry["run_timestep_s"] / timing.wall_s}
-
-
-def _checked(run: TissueSimulation, entry: dict[str, Any]) -> dict[str, Any]:
-    """``entry`` once the state its timing left is known to be data, with the MuJoCo
-    warnings that do not make it wrong (such as an under-converged solve) but still tell."""
-    try:
-        run.check_divergence()
-    except DivergenceError as error:
-        raise DivergenceError(error.time_s, f"timing run at {entry['run_timestep_s']:.3g} s: "
-                                            f"{error.reason}") from error
-    warnings = {mujoco.mjtWarning(i).name: int(stat.number)
-                for i, stat in enumerate(run.data.warning) if stat.number > 0}
-    return {**entry, "mujoco_warnings": warnings}
-
-
-def _timing_steps(params: TissueBenchParams, nodes: int) -> int:
-    """Steps per timed repetition: about the same wall time per repetition at every size."""
-    smallest = 240
-    return max(params.min_timing_steps, round(params.timing_steps * smallest / nodes))
-
-
-def _time_runs(runs: dict[str, TissueSimulation], params: TissueBenchParams,
-               numpy_peer_of: str | None = None) -> dict[str, dict[str, Any]]:
-    """Stable step, warm-up and interleaved timing of every run, and of the numpy peer of the
-    run ``numpy_peer_of`` (at that run's step) under the key ``numpy_mass_spring``."""
-    prepared = {key: _prepared(run, params) for key, run in runs.items()}
-    jobs = {key: job for key, (_, job) in prepared.items()}
-    entries = {key: entry for key, (entry, _) in prepared.items()}
-    peer = None
-    if numpy_peer_of is not None:
-        peer = NumpyMassSpring(runs[numpy_peer_of])
-        timestep = entries[numpy_peer_of]["run_timestep_s"]
-        peer.step(params.warmup_steps, timestep)
-        nodes = runs[numpy_peer_of].scene.node_count
-        steps = _timing_steps(params, nodes)
-        entries["numpy_mass_spring"] = {
-            "label": "plain numpy mass-spring (semi-implicit Euler, linear springs, clamp "
-                     "table)", "nodes": nodes, "run_timestep_s": timestep,
-            "timed_steps": steps}
-        jobs["numpy_mass_spring"] = TimingJob(lambda n: peer.step(n, timestep), peer.reset,
-                                              steps)
-    timings = dict(zip(jobs, best_step_times(list(jobs.values()), params.repetitions),
-                       strict=True))
-    if peer is not None and not np.isfinite(peer.position).all():
-        raise DivergenceError(0.0, "the numpy peer diverged")
-    return {key: _checked(runs[key], _timed(entry, timings[key])) if key in runs
-            else _timed(entry, timings[key]) for key, entry in entries.items()}
+#: The most wall time per node and step at about 1000 nodes, us, by step: the targets.
+US_PER_NODE_STEP_LIMITS = {"explicit": 1.0, "implicit": 0.5}
+#: The least real-time factor at about 2000 nodes with the implicit step, by material: the
+#: targets.
+REAL_TIME_FACTOR_LIMITS = {"default_meat": 2.0, "paper_fig10": 1.0}
 
 
 def _bench_size(cell_size_m: float, params: TissueBenchParams,
@@ -222,7 +91,7 @@ def _bench_size(cell_size_m: float, params: TissueBenchParams,
             for model in models}
     runs["mujoco_stock_flex"] = stock_flex_run(cell_size_m)
     meat = "mass_spring_nonlinear_anisotropic"
-    entries = _time_runs(runs, params, numpy_peer_of=meat)
+    entries = time_runs(runs, params, numpy_peer_of=meat)
     numpy_us = entries["numpy_mass_spring"]["us_per_node_step"]
     for key, entry in entries.items():
         if key != "numpy_mass_spring":
@@ -246,18 +115,19 @@ def _targets(sizes: list[dict[str, Any]], realtime: dict[str, dict[str, Any]] | 
     near = min(sizes, key=lambda size: abs(size["nodes"] - 1000))
     evaluated = abs(near["nodes"] - 1000) <= 200
     targets = {}
-    for key, step, limit in (("mass_spring_nonlinear_anisotropic", "explicit", 1.0),
-                             ("mass_spring_nonlinear_anisotropic_implicit", "implicit", 0.5)):
+    for key, step in (("mass_spring_nonlinear_anisotropic", "explicit"),
+                      ("mass_spring_nonlinear_anisotropic_implicit", "implicit")):
+        limit = US_PER_NODE_STEP_LIMITS[step]
         us = near["models"][key]["us_per_node_step"] if evaluated else None
         targets[f"us_per_node_step_1000_nodes_{step}"] = {
             "what": f"non-linear anisotropic mass-spring, {step} step, two muscles, bindings, "
                     "table contact: us per node per step at about 1000 nodes",
             "nodes": near["nodes"] if evaluated else None, "value": us, "limit": limit,
             "pass": None if us is None else us <= limit}
-    for name, what, limit in (
-            ("real_time_default_meat_2000_nodes", "default meat, implicit step", 2.0),
-            ("real_time_paper_fig10_2000_nodes",
-             "paper Fig. 10 (El = 0.25 MPa, Et = Er = 0.6 MPa), implicit step", 1.0)):
+    for material, what in (
+            ("default_meat", "default meat, implicit step"),
+            ("paper_fig10", "paper Fig. 10 (El = 0.25 MPa, Et = Er = 0.6 MPa), implicit step")):
+        name, limit = f"real_time_{material}_2000_nodes", REAL_TIME_FACTOR_LIMITS[material]
         entry = None if realtime is None else realtime[name]
         factor = None if entry is None else entry["real_time_factor"]
         targets[name] = {
@@ -275,7 +145,7 @@ def _profile(params: TissueBenchParams) -> dict[str, Any]:
     size = min(params.cell_sizes_m, key=lambda cell: abs(cell - 0.028))
     run = tissue_run(bench_scenario(default_meat(), size, "implicit"))
     run.step(params.warmup_steps)
-    return step_profile(run, _timing_steps(params, run.scene.node_count))
+    return step_profile(run, timing_steps(params, run.scene.node_count))
 
 
 def run_tissue_bench(params: TissueBenchParams | None = None,
@@ -315,7 +185,7 @@ def run_tissue_bench(params: TissueBenchParams | None = None,
                 f"real_time_paper_fig10_2000_nodes{suffix}":
                     (f"paper Fig. 10 (El 0.25, Et 0.6 MPa), paper's D = 0.1 N s/m, {step} step",
                      paper, step)}
-        realtime = _time_runs({name: tissue_run(bench_scenario(material, size, step))
+        realtime = time_runs({name: tissue_run(bench_scenario(material, size, step))
                                for name, (_, material, step) in materials.items()}, params)
         for name, (label, material, _) in materials.items():
             realtime[name] |= {"label": label, "damping_s": material.damping_s}

@@ -4,7 +4,7 @@
 step's own order (the springs' kernel, the binding springs, the implicit solve, then
 ``mj_step`` with MuJoCo's own stage timers), in microseconds per step and per node.
 The spring kernel (:func:`~cell.tissue.springlaw.muscle_forces`) is timed as the step calls
-it, at the steps that run the law (every fourth) and at those that follow its tangent line;
+it, at the steps that run the law and at those that follow its tangent line;
 :func:`kernel_floor` sets it against a kernel that moves the same data per spring (both ends'
 positions and velocities gathered, the implicit step's tangent row written, both ends' forces
 scattered) with a linear spring in place of the law: a law step's cost above that floor is
@@ -93,8 +93,9 @@ def _profile_round(run: TissueSimulation, steps: int) -> dict[str, Any]:
                                     "linearised": _mean_us(*kernel[False])}}
 
 
-def _mean_us(seconds: float, count: int) -> float:
-    return seconds / count * 1e6 if count else math.nan
+def _mean_us(seconds: float, count: int) -> float | None:
+    # None (JSON null) where nothing was timed: strict JSON has no NaN.
+    return seconds / count * 1e6 if count else None
 
 
 def kernel_floor(run: TissueSimulation, calls: int = 500) -> dict[str, Any]:
@@ -145,7 +146,7 @@ def floor_kernel(position: np.ndarray, velocity: np.ndarray, qfrc: np.ndarray,
                     stiffness: np.ndarray, tangent: np.ndarray) -> None:
     """The floor kernel: the spring kernel's data movement with Hooke's law. Its scatter
     repeats the kernel's on purpose: a helper that both call, inlined by numba or left to
-    LLVM, slowed the kernel from 38 to 42 and 47 ns a spring."""
+    LLVM, slowed the kernel (``docs/benchmarks.md``)."""
     for e in range(edges.shape[0]):
         i = edges[e, 0]
         j = edges[e, 1]

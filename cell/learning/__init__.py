@@ -1,6 +1,8 @@
 """Training and evaluating policies on the envs: PPO (Stable-Baselines3) with its checkpoints,
-logs and learning curve, and the evaluation of a learned policy against the random, the best
-constant and the scripted policy on the same seeds, with confidence intervals.
+logs and learning curve, the policy's files (numbers and JSON, never a pickle), and the
+evaluation of a learned policy against the random, the best constant, the scripted policy and
+the hand-written demonstrators on the same seeds, with confidence intervals and the paired
+comparison with the best demonstrator.
 
 It owns what ``musclecell learn`` and ``musclecell evaluate`` run. torch and
 Stable-Baselines3 (the ``learn`` extra) are imported inside the functions that need them, so

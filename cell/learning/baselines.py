@@ -1,35 +1,48 @@
 """The policies an evaluation compares: random actions, the best constant action, the
-scripted plan (privileged: it reads the plan) and a learned PPO policy, each described by a
-picklable :class:`PolicySpec` that a worker process turns into a callable."""
+scripted plan (privileged: it reads the plan), the hand-written feedback policies of
+:data:`envs.policies.DEMONSTRATORS` and a learned PPO policy, each described by a picklable
+:class:`PolicySpec` that a worker process turns into a callable."""
 
 from __future__ import annotations
 
-import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 from cell.errors import LearningError
-from envs.policies import scripted_policy
+from cell.learning.policyfile import (
+    PICKLED_FILES,
+    POLICY_FILE,
+    WEIGHTS_FILE,
+    ObservationNormalizer,
+    build_policy,
+    check_policy_folder,
+    observation_normalizer,
+    read_normalization,
+    read_policy,
+)
+from envs.policies import DEMONSTRATORS, scripted_policy
 
-#: The policies of an evaluation, in the table's order.
-POLICIES = ("random", "best-constant", "scripted", "learned")
+#: The baselines of every evaluation, in the table's order; the hand-written demonstrators
+#: that fit the env follow them, then the learned policy.
+BASELINES = ("random", "best-constant", "scripted")
+LEARNED = "learned"
 #: Levels of the constant grid along each action axis (the zero action is in it too).
 CONSTANT_LEVELS = (0.25, 0.5, 1.0)
-POLICY_FILE = "policy.zip"
-NORMALIZE_FILE = "vecnormalize.pkl"
 
 Policy = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
 class PolicySpec:
-    """A policy to play: ``name`` is one of :data:`POLICIES` (``"constant"`` for a grid
-    candidate too), ``action`` the constant action, ``folder`` the learned policy's files."""
+    """A policy to play: ``name`` is one of :data:`BASELINES` (``"constant"`` for a grid
+    candidate too), a name of :data:`envs.policies.DEMONSTRATORS` or :data:`LEARNED`;
+    ``action`` is the constant action, ``folder`` the learned policy's files."""
 
     name: str
     action: tuple[float, ...] = ()
@@ -78,34 +91,51 @@ def constant_pairs(best: tuple[float, ...], levels: tuple[float, ...] = CONSTANT
 
 
 def policy_folder(path: str | Path) -> Path:
-    """The folder of a learned policy: ``path`` itself, or the folder of a ``policy.zip``;
-    it must hold ``policy.zip`` and ``vecnormalize.pkl``.
+    """The folder of a learned policy: ``path`` itself, or the folder of a file in it
+    (``policy.json``, ``policy.npz``, or an earlier release's ``policy.zip``); it must hold a
+    policy in the format of :mod:`cell.learning.policyfile`.
 
     Raises:
-        LearningError: naming the missing file.
+        PickledPolicyError: the folder holds an earlier release's pickled policy only.
+        LearningError: naming the file at fault.
     """
     path = Path(path)
-    folder = path.parent if path.suffix == ".zip" else path
-    for name in (POLICY_FILE, NORMALIZE_FILE):
-        if not (folder / name).is_file():
-            raise LearningError(folder / name, None, "not found (POLICY must be a learn "
-                                "output folder, or a policy.zip with vecnormalize.pkl beside "
-                                "it)")
+    names = (WEIGHTS_FILE, POLICY_FILE, *PICKLED_FILES)
+    if path.suffix in (".zip", ".npz", ".json", ".pkl") and path.name not in names:
+        raise LearningError(path, None, f"a learned policy is a learn output folder (or "
+                            f"a checkpoint's): give that folder or its {POLICY_FILE}")
+    folder = path.parent if path.name in names else path
+    check_policy_folder(folder)
     return folder
 
 
-@lru_cache(maxsize=4)  # once per worker process, not once per episode
-def load_learned(folder: str) -> Policy:
-    """The deterministic actions of the PPO model in ``folder``, its observations normalised
-    with the training's saved statistics (frozen, as in evaluation)."""
-    from stable_baselines3 import PPO
+@dataclass(frozen=True)
+class LearnedPolicy:
+    """A learned policy loaded from its files: deterministic actions of the network for
+    observations normalised with the training's frozen statistics; ``env_id`` is the env it
+    was trained on."""
 
-    model = PPO.load(Path(folder) / POLICY_FILE, device="cpu")
-    with (Path(folder) / NORMALIZE_FILE).open("rb") as file:
-        normalize = pickle.load(file)
-    normalize.training = False
-    normalize.norm_reward = False
-    return lambda obs: model.predict(normalize.normalize_obs(obs), deterministic=True)[0]
+    network: Any
+    normalize: ObservationNormalizer
+    env_id: str
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return self.network.predict(self.normalize(obs), deterministic=True)[0]
+
+
+@lru_cache(maxsize=4)  # once per worker process, not once per episode
+def load_learned(folder: str) -> LearnedPolicy:
+    """The learned policy saved in ``folder`` (see :mod:`cell.learning.policyfile`; nothing
+    is unpickled).
+
+    Raises:
+        PickledPolicyError: an earlier release's pickled run.
+        LearningError: a missing or broken file, named.
+    """
+    record, arrays = read_policy(Path(folder))
+    return LearnedPolicy(build_policy(record, arrays, Path(folder)),
+                         observation_normalizer(read_normalization(Path(folder))),
+                         record["env_id"])
 
 
 def make_policy(spec: PolicySpec, env: gym.Env, seed: int) -> Policy:
@@ -126,7 +156,9 @@ def make_policy(spec: PolicySpec, env: gym.Env, seed: int) -> Policy:
         return lambda _obs: action
     if spec.name == "scripted":
         return scripted_policy(env)
-    if spec.name == "learned":
+    if spec.name in DEMONSTRATORS:
+        return DEMONSTRATORS[spec.name]()
+    if spec.name == LEARNED:
         return load_learned(spec.folder)
     raise LearningError(None, "policy", f"unknown policy {spec.name!r}; known: "
-                        f"{', '.join(POLICIES)}")
+                        f"{', '.join([*BASELINES, *DEMONSTRATORS, LEARNED])}")

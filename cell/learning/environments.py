@@ -14,7 +14,7 @@ from cell.errors import LearningError
 if TYPE_CHECKING:
     from stable_baselines3.common.vec_env import VecEnv
 
-#: Namespace of the project's envs: ``Cut-v0`` stands for ``musclecell/Cut-v0``.
+#: Namespace of the project's envs: ``Cut-v1`` stands for ``musclecell/Cut-v1``.
 NAMESPACE = "musclecell"
 #: Start method of the training env processes: a fresh interpreter, not a fork of one that
 #: has MuJoCo, numba's threads or torch's open.
@@ -26,8 +26,8 @@ def resolve_env_id(name: str) -> str:
     namespace).
 
     Example:
-        >>> resolve_env_id("Cut-v0")
-        'musclecell/Cut-v0'
+        >>> resolve_env_id("Cut-v1")
+        'musclecell/Cut-v1'
     """
     envs.register_envs()
     for candidate in (name, f"{NAMESPACE}/{name}"):
@@ -42,7 +42,7 @@ def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
     :class:`LearningError`.
 
     Example:
-        >>> make_env("musclecell/Cut-v0", {"time_limit_s": 0.4}).action_space.shape
+        >>> make_env("musclecell/Cut-v1", {"time_limit_s": 0.4}).action_space.shape
         (4,)
     """
     envs.register_envs()  # in a fresh env process too

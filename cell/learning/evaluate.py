@@ -1,5 +1,8 @@
 """The evaluation of a learned policy beside the random, the best constant and the scripted
-policy, on the same seeds, episodes side by side in worker processes.
+policy and the hand-written demonstrators that fit the env, on the same seeds, episodes side
+by side in worker processes; the learned policy is compared with the best demonstrator on
+those seeds, paired (:mod:`cell.learning.paired`). Without a learned policy the baselines'
+rows alone.
 
 Seeds: the evaluation episodes are ``reset(seed=k)`` for ``k`` from ``seed_start``
 (:data:`EVAL_SEED_START` by default, above every training seed) on; the best constant action is
@@ -29,18 +32,20 @@ import numpy as np
 from cell.errors import LearningError
 from cell.io import write_atomic, write_json, write_rows
 from cell.learning.baselines import (
-    POLICIES,
-    POLICY_FILE,
+    BASELINES,
+    LEARNED,
     PolicySpec,
     constant_grid,
     constant_pairs,
+    load_learned,
     make_policy,
     policy_folder,
 )
 from cell.learning.environments import START_METHOD, make_env
 from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
+from cell.learning.paired import compare, comparison_markdown
 from cell.learning.table import markdown, summarize
-from envs.policies import episode_return
+from envs.policies import demonstrators_for, episode_return
 
 #: Keys of the final step's info that each episode's row keeps.
 INFO_COLUMNS = ("success", "released_fraction", "torn_fraction", "knife_force_peak_n",
@@ -170,11 +175,9 @@ def episode_runner(workers: int) -> Iterator[Callable[[list[EpisodeTask]], list[
 
 def _check_policy(folder: Path, env: gym.Env) -> None:
     """The learned policy must act in ``env``'s action space."""
-    from stable_baselines3 import PPO
-
-    model = PPO.load(folder / POLICY_FILE, device="cpu")
+    network = load_learned(str(folder)).network
     for name in ("observation_space", "action_space"):
-        trained, wanted = getattr(model, name).shape, getattr(env, name).shape
+        trained, wanted = getattr(network, name).shape, getattr(env, name).shape
         if trained != wanted:
             raise LearningError(folder, "ENV", f"the policy's {name} is {trained}, the env's "
                                 f"{wanted}")
@@ -193,20 +196,35 @@ def _choose_constant(grid: list[tuple[float, ...]], rows: list[dict[str, Any]]
     return {"chosen": best, "scores": scores}
 
 
-def evaluate(policy_path: str | Path, env_id: str, env_kwargs: dict[str, Any],
+def _best_demonstrator(names: list[str], policies: dict[str, dict[str, Any]]) -> str:
+    """The demonstrator of ``names`` with the best success rate, then mean return, on the
+    evaluation seeds themselves (a choice that favours the demonstrators, not the learned
+    policy)."""
+    return max(names, key=lambda name: (policies[name]["success_rate"]["rate"],
+                                        policies[name]["mean_return"]))
+
+
+def evaluate(policy_path: str | Path | None, env_id: str, env_kwargs: dict[str, Any],
              settings: EvaluationSettings) -> dict[str, Any]:
-    """Tune the best constant action (see :class:`EvaluationSettings`), then play every policy
-    of :data:`POLICIES` on the evaluation seeds; the report holds the table
-    (:func:`~cell.learning.table.summarize` per policy), the tuning and every episode's row
-    (ordered by policy, then seed).
+    """Tune the best constant action (see :class:`EvaluationSettings`), then play the
+    :data:`~cell.learning.baselines.BASELINES`, the demonstrators that fit ``env_id``
+    (:func:`envs.policies.demonstrators_for`) and the learned policy at ``policy_path``
+    (none when None) on the evaluation seeds. The report holds the table
+    (:func:`~cell.learning.table.summarize` per policy), the tuning, every episode's row
+    (ordered by policy, then seed) and, with a learned policy and a demonstrator, their
+    paired comparison (:func:`~cell.learning.paired.compare`, learned less the best
+    demonstrator; None otherwise).
 
     Raises:
         LearningError: no policy at ``policy_path``, a policy of another env, a constant
             action of the wrong size or out of [-1, 1].
     """
-    folder = policy_folder(policy_path)
+    folder = None if policy_path is None else policy_folder(policy_path)
     env = make_env(env_id, env_kwargs)
-    _check_policy(folder, env)
+    if folder is not None:
+        _check_policy(folder, env)
+    demonstrators = demonstrators_for(env_id)
+    names = [*BASELINES, *demonstrators, *([LEARNED] if folder is not None else [])]
     dims = env.action_space.shape[0]
     env.close()
     grid = [tuple(map(float, a)) for a in settings.constant_actions or constant_grid(dims)]
@@ -226,7 +244,7 @@ def evaluate(policy_path: str | Path, env_id: str, env_kwargs: dict[str, Any],
 
     first = tuning(grid)
     others = [EpisodeTask(env_id, kwargs_json, PolicySpec(name, folder=str(folder)), seed)
-              for name in POLICIES if name != "best-constant" for seed in settings.seeds]
+              for name in names if name != "best-constant" for seed in settings.seeds]
     # The first round and the policies that need no tuning share one pool, then the second
     # round, then the chosen constant.
     with episode_runner(settings.workers) as run:
@@ -242,16 +260,22 @@ def evaluate(policy_path: str | Path, env_id: str, env_kwargs: dict[str, Any],
         chosen = PolicySpec("best-constant", tuple(constant["chosen"]["action"]))
         rows = rows[len(first):] + run(
             [EpisodeTask(env_id, kwargs_json, chosen, seed) for seed in settings.seeds])
-    rows.sort(key=lambda row: (POLICIES.index(row["policy"]), row["seed"]))
-    return {"env_id": env_id, "env_kwargs": env_kwargs, "policy": str(folder),
+    rows.sort(key=lambda row: (names.index(row["policy"]), row["seed"]))
+    policies = {name: summarize([row for row in rows if row["policy"] == name])
+                for name in names}
+    comparison = None
+    if folder is not None and demonstrators:
+        comparison = {**compare(rows, LEARNED, _best_demonstrator(demonstrators, policies)),
+                      "against_chosen_by": "the demonstrators' success rate, then mean "
+                      "return, on these seeds"}
+    return {"env_id": env_id, "env_kwargs": env_kwargs,
+            "policy": None if folder is None else str(folder),
             "seeds": [settings.seed_start, settings.seed_start + settings.episodes - 1],
             "confidence": "95 %: Wilson for success rates, Student-t for means",
             "best_constant": {**constant, "tuning_seeds": [settings.tuning_seeds[0],
                                                            settings.tuning_seeds[-1]]},
-            "policies": {name: summarize([row for row in rows if row["policy"] == name])
-                         for name in POLICIES},
-            "episodes": rows}
-
+            "demonstrators": demonstrators, "policies": policies,
+            "comparison": comparison, "episodes": rows}
 
 
 def report_markdown(report: dict[str, Any]) -> str:
@@ -260,13 +284,16 @@ def report_markdown(report: dict[str, Any]) -> str:
     chosen = report["best_constant"]["chosen"]
     first, last = report["seeds"]
     tuning_first, tuning_last = report["best_constant"]["tuning_seeds"]
-    return (f"# Evaluation of {report['policy']} on {report['env_id']}\n\n"
+    subject = "the baselines" if report["policy"] is None else report["policy"]
+    comparison = report["comparison"]
+    paired = ("" if comparison is None else "\n" + comparison_markdown(comparison))
+    return (f"# Evaluation of {subject} on {report['env_id']}\n\n"
             f"Seeds {first}..{last} for every policy; env kwargs "
             f"`{json.dumps(report['env_kwargs'])}`. Best constant action "
             f"{chosen['action']} (success rate {chosen['success_rate']:.3g}, mean return "
             f"{chosen['mean_return']:.4g} on the tuning seeds {tuning_first}..{tuning_last}, "
             f"of {len(report['best_constant']['scores'])} candidates). Intervals: "
-            f"{report['confidence']}.\n\n" + markdown(report["policies"]))
+            f"{report['confidence']}.\n\n" + markdown(report["policies"]) + paired)
 
 
 def write_report(report: dict[str, Any], json_path: Path, markdown_path: Path,

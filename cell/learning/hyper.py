@@ -4,9 +4,10 @@ seed ranges that keep training, tuning and evaluation apart."""
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass
 from typing import Any
 
+from cell.config import updated
 from cell.errors import LearningError
 
 #: First seed of the evaluation episodes; training seeds stay below it.
@@ -83,18 +84,9 @@ class PPOHyper:
     def with_overrides(self, overrides: dict[str, Any]) -> PPOHyper:
         """A copy with the fields of ``overrides`` replaced (a bad name or value raises
         :class:`LearningError`)."""
-        known = {f.name for f in fields(self)}
-        unknown = sorted(set(overrides) - known)
-        if unknown:
-            raise LearningError(None, f"hyper.{unknown[0]}", f"unknown; known: "
-                                f"{', '.join(sorted(known))}")
-        values = dict(overrides)
-        if "net_arch" in values:
-            values["net_arch"] = tuple(values["net_arch"])
-        try:
-            return replace(self, **values)
-        except TypeError as exc:  # a comparison of a wrong type in __post_init__
-            raise LearningError(None, "hyper", str(exc)) from None
+        # Types checked by the fields' annotations first, so that "many" steps is named as
+        # hyper.n_steps, not met by a comparison in __post_init__.
+        return updated(self, overrides, section="hyper", error=LearningError)
 
     def sb3_kwargs(self) -> dict[str, Any]:
         """Keyword arguments of Stable-Baselines3's ``PPO``."""
@@ -154,7 +146,7 @@ class LearnSettings:
     """What a training run trains on and for how long.
 
     Attributes:
-        env_id: a registered Gymnasium id (``musclecell/Cut-v0``).
+        env_id: a registered Gymnasium id (``musclecell/Cut-v1``).
         env_kwargs: keyword arguments of ``gymnasium.make`` (JSON values).
         seed: env ``i`` of ``envs`` is reset with seed ``seed + i`` first, then draws its
             next worlds from its own generator; PPO's networks and sampling use ``seed`` too.
@@ -167,7 +159,7 @@ class LearnSettings:
             ``minutes``.
 
     Example:
-        >>> LearnSettings("musclecell/Cut-v0", {}, seed=0, envs=2, steps=1000).seed
+        >>> LearnSettings("musclecell/Cut-v1", {}, seed=0, envs=2, steps=1000).seed
         0
     """
 

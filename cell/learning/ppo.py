@@ -1,9 +1,11 @@
 """PPO training (Stable-Baselines3, ``MlpPolicy``) with checkpoints, a resume from the latest
 one and a wall-clock limit.
 
-A run's folder holds, at the end: ``policy.zip`` (the model), ``vecnormalize.pkl`` (the
-observation and reward statistics of ``VecNormalize``, which the policy's inputs need),
-``learn.json`` (env, kwargs, seeds, steps, wall time, hyper-parameters, the warm start),
+A run's folder holds, at the end: the policy's files of :mod:`cell.learning.policyfile`
+(``policy.npz`` and ``policy.json``: the network; ``normalization.json``: the observation and
+reward statistics of ``VecNormalize``, which the policy's inputs need; ``optimizer.npz``:
+Adam's state, for a resume; none of them pickled), ``learn.json`` (env, kwargs, seeds, steps,
+wall time, hyper-parameters, the warm start),
 ``progress.csv`` (PPO's values per update), ``episodes.csv`` (one row per training episode),
 ``learning_curve.png`` and ``checkpoints/steps_NNNNNNNNN/`` (model, statistics, state). This
 module imports Stable-Baselines3 and torch: the command line imports it when it trains.
@@ -11,9 +13,6 @@ module imports Stable-Baselines3 and torch: the command line imports it when it 
 
 from __future__ import annotations
 
-import io
-import json
-import pickle
 import sys
 import time
 from dataclasses import asdict, dataclass
@@ -27,11 +26,19 @@ from stable_baselines3.common.logger import HumanOutputFormat, Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
 from cell.errors import LearningError
-from cell.io import write_atomic, write_json
-from cell.learning.baselines import NORMALIZE_FILE, POLICY_FILE
+from cell.io import read_json, write_json
 from cell.learning.environments import make_training_envs
 from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, check_training_seeds
 from cell.learning.logs import EpisodeLog, ProgressCsv
+from cell.learning.policyfile import (
+    PICKLED_FILES,
+    WEIGHTS_FILE,
+    check_policy_folder,
+    read_normalization,
+    restore_normalization,
+    restore_training,
+    save_policy,
+)
 
 STATE_FILE = "state.json"
 LEARN_FILE = "learn.json"
@@ -51,18 +58,15 @@ class LearnResult:
 
 def save_checkpoint(directory: Path, model: PPO, normalize: VecNormalize,
                     state: dict[str, Any], state_file: str = STATE_FILE) -> None:
-    """Write the model, the normalisation statistics and ``state`` in ``directory``."""
-    model_bytes = io.BytesIO()
-    model.save(model_bytes)
-    write_atomic(directory / POLICY_FILE, model_bytes.getvalue())
-    # VecNormalize pickles its statistics without its envs, as its own save() does.
-    write_atomic(directory / NORMALIZE_FILE, pickle.dumps(normalize))
+    """Write the policy's files (:func:`~cell.learning.policyfile.save_policy`) and
+    ``state`` in ``directory``."""
+    save_policy(directory, model, normalize, state["env_id"])
     write_json(directory / state_file, state)
 
 
 def latest_checkpoint(out: Path) -> Path | None:
     """The checkpoint folder of ``out`` with the most steps (None when there is none)."""
-    found = [(json.loads(path.read_text())["steps"], path.parent)
+    found = [(read_json(path, LearningError)["steps"], path.parent)
              for path in (out / CHECKPOINTS).glob(f"*/{STATE_FILE}")]
     return max(found)[1] if found else None
 
@@ -134,7 +138,8 @@ def learn(settings: LearnSettings, hyper: PPOHyper, out: Path) -> LearnResult:
     Raises:
         LearningError: ``out`` already holds a run.
     """
-    if latest_checkpoint(out) is not None or (out / POLICY_FILE).exists():
+    if latest_checkpoint(out) is not None or any(
+            (out / name).exists() for name in (WEIGHTS_FILE, *PICKLED_FILES)):
         raise LearningError(out, None, "already holds a training run: --resume it or choose "
                             "another --out")
     return _train(_Run(out, settings, hyper, None), None)
@@ -152,7 +157,8 @@ def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None,
     folder = latest_checkpoint(out)
     if folder is None:
         raise LearningError(out, None, "no checkpoint to resume")
-    state = json.loads((folder / STATE_FILE).read_text())
+    check_policy_folder(folder)  # an earlier release's pickled checkpoint is refused
+    state = read_json(folder / STATE_FILE, LearningError)
     if state["env_id"] != env_id:
         raise LearningError(out, "ENV", f"the run trains {state['env_id']}, not {env_id}")
     settings = LearnSettings(env_id, state["env_kwargs"], state["seed"], envs, steps,
@@ -180,9 +186,12 @@ def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
                 run.warm_start["result"] = warm_start(model, run.normalize,
                                                       settings.warm_start, run.first_seed)
         else:
-            run.normalize = VecNormalize.load(str(checkpoint / NORMALIZE_FILE), venv)
-            model = PPO.load(checkpoint / POLICY_FILE, env=run.normalize, device="cpu")
-            model.set_random_seed(run.first_seed)  # env i's first reset: first_seed + i
+            # Rebuilt from numbers, never unpickled: the network and Adam's state from the
+            # checkpoint, env i's first reset at first_seed + i.
+            run.normalize = restore_normalization(venv, read_normalization(checkpoint))
+            model = PPO("MlpPolicy", run.normalize, seed=run.first_seed, device="cpu",
+                        **run.hyper.sb3_kwargs())
+            restore_training(model, checkpoint)
         model.policy.log_std.requires_grad_(run.hyper.learn_log_std)
         model.set_logger(Logger(None, [HumanOutputFormat(sys.stdout),
                                        ProgressCsv(run.out / "progress.csv")]))

@@ -2,17 +2,17 @@
 and an anchor that keeps PPO near it.
 
 PPO from a random network explores a knife's depth by noise and plateaus short of a servo that
-a line of arithmetic writes (``Cut-v0``: 46 % of unseen worlds after an hour, where
-:class:`envs.policies.TableSkimmingKnife` meets 18 of 20 tuning worlds); starting from what a
-cell engineer would write and letting PPO improve on it is how demonstrations serve robot
-learning. The demonstrator reads only the observation, so the network can represent it; its
-episodes run in the training envs (their seeds, their observation statistics) and count in the
-run's wall clock. The actor's mean is fitted to the demonstrator's actions, then to the
-demonstrator's actions at the states the clone itself reaches (DAgger: a plain clone of the
-knife, off by a fraction of a millimetre, drove into the table on 6 of 10 tuning worlds), and
-the critic to the episodes' discounted, normalised returns, so that PPO's first updates start
-from a value estimate rather than from noise. The observation and reward statistics stay those
-of the demonstrations from then on: the clone's inputs keep their meaning.
+a line of arithmetic writes (:class:`envs.policies.TableSkimmingKnife`; the measured rates are
+on the docs' learning and benchmarks pages); starting from what a cell engineer would write and
+letting PPO improve on it is how demonstrations serve robot learning. The demonstrator reads
+only the observation, so the network can represent it; its episodes run in the training envs
+(their seeds, their observation statistics) and count in the run's wall clock. The actor's mean
+is fitted to the demonstrator's actions, then to the demonstrator's actions at the states the
+clone itself reaches (DAgger: a plain clone of the knife, off by a fraction of a millimetre,
+drives it into the table), and the critic to the episodes' discounted, normalised returns, so
+that PPO's first updates start from a value estimate rather than from noise. The observation
+and reward statistics stay those of the demonstrations from then on: the clone's inputs keep
+their meaning.
 """
 
 from __future__ import annotations
@@ -101,7 +101,7 @@ def _discounted(rewards: np.ndarray, gamma: float) -> np.ndarray:
 
 def _fit(policy: ActorCriticPolicy, optimizer: torch.optim.Optimizer,
          generator: torch.Generator, warm: WarmStart, epochs: int, inputs: torch.Tensor,
-         actions: torch.Tensor, returns: torch.Tensor | None = None) -> dict[str, float]:
+         actions: torch.Tensor, returns: torch.Tensor | None = None) -> dict[str, float | None]:
     """``epochs`` passes of ``optimizer`` over shuffled batches of the squared error of the
     action mean to ``actions`` plus, given ``returns``, ``warm.value_weight`` times the
     value's; returns the last pass's mean losses."""
@@ -120,7 +120,7 @@ def _fit(policy: ActorCriticPolicy, optimizer: torch.optim.Optimizer,
             optimizer.step()
             action_losses.append(action_loss.item())
     return {"action_mse": float(np.mean(action_losses)),
-            "value_mse": float(np.mean(value_losses)) if value_losses else float("nan")}
+            "value_mse": float(np.mean(value_losses)) if value_losses else None}
 
 
 def clone(model: PPO, normalize: VecNormalize, demonstrations: Demonstrations,
@@ -168,11 +168,10 @@ class DemonstratorAnchor(BaseCallback):
     checkpoint or the end), ``warm.anchor_epochs`` passes of Adam over the cloning loss on the
     update's rollout, each observation labelled with the demonstrator's action (none when 0).
 
-    Why: from the clone, PPO's updates drift the knife's mean actions by tenths of their range
-    in 60 000 steps (slower, higher, aside; tuning seeds 50000-50009: the clone's 7 worlds of
-    10 down to 2 or 3), though the demonstrator's actions have the better deterministic
-    return; the anchor lets PPO change the actions only as far as its advantage outweighs
-    the cloning loss.
+    Why: from the clone, PPO's updates drift the knife's mean actions (slower, higher, aside)
+    and lose the clone's successes, though the demonstrator's actions have the better
+    deterministic return; the anchor lets PPO change the actions only as far as its
+    advantage outweighs the cloning loss.
     """
 
     def __init__(self, normalize: VecNormalize, warm: WarmStart, seed: int) -> None:

@@ -1,17 +1,18 @@
 """Curvature of a triangular surface mesh from the Cohen-Steiner and Morvan tensor (paper Eq. 11).
 
-At each vertex v the tensor is
+At each vertex v the tensor is::
 
     T(v) = 1 / |B| * sum over edges e of beta(e) |e n B| e_hat e_hat^T
 
 with beta(e) the signed angle between the normals of the two triangles at e (positive where
 the surface is convex, that is bends away from its normals), e_hat the unit edge direction and
 B the region around v. Here B is the Euclidean ball of radius ``radius_m`` around v, and the
-length of e inside B counts each half of e whose end vertex lies in the ball (|e n B| is |e|,
-|e| / 2 or 0): the midpoint rule for the clipped length, exact when the ball's rim crosses an
-edge at its middle. |B| is, consistently, the area owned by the vertices in the ball (a third of
-each triangle to each corner). Both sums are one sparse product of the ball's vertex adjacency
-with per-vertex values, so the cost is that of a KD-tree query and one sparse matrix product.
+length of e inside B counts each half of e whose end vertex lies in the ball (``|e n B|`` is
+``|e|``, ``|e| / 2`` or 0): the midpoint rule for the clipped length, exact when the ball's rim
+crosses an edge at its middle. ``|B|`` is, consistently, the area owned by the vertices in the
+ball (a third of each triangle to each corner). Both sums are one sparse product of the ball's
+vertex adjacency with per-vertex values, so the cost is that of a KD-tree query and one sparse
+matrix product.
 
 The paper takes the normal as the tensor's eigenvector of least magnitude and the two other
 eigenvalues as the principal curvatures. That eigenvector is undefined wherever the surface is

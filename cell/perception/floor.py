@@ -1,10 +1,10 @@
 """The valley's floor found on the full-resolution cloud, under the walked guideline.
 
 The walk (:mod:`cell.perception.guideline`) steps from node to node of the binned depth mesh,
-about 8 mm apart on the default camera, and the spline through its nodes lies up to 4-5 mm
+about 8 mm apart on the default camera, and the spline through its nodes can lie millimetres
 across from the valley's floor where the valley runs shallow towards the meat's tapered ends
-(tuning seeds 8012, 1202, 1300: 3 to 4.7 mm at the guideline's first point, under 1 mm in the
-middle). At the blade's entry that error adds to the lean's. At each guideline sample, the
+(most at the guideline's first point, little in the middle). At the blade's entry that error
+adds to the lean's. At each guideline sample, the
 cloud's points in a patch around it (before binning) are fitted with two planar walls that
 meet in a crease along the guideline, the crease searched across; the sample moves onto it,
 the creases' offsets smoothed by a running median. The crease, not a parabola: the meat's

@@ -83,9 +83,9 @@ class GuidelineParams:
             the valley's bottom the height changes only by the sensor's noise (about 1 mm at
             0.6 m); a step up a wall is a few millimetres.
         bridge_radius_m: how far ahead the walk looks when the ball around a node holds no
-            new concave node low enough to step to (on a documented shape, tuning seed 1003,
-            the walk stopped there with 28 % of the valley walked and the valley's bottom
-            going on, level, 4 cm ahead).
+            new concave node low enough to step to (on shapes of the documented ranges the
+            walk can otherwise stop early, with the valley's bottom going on, level, a few
+            centimetres ahead).
         max_start_offset_m: a start point farther than this from every mesh vertex is off the
             meat.
         spacing_m: distance between the path's samples, along the path.
@@ -93,9 +93,9 @@ class GuidelineParams:
             walked nodes (it averages the node-to-node zigzag across the valley).
         max_end_offset_m: the walk's end nodes that lie farther than this across from the
             course of the nodes after them (plan view) are dropped: where the valley runs out
-            at a tapered end, the last concave nodes can lie on the end's rounded edge (on
-            tuning seeds 1213 and 1221 the first two nodes lay 8 and 21 mm off the interface;
-            the walk zigzags up to about 3.5 mm either side, tuning seed 1222).
+            at a tapered end, the last concave nodes can lie on the end's rounded edge,
+            farther off the interface than the walk's zigzag across the valley ever takes a
+            node.
 
     Raises:
         InputError: a non-positive radius, offset or spacing, or a negative rise or smoothing.
@@ -225,7 +225,7 @@ def _walk_valley(
     covered[np.concatenate(reached)] = True
     # It leaves the start away from the first walk, so that it may bridge too: a start near
     # the meat's end whose first walk went to that end has no fresh node in its own ball
-    # (tuning seed 1302: the guideline ended 1 cm from the start).
+    # (without the bridge the guideline can end a centimetre or so from the start).
     backward = walk(int(start), vertices[start] - vertices[forward[0]])
     return np.array([*backward[::-1], int(start), *forward])
 

@@ -11,9 +11,9 @@ least-squares slope ridged to zero with weight ``prior_rise_m`` squared, so that
 millimetres apart, whose slope the noise would decide, move it little.
 
 An affine fit of the generic model (:class:`~cell.perception.predicted.PredictedInterface`)
-leans as its shears say, which a top view hardly constrains: on 10 shapes drawn from the
-documented ranges (seeds 1000-1009) its planned tip ran 0.6 to 14.7 mm mean from the true
-interface, this estimate's with the prior lean alone 1.1 to 4.6 mm.
+leans as its shears say, which a top view hardly constrains: on shapes drawn from the
+documented ranges its planned tip can run a centimetre and more from the true interface,
+this estimate's, with the prior lean alone, a few millimetres (``docs/benchmarks.md``).
 
 Example (a prior leaning 0.1 through y = 0 at z = 0.66 m):
     >>> def prior(x_m, z_m):

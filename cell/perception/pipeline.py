@@ -10,21 +10,18 @@ the unbinned cloud (:func:`~cell.perception.floor.find_floor`), fit the generic 
 model to the cloud (:func:`~cell.perception.registration.fit_generic_model`) and map its
 interface into the world (:func:`~cell.perception.registration.predict_interface`).
 
-P0 is a marker the camera sees. In the real cell an operator (or a vision tag) marks the
-valley at one end of the meat; in simulation the marker is the point of the generator's true
-top line ``marker_inset_m`` (along it) in from its first (-x) end, and that is the only thing
-the chain takes from the true geometry. The camera finds it by projecting it into the image
-and reading the perceived depth there: it is seen when its pixel has a depth and that depth is
-the marker's own within a tolerance (else it is out of view, behind something, or not on the
-surface), and P0 is the marker's pixel ray at the perceived depth. The truth is otherwise used
-only to score the result.
+The first part of the chain is one look of the camera (:func:`~cell.perception.look.look`),
+starting the walk at a marker the camera sees (:func:`~cell.perception.look.marker_position`:
+the only thing the chain takes from the true geometry); the truth is otherwise used only to
+score the result. Its settings are :class:`~cell.perception.params.PerceptionParams`.
 
 The knife follows the interface at depth as :class:`~cell.perception.interface.SeenInterface`
 gives it: through the seen valley, leaning as the generic model until later looks into the
-opened cut (:func:`look`, between the passes of the cut) tell otherwise. With ``interface =
-"affine"`` it follows :class:`~cell.perception.predicted.PredictedInterface` instead: the
-fitted model's interface, shifted along y onto the seen valley; a fit whose interface leans
-more than any muscle pair's can (``max_interface_lean``) is refused then.
+opened cut (:func:`~cell.perception.look.look`, between the passes of the cut) tell
+otherwise. With ``interface = "affine"`` it follows
+:class:`~cell.perception.predicted.PredictedInterface` instead: the fitted model's interface,
+shifted along y onto the seen valley; a fit whose interface leans more than any muscle pair's
+can (``max_interface_lean``) is refused then.
 
 Example (on the coarse meat; 8 x 8 bins keep the example quick):
     >>> from cell.robots.names import CAMERA
@@ -46,120 +43,32 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
 
-from cell.config import require_count, require_flag
-from cell.errors import InputError, PerceptionError
-from cell.perception.curvature import Curvature, surface_curvature
-from cell.perception.floor import FloorParams, find_floor
-from cell.perception.guideline import CutPath, GuidelineParams, find_cut_path
+from cell.errors import InputError
+from cell.perception.curvature import Curvature
+from cell.perception.guideline import CutPath
 from cell.perception.interface import SeenInterface
-from cell.perception.pointcloud import DepthView, SensorNoise, SurfaceMesh, capture, depth_mesh
+from cell.perception.look import look, marker_position
+from cell.perception.params import PerceptionParams
+from cell.perception.pointcloud import SurfaceMesh
 from cell.perception.predicted import PredictedInterface, refuse_leaning
 from cell.perception.registration import (
     AffineFit,
-    FitParams,
     InterfacePrediction,
     fit_generic_model,
     predict_interface,
 )
-from cell.polyline import closest_on, length, point_at
+from cell.polyline import closest_on, length
 from cell.robots.camera import CameraRig
 from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles
 
-# The fewest cloud points the chain works with: the twelve the fit needs.
-_MIN_CLOUD_POINTS = 12
-
 #: A surface y(x, z) in world coordinates (m): the interface as the knife's plan takes it.
 SurfaceY = Callable[[np.ndarray, np.ndarray], np.ndarray]
-
-
-@dataclass(frozen=True)
-class PerceptionParams:
-    """How the cut is perceived (SI units).
-
-    Attributes:
-        enabled: whether the episode plans the knife from this perception (True) or from the
-            generator's true top line and interface (False, the ground-truth baseline); read by
-            the caller, :func:`perceive` itself always perceives.
-        noise_sigma_at_1m_m: depth noise at 1 m, m (see
-        :class:`~cell.perception.pointcloud.SensorNoise`). dropout_fraction: fraction of pixels
-        without depth, in [0, 1). bin_px: the depth image is binned this many pixels square before
-        meshing; 4 on the
-            default 320 x 240 camera gives about the paper's mesh (1376 nodes).
-        curvature_radius_m: radius of the curvature ball.
-        marker_inset_m: the start marker's distance along the true top line from its first
-            (-x) end, m.
-        marker_tolerance_m: the most the perceived depth at the marker's pixel may differ from
-            the marker's own depth for the marker to count as seen, m.
-        interface: how the interface below the guideline is estimated: ``"seen"``
-            (:class:`~cell.perception.interface.SeenInterface`: through the seen guideline,
-            leaning as the generic model until later looks into the opened cut tell, chosen by
-            measurement) or ``"affine"`` (:class:`PredictedInterface`: the affine fit's
-            interface shifted onto the guideline).
-        max_interface_lean: the steepest lean |dy/dz| the fitted interface may have below the
-            guideline (the generator's shapes keep within 0.5). A top view leaves the fit's
-            shears of height into y nearly free, and on meat far from the generic shape the
-            fit uses them: its interface then leans tens of degrees and the knife would cut
-            into a muscle, so such a fit is refused.
-        guideline: how the valley is walked (:class:`~cell.perception.guideline.GuidelineParams`).
-        floor: where the walked guideline finds the valley's floor on the unbinned cloud
-            (:class:`~cell.perception.floor.FloorParams`).
-        fit: how the generic model is fitted (:class:`~cell.perception.registration.FitParams`).
-
-    Raises:
-        InputError: a field out of range; ``field`` names it.
-
-    Example:
-        >>> PerceptionParams(bin_px=2).noise
-        SensorNoise(sigma_at_1m_m=0.0015, dropout_fraction=0.02)
-    """
-
-    enabled: bool = True
-    noise_sigma_at_1m_m: float = 1.5e-3
-    dropout_fraction: float = 0.02
-    bin_px: int = 4
-    curvature_radius_m: float = 0.015
-    marker_inset_m: float = 0.02
-    marker_tolerance_m: float = 0.005
-    max_interface_lean: float = 0.5
-    interface: Literal["seen", "affine"] = "seen"
-    guideline: GuidelineParams = field(default_factory=GuidelineParams)
-    floor: FloorParams = field(default_factory=FloorParams)
-    fit: FitParams = field(default_factory=FitParams)
-
-    def __post_init__(self) -> None:
-        require_flag(self, "enabled")
-        if not self.noise_sigma_at_1m_m >= 0.0:
-            raise InputError(None, "noise_sigma_at_1m_m",
-                             f"must be >= 0, got {self.noise_sigma_at_1m_m}")
-        if not 0.0 <= self.dropout_fraction < 1.0:
-            raise InputError(None, "dropout_fraction",
-                             f"must be in [0, 1), got {self.dropout_fraction}")
-        require_count(self, "bin_px", 1)
-        for name in ("curvature_radius_m", "marker_tolerance_m", "max_interface_lean"):
-            if not getattr(self, name) > 0.0:
-                raise InputError(None, name, f"must be > 0, got {getattr(self, name)}")
-        if not self.marker_inset_m >= 0.0:
-            raise InputError(None, "marker_inset_m", f"must be >= 0, got {self.marker_inset_m}")
-        if self.interface not in ("seen", "affine"):
-            raise InputError(None, "interface",
-                             f"must be 'seen' or 'affine', got {self.interface!r}")
-        if not isinstance(self.guideline, GuidelineParams):
-            raise InputError(None, "guideline", "must be a GuidelineParams")
-        if not isinstance(self.floor, FloorParams):
-            raise InputError(None, "floor", "must be a FloorParams")
-        if not isinstance(self.fit, FitParams):
-            raise InputError(None, "fit", "must be a FitParams")
-
-    @property
-    def noise(self) -> SensorNoise:
-        """The sensor model these parameters describe."""
-        return SensorNoise(self.noise_sigma_at_1m_m, self.dropout_fraction)
 
 
 @dataclass(frozen=True)
@@ -202,7 +111,7 @@ class PerceivedPlan:
             generator's true top line, None without the truth.
         coverage: the guideline's length over the true top line's length, None without the
             truth.
-        interface_error_m: |predicted - true| interface y at the true interface's facing-pair
+        interface_error_m: ``|predicted - true|`` interface y at the true interface's facing-pair
             midpoints (table to top, end to end), None without the truth.
 
     :func:`perceive` returns one; the module's example shows it.
@@ -268,7 +177,7 @@ class PerceivedPlan:
 
 
 def generic_model(origin_m: tuple[float, float, float] | np.ndarray) -> TwoMuscleMesh:
-    """The generic model: the default :class:`~cell.tissue.geometry.MuscleShape` (not the
+    """The generic model: the default :class:`~cell.tissue.shape.MuscleShape` (not the
     scenario's own, which stands for the real meat the robot does not know) where the fixture
     holds the meat, the middle of its interface at ``origin_m`` (world, m).
 
@@ -277,59 +186,6 @@ def generic_model(origin_m: tuple[float, float, float] | np.ndarray) -> TwoMuscl
         array([0. , 0. , 0.6])
     """
     return build_two_muscles(MuscleShape(), origin_m=tuple(origin_m))
-
-
-def marker_position(truth: TwoMuscleMesh, inset_m: float) -> np.ndarray:
-    """(3,) the simulated start marker: the point of ``truth``'s top line ``inset_m`` along it
-    from its first (-x) end, m (its last point if the line is shorter).
-
-    Example:
-        >>> marker_position(build_two_muscles(MuscleShape()), 0.0)
-        array([-0.225   , -0.014375,  0.05625 ])
-    """
-    return point_at(truth.top_line, inset_m)
-
-
-def _seen_marker(view: DepthView, marker_m: np.ndarray, bin_px: int,
-                 tolerance_m: float) -> np.ndarray:
-    """The marker's pixel ray at the depth perceived there (the binned grid's, which has had
-    the noise's median taken), m; PerceptionError where the camera does not see it."""
-    height, width = view.depth_m.shape
-    camera = view.rotation.T @ (np.asarray(marker_m, dtype=float) - view.position_m)
-    depth = -camera[2]
-    if not depth > 0.0:
-        raise PerceptionError(f"the marker at {np.round(marker_m, 4).tolist()} m is behind "
-                              "the camera")
-    # The pinhole formula of cell.perception.pointcloud, solved for the pixel.
-    u = round(view.focal_px * camera[0] / depth + width / 2.0 - 0.5)
-    v = round(-view.focal_px * camera[1] / depth + height / 2.0 - 0.5)
-    row, col = v // bin_px, u // bin_px
-    if not (0 <= row < height // bin_px and 0 <= col < width // bin_px):
-        raise PerceptionError(f"the marker at {np.round(marker_m, 4).tolist()} m is out of "
-                              f"view: it projects to pixel ({u}, {v}) of {width} x {height}")
-    seen = view.grid_points_m(bin_px)[row, col]
-    seen_depth = float((seen - view.position_m) @ -view.rotation[:, 2])
-    if not np.isfinite(seen_depth):
-        raise PerceptionError(f"the camera does not see the marker at "
-                              f"{np.round(marker_m, 4).tolist()} m: no meat at its pixel "
-                              f"({u}, {v})")
-    if abs(seen_depth - depth) > tolerance_m:
-        raise PerceptionError(
-            f"the camera does not see the marker at {np.round(marker_m, 4).tolist()} m: the "
-            f"surface at its pixel is {seen_depth - depth:+.3f} m from it along the view "
-            f"(tolerance {tolerance_m} m), so it is hidden or not on the meat")
-    return view.position_m + view.rotation @ (camera * seen_depth / depth)
-
-
-def _binned_cloud(view: DepthView, bin_px: int) -> np.ndarray:
-    """(N, 3) the view's cloud binned ``bin_px`` square, m; PerceptionError when it has too
-    few points for the chain."""
-    cloud = view.points_m(bin_px)
-    if len(cloud) < _MIN_CLOUD_POINTS:
-        raise PerceptionError(
-            f"the cloud has {len(cloud)} points after {bin_px} x {bin_px} binning; "
-            f"the surface and the fit need at least {_MIN_CLOUD_POINTS}")
-    return cloud
 
 
 def _scores(truth: TwoMuscleMesh, guideline: CutPath, interface_y: SurfaceY
@@ -344,64 +200,6 @@ def _scores(truth: TwoMuscleMesh, guideline: CutPath, interface_y: SurfaceY
         "interface_error_m": Deviation.of(np.abs(
             interface_y(true_surface[:, 0], true_surface[:, 2]) - true_surface[:, 1])),
     }
-
-
-@dataclass(frozen=True, eq=False)
-class Look:
-    """One look of the camera at the meat: the cloud, its surface mesh and curvature, and the
-    guideline walked along the valley from the start point (world frame, m).
-
-    Attributes:
-        cloud_m: (N, 3) the binned point cloud, m.
-        mesh: the surface mesh of the binned depth grid.
-        curvature: per-vertex curvature of ``mesh``.
-        start_m: (3,) where the walk started: the marker's pixel ray at the seen depth, m.
-        guideline: the valley's bottom line from there.
-        timings_s: wall time of each stage (capture, mesh, curvature, guideline), s.
-
-    :func:`look` returns one.
-    """
-
-    cloud_m: np.ndarray
-    mesh: SurfaceMesh
-    curvature: Curvature
-    start_m: np.ndarray
-    guideline: CutPath
-    timings_s: Mapping[str, float]
-
-
-def look(rig: CameraRig, data: mujoco.MjData, params: PerceptionParams,
-         rng: np.random.Generator, marker_m: np.ndarray, marker_tolerance_m: float | None = None
-         ) -> Look:
-    """Capture a noisy depth image, mesh it, estimate its curvature and walk the valley from
-    the marker (seen within ``marker_tolerance_m`` of its depth, by default the params'; the
-    cut's opening may have taken the surface down at the marker since the first look).
-
-    Raises:
-        PerceptionError: as :func:`perceive`.
-    """
-    timings: dict[str, float] = {}
-    clock = time.perf_counter()
-
-    def lap(stage: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timings[stage] = now - clock
-        clock = now
-
-    tolerance = params.marker_tolerance_m if marker_tolerance_m is None else marker_tolerance_m
-    view = capture(rig, data, params.noise, rng)
-    cloud = _binned_cloud(view, params.bin_px)
-    lap("capture")
-    mesh = depth_mesh(view, params.bin_px)
-    lap("mesh")
-    curvature = surface_curvature(mesh, params.curvature_radius_m)
-    lap("curvature")
-    start = _seen_marker(view, marker_m, params.bin_px, tolerance)
-    guideline = find_floor(find_cut_path(mesh, curvature, start, params.guideline),
-                           view.points_m(1), params.floor)
-    lap("guideline")
-    return Look(cloud, mesh, curvature, start, guideline, timings)
 
 
 def perceive(

@@ -109,7 +109,7 @@ class PredictedInterface:
 
 def refuse_leaning(interface_y: PredictedInterface, guideline_m: np.ndarray,
                     max_lean: float) -> None:
-    """PerceptionError where the fitted interface leans more than ``max_lean`` (|dy/dz|)
+    """PerceptionError where the fitted interface leans more than ``max_lean`` (``|dy/dz|``)
     below the guideline's points (K, 3), m."""
     x, _, z = guideline_m.T
     lean = (interface_y.fitted_y(x, z) - interface_y.fitted_y(x, z - _LEAN_STEP_M)) / _LEAN_STEP_M

@@ -58,8 +58,9 @@ class FitParams:
             noise plus the model's misfit.
         max_iterations: most correspondence-and-solve rounds.
         tolerance_m: stop once no model vertex moves more than this in a round, m. On a noisy
-            cloud the correspondences keep switching and the vertices move 0.1 to 0.5 mm a
-            round about the solution for good, so a finer tolerance only spends rounds.
+            cloud the correspondences keep switching and the vertices move a fraction of a
+            millimetre a round about the solution for good, so a finer tolerance only spends
+            rounds.
 
     Raises:
         InputError: a non-positive value.

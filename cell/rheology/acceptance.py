@@ -10,16 +10,12 @@ Usage::
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from cell.rheology.causes import EXCLUSIVE
 from cell.rheology.fitting import ModelFit
 from cell.rheology.measured import MechanicalTest
-
-if TYPE_CHECKING:
-    from cell.rheology.diagnosis import DiagnosisParams
+from cell.rheology.settings import DiagnosisParams
 
 
 def improved_fraction(fit: ModelFit, previous: ModelFit,

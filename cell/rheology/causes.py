@@ -9,29 +9,29 @@ maps a vector of *shape* parameters, E and a load-cell offset to a
 The simulated force is linear in E (every part of the spring law scales with it) and in the
 offset, so a fit solves for those two in closed form and searches only the shape parameters.
 
-===============================  ==============================================================
-cause                            change to the material (shape parameters)
-===============================  ==============================================================
-``strain_stiffening``            both moduli follow the exponential law E exp(b |r - 1|) or the
-                                 paper's polynomial E (1 + k (r - 1)**2), b or k apart in
-                                 tension and compression
-``anisotropy``                   El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), the
-                                 oblique springs' factor, and both apart in compression
-                                 (tissue's anisotropy differs there, and so does the
-                                 lattice's) (q, oblique, q_c, oblique_c)
-``viscoelasticity``              quasi-linear relaxation: the fraction that relaxes, its
-                                 shares among the terms (stick-breaking), each term's time
-                                 (log10 s) within the tests' span
-``nonlinear_viscoelasticity``    the same, its relaxed fraction (held at the set's reference
-                                 strain) growing or shrinking linearly with the strain held
-                                 (its slope per unit strain); it replaces
-                                 ``viscoelasticity``, never joins it
-``tension_compression_asymmetry`` El and Et of compressed springs (their logs over the
-                                 tension ones)
-``plasticity``                   yield strain and hardening ratio of every spring
-``force_offset``                 the load cell reads a constant offset (a rig effect: it is
-                                 not part of the material the muscles get)
-===============================  ==============================================================
+=================================  ==============================================================
+cause                              change to the material (shape parameters)
+=================================  ==============================================================
+``strain_stiffening``              both moduli follow the exponential law E exp(b ``|r - 1|``)
+                                   or the paper's polynomial E (1 + k (r - 1)**2), b or k apart
+                                   in tension and compression
+``anisotropy``                     El = E exp(q / 2) along the fibres, Et = E exp(-q / 2), the
+                                   oblique springs' factor, and both apart in compression
+                                   (tissue's anisotropy differs there, and so does the
+                                   lattice's) (q, oblique, q_c, oblique_c)
+``viscoelasticity``                quasi-linear relaxation: the fraction that relaxes, its
+                                   shares among the terms (stick-breaking), each term's time
+                                   (log10 s) within the tests' span
+``nonlinear_viscoelasticity``      the same, its relaxed fraction (held at the set's reference
+                                   strain) growing or shrinking linearly with the strain held
+                                   (its slope per unit strain); it replaces
+                                   ``viscoelasticity``, never joins it
+``tension_compression_asymmetry``  El and Et of compressed springs (their logs over the
+                                   tension ones)
+``plasticity``                     yield strain and hardening ratio of every spring
+``force_offset``                   the load cell reads a constant offset (a rig effect: it is
+                                   not part of the material the muscles get)
+=================================  ==============================================================
 
 Example:
     >>> model = CandidateMaterial(("anisotropy",))
@@ -52,7 +52,7 @@ import numpy as np
 from cell.errors import DiagnosisError
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import LATTICE_STIFFENING
+from cell.tissue.packedlaw import LATTICE_STIFFENING
 
 CAUSES = (
     "strain_stiffening",

@@ -42,7 +42,7 @@ Example:
 from __future__ import annotations
 
 import math
-import os
+from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from multiprocessing import get_context
@@ -56,55 +56,9 @@ from cell.rheology.causes import CAUSES, EXCLUSIVE, UNEXPLAINED, CandidateMateri
 from cell.rheology.fitting import ModelFit, Problem
 from cell.rheology.measured import MeasurementSet
 from cell.rheology.search import Search, forward, second_start, unexplained
+from cell.rheology.settings import DiagnosisParams
 
 _RELAXATION_TERMS = 2
-
-
-@dataclass(frozen=True)
-class DiagnosisParams:
-    """How a set is diagnosed.
-
-    Attributes:
-        fit_samples: samples per test that fits use (all of them for held-out errors).
-        min_variance_drop: a cause must lower the held-out mean square error by more than this
-            many noise variances.
-        max_rmse_ratio: and bring the held-out RMSE below this fraction of what it was (the
-            springs cannot follow every law exactly, and a cause must explain more than the
-            shape of a misfit the others leave).
-        later_rmse_ratio: the same bound for a cause after the first, which has more misfit
-            of the springs to absorb.
-        min_improved_fraction: a cause after the first must also lower the held-out error of
-            at least this fraction of the tests: a real effect shows in many tests, a cause
-            that only absorbs in a few of them what the springs cannot follow is not one.
-        unexplained_ratio: held-out RMSE over the noise above which left structure counts.
-        structure_correlation: lag-one autocorrelation of held-out residuals above which
-            they have structure.
-        workers: processes fitting candidates side by side (default: every core).
-        max_evaluations: cap on a fit's simulations of the set.
-
-    Raises:
-        DiagnosisError: ``fit_samples`` < 8 or ``workers`` < 1.
-
-    Example:
-        >>> DiagnosisParams(workers=2).fit_samples
-        32
-    """
-
-    fit_samples: int = 32
-    min_variance_drop: float = 1.0
-    max_rmse_ratio: float = 0.85
-    later_rmse_ratio: float = 0.75
-    min_improved_fraction: float = 0.5
-    unexplained_ratio: float = 2.0
-    structure_correlation: float = 0.5
-    workers: int = field(default_factory=lambda: os.cpu_count() or 1)
-    max_evaluations: int = 400
-
-    def __post_init__(self) -> None:
-        if self.fit_samples < 8:
-            raise DiagnosisError(None, "fit_samples", f"must be >= 8, got {self.fit_samples}")
-        if self.workers < 1:
-            raise DiagnosisError(None, "workers", f"must be >= 1, got {self.workers}")
 
 
 @dataclass(frozen=True)
@@ -212,9 +166,15 @@ class Diagnosis:
 def noise_n(measurements: MeasurementSet) -> float:
     """Force noise of a set, N: the median over tests of a robust spread of the force's second
     differences (``sqrt(6)`` times the noise for white noise)."""
+    return force_noise_n([test.force_N for test in measurements.tests])
+
+
+def force_noise_n(forces: Iterable[np.ndarray]) -> float:
+    """Force noise of a set's force series, N, as :func:`noise_n` says (the cut tests' force
+    series too: :mod:`cell.rheology.cutsearch`)."""
     spreads = []
-    for test in measurements.tests:
-        second = np.diff(test.force_N, 2)
+    for force in forces:
+        second = np.diff(force, 2)
         if len(second) >= 3:
             spreads.append(1.4826 * np.median(np.abs(second - np.median(second))) / math.sqrt(6))
     return float(np.median(spreads)) if spreads else 0.0

@@ -27,6 +27,7 @@ Example:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -239,24 +240,44 @@ def _held_out(problem: Problem, model: CandidateMaterial, shape: np.ndarray,
               bounds: tuple[np.ndarray, np.ndarray]) -> list[np.ndarray]:
     """Each test predicted at every sample by the one-step refit without it (module
     docstring); a refit whose material cannot run predicts zero force."""
-    sizes = [len(t.force_N) for t in problem.thinned]
+
+    def predict(left_out: int, trial: np.ndarray, worst_rss: float) -> np.ndarray | None:
+        others = [i for i in range(len(problem.tests)) if i != left_out]
+        measured = np.concatenate([problem.thinned[i].force_N for i in others])
+        chosen = (*(problem.thinned[i] for i in others), problem.tests[left_out])
+        return _fold(problem, model, trial, chosen, measured, worst_rss)
+
+    return one_step_held_out([len(t.force_N) for t in problem.thinned],
+                             [len(t.force_N) for t in problem.tests], shape, residual, jacobian,
+                             bounds, predict)
+
+
+def one_step_held_out(sizes: list[int], lengths: list[int], shape: np.ndarray,
+                      residual: np.ndarray, jacobian: np.ndarray,
+                      bounds: tuple[np.ndarray, np.ndarray],
+                      predict: Callable[[int, np.ndarray, float], np.ndarray | None]
+                      ) -> list[np.ndarray]:
+    """The leave-one-test-out scheme of the module docstring, for any model whose fit ended
+    at ``shape`` with ``residual`` and ``jacobian`` over tests of ``sizes`` fitted samples
+    each (``lengths`` samples in all): test k is ``predict(k, trial, worst_rss)``, its force
+    at every sample with the closed-form parameters solved on the other tests at the shape
+    ``trial`` (None when that fits them worse than ``worst_rss``, or cannot run), first at
+    the damped Gauss-Newton step without test k's rows, then at ``shape``; zero force when
+    neither gives one. The cut tests' fits use it too (:mod:`cell.rheology.cutfitting`)."""
     rows = np.split(np.arange(sum(sizes)), np.cumsum(sizes)[:-1])
     damping = _STEP_DAMPING * (np.diag(jacobian.T @ jacobian) + 1e-300) if len(shape) else None
     heldout = []
-    for left_out, test in enumerate(problem.tests):
-        others = [i for i in range(len(problem.tests)) if i != left_out]
-        keep = np.concatenate([rows[i] for i in others])
-        measured = np.concatenate([problem.thinned[i].force_N for i in others])
-        chosen = (*(problem.thinned[i] for i in others), test)
+    for left_out in range(len(sizes)):
+        keep = np.concatenate([rows[i] for i in range(len(sizes)) if i != left_out]
+                              or [np.zeros(0, dtype=int)])
         prediction = None
         if len(shape):
             j, r = jacobian[keep], residual[keep]
             step = np.linalg.solve(j.T @ j + np.diag(damping), -j.T @ r)
-            prediction = _fold(problem, model, np.clip(shape + step, *bounds), chosen,
-                               measured, float(r @ r))
+            prediction = predict(left_out, np.clip(shape + step, *bounds), float(r @ r))
         if prediction is None:
-            prediction = _fold(problem, model, shape, chosen, measured, math.inf)
-        heldout.append(np.zeros(len(test.force_N)) if prediction is None else prediction)
+            prediction = predict(left_out, shape, math.inf)
+        heldout.append(np.zeros(lengths[left_out]) if prediction is None else prediction)
     return heldout
 
 

@@ -2,7 +2,9 @@
 
 A set is a folder with ``specimen.toml`` (the specimen's name, edge lengths and density, an
 optional free ``[rig]`` table) and ``tests.csv`` (long format, one row per sample, SI units),
-as the project's measured-data spec (``measured-data.md``) defines them. Every fault of the
+as the project's measured-data spec (``measured-data.md``) defines them. A set may also hold
+cut tests (mode ``cut``, with ``[block]`` and ``[blade]`` tables: :mod:`cell.rheology.cuts`);
+a set of only cut tests needs no ``[specimen]``. Every fault of the
 input is an :class:`~cell.errors.InputError` naming the file and the key, or the line and
 column, at fault. Reading writes nothing.
 
@@ -22,9 +24,33 @@ from typing import Any, Literal, cast, get_args
 
 import numpy as np
 
-from cell.config import from_table, read_toml
+from cell.config import (
+    ANGLE_DEG,
+    DENSITY_KG_M3,
+    DISPLACEMENT_M,
+    FORCE_N,
+    LENGTH_M,
+    MEASURABLE_STRESS_PA,
+    STRESS_PA,
+    TIME_S,
+    Plausible,
+    from_table,
+    read_toml,
+)
 from cell.errors import InputError
-from cell.io import CsvTable, read_csv
+from cell.io import CsvTable
+from cell.rheology.cuts import (
+    BLADE_TABLE,
+    BLOCK_TABLE,
+    CUT_COLUMNS,
+    CUT_MODE,
+    Blade,
+    Block,
+    CutTest,
+    read_cut_tables,
+    read_cut_tests,
+)
+from cell.rheology.testrows import read_test_rows, require_columns, rows_of
 
 Mode = Literal["tension", "compression", "relaxation", "cyclic"]
 MODES: tuple[str, ...] = get_args(Mode)
@@ -32,8 +58,12 @@ MODES: tuple[str, ...] = get_args(Mode)
 
 SPECIMEN_FILE = "specimen.toml"
 TESTS_FILE = "tests.csv"
-_NUMBERS = ("angle_deg", "time_s", "displacement_m", "force_N")
-_COLUMNS = ("test_id", "mode", *_NUMBERS)
+#: The number columns of ``tests.csv`` and the plausible range of each.
+_NUMBER_COLUMNS: dict[str, Plausible] = {"angle_deg": ANGLE_DEG, "time_s": TIME_S,
+                                         "displacement_m": DISPLACEMENT_M, "force_N": FORCE_N}
+#: The columns of one kind of test, needed when the set holds that kind.
+_OPTIONAL_COLUMNS = (*_NUMBER_COLUMNS, *CUT_COLUMNS)
+_TABLES = ("specimen", "rig", BLOCK_TABLE, BLADE_TABLE)
 _MIN_SAMPLES = 3
 
 
@@ -48,7 +78,8 @@ class Specimen:
         rig: the ``[rig]`` table of ``specimen.toml`` as read (free text), empty if none.
 
     Raises:
-        InputError: ``size_m`` or ``density_kg_m3`` not finite and > 0.
+        InputError: ``size_m`` or ``density_kg_m3`` not finite and > 0, or beyond their
+            plausible range (:data:`cell.config.LENGTH_M`, :data:`cell.config.DENSITY_KG_M3`).
 
     Example:
         >>> cube = Specimen("round-07", (0.01, 0.01, 0.01), 1060.0)
@@ -68,6 +99,9 @@ class Specimen:
             raise InputError(None, "size_m", f"must be three lengths > 0, got {self.size_m!r}")
         if not (math.isfinite(self.density_kg_m3) and self.density_kg_m3 > 0):
             raise InputError(None, "density_kg_m3", f"must be > 0, got {self.density_kg_m3}")
+        for size in self.size_m:
+            LENGTH_M.check(size, None, "size_m")
+        DENSITY_KG_M3.check(self.density_kg_m3, None, "density_kg_m3")
         object.__setattr__(self, "size_m", tuple(float(s) for s in self.size_m))
 
     @property
@@ -131,8 +165,12 @@ class MeasurementSet:
 
     Attributes:
         folder: where the set was read from.
-        specimen: the specimen.
-        tests: the tests, in the order of their first row in ``tests.csv``.
+        specimen: the specimen of the uniaxial tests; None only in a set of cut tests alone
+            that has no ``[specimen]`` table.
+        tests: the uniaxial tests, in the order of their first row in ``tests.csv``.
+        block: the block of the cut tests (``[block]``), None if the set holds none.
+        blade: the blade of the cut tests (``[blade]``), None if the set holds none.
+        cut_tests: the cut tests, in the order of their first row, empty for a uniaxial set.
 
     Example:
         >>> data = load_measurement_set("assets/measured/beef_round_example")
@@ -141,8 +179,11 @@ class MeasurementSet:
     """
 
     folder: Path
-    specimen: Specimen
+    specimen: Specimen | None
     tests: tuple[MechanicalTest, ...]
+    block: Block | None = None
+    blade: Blade | None = None
+    cut_tests: tuple[CutTest, ...] = ()
 
     def test(self, test_id: str) -> MechanicalTest:
         """The test named ``test_id``.
@@ -177,42 +218,60 @@ def load_specimen(path: str | Path) -> Specimen:
             table or key, wrong type, a size or density that is not > 0.
     """
     path = Path(path)
-    raw = read_toml(path, InputError)
-    for key, value in raw.items():
-        if key not in ("specimen", "rig"):
-            raise InputError(path, key, "unknown table (known tables: rig, specimen)")
-        if not isinstance(value, dict):
-            raise InputError(path, key, f"expected a table, got {type(value).__name__}")
+    raw = _read_specimen_file(path)
     if "specimen" not in raw:
         raise InputError(path, "specimen", "missing table")
+    return _specimen(path, raw)
+
+
+def _read_specimen_file(path: Path) -> dict[str, Any]:
+    """``specimen.toml``'s tables, their names checked."""
+    raw = read_toml(path, InputError)
+    for key, value in raw.items():
+        if key not in _TABLES:
+            raise InputError(path, key, f"unknown table (known tables: "
+                             f"{', '.join(sorted(_TABLES))})")
+        if not isinstance(value, dict):
+            raise InputError(path, key, f"expected a table, got {type(value).__name__}")
+    return raw
+
+
+def _specimen(path: Path, raw: dict[str, Any]) -> Specimen:
+    """The ``[specimen]`` (and ``[rig]``) of ``specimen.toml``'s tables."""
     table = from_table(_SpecimenTable, raw["specimen"], file=path, section="specimen",
                        error=InputError)
     return Specimen(table.name, table.size_m, table.density_kg_m3, raw.get("rig", {}))
 
 
 def load_tests(path: str | Path) -> tuple[MechanicalTest, ...]:
-    """Read ``tests.csv``: a header line, then one row per sample (see the module docstring).
+    """Read the uniaxial tests of ``tests.csv``: a header line, then one row per sample (see
+    the module docstring); rows of cut tests are left out (:func:`load_measurement_set` reads
+    them).
 
     Read by :func:`cell.io.read_csv`: blank lines and lines starting with ``#`` are skipped,
     extra columns are ignored; the rows of a test need not be contiguous but must be in time
     order.
 
     Raises:
-        InputError: naming the file and ``line N, column C``: missing file or column, a
-            non-numeric or non-finite value, an empty test id, an unknown mode, a mode or angle
-            that changes within a test, time going backwards within a test, a test with fewer
-            than 3 samples, no test at all.
+        InputError: naming the file and ``line N, column C``: a file that
+            :func:`cell.io.read_text` refuses, a missing column, a non-numeric, non-finite or
+            implausible value (:mod:`cell.config`), an empty test id, an unknown mode, a mode
+            or angle that changes within a test, time going backwards within a test, a test
+            with fewer than 3 samples, no test at all.
     """
-    path = Path(path)
-    table = read_csv(path, _COLUMNS)
-    groups: dict[str, list[int]] = {}
-    for row, test_id in enumerate(table.cells["test_id"]):
-        if not test_id:
-            raise InputError(path, table.where(row, "test_id"), "empty test id")
-        groups.setdefault(test_id, []).append(row)
+    table, groups, _ = read_test_rows(Path(path), CUT_MODE, _OPTIONAL_COLUMNS)
+    return _uniaxial_tests(table, groups)
+
+
+def _uniaxial_tests(table: CsvTable, groups: dict[str, list[int]]
+                    ) -> tuple[MechanicalTest, ...]:
+    """The uniaxial tests of ``table`` (``groups``: each test's row indices)."""
     if not groups:
-        raise InputError(path, None, "no tests: the set needs at least one")
-    values = {name: table.numbers(name) for name in _NUMBERS}
+        return ()
+    require_columns(table, tuple(_NUMBER_COLUMNS))
+    table, groups = rows_of(table, groups)
+    values = {name: table.numbers(name, plausible.refusal)
+              for name, plausible in _NUMBER_COLUMNS.items()}
     return tuple(_test(table, values, test_id, rows) for test_id, rows in groups.items())
 
 
@@ -226,9 +285,9 @@ def _test(table: CsvTable, values: dict[str, np.ndarray], test_id: str,
 
     modes = [table.cells["mode"][row] for row in rows]
     for row, mode in enumerate(modes):
-        if mode not in MODES:
-            raise InputError(path, where(row, "mode"),
-                             f"unknown mode {mode!r} (known modes: {', '.join(MODES)})")
+        if mode not in (*MODES, CUT_MODE):
+            raise InputError(path, where(row, "mode"), f"unknown mode {mode!r} (known "
+                             f"modes: {', '.join((*MODES, CUT_MODE))})")
         if mode != modes[0]:
             raise InputError(path, where(row, "mode"),
                              f"test {test_id!r} changes mode from {modes[0]!r} to {mode!r}")
@@ -257,12 +316,52 @@ def load_measurement_set(folder: str | Path) -> MeasurementSet:
 
     Raises:
         InputError: naming the file and the key, or the line and column, at fault (see
-            :func:`load_specimen` and :func:`load_tests`); a missing folder is a missing file.
+            :func:`load_specimen` and :func:`load_tests`), a force that is no plausible
+            stress on the specimen's cross-section (:data:`cell.config.STRESS_PA`), forces
+            too small to measure anything (:data:`cell.config.MEASURABLE_STRESS_PA`); a missing
+            folder is a missing file, a file where the folder should be is refused; no
+            ``[specimen]`` where the set holds uniaxial tests.
+        CutTestError: bad ``[block]``, ``[blade]`` or cut rows
+            (:func:`cell.rheology.cuts.read_cut_tables`,
+            :func:`cell.rheology.cuts.read_cut_tests`).
 
     Example:
         >>> len(load_measurement_set("assets/measured/beef_round_example").tests)
         20
     """
     folder = Path(folder)
-    specimen = load_specimen(folder / SPECIMEN_FILE)
-    return MeasurementSet(folder, specimen, load_tests(folder / TESTS_FILE))
+    if folder.exists() and not folder.is_dir():
+        raise InputError(folder, None, f"not a folder: a measurement set is a folder with "
+                         f"{SPECIMEN_FILE} and {TESTS_FILE}")
+    specimen_path, tests_path = folder / SPECIMEN_FILE, folder / TESTS_FILE
+    raw = _read_specimen_file(specimen_path)
+    specimen = _specimen(specimen_path, raw) if "specimen" in raw else None
+    block, blade = read_cut_tables(specimen_path, raw)
+    table, groups, cut_groups = read_test_rows(tests_path, CUT_MODE, _OPTIONAL_COLUMNS)
+    tests = _uniaxial_tests(table, groups)
+    if tests and specimen is None:
+        raise InputError(specimen_path, "specimen", f"missing table: {TESTS_FILE} holds "
+                         "uniaxial tests")
+    cut_tests = read_cut_tests(table, cut_groups, block, blade, specimen_path)
+    if tests:
+        _check_stress(tests_path, specimen, tests)
+    return MeasurementSet(folder, specimen, tests, block, blade, cut_tests)
+
+
+def _check_stress(path: Path, specimen: Specimen, tests: tuple[MechanicalTest, ...]) -> None:
+    """The forces as stresses on the specimen: none beyond :data:`cell.config.STRESS_PA`, and
+    the largest at least :data:`cell.config.MEASURABLE_STRESS_PA`."""
+    for test in tests:
+        stress = test.stress_pa(specimen)
+        row = STRESS_PA.first_outside(stress)
+        if row is not None:
+            raise InputError(path, f"test {test.test_id}, column force_N",
+                             f"sample {row}: {STRESS_PA.refusal(float(stress[row]))} as "
+                             f"stress on the {specimen.area_m2:g} m^2 of {SPECIMEN_FILE}'s "
+                             "size_m")
+    peak = max(float(np.max(np.abs(test.force_N))) for test in tests)
+    if peak / specimen.area_m2 < MEASURABLE_STRESS_PA:
+        raise InputError(path, "column force_N",
+                         f"the largest force, {peak:g} N, is a stress of "
+                         f"{peak / specimen.area_m2:g} Pa on the specimen: below "
+                         f"{MEASURABLE_STRESS_PA:g} Pa the set measured nothing of a tissue")

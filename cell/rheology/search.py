@@ -15,7 +15,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,9 +22,7 @@ from cell.rheology.acceptance import accepts, structure
 from cell.rheology.causes import CAUSES, EXCLUSIVE, RELAXING, CandidateMaterial
 from cell.rheology.fitting import ModelFit, Problem, fit
 from cell.rheology.measured import MechanicalTest
-
-if TYPE_CHECKING:
-    from cell.rheology.diagnosis import DiagnosisParams
+from cell.rheology.settings import DiagnosisParams
 
 # Single additions whose pairs the search tries when none passes alone.
 _LOOK_AHEAD = 3
@@ -79,6 +76,9 @@ class Search:
                  pool: Executor | None) -> None:
         self.problem, self.params, self.root, self.pool = problem, params, root, pool
         self.fits: dict[frozenset[str], ModelFit] = {}
+        #: The causes a step may add: the cut tests' search (:mod:`cell.rheology.cutsearch`)
+        #: walks the same steps over its own catalogue.
+        self.catalogue: tuple[str, ...] = CAUSES
 
     def run(self, jobs: list[tuple[ModelFit | None, str | None]]) -> list[ModelFit]:
         """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root
@@ -197,7 +197,7 @@ def _reordered(order: list[str], previous: ModelFit, following: ModelFit) -> lis
 def _additions(search: Search, current: ModelFit, order: list[str]) -> list[ModelFit]:
     """``current`` with each cause it lacks added (no quasi-linear viscoelasticity once the
     non-linear kind is named), fitted."""
-    return search.run([(current, c) for c in CAUSES if c not in current.model.causes
+    return search.run([(current, c) for c in search.catalogue if c not in current.model.causes
                        and not (c == EXCLUSIVE[0] and EXCLUSIVE[1] in order)])
 
 

@@ -22,7 +22,7 @@ springs' dashpots carry nothing, and the forces agree within 2%. One set of 10 t
 milliseconds instead of minutes, which is what lets a diagnosis refit the material hundreds of
 times. The springs' dashpots (``damping_s``) are left out for that reason.
 
-The lattice is calibrated (:func:`~cell.tissue.massspring.calibrated_law`) with the fibres along a
+The lattice is calibrated (:func:`~cell.tissue.lattice.calibrated_law`) with the fibres along a
 lattice axis, and keeps those factors at every fibre angle: a cubic lattice is not isotropic,
 and recalibrating it for oblique fibres would give an isotropic material an angle dependence
 that no tissue has.
@@ -47,7 +47,7 @@ from cell.errors import DivergenceError
 from cell.rheology.measured import MeasurementSet, MechanicalTest, Specimen
 from cell.tissue.lattice import calibration_factors, tet_edges
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import SpringLaw
+from cell.tissue.packedlaw import SpringLaw
 from cell.tissue.springlaw import uniaxial_stress as _uniaxial
 from cell.tissue.tetmesh import TetMesh, structured_hex_tets
 

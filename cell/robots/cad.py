@@ -35,7 +35,7 @@ import trimesh
 from cell.collision import ROBOTS, Collision
 from cell.errors import MeshError, NotWatertightError
 from cell.extras import optional
-from cell.io import write_atomic
+from cell.io import read_bytes, write_atomic
 
 #: coacd's concavity threshold (its ``threshold``, a fraction of the part's bounding box
 #: diagonal): 0.05 is its default, and keeps the example parts' hull volume within 10 %.
@@ -96,8 +96,8 @@ def decompose(path: str | Path, field: str, concavity: float = CONCAVITY) -> Con
         MissingExtraError: coacd is not installed (``pip install 'musclecell[cad]'``).
     """
     start = time.perf_counter()
+    content = read_bytes(path, "mesh", MeshError)
     try:
-        content = Path(path).read_bytes()
         mesh = trimesh.load(io.BytesIO(content), file_type=Path(path).suffix.lstrip("."),
                             force="mesh")
     except (OSError, ValueError, KeyError, IndexError) as exc:

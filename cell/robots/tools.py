@@ -21,9 +21,9 @@ from cell.robots.cad import ConvexParts, add_part, decompose
 #: MuJoCo averages a contact's solimp over its two sides, so the blade's contacts with the
 #: flesh (the muscles' 0.9 to 0.95) resolve with 0.5 to 0.55: half the correction per step.
 #: The constraint solver sees a flesh vertex as its mass alone, while within an implicit
-#: step its springs make it 12 to 17 times heavier in the paper's Fig. 10 material (median,
-#: 5 ms); there the blade's fully resolved contacts flung vertices off the blade, their
-#: springs threw them back, and the episode ran away (tissue above 20 m/s) on 3 of 4 seeds.
+#: step its springs make it many times heavier in the paper's Fig. 10 material; there the
+#: blade's fully resolved contacts flung vertices off the blade, their springs threw them
+#: back, and episodes ran away (tissue above 20 m/s).
 BLADE_SOLIMP = (0.1, 0.15, 0.001, 0.5, 2.0)
 
 

@@ -16,10 +16,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cell.errors import InputError
-from cell.io import write_atomic, write_json
-from cell.rheology.diagnosis import DiagnosisParams, diagnose
+from cell.errors import InputError, MaterialError
+from cell.io import first_non_finite, read_bytes, write_atomic, write_json
+from cell.rheology.diagnosis import diagnose
 from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE, MeasurementSet, load_measurement_set
+from cell.rheology.settings import DiagnosisParams
 from cell.scale.failure import describe_failure
 from cell.scale.pool import Workers
 from cell.scale.resume import play_missing
@@ -65,7 +66,8 @@ class BatchOutcome:
 
 
 def set_folders(parent: str | Path) -> list[Path]:
-    """The measurement sets in ``parent``: its sub-folders with a specimen or tests file.
+    """The measurement sets in ``parent``: its sub-folders with a specimen or tests file (or
+    a folder, or something unreadable, by either name: such a set is a failed row).
 
     Raises:
         InputError: ``parent`` is not a folder, or holds no set.
@@ -73,8 +75,10 @@ def set_folders(parent: str | Path) -> list[Path]:
     parent = Path(parent)
     if not parent.is_dir():
         raise InputError(parent, None, "not a folder of measurement sets")
-    folders = sorted(p for p in parent.iterdir()
-                     if (p / SPECIMEN_FILE).is_file() or (p / TESTS_FILE).is_file())
+    try:
+        folders = sorted(p for p in parent.iterdir() if p.is_dir() and _holds_a_set(p))
+    except OSError as exc:
+        raise InputError(parent, None, f"cannot list the folder: {exc.strerror}") from None
     if not folders:
         raise InputError(parent, None, f"no measurement set in it (a folder with "
                          f"{SPECIMEN_FILE} and {TESTS_FILE})")
@@ -87,7 +91,8 @@ def diagnose_set(task: SetTask) -> SetOutcome:
     row: dict[str, Any] = {"set": task.name}
     if task.measurements is None:
         return SetOutcome({**row, "status": "failed", "error": task.error})
-    row["specimen"] = task.measurements.specimen.name
+    specimen = task.measurements.specimen  # None in a set of cut tests alone
+    row["specimen"] = "" if specimen is None else specimen.name
     try:
         result = diagnose(task.measurements, task.params)
     except Exception as exc:  # one broken set is recorded as such, never stops the batch
@@ -100,8 +105,20 @@ def diagnose_set(task: SetTask) -> SetOutcome:
             "extended_model": result.extended.model.name,
             "extended_heldout_rmse_n": result.extended.heldout_rmse_n,
             "wall_s": time.perf_counter() - started}
-    toml = material_to_toml(result.extended.material, result.material_comment())
-    return SetOutcome(row, result.to_json(), toml)
+    diagnosis = result.to_json()
+    # A fit that diverged or found no plausible material is the set's failure, not the
+    # batch's: it must not reach the strict writers.
+    failed = {"set": task.name, "specimen": row["specimen"], "status": "failed",
+              "wall_s": row["wall_s"]}
+    diverged = first_non_finite({"row": row, "diagnosis": diagnosis})
+    if diverged is not None:
+        return SetOutcome({**failed, "error": "the diagnosis diverged: {} is {}".format(
+            *diverged)})
+    try:
+        toml = material_to_toml(result.extended.material, result.material_comment())
+    except MaterialError as exc:
+        return SetOutcome({**failed, "error": f"the fitted material: {exc}"})
+    return SetOutcome(row, diagnosis, toml)
 
 
 def diagnose_batch(parent: str | Path, out: str | Path, workers: Workers,
@@ -164,10 +181,22 @@ def _read(folder: Path, params: DiagnosisParams) -> SetTask:
         return SetTask(folder.name, None, params, str(exc))
 
 
+def _holds_a_set(folder: Path) -> bool:
+    """Whether ``folder`` has a specimen or tests file; one that cannot be looked into
+    does (reading it then says why)."""
+    try:
+        return any((folder / name).exists() for name in (SPECIMEN_FILE, TESTS_FILE))
+    except OSError:
+        return True
+
+
 def _fingerprint(folder: Path, params: DiagnosisParams) -> str:
-    """The set's files and the diagnosis settings, hashed."""
+    """The set's files and the diagnosis settings, hashed; a file that cannot be read is
+    hashed as its error (the set is then a failed row, re-tried when that changes)."""
     digest = hashlib.sha256(repr(params).encode())
     for name in (SPECIMEN_FILE, TESTS_FILE):
-        path = folder / name
-        digest.update(path.read_bytes() if path.is_file() else b"missing")
+        try:
+            digest.update(read_bytes(folder / name, "toml" if name == SPECIMEN_FILE else "csv"))
+        except InputError as exc:
+            digest.update(exc.message.encode())
     return digest.hexdigest()[:16]

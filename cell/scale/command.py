@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from cell.errors import InputError
+from cell.outputs import Output, check_outputs
 
 if TYPE_CHECKING:
     from cell.scale.pool import Workers
@@ -29,6 +30,26 @@ def add_sweep(commands: argparse._SubParsersAction) -> None:
                        help="play again the runs in --out that failed or diverged")
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")
     sweep.set_defaults(handler=sweep_command)
+
+
+def add_batch(diagnosis: argparse.ArgumentParser) -> None:
+    """``--batch``, ``--out``, ``--quiet``, ``--address`` and ``--workers`` on the
+    ``diagnose`` parser: with ``--batch`` the command diagnoses many sets, else the one-set
+    handler it had runs."""
+    one_set = diagnosis.get_default("handler")
+    diagnosis.add_argument("--batch", type=Path,
+                           help="diagnose every set in this folder, one Ray task each, into "
+                           "one table in --out (needs the scale extra unless --workers 1)")
+    diagnosis.add_argument("--out", type=Path,
+                           help="--batch: results folder; sets already in it are skipped")
+    diagnosis.add_argument("--quiet", action="store_true", help="--batch: no progress bar")
+    add_workers(diagnosis, "; one set: processes fitting candidates side by side (default: "
+                "every core)")
+
+    def handler(args: argparse.Namespace) -> int:
+        return diagnose_batch_command(args) if args.batch is not None else one_set(args)
+
+    diagnosis.set_defaults(handler=handler)
 
 
 def add_workers(command: argparse.ArgumentParser, note: str = "") -> None:
@@ -57,7 +78,9 @@ def sweep_command(args: argparse.Namespace) -> int:
     """``musclecell sweep``."""
     from cell.scale.sweep import run_sweep
 
-    outcome = run_sweep(args.sweep, args.out, workers(args),
+    pool = workers(args)
+    check_outputs([Output(args.out, "--out", folder=True)], [args.sweep])
+    outcome = run_sweep(args.sweep, args.out, pool,
                         retry_failed=args.retry_failed, progress=not args.quiet)
     statuses = [row["status"] for row in outcome.rows]
     print(f"{len(statuses)} runs ({outcome.played} played now, {outcome.skipped} found "
@@ -78,7 +101,9 @@ def diagnose_batch_command(args: argparse.Namespace) -> int:
         raise InputError(None, extra[0] if extra else "--out",
                          "diagnose --batch PARENT takes --out DIR (and --address, --workers), "
                          "and writes each set's JSON and material there")
-    outcome = diagnose_batch(args.batch, args.out, workers(args), progress=not args.quiet)
+    pool = workers(args)
+    check_outputs([Output(args.out, "--out", folder=True)], [args.batch])
+    outcome = diagnose_batch(args.batch, args.out, pool, progress=not args.quiet)
     done = sum(row["status"] == "ok" for row in outcome.rows)
     print(f"{len(outcome.rows)} sets ({outcome.played} diagnosed now, {outcome.skipped} found "
           f"done in {args.out}): {done} diagnosed, {len(outcome.rows) - done} failed; "

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import logging
 import os
+import re
+import socket
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -19,6 +21,11 @@ from cell.errors import SweepError
 
 T = TypeVar("T")
 R = TypeVar("R")
+#: A cluster's address: its head's ``HOST:PORT`` or its client server's ``ray://HOST:PORT``.
+_ADDRESS = re.compile(r"(?:ray://)?(?P<host>[A-Za-z0-9._\-]+|\[[0-9A-Fa-f:]+\])"
+                      r":(?P<port>\d{1,5})")
+#: How long a cluster's head may take to answer before the address counts as unreachable, s.
+CONNECT_TIMEOUT_S = 5.0
 #: What the CLI tells a user without Ray.
 INSTALL_HINT = "pip install -e '.[scale]' (or --workers 1 runs without Ray, in this process)"
 
@@ -52,6 +59,11 @@ class Workers:
             raise SweepError(None, "--workers", f"must be >= 1, got {self.count}")
         if self.ray is False and self.address is not None:
             raise SweepError(None, "--address", "a cluster is reached through Ray")
+        if self.address is not None and self.address != "auto":
+            match = _ADDRESS.fullmatch(self.address)
+            if match is None or not 0 < int(match["port"]) < 65536:
+                raise SweepError(None, "--address", f"not a Ray address: {self.address!r} "
+                                 "(auto, HEAD_HOST:PORT or ray://HOST:PORT)")
 
     @property
     def in_process(self) -> bool:
@@ -83,7 +95,12 @@ class RunPool:
         started = time.perf_counter()
         self._ray = require_ray("--address" if self.workers.address else "--workers")
         if not self._ray.is_initialized():
-            self._ray.init(**self._init_options())
+            _reachable(self.workers.address)
+            try:
+                self._ray.init(**self._init_options())
+            except (ConnectionError, TimeoutError, RuntimeError, ValueError) as exc:
+                raise SweepError(None, "--address" if self.workers.address else "--workers",
+                                 f"cannot start or join Ray: {exc}") from None
             self._started_ray = True
         self.startup_s = time.perf_counter() - started
         return self
@@ -136,6 +153,24 @@ class RunPool:
                 yield position, ray.get(ref), ""
             except ray.exceptions.RayError as exc:
                 yield position, None, f"{type(exc).__name__}: {str(exc).strip().splitlines()[0]}"
+
+
+def _reachable(address: str | None) -> None:
+    """Fail within :data:`CONNECT_TIMEOUT_S` where a ``HOST:PORT`` address does not answer:
+    Ray itself keeps trying for a minute or more.
+
+    Raises:
+        SweepError: naming ``--address`` and what the connection said.
+    """
+    match = None if address is None else _ADDRESS.fullmatch(address)
+    if match is None:
+        return
+    host = match["host"].strip("[]")
+    try:
+        socket.create_connection((host, int(match["port"])), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as exc:
+        raise SweepError(None, "--address", f"cannot reach {address}: "
+                         f"{exc.strerror or exc or 'no answer'}") from None
 
 
 def require_ray(option: str) -> Any:

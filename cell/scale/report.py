@@ -16,7 +16,7 @@ import numpy as np
 from cell.extras import require
 from cell.io import figure_png, write_atomic
 from cell.scale.runs import OUTCOMES
-from envs.separation import CUT_TASK
+from envs.settings import CUT_TASK
 
 #: A run separates cleanly when the muscles come apart with at most this fraction of the
 #: bindings torn rather than cut: the Cut env's own bound.

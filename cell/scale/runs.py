@@ -21,6 +21,7 @@ from cell.learning.evaluate import EpisodeTask, run_episode
 from cell.scale.design import RunPoint
 from cell.scale.failure import describe_failure
 from cell.sim.episode import Episode
+from cell.sim.mujocolog import warnings_to_stderr
 from cell.sim.scenario import Scenario
 
 #: The outcomes the sweep plots against each swept variable.
@@ -68,6 +69,7 @@ def play(task: RunTask) -> RunOutcome:
         ('ok', 0.1, 0.0)
     """
     started = time.perf_counter()
+    warnings_to_stderr()  # in a Ray worker too: no MUJOCO_LOG.TXT where it runs
     point = task.point
     head = {"run": point.index, "seed": point.seed, **point.values}
     recording, trace = None, ""

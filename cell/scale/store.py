@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import hashlib
 import io
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -22,7 +21,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from cell.errors import SweepError
-from cell.io import write_atomic, write_json, write_rows
+from cell.io import read_json, write_atomic, write_json, write_rows
 
 RUNS_FOLDER = "runs"
 
@@ -39,7 +38,7 @@ def fingerprint(task: object) -> str:
 
 
 class ResultsFolder:
-    """The results folder ``folder`` (module docstring); created when missing.
+    """The results folder ``folder`` (module docstring); made with the first record saved.
 
     Example:
         >>> import tempfile
@@ -53,7 +52,8 @@ class ResultsFolder:
         self.folder = Path(folder)
         if self.folder.exists() and not self.folder.is_dir():
             raise SweepError(self.folder, None, "not a folder")
-        (self.folder / RUNS_FOLDER).mkdir(parents=True, exist_ok=True)
+        # Nothing made yet: the folders appear with the first record, so that a sweep that
+        # stops before any run (no Ray, an unreachable cluster) leaves no empty folder.
 
     def finished(self) -> dict[str, dict[str, Any]]:
         """The records of the finished runs, by run name.
@@ -63,10 +63,7 @@ class ResultsFolder:
         """
         records = {}
         for path in sorted((self.folder / RUNS_FOLDER).glob("*.json")):
-            try:
-                record = json.loads(path.read_text())
-            except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-                raise SweepError(path, None, f"not a run record: {exc}") from None
+            record = read_json(path, SweepError)
             if not isinstance(record, dict) or not isinstance(record.get("row"), dict):
                 raise SweepError(path, "row", "missing: not a run record")
             records[path.stem] = record

@@ -103,8 +103,8 @@ def integrator(scenario: Scenario, actuated: bool = True) -> mujoco.mjtIntegrato
     """MuJoCo's integrator for the scenario: ``discrete`` for flex continuum elasticity (the
     only one that runs it), ``implicitfast`` for the mass-spring model (its springs come in as
     applied forces; the arms' actuators stay implicit), ``euler`` for it in a scene without
-    ``actuated`` arms (nothing there for ``implicitfast`` to take implicitly: the muscles
-    alone step 28% faster in MuJoCo, 2070 nodes), or the one asked for."""
+    ``actuated`` arms (nothing there for ``implicitfast`` to take implicitly, and the muscles
+    alone step faster with ``euler``), or the one asked for."""
     choice = scenario.simulation.integrator
     if choice == "auto":
         choice = ("discrete" if isinstance(scenario.material, ContinuumMaterial)
@@ -128,8 +128,8 @@ def build_robot_spec(scenario: Scenario, spec: mujoco.MjSpec | None = None,
     spec.option.timestep = sim.timestep_s
     spec.option.integrator = integrator(scenario, actuated=robots)
     spec.option.iterations = sim.solver_iterations
-    # Measured on the default cell: CG with elliptic cones solves the flex-table contacts
-    # 3 to 4 times faster than Newton with pyramids, to the same resting state.
+    # CG with elliptic cones solves the flex-table contacts of the default cell faster than
+    # Newton with pyramids, to the same resting state.
     spec.option.solver = mujoco.mjtSolver.mjSOL_CG
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     spec.visual.global_.offwidth = max(640, scenario.camera.width_px)

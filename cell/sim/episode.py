@@ -1,22 +1,20 @@
 """A scripted cutting episode: the camera arm frames the meat, the gripper grasps the shank,
 the knife cuts along the interface's top line while the gripper pulls the shank away.
 
-The summary splits into ``result`` (a function of the scenario and its seed alone) and
-``timing`` (wall-clock figures of this run).
+What it measures and its summary: :mod:`cell.sim.summary`.
 """
 
 from __future__ import annotations
 
 import time
 from contextlib import nullcontext
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
-from cell.errors import MusclecellError
 from cell.perception.interface import SeenInterface
 from cell.perception.pipeline import PerceivedPlan, generic_model, perceive
 from cell.robots.camera import CameraRig
@@ -32,8 +30,13 @@ from cell.sim.recording import EpisodeRecorder
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
 from cell.sim.simulation import Simulation
+from cell.sim.summary import (
+    EpisodeTrace,
+    episode_summary,
+    recording_scalars,
+    released_fraction,
+)
 from cell.tissue.aponeurosis import ReleaseRule
-from cell.tissue.geometry import TwoMuscleMesh
 from controllers import gripper, knife
 from controllers.camera import view_pose
 from controllers.gripper import PullSchedule
@@ -48,8 +51,6 @@ _READY_ITERATIONS = 200
 _HELD_SITES = {"camera": "camera/optical", "gripper": GRASP_SITE, "knife": KNIFE_TIP}
 #: Which random stream of the seed the camera's noise draws from (the sensors use stream 0).
 _PERCEPTION_STREAM = 1
-#: Median gap (m) between facing vertices above which the muscles count as apart.
-APART_GAP_M = 0.02
 
 
 @dataclass(frozen=True)
@@ -83,20 +84,6 @@ class EpisodePlan:
     passes: PassPlan
 
 
-@dataclass
-class _Trace:
-    """What the loop measures while it runs."""
-
-    tracking_error_m: list[float] = field(default_factory=list)
-    knife_force_n: list[float] = field(default_factory=list)
-    cutting_force_n: list[float] = field(default_factory=list)
-    knife_load_n: dict[str, list[float]] = field(default_factory=dict)
-    knife_torque_nm: list[float] = field(default_factory=list)
-    pull_force_n: list[float] = field(default_factory=list)
-    fixture_force_n: list[float] = field(default_factory=list)
-    held_drift_m: dict[str, float] = field(default_factory=dict)
-
-
 class Episode:
     """One scripted episode over a freshly built scene.
 
@@ -124,7 +111,7 @@ class Episode:
         self.fingers = np.array([model.actuator(f"gripper/finger_{s}").id
                                  for s in ("left", "right")])
         self.control_dt_s = 1.0 / scenario.simulation.control_rate_hz
-        self.substeps = max(1, round(self.control_dt_s / scenario.simulation.timestep_s))
+        self.substeps = scenario.simulation.control_substeps
         self.generic = generic_model(scenario.layout.meat_origin_m)
         self.ik = CellIK(self.robot_model, self._home_configuration())
         self._solve_ready_poses()
@@ -212,7 +199,7 @@ class Episode:
         frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
         camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
                                            * self.control_dt_s)))
-        trace = _Trace()
+        trace = EpisodeTrace()
         tip_site = model.site(KNIFE_TIP).id
         blade = model.geom(KNIFE_BLADE_GEOM).id
         score = CutScore(scene.aponeurosis, scene.mesh, scenario.knife.blade_length_m,
@@ -247,17 +234,19 @@ class Episode:
                     drift = float(np.linalg.norm(data.site_xpos[model.site(site).id] - start))
                     trace.held_drift_m[name] = max(trace.held_drift_m.get(name, 0.0), drift)
                 if recorder is not None and k % frame_every == 0:
-                    recorder.log_frame(data, tip, self._scalars(trace))
+                    recorder.log_frame(data, tip, recording_scalars(
+                        trace, released_fraction(scene.aponeurosis)))
                 if recorder is not None and rig is not None and k % camera_every == 0:
                     recorder.log_camera(data, rig)
-        except MusclecellError:
+        except BaseException:  # a stop (Ctrl-C, SIGTERM) too: no partial recording stays
             if recorder is not None:
                 recorder.abort()
             raise
         wall_s = time.perf_counter() - wall_start
         if recorder is not None:
             recorder.close()
-        return self._summary(trace, score, wall_s, perceived, plan, relooks, steering)
+        return episode_summary(scenario, scene, sim, trace, score, plan.passes, wall_s,
+                               perceived, relooks, steering)
 
     def plan(self, perceived: PerceivedPlan | None = None) -> EpisodePlan:
         """Plan the knife and the gripper from the arms' present IK poses (the ready poses
@@ -367,7 +356,7 @@ class Episode:
             recorder.log_look(len(relooks.updates), *seen,
                               following + np.outer(shift, [0.0, 1.0, 0.0]))
 
-    def _measure(self, trace: _Trace, knife_tared: bool, gripper_tared: bool) -> None:
+    def _measure(self, trace: EpisodeTrace, knife_tared: bool, gripper_tared: bool) -> None:
         sim = self.sim
         if knife_tared:
             reading = sim.read_world("knife/force")
@@ -377,98 +366,3 @@ class Episode:
         if gripper_tared:
             trace.pull_force_n.append(float(np.linalg.norm(sim.read("gripper/force"))))
             trace.fixture_force_n.append(float(np.linalg.norm(sim.read("fixture_force"))))
-
-    def _scalars(self, trace: _Trace) -> dict[str, float]:
-        apo = self.scene.aponeurosis
-        values = {"progress/released_fraction": float(1.0 - apo.bound.mean())}
-        for name, series in (("forces/knife_n", trace.knife_force_n),
-                             ("forces/knife_torque_nm", trace.knife_torque_nm),
-                             ("forces/pull_n", trace.pull_force_n),
-                             ("forces/fixture_n", trace.fixture_force_n),
-                             ("tracking/knife_error_m", trace.tracking_error_m)):
-            if series:
-                values[name] = series[-1]
-        return values
-
-    def _summary(self, trace: _Trace, score: CutScore, wall_s: float,
-                 perceived: PerceivedPlan | None, plan: EpisodePlan,
-                 relooks: Relooks | None, steering: LeanSteering | None) -> dict[str, Any]:
-        scene, sim = self.scene, self.sim
-        apo = scene.aponeurosis
-        gap = apo.lengths(sim.data) - apo.rest_length_m
-        released_fraction = float(1.0 - apo.bound.mean())
-        errors = np.array(trace.tracking_error_m) if trace.tracking_error_m else np.zeros(1)
-
-        def peak(series: list[float]) -> float:
-            return float(max(series)) if series else 0.0
-
-        def mean(series: list[float]) -> float:
-            return float(np.mean(series)) if series else 0.0
-
-        result = {
-            "scenario": self.scenario.name,
-            "seed": self.scenario.seed,
-            "tissue_nodes": scene.node_count,
-            "tissue_mesh": _mesh_figures(scene.mesh),
-            "cad_parts": {key: part.figures() for key, part in scene.cad_parts.items()},
-            "bindings": len(apo),
-            "released_by_rule": apo.released_counts(),
-            "released_fraction": released_fraction,
-            "gap_m": {"median": float(np.median(gap)), "mean": float(gap.mean()),
-                      "min": float(gap.min())},
-            "muscles_apart": bool(released_fraction >= 0.95
-                                  and float(np.median(gap)) >= APART_GAP_M),
-            "grasped_vertices": len(sim.grasped),
-            "knife_force_peak_n": peak(trace.knife_force_n),
-            "knife_force_cutting_mean_n": mean(trace.cutting_force_n),
-            # While the knife cuts: bindings hooked on its edge, flesh pushing on the blade
-            # (contacts), the edge's cutting resistance.
-            "knife_force_split_n": {part: {"peak": peak(series), "mean": mean(series)}
-                                    for part, series in trace.knife_load_n.items()},
-            "knife_torque_peak_nm": peak(trace.knife_torque_nm),
-            "pull_force_peak_n": peak(trace.pull_force_n),
-            "fixture_force_peak_n": peak(trace.fixture_force_n),
-            "knife_tracking_error_m": {"median": float(np.median(errors)),
-                                       "p95": float(np.percentile(errors, 95)),
-                                       "max": float(errors.max())},
-            "held_arm_drift_m": trace.held_drift_m,
-            # Against the truth: the bound surface of the two muscles where it is now.
-            "knife_tip_to_true_interface_m": score.tip_distance(),
-            "flesh_damage": score.flesh_damage(),
-            "passes": [{"pass": i, "depth_m": depth, "window_s": list(window)}
-                       for i, (depth, window) in enumerate(zip(plan.passes.depths_m,
-                                                               plan.passes.windows_s,
-                                                               strict=True))],
-            "sim_time_s": sim.time_s,
-        }
-        if perceived is not None:
-            distance = perceived.guideline_distance_m
-            result["perception"] = {
-                "guideline_to_true_top_line_xy_m": {"mean": distance.mean_m,
-                                                    "max": distance.max_m},
-                "coverage_of_true_top_line": perceived.coverage,
-                "fit_rms_m": perceived.fit.rms_m,
-                "cut_depth_m": {"min": float(perceived.cut_depth_m.min()),
-                                "max": float(perceived.cut_depth_m.max())},
-                "updates": [] if relooks is None else relooks.updates,
-            }
-        if steering is not None and steering.params.enabled:
-            result["steering"] = {"lean_change": steering.lean_change,
-                                  "lean_change_min": steering.extremes[0],
-                                  "lean_change_max": steering.extremes[1]}
-        looks_s = [perceived.timings_s["total"]] if perceived is not None else []
-        looks_s += [u["perception_s"] for u in ([] if relooks is None else relooks.updates)]
-        timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s,
-                  "perception_s": looks_s,
-                  "cad_parts": {key: part.timing() for key, part in scene.cad_parts.items()}}
-        return {"result": result, "timing": timing}
-
-
-def _mesh_figures(mesh: TwoMuscleMesh) -> dict[str, Any]:
-    """What the summary says of the muscles' mesh: its source (the scan's files or the
-    procedural shape), size, worst element and the bound interface's area (m^2)."""
-    return {"source": [Path(name).name for name in mesh.shape.surface_mesh] or "procedural",
-            "nodes": mesh.node_count,
-            "tets": len(mesh.round.tets) + len(mesh.shank.tets),
-            "min_dihedral_deg": mesh.min_dihedral_deg,
-            "interface_area_m2": mesh.interface_area_m2}

@@ -2,7 +2,7 @@
 estimate learns from it and the knife's next pass follows the update.
 
 After pass k the knife waits out of the cut (:class:`~controllers.knife.PassPlan`'s
-``looks_s``); the camera looks (:func:`~cell.perception.pipeline.look`, the walk starting
+``looks_s``); the camera looks (:func:`~cell.perception.look.look`, the walk starting
 where the first look's did), and the new guideline, the bottom of the opened valley, joins
 the interface estimate (:meth:`~cell.perception.interface.SeenInterface.seen`). From then on
 the knife's target moves along y by what the update changed at its place: the pass plan keeps
@@ -31,7 +31,8 @@ import numpy as np
 
 from cell.errors import PerceptionError
 from cell.perception.interface import SeenInterface
-from cell.perception.pipeline import PerceptionParams, look
+from cell.perception.look import look
+from cell.perception.params import PerceptionParams
 from cell.polyline import closest_on, length
 from cell.robots.camera import CameraRig
 

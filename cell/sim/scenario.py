@@ -18,7 +18,7 @@ from typing import Literal
 from cell.assets import asset_path
 from cell.config import from_table, read_toml, require_non_negative, require_positive
 from cell.errors import InputError, MaterialError, ScenarioError
-from cell.perception.pipeline import PerceptionParams
+from cell.perception.params import PerceptionParams
 from cell.robots.tools import CameraParams, FixtureParams, GripperParams, KnifeParams
 from cell.tissue.aponeurosis import ReleaseRule
 from cell.tissue.geometry import MuscleShape
@@ -35,26 +35,27 @@ _ASSETS_PREFIX = "assets/"
 @dataclass(frozen=True)
 class SimulationParams:
     """Physics settings. ``timestep_s`` is MuJoCo's step; the controllers run at
-    ``control_rate_hz``; ``max_tissue_speed_m_s`` flags an energy blow-up.
-    ``tissue_step``: how the mass-spring springs are integrated: ``"implicit"`` (the default,
-    :mod:`cell.tissue.implicit`: stable at any stiffness, so the step is set by accuracy and
-    the contacts and the arms: 5 ms, four steps per 20 ms control step, at any material. At
-    5 ms the default episode releases, cuts and tears as at the old 2 ms explicit step; at
-    10 ms the knife's tracking error reached 1 cm and its force 64 N; the arms' servos,
-    sized for 2 ms by :class:`~cell.robots.arms.ServoTuning`, reach omega h = 2.5 there, past
-    the explicit limit 2, and 1.25 at 5 ms) or
+    ``control_rate_hz``, every :attr:`control_substeps` physics steps, and the implicit step
+    runs the spring law once per control step; ``max_tissue_speed_m_s`` flags an energy
+    blow-up. ``tissue_step``: how the mass-spring springs are integrated: ``"implicit"`` (the
+    default, :mod:`cell.tissue.implicit`: stable at any stiffness, so the step is set by
+    accuracy and by the contacts and the arms, whose servos are sized by
+    :class:`~cell.robots.servos.ServoTuning` and come near the explicit limit of their own
+    integration as the step grows: docs/benchmarks.md gives the default's margin) or
     ``"explicit"`` (MuJoCo's explicit step of the spring forces, refused above the springs'
     stable step, :meth:`~cell.tissue.massspring.MassSpringModel.stable_timestep_s`, which
     shrinks as the meat stiffens or the mesh refines). ``integrator``
     ``"auto"`` picks ``discrete`` for continuum materials (the only one MuJoCo runs them
     with) and ``implicitfast`` for the mass-spring model (``euler`` in a scene without the
     arms: :func:`~cell.sim.assembly.integrator`). ``muscle_contact`` lets the two
-    muscles collide with each other (off by default: it more than doubles a step's cost, and
-    the bindings and the pull keep them apart).
+    muscles collide with each other (off by default: it makes a step much dearer, and the
+    bindings and the pull keep them apart).
 
     Example:
         >>> SimulationParams().timestep_s, SimulationParams().tissue_step
         (0.005, 'implicit')
+        >>> SimulationParams(timestep_s=0.0025).control_substeps  # 20 ms / 2.5 ms
+        8
         >>> SimulationParams(control_rate_hz=1000.0)
         Traceback (most recent call last):
         cell.errors.InputError: control_rate_hz: faster than the physics step
@@ -76,6 +77,13 @@ class SimulationParams:
         if self.control_rate_hz * self.timestep_s > 1.0:
             raise InputError(None, "control_rate_hz", "faster than the physics step")
 
+    @property
+    def control_substeps(self) -> int:
+        """Physics steps per control step: the control period over ``timestep_s``, rounded to
+        the nearest whole number (at least 1). The episode steps the physics this many times
+        per control step, and the implicit step runs the spring law once in them."""
+        return max(1, round((1.0 / self.control_rate_hz) / self.timestep_s))
+
 
 @dataclass(frozen=True)
 class AponeurosisParams:
@@ -96,11 +104,10 @@ class AponeurosisParams:
     ``edge_share``: the fraction of that force the blade's edge meets in the flesh while the
     knife cuts (fracture and friction that neither the hooked bindings nor the flex contacts
     make: :class:`~cell.tissue.cutting.EdgeResistance`), under any release rule; 0: none.
-    The defaults were measured on the default episode, seeds 1 to 5: with ``force_share`` 0.05
-    the force rule cuts 73-74 of 95 bindings and the pull tears 21-22 (those below the
-    blade's reach; 0.1 tears 24, seed 1, without the edge); hooked bindings and flesh
-    contacts then make about 1.7 N of the curve's 12 N mean, the edge the rest (0.8), so the
-    knife reads a 10 N mean and a 16 N peak while cutting.
+    ``force_share`` and ``edge_share`` were chosen on the default episode so that the force
+    rule cuts the bindings within the blade's reach and the pull tears those below it, and the
+    knife reads about the curve's force while cutting (docs/benchmarks.md gives the
+    measurements).
 
     Example:
         >>> AponeurosisParams(release_rules=("knife",)).tearing_stretch_m

@@ -8,9 +8,10 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
-from cell.errors import DivergenceError, MaterialError, ScenarioError
+from cell.errors import MaterialError, ScenarioError
 from cell.robots.names import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM
 from cell.sim.assembly import Scene
+from cell.sim.divergence import FATAL_WARNINGS, check_state, fatal_warnings
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import ReleaseRule
 from cell.tissue.cutting import EdgeResistance
@@ -18,13 +19,6 @@ from cell.tissue.forcecurve import ForceCurve
 from cell.tissue.forces import TissueForces
 from cell.tissue.massspring import MassSpringModel
 
-#: Warnings after which MuJoCo's state is no longer a solution of the model.
-FATAL_WARNINGS = (
-    mujoco.mjtWarning.mjWARN_BADQACC,
-    mujoco.mjtWarning.mjWARN_BADQPOS,
-    mujoco.mjtWarning.mjWARN_BADQVEL,
-)
-_FATAL_INDEX = np.array([int(w) for w in FATAL_WARNINGS])
 _SENSORS_OFF = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
 
 
@@ -61,10 +55,11 @@ class TissueSimulation:
         scene.restore(self.data)
         self.tissue = TissueForces(self.model, scenario.material, scene.aponeurosis,
                                    scene.tissue_bodies,
-                                   implicit=scenario.simulation.tissue_step == "implicit")
+                                   implicit=scenario.simulation.tissue_step == "implicit",
+                                   law_refresh_steps=scenario.simulation.control_substeps)
         self._warnings = np.zeros(len(FATAL_WARNINGS), dtype=int)
-        # The force sensors' pass over every body (mj_rnePostConstraint) cost a seventh of a
-        # step of the bare muscles, and their readings are read after a call to step() or
+        # The force sensors' pass over every body (mj_rnePostConstraint) is a sizable share
+        # of a step of the bare muscles, and their readings are read after a call to step() or
         # forward() only: MuJoCo computes them in those calls' last pass alone.
         self.model.opt.disableflags |= _SENSORS_OFF
 
@@ -86,7 +81,7 @@ class TissueSimulation:
         if state is not None:
             mujoco.mj_copyData(self.data, self.model, state)
         self.tissue.reset()
-        self._warnings = self._warning_counts()
+        self._warnings = fatal_warnings(self.data)
 
     def step(self, count: int = 1, sensors: bool = True) -> None:
         """Advance ``count`` physics steps, then check for divergence; MuJoCo computes the
@@ -122,30 +117,17 @@ class TissueSimulation:
     def _apply_forces(self) -> None:
         self.tissue.apply(self.data)
 
-    def _warning_counts(self) -> np.ndarray:
-        return self.data.warning.number[_FATAL_INDEX]
-
     def check_divergence(self, time_s: float | None = None) -> None:
-        """Raise :class:`DivergenceError` on NaN, a fatal MuJoCo warning since the last check
-        or runaway tissue.
-
-        ``time_s`` is the time the step should have reached: after a fatal warning MuJoCo
-        resets the state, time included, so ``data.time`` no longer tells.
-        """
-        data = self.data
-        counts = self._warning_counts()
-        fired = counts > self._warnings
-        if fired.any():
-            names = [w.name for w, f in zip(FATAL_WARNINGS, fired, strict=True) if f]
+        """Raise :class:`~cell.errors.DivergenceError` on NaN, a fatal MuJoCo warning since
+        the last check or runaway tissue (:func:`~cell.sim.divergence.check_state`);
+        ``time_s``: the time the step should have reached."""
+        counts = fatal_warnings(self.data)
+        try:
+            check_state(self.data, self.tissue.dofs, self._warnings,
+                        self.scenario.simulation.max_tissue_speed_m_s,
+                        self.time_s if time_s is None else time_s)
+        finally:
             self._warnings = counts
-            when = self.time_s if time_s is None else time_s
-            raise DivergenceError(when, f"MuJoCo warning {', '.join(names)}")
-        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
-            raise DivergenceError(self.time_s, "non-finite position or velocity")
-        speed = np.abs(data.qvel[self.tissue.dofs]).max(initial=0.0)
-        limit = self.scenario.simulation.max_tissue_speed_m_s
-        if speed > limit:
-            raise DivergenceError(self.time_s, f"tissue speed {speed:.3g} m/s above {limit} m/s")
 
 
 class Simulation(TissueSimulation):
@@ -234,9 +216,8 @@ class Simulation(TissueSimulation):
                           ) -> tuple[np.ndarray, np.ndarray]:
         """Force (N) and moment about ``point_m`` (N m) that the flex contacts (the muscles'
         vertices) put on the geoms of ``bodies``, world frame. MuJoCo 4.0 leaves these
-        contacts out of ``cfrc_ext``, so out of its force and torque sensors: measured, the
-        knife body's ``cfrc_ext`` equals its ``xfrc_applied`` while the blade presses 4 N
-        into the flesh."""
+        contacts out of ``cfrc_ext``, so out of its force and torque sensors: the knife body's
+        ``cfrc_ext`` equals its ``xfrc_applied`` while the blade presses into the flesh."""
         model, data = self.model, self.data
         force, moment = np.zeros(3), np.zeros(3)
         count = data.ncon
@@ -292,7 +273,7 @@ class Simulation(TissueSimulation):
         force, moment = hooks + edge, moment + edge_moment
         if force.any() or data.xfrc_applied[self._knife].any():
             # xfrc_applied acts at the knife's centre of mass, the hooks' and the edge's
-            # moments are about the blade centre. mju_cross: np.cross costs 30 us a call.
+            # moments are about the blade centre. mju_cross: np.cross is dear on one vector.
             mujoco.mju_cross(self._lever_moment, blade_pos - data.xipos[self._knife], force)
             data.xfrc_applied[self._knife, :3] = force
             data.xfrc_applied[self._knife, 3:] = moment + self._lever_moment

@@ -20,6 +20,10 @@ from numba import njit
 
 from cell.errors import InputError
 
+# Columns of the hooked bindings' pull on the blade: the force (N), then the moment (N m)
+# about the blade centre, each three wide.
+_FORCE, _MOMENT = 0, 3
+
 
 class ReleaseRule(StrEnum):
     """Why a binding let go."""
@@ -184,7 +188,8 @@ class Aponeurosis:
         if self.law is not BindingLaw.SPRING:
             return np.zeros(3), np.zeros(3)
         self._springs(data, apply=True)
-        return self._on_blade[:3].copy(), self._on_blade[3:].copy()
+        return (self._on_blade[_FORCE:_FORCE + 3].copy(),
+                self._on_blade[_MOMENT:_MOMENT + 3].copy())
 
     def forces(self, data: mujoco.MjData) -> np.ndarray:
         """(P,) force carried by every binding, N (0 once released): the spring's force, or
@@ -301,7 +306,7 @@ def _binding_springs(xpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray,
     the two vertices' dofs and the hooked ones' force and moment on the blade.
 
     Scalars and tuples throughout: a 3-vector array per operation cost a heap allocation
-    each, most of the kernel's 23 us (90 bindings)."""
+    each, most of the kernel's time."""
     for p in range(len(rest)):
         if not math.isnan(released_at[p]):
             tension_out[p] = 0.0
@@ -341,9 +346,9 @@ def _binding_springs(xpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray,
         if hooked[p]:
             px, py, pz = -(on_a[0] + on_b[0]), -(on_a[1] + on_b[1]), -(on_a[2] + on_b[2])
             rx, ry, rz = hx - blade_pos[0], hy - blade_pos[1], hz - blade_pos[2]
-            on_blade[0] += px
-            on_blade[1] += py
-            on_blade[2] += pz
-            on_blade[3] += ry * pz - rz * py
-            on_blade[4] += rz * px - rx * pz
-            on_blade[5] += rx * py - ry * px
+            on_blade[_FORCE] += px
+            on_blade[_FORCE + 1] += py
+            on_blade[_FORCE + 2] += pz
+            on_blade[_MOMENT] += ry * pz - rz * py
+            on_blade[_MOMENT + 1] += rz * px - rx * pz
+            on_blade[_MOMENT + 2] += rx * py - ry * px

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cell.config import FORCE_N, TIME_S
 from cell.errors import InputError
 from cell.io import read_csv
 
@@ -38,11 +39,13 @@ class ForceCurve:
 
         Raises:
             InputError: naming the file, and the line and column where it applies: a missing
-                column, a cell that is not a finite number, a time that does not increase,
-                fewer than 2 samples.
+                column, a cell that is not a finite number or not plausible
+                (:data:`cell.config.FORCE_N`, :data:`cell.config.TIME_S`), a time that does
+                not increase, fewer than 2 samples.
         """
         table = read_csv(path, ("time_s", "force_n"))
-        time, force = table.numbers("time_s"), table.numbers("force_n")
+        time = table.numbers("time_s", TIME_S.refusal)
+        force = table.numbers("force_n", FORCE_N.refusal)
         still = np.flatnonzero(np.diff(time) <= 0)
         if still.size:
             raise InputError(table.path, table.where(int(still[0]) + 1, "time_s"),

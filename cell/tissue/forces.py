@@ -45,7 +45,8 @@ class TissueForces:
     moment N m about the blade centre) for the caller to put on the knife.
 
     With ``implicit``, the springs' and the bindings' forces go through the implicit step
-    (:mod:`cell.tissue.implicit`) before MuJoCo's.
+    (:mod:`cell.tissue.implicit`) before MuJoCo's, the spring law run once every
+    ``law_refresh_steps`` steps (:class:`MassSpringModel`).
 
     Attributes:
         springs: one :class:`MassSpringModel` per muscle (empty for a continuum material).
@@ -67,12 +68,14 @@ class TissueForces:
     """
 
     def __init__(self, model: mujoco.MjModel, material: ContinuumMaterial | MassSpringMaterial,
-                 aponeurosis: Aponeurosis, bodies: np.ndarray, implicit: bool = False) -> None:
+                 aponeurosis: Aponeurosis, bodies: np.ndarray, implicit: bool = False,
+                 law_refresh_steps: int = 1) -> None:
         self.aponeurosis = aponeurosis
         self.implicit = implicit
         self.dofs = tissue_dofs(model, bodies)
         self.springs: dict[str, MassSpringModel] = (
-            {muscle: MassSpringModel(model, (muscle,), material, implicit=implicit)
+            {muscle: MassSpringModel(model, (muscle,), material, implicit=implicit,
+                                     law_refresh_steps=law_refresh_steps)
              for muscle in MUSCLES}
             if isinstance(material, MassSpringMaterial) else {})
 

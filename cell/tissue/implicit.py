@@ -21,35 +21,34 @@ The forces MuJoCo adds itself and that are known before the step (gravity,
 otherwise the implicit update would hold the springs against a force it does not see, and
 move each vertex by ``beta h**2 e / m`` against its neighbours at rest. The constraint forces
 (contacts, bindings as equalities, the grasp) are not known before the step and stay out: a
-vertex resting on the table sits ``beta h**2 g`` (0.06 mm at 5 ms) off, a grasped vertex
-pulled with 0.5 N (0.5 g) some 6 mm (estimates by that formula). Fed back from the last
-step, even averaged over 10 to 30 steps, they took turns with the vertices they push and
-pumped energy into a stiff meat (the paper's material diverged in the default episode with
-the slower average, 20 times the default meat hanging from the grasp with the faster one).
+vertex resting on the table sits about ``beta h**2 g`` off, a grasped vertex about
+``beta h**2 F / m`` under the grasp's force F. Fed back from the last step, even averaged over
+many steps, they took turns with the vertices they push and pumped energy into a stiff meat
+(docs/design-notes.md).
 
 With MuJoCo's position update, ``theta = 0, beta = 1/4, gamma = 1/2`` is Newmark's average
 acceleration (the trapezoidal rule): unconditionally stable for linear springs, second order,
 no numerical damping; ``theta = beta = gamma = 1`` is backward Euler, whose damping
-(``h omega / 2`` of critical) ate half of a free vibration's amplitude in 1.4 s at 10 ms.
+(``h omega / 2`` of critical) eats a free vibration within seconds at a coarse step.
 The step keeps a little dissipation ``a`` (``theta = a``, ``gamma = 1/2 + a``,
 ``beta = (1 + a)**2 / 4``), as Newmark's gamma > 1/2 does, for the undamped trapezoidal rule
-let the explicit binding springs pump energy into the muscles at 10 ms. A mode's numerical
-damping ratio is then about ``a h omega / 2``: with ``a = 0.05`` a block of the default meat
-swinging at 2.3 Hz keeps 99.0% of the small-step explicit amplitude after three periods at
-5 ms, 97.3% at 10 ms and 93.6% at 20 ms (``tests/test_massspring.py``; 99.9, 99.5 and 98.0%
-with ``a = 0.02``). The stiffest high modes lose about a tenth of their amplitude a step.
-``a = 0.02`` left stiff meat on a finer mesh running away late in the default episode
-(the paper's Fig. 10 material at 0.02 m cells, seeds 0 and 1, and twenty times the default
-meat there, seed 0: tissue above 20 m/s while the pull tore the last bindings); with 0.05
-those and seeds 2 and 3 ran to the end.
+let the explicit binding springs pump energy into the muscles at a coarse step. A mode's
+numerical damping ratio is then about ``a h omega / 2``: at the default ``a = 0.05`` a swinging
+block of the default meat keeps the small-step explicit amplitude within the tolerance of
+``tests/test_massspring.py``, and the stiffest high modes lose about a tenth of their
+amplitude a step; a smaller ``a`` left stiff meat on a finer mesh running away late in the
+default episode (docs/benchmarks.md).
 
 The system is solved matrix-free by conjugate gradients with a 3x3 block-Jacobi
 preconditioner, started from the last step's dv, to a velocity error ``tolerance_m_s``.
 
 Example:
     >>> import numpy as np
+    >>> from cell.tissue.springlaw import TANGENT_COLUMNS
     >>> edges = np.array([[0, 1]])
-    >>> tangent = np.array([[1.0, 0.0, 0.0, 100.0, 0.0, 0.0]])  # 100 N/m along x
+    >>> tangent = np.zeros((1, TANGENT_COLUMNS))
+    >>> tangent[0, TANGENT_DIRECTION] = 1.0  # along x
+    >>> tangent[0, TANGENT_STIFFNESS] = 100.0  # N/m
     >>> system = ImplicitSystem(edges, np.array([0.01, 0.01]), np.array([0, 3]),
     ...                         np.array([1, 2]), np.array([0.01, 0.01]))
     >>> force = np.array([1.0, 0.0, 0.0, -1.0, 0.0, 0.0])
@@ -63,6 +62,20 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+from cell.tissue.springlaw import (
+    TANGENT_DASHPOT,
+    TANGENT_DIRECTION,
+    TANGENT_STIFFNESS,
+    TANGENT_TENSION_PER_LENGTH,
+)
+
+# The step's weights (module docstring): beta on h**2 K dv, theta on h K v, gamma on h D dv.
+_BETA, _THETA, _GAMMA = 0, 1, 2
+# Columns of a spring's blocks, each ``a d d^T + b I``: (a, b) of the system's
+# beta h**2 K + gamma h D, then (a, b) of K alone.
+_SYSTEM, _STIFFNESS, _BLOCK_COLUMNS = 0, 2, 4
+_ALONG, _ACROSS = 0, 1
 
 
 class ImplicitSystem:
@@ -94,9 +107,10 @@ class ImplicitSystem:
         self.bodies = np.asarray(bodies, dtype=np.int64)
         self.body_mass_kg = np.asarray(body_mass_kg, dtype=float)
         self.dissipation = dissipation
-        # beta on h**2 K dv, theta on h K v, gamma on h D dv (module docstring).
-        self._weights = np.array([(1.0 + dissipation) ** 2 / 4.0, dissipation,
-                                  0.5 + dissipation])
+        self._weights = np.empty(3)
+        self._weights[_BETA] = (1.0 + dissipation) ** 2 / 4.0
+        self._weights[_THETA] = dissipation
+        self._weights[_GAMMA] = 0.5 + dissipation
         self.tolerance_m_s = tolerance_m_s
         self.max_iterations = max_iterations
         self.iterations = 0
@@ -104,7 +118,7 @@ class ImplicitSystem:
         self.velocity_change = np.zeros((n, 3))
         self._work = np.zeros((7, n, 3))
         self._inverse = np.zeros((n, 3, 3))
-        self._blocks = np.zeros((len(self.edges), 4))
+        self._blocks = np.zeros((len(self.edges), _BLOCK_COLUMNS))
 
     def reset(self) -> None:
         """Forget the last solve (a new state)."""
@@ -143,37 +157,41 @@ def _edge_blocks(tangent: np.ndarray, h: float, weights: np.ndarray, blocks: np.
                  ) -> None:
     """Every spring's blocks, each ``a d d^T + b I``: (a, b) of beta h**2 K + gamma h D,
     then of K, into ``blocks`` (E, 4)."""
-    beta = weights[0] * h * h
+    beta = weights[_BETA] * h * h
     for e in range(tangent.shape[0]):
-        axial = max(tangent[e, 3], 0.0)
-        lateral = max(tangent[e, 4], 0.0)
-        blocks[e, 0] = weights[2] * h * tangent[e, 5] + beta * (axial - lateral)
-        blocks[e, 1] = beta * lateral
-        blocks[e, 2] = axial - lateral
-        blocks[e, 3] = lateral
+        axial = max(tangent[e, TANGENT_STIFFNESS], 0.0)
+        lateral = max(tangent[e, TANGENT_TENSION_PER_LENGTH], 0.0)
+        blocks[e, _SYSTEM + _ALONG] = (weights[_GAMMA] * h * tangent[e, TANGENT_DASHPOT]
+                                       + beta * (axial - lateral))
+        blocks[e, _SYSTEM + _ACROSS] = beta * lateral
+        blocks[e, _STIFFNESS + _ALONG] = axial - lateral
+        blocks[e, _STIFFNESS + _ACROSS] = lateral
 
 
 @njit(cache=True, fastmath=False)
 def _apply(x: np.ndarray, out: np.ndarray, mass: np.ndarray, free: np.ndarray,
            edges: np.ndarray, tangent: np.ndarray, blocks: np.ndarray, column: int) -> None:
-    """out = (M + beta h**2 K + gamma h D) x, or K x with ``column`` 2 (no M); pinned rows
-    zero."""
-    scale = 1.0 if column == 0 else 0.0
+    """out = (M + beta h**2 K + gamma h D) x with ``column`` ``_SYSTEM``, or K x with
+    ``_STIFFNESS`` (no M); pinned rows zero."""
+    scale = 1.0 if column == _SYSTEM else 0.0
     for i in range(x.shape[0]):
         for k in range(3):
             out[i, k] = scale * mass[i] * x[i, k]
     for e in range(edges.shape[0]):
         i = edges[e, 0]
         j = edges[e, 1]
-        a = blocks[e, column]
-        b = blocks[e, column + 1]
+        a = blocks[e, column + _ALONG]
+        b = blocks[e, column + _ACROSS]
         rx = x[i, 0] - x[j, 0]
         ry = x[i, 1] - x[j, 1]
         rz = x[i, 2] - x[j, 2]
-        along = a * (tangent[e, 0] * rx + tangent[e, 1] * ry + tangent[e, 2] * rz)
-        yx = along * tangent[e, 0] + b * rx
-        yy = along * tangent[e, 1] + b * ry
-        yz = along * tangent[e, 2] + b * rz
+        dx = tangent[e, TANGENT_DIRECTION]
+        dy = tangent[e, TANGENT_DIRECTION + 1]
+        dz = tangent[e, TANGENT_DIRECTION + 2]
+        along = a * (dx * rx + dy * ry + dz * rz)
+        yx = along * dx + b * rx
+        yy = along * dy + b * ry
+        yz = along * dz + b * rz
         out[i, 0] += yx
         out[i, 1] += yy
         out[i, 2] += yz
@@ -223,14 +241,15 @@ def _block_inverses(mass: np.ndarray, free: np.ndarray, edges: np.ndarray,
         for k in range(3):
             inverse[i, k, k] = mass[i]
     for e in range(edges.shape[0]):
-        a = blocks[e, 0]
-        b = blocks[e, 1]
+        a = blocks[e, _SYSTEM + _ALONG]
+        b = blocks[e, _SYSTEM + _ACROSS]
         for end in range(2):
             i = edges[e, end]
             for k in range(3):
                 inverse[i, k, k] += b
                 for m in range(3):
-                    inverse[i, k, m] += a * tangent[e, k] * tangent[e, m]
+                    inverse[i, k, m] += (a * tangent[e, TANGENT_DIRECTION + k]
+                                         * tangent[e, TANGENT_DIRECTION + m])
     for i in range(mass.shape[0]):
         if free[i]:
             _invert_symmetric(inverse[i])
@@ -253,16 +272,17 @@ def _implicit_filter(qvel: np.ndarray, qfrc: np.ndarray, external: np.ndarray,
     for i in range(n):
         for k in range(3):
             v[i, k] = qvel[dofadr[i] + k] if free[i] else 0.0
-    _apply(v, q, mass, free, edges, tangent, blocks, 2)
+    _apply(v, q, mass, free, edges, tangent, blocks, _STIFFNESS)
     for i in range(n):
         for k in range(3):
-            rhs[i, k] = (h * (qfrc[dofadr[i] + k] + external[i, k] - weights[1] * h * q[i, k])
+            rhs[i, k] = (h * (qfrc[dofadr[i] + k] + external[i, k]
+                              - weights[_THETA] * h * q[i, k])
                          if free[i] else 0.0)
             if not free[i]:
                 dv[i, k] = 0.0
     if refresh:
         _block_inverses(mass, free, edges, tangent, blocks, inverse)
-    _apply(dv, q, mass, free, edges, tangent, blocks, 0)
+    _apply(dv, q, mass, free, edges, tangent, blocks, _SYSTEM)
     scale = 0.0
     for i in range(n):
         scale += mass[i]
@@ -275,7 +295,7 @@ def _implicit_filter(qvel: np.ndarray, qfrc: np.ndarray, external: np.ndarray,
     # the springs' forces often balance others (gravity, contacts) and a bound relative to
     # them would leave the tissue creeping at rest.
     while rz > tolerance * tolerance * scale and iterations < max_iterations:
-        _apply(p, q, mass, free, edges, tangent, blocks, 0)
+        _apply(p, q, mass, free, edges, tangent, blocks, _SYSTEM)
         pq = 0.0
         for i in range(n):
             for k in range(3):

@@ -31,7 +31,7 @@ from scipy.optimize import brentq
 
 from cell.errors import MaterialError
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import SpringLaw
+from cell.tissue.packedlaw import SpringLaw
 from cell.tissue.tetmesh import _TET_EDGES, signed_volumes_m3
 
 # Voigt order of the symmetric index pairs of a strain.

@@ -10,9 +10,10 @@ Eq. 8, ``K = E sum(V) / l0**2``. Both moduli are updated every step from the spr
 r = l / l0 (:class:`~cell.tissue.curves.ModulusCurve`); K uses their secant values
 ``sigma(r) / (r - 1)``, so that a spring's force follows the measured stress curve
 (a conservative spring) instead of the tangent modulus times the extension. Under the
-implicit step the law runs at every fourth step (one 20 ms control step at 5 ms), with its
-derivative for the step's matrix; in between each spring's tension follows the law's tangent
-line from that run, along the spring's present direction (``_LAW_REFRESH``).
+implicit step the law runs once every ``law_refresh_steps`` steps (the cell passes its steps per
+control step: once per control step), with its derivative for the step's matrix; in between
+each spring's tension follows the law's tangent line from that run, along the spring's present
+direction.
 
 Calibration: the moduli fed to Eq. 10 are those for which the lattice of the muscle's own
 mesh has the material's moduli (:mod:`cell.tissue.lattice`).
@@ -49,7 +50,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from cell.errors import MeshError
+from cell.errors import InputError, MeshError
 from cell.tissue.implicit import ImplicitSystem
 from cell.tissue.lattice import (
     AffineLattice,
@@ -59,21 +60,7 @@ from cell.tissue.lattice import (
     tet_edges,
 )
 from cell.tissue.material import MassSpringMaterial
-from cell.tissue.springlaw import muscle_forces
-
-# Steps between runs of the spring law for the implicit step (one control step at the default
-# 5 ms), with its tangent stiffness and the solve's preconditioner; in between, each spring
-# follows the law's tangent line from its last run, along its present direction. Run at
-# every step, the law and a finite-difference probe of it every fourth were 29 of the
-# kernel's 37 ns a spring (990 nodes; the tangent line runs at 8.6, the memory floor at
-# 7.4), and over 20 ms a spring's
-# length changes too little for the line to part from the curve (tests/test_massspring.py,
-# the bench's accuracy tests).
-_LAW_REFRESH = 4
-_INTEGRATORS = {
-    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-    "euler": mujoco.mjtIntegrator.mjINT_EULER,
-}
+from cell.tissue.springlaw import TANGENT_COLUMNS, muscle_forces
 
 
 class MassSpringModel:
@@ -87,9 +74,17 @@ class MassSpringModel:
     and leaves every other entry alone; put external loads on vertices in ``xfrc_applied``.
     All flexes share one material and one fibre direction; use one model per muscle to give
     each muscle its own. A material with history (plasticity, relaxation) advances it by the
-    model's time step at every :meth:`apply` (an implicit model's law runs at every fourth
-    and advances it by four steps): call it once per step, and :meth:`reset` with
-    ``mj_resetData``.
+    model's time step at every :meth:`apply` (an implicit model's law runs at every
+    ``law_refresh_steps``-th and advances it by that many steps): call it once per step, and
+    :meth:`reset` with ``mj_resetData``.
+
+    ``law_refresh_steps``: under the implicit step, the steps from one run of the spring law
+    to the next (the cell's physics steps per control step,
+    :attr:`~cell.sim.scenario.SimulationParams.control_substeps`); 1, the default, runs it at
+    every step. The explicit step runs it at every step. Refreshing the law, its tangent
+    stiffness and the solve's preconditioner once per control step saves most of the law's
+    cost, and over one control step a spring's length changes too little for the tangent line
+    to part from the curve (``tests/test_massspring.py``, the bench's accuracy tests).
 
     Attributes:
         material: the material, its fibre direction the one now in use.
@@ -125,8 +120,13 @@ class MassSpringModel:
         material: MassSpringMaterial,
         calibrate_along: Sequence[float] | None = None,
         implicit: bool = False,
+        law_refresh_steps: int = 1,
     ) -> None:
+        if law_refresh_steps < 1:
+            raise InputError(None, "law_refresh_steps",
+                             f"must be >= 1, got {law_refresh_steps}")
         self._model = model
+        self.law_refresh_steps = law_refresh_steps
         self.calibrate_along = calibrate_along
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
@@ -139,7 +139,7 @@ class MassSpringModel:
                 raise MeshError(None, f"flex {name}", "no 3D (tetrahedral) flex of that name")
             # The springs' dashpots replace the flex's own edge damping, whose vanishing
             # value only marks the flex as soft at compile time (flexcomp_xml); computing it
-            # took 40% of mj_step on the muscles (990 nodes, 0.98 -> 0.55 us per node).
+            # took a large share of mj_step on the muscles.
             model.flex_edgedamping[flex] = 0.0
             first, n = int(model.flex_vertadr[flex]), int(model.flex_vertnum[flex])
             world = data.flexvert_xpos[first : first + n].copy()
@@ -169,7 +169,7 @@ class MassSpringModel:
         bodies = np.concatenate(bodies)
         self.implicit = (ImplicitSystem(self.edges, mass + armature, dofadr, bodies, mass)
                          if implicit else None)
-        self._tangent = np.zeros((len(self.edges) if implicit else 0, 8))
+        self._tangent = np.zeros((len(self.edges) if implicit else 0, TANGENT_COLUMNS))
         self._steps = 0
         self.material = material
         self.set_fibre_direction(material.fibre_direction)
@@ -182,9 +182,9 @@ class MassSpringModel:
     @property
     def runs_law(self) -> bool:
         """Whether the next :meth:`apply` runs the spring law: at every step for the explicit
-        step, at every fourth for the implicit one (each spring follows the law's tangent line
-        in between)."""
-        return self._steps % _LAW_REFRESH == 0
+        step, at every ``law_refresh_steps``-th for the implicit one (each spring follows the
+        law's tangent line in between)."""
+        return self._steps % self.law_refresh_steps == 0
 
     @property
     def history_columns(self) -> int:
@@ -243,7 +243,7 @@ class MassSpringModel:
         (the caller adds forces of its own and filters after)."""
         refresh = self.runs_law
         # The law moves the history on by the time since it last ran.
-        elapsed = 1 if self._steps == 0 else _LAW_REFRESH
+        elapsed = 1 if self._steps == 0 else self.law_refresh_steps
         muscle_forces(
             data.qpos,
             data.qvel,
@@ -285,9 +285,8 @@ class MassSpringModel:
         angular frequency w of the springs at rest with the curves' stiffest moduli (the largest
         eigenvalue of M^-1 K); with the dashpots (``K tau``) semi-implicit Euler is stable for
         ``h**2 w**2 + 2 h tau w**2 < 4``. Contacts and bindings go through MuJoCo's constraint
-        solver and do not enter. On the two muscles (1235 and 4712 nodes, 30 and 250 kPa and
-        the paper's Fig. 10 moduli, with and without damping) the measured limit lies within 5%
-        of the value with ``safety=1``.
+        solver and do not enter. On the two muscles, at several meshes and moduli, the limit
+        found by running lies close to the value with ``safety=1`` (docs/benchmarks.md).
         """
         # The packed curves hold the calibrated moduli; their stiffest, in tension or in
         # compression, sets the step. The compensation k stiffens a shortened spring: its

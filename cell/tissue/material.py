@@ -9,13 +9,14 @@ Two models:
   of the stretch r (current over rest length of a spring).
 
 The paper's values (Nabil et al. 2015): E = 0.03 MPa isotropic with D = 0.1 N s/m per spring and
-rho = 1500 kg/m^3 for the round of beef (Fig. 8); El = 0.25 MPa along the fibres and
-Et = Er = 0.6 MPa across them for the transversely isotropic test cuboid (Fig. 10); Et = Er =
-0.003 MPa for the bending cylinder (Fig. 11). The defaults here keep the Fig. 8 modulus, isotropic
-30 kPa, which is stable at a 2 ms step on the default 1235-node muscles (measured limit 2.3 ms;
-the Fig. 10 moduli need 0.38 ms there, and 4712 nodes at 30 kPa need 1.2 ms) under the
-explicit step of the springs; the implicit step (the default, :mod:`cell.tissue.implicit`)
-runs any of them at the scenario's step. Beef density 1060 kg/m^3.
+rho = 1500 kg/m^3 for the round of beef (Fig. 8); El = 0.25 MPa along the fibres and Et = Er =
+0.6 MPa across them for the transversely isotropic test cuboid (Fig. 10); Et = Er = 0.003 MPa
+for the bending cylinder (Fig. 11). The defaults here keep the Fig. 8 modulus, isotropic 30 kPa,
+which is stable at a 2 ms step on the default muscles under the explicit step of the springs
+(the Fig. 10 moduli and finer meshes need a smaller step:
+:meth:`~cell.tissue.massspring.MassSpringModel.stable_timestep_s`); the implicit step (the
+default, :mod:`cell.tissue.implicit`) runs any of them at the scenario's step. Beef density
+1060 kg/m^3.
 
 The moduli are :class:`~cell.tissue.curves.ModulusCurve`; a material file is TOML with
 ``model = "continuum"`` or ``model = "mass_spring"`` and the keys of the matching dataclass
@@ -33,6 +34,7 @@ import numpy as np
 from cell.config import require_non_negative, require_positive
 from cell.errors import MaterialError
 from cell.tissue.curves import ModulusCurve
+from cell.tissue.cutmodel import CuttingParams, beef_cutting
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,8 @@ class ContinuumMaterial:
         density_kg_m3: mass density, kg/m^3.
         damping_s: stiffness-proportional (Rayleigh) damping, s.
         yield_strain: von Mises yield strain; 0 disables plasticity.
+        cutting: the material's resistance to a blade (the file's ``[cutting]`` table), or
+            None for a material without one.
 
     Example:
         >>> meat = ContinuumMaterial(young_pa=3e4, poisson=0.4)
@@ -60,6 +64,7 @@ class ContinuumMaterial:
     density_kg_m3: float = 1060.0
     damping_s: float = 2.0e-3
     yield_strain: float = 0.0
+    cutting: CuttingParams | None = None
 
     def __post_init__(self) -> None:
         if not self.young_pa > 0:
@@ -127,9 +132,11 @@ class MassSpringMaterial:
             compression as its moduli do: muscle is strongly anisotropic in tension only).
         geometric_compensation: k in a spring's stress ``E x / (1 + k x)``: a lattice of
             springs stiffens geometrically (its uniaxial nominal secant is about E (1 + 0.28
-            strain) with k = 0), and ``cell.tissue.springlaw.LATTICE_STIFFENING`` (0.33) cancels
+            strain) with k = 0), and ``cell.tissue.packedlaw.LATTICE_STIFFENING`` (0.33) cancels
             that, so that the curves are the nominal stress-strain curves of a uniaxial test. In
             [0, 1); fitted materials carry it, older ones keep 0.
+        cutting: the material's resistance to a blade (the file's ``[cutting]`` table,
+            :class:`~cell.tissue.cutmodel.CuttingParams`), or None for a material without one.
 
     Raises:
         MaterialError: ``density_kg_m3``, ``damping_s``, the relaxation,
@@ -160,6 +167,7 @@ class MassSpringMaterial:
     relaxation_strain_slope: float = 0.0
     oblique_compression: float | None = None
     relaxation_reference_strain: float = 0.0
+    cutting: CuttingParams | None = None
 
     def __post_init__(self) -> None:
         require_positive(self, "density_kg_m3", error=MaterialError)
@@ -258,7 +266,8 @@ def default_meat() -> MassSpringMaterial:
     Both stiffen with strain, E(r) = E0 (1 + 3 (r - 1)^2) over r in [0.6, 1.4] (collagen
     recruitment: 1.48 E0 at 40% strain). Fibres along the muscles' length (x). The explicit
     step of its springs is stable up to about 2.5 ms on the default mesh; the implicit one
-    (the default) at any step. The paper's own anisotropic test values (Fig. 10)
+    (the default) at any step. Its cutting model is
+    :func:`~cell.tissue.cutmodel.beef_cutting`. The paper's own anisotropic test values (Fig. 10)
     are El = 0.25 MPa, Et = Er = 0.6 MPa: ``MassSpringMaterial.transversely_isotropic``.
 
     Example:
@@ -269,4 +278,5 @@ def default_meat() -> MassSpringMaterial:
     def stiffening(modulus_pa: float) -> ModulusCurve:
         return ModulusCurve((modulus_pa, 0.0, 3.0 * modulus_pa, 0.0, 0.0, 0.0), 0.6, 1.4)
 
-    return MassSpringMaterial(longitudinal=stiffening(2.4e4), transverse=stiffening(1.6e4))
+    return MassSpringMaterial(longitudinal=stiffening(2.4e4), transverse=stiffening(1.6e4),
+                              cutting=beef_cutting())

@@ -6,13 +6,16 @@ and the dotted key.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from cell.config import from_table, read_toml
+import numpy as np
+
+from cell.config import DENSITY_KG_M3, MODULUS_PA, from_table, read_toml
 from cell.errors import MaterialError
 from cell.tissue.curves import DEFAULT_R_MAX, DEFAULT_R_MIN, ModulusCurve
+from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
 
 
@@ -33,14 +36,27 @@ class _CurveTable:
             )
         if self.modulus_pa is not None and not self.modulus_pa > 0:
             raise MaterialError(None, "modulus_pa", f"must be > 0, got {self.modulus_pa}")
-        # Built here so that from_table names the file and key of a bad polynomial.
-        self.curve()
+        key = "modulus_pa" if self.coefficients is None else "coefficients"
+        # Built here so that from_table names the file and key of a bad polynomial; a steep
+        # exponential overflows to an infinite modulus, refused, not warned about.
+        with np.errstate(over="ignore"):
+            curve = self.curve()
+        _check_stiffness(curve, key, "exponent" if self.exponent else key)
 
     def curve(self) -> ModulusCurve:
         if self.coefficients is None:
             return ModulusCurve.exponential(float(self.modulus_pa), self.exponent, self.r_min,
                                             self.r_max)
         return ModulusCurve(self.coefficients, self.r_min, self.r_max, self.exponent)
+
+
+def _check_stiffness(curve: ModulusCurve, key: str, steepest_key: str) -> None:
+    """Raise :class:`MaterialError` naming ``key`` (``steepest_key``) unless the curve's
+    modulus at rest (at its stiffest) is plausible (:data:`cell.config.MODULUS_PA`)."""
+    with np.errstate(over="ignore"):
+        stiffest = float(np.max(curve.modulus_pa(np.linspace(curve.r_min, curve.r_max, 65))))
+    MODULUS_PA.check(curve.small_strain_modulus_pa, None, key, MaterialError)
+    MODULUS_PA.check(stiffest, None, steepest_key, MaterialError)
 
 
 _CURVES = ("longitudinal", "transverse")
@@ -70,10 +86,14 @@ def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
         exponent = 8.0
         [transverse_compression]   # optional, as the two above
         modulus_pa = 3e5
+        [cutting]                  # optional: cell.tissue.cutmodel.CuttingParams
+        toughness_j_m2 = 850.0
 
     Raises:
         MaterialError: naming the file and the dotted key at fault (unknown key, wrong type,
-            missing or non-positive modulus, modulus not positive over its range, zero fibre).
+            missing or non-positive modulus, modulus not positive over its range, zero fibre,
+            a small-strain modulus or density beyond the plausible ranges of
+            :mod:`cell.config`).
 
     Example:
         >>> load_material("assets/materials/beef_default.toml").transverse.small_strain_modulus_pa
@@ -93,8 +113,13 @@ def material_from_table(table: dict[str, Any], *, file: str | Path | None = None
 
     raw = dict(table)
     model = raw.pop("model", None)
+    cutting = _cutting(raw.pop("cutting", None), file, key("cutting"))
     if model == "continuum":
-        return from_table(ContinuumMaterial, raw, file=file, section=section, error=MaterialError)
+        continuum = from_table(ContinuumMaterial, raw, file=file, section=section,
+                               error=MaterialError)
+        MODULUS_PA.check(continuum.young_pa, file, key("young_pa"), MaterialError)
+        DENSITY_KG_M3.check(continuum.density_kg_m3, file, key("density_kg_m3"), MaterialError)
+        return replace(continuum, cutting=cutting)
     if model != "mass_spring":
         raise MaterialError(file, key("model"),
                             f"must be 'continuum' or 'mass_spring', got {model!r}")
@@ -116,12 +141,29 @@ def material_from_table(table: dict[str, Any], *, file: str | Path | None = None
             "r_max": curve.r_max,
             "exponent": curve.exponent,
         }
-    return from_table(MassSpringMaterial, raw, file=file, section=section, error=MaterialError)
+    material = from_table(MassSpringMaterial, raw, file=file, section=section,
+                          error=MaterialError)
+    DENSITY_KG_M3.check(material.density_kg_m3, file, key("density_kg_m3"), MaterialError)
+    return replace(material, cutting=cutting)
+
+
+def _cutting(table: object, file: str | Path | None, section: str) -> CuttingParams | None:
+    """A material file's optional ``[cutting]`` table (:class:`CuttingParams`)."""
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise MaterialError(file, section, f"expected a table, got {type(table).__name__}")
+    return from_table(CuttingParams, table, file=file, section=section, error=MaterialError)
 
 
 def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
     """``material`` as a material file that :func:`load_material` reads back unchanged,
     ``comment`` (lines) on top.
+
+    Raises:
+        MaterialError: a modulus that :func:`load_material` would refuse
+            (:data:`cell.config.MODULUS_PA`, at rest or at its stiffest): such a material is
+            not written.
 
     Example:
         >>> from cell.tissue.material import default_meat
@@ -129,6 +171,11 @@ def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
         >>> text.splitlines()[:2]
         ['# beef', 'model = "mass_spring"']
     """
+
+    for name in _CURVES + _COMPRESSION_CURVES:
+        curve = getattr(material, name)
+        if curve is not None:
+            _check_stiffness(curve, name, name)
 
     def number(value: float) -> str:
         return repr(float(value))
@@ -160,4 +207,10 @@ def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
         lines += ["", f"[{name}]", f"coefficients = {numbers(curve.coefficients)}",
                   f"r_min = {number(curve.r_min)}", f"r_max = {number(curve.r_max)}",
                   f"exponent = {number(curve.exponent)}"]
+    if material.cutting is not None:
+        lines += ["", "[cutting]"]
+        for item in fields(CuttingParams):
+            value = getattr(material.cutting, item.name)
+            text = numbers(value) if isinstance(value, tuple) else number(value)
+            lines.append(f"{item.name} = {text}")
     return "\n".join(lines) + "\n"

@@ -2,13 +2,13 @@
 
 TetGen keeps the surface and adds Steiner points where the quality bounds need them: a
 radius-edge ratio of at most :data:`MAX_RADIUS_EDGE_RATIO`, dihedral angles of at least
-:data:`MIN_DIHEDRAL_DEG` where it can reach them, and no tet larger than a regular one of
-edge ``cell_size_m``; then its optimisation flips and smooths until no dihedral angle passes
+:data:`MIN_DIHEDRAL_DEG` where it can reach them, and no tet larger than a regular one of edge
+``cell_size_m``; then its optimisation flips and smooths until no dihedral angle passes
 :data:`MAX_DIHEDRAL_DEG` (slivers have both a tiny and a near-flat angle). Slivers against a
-scan's nearly flat facets can remain; the episode's summary reports the smallest angle. On
-the example scan these settings took the smallest angle from 1.2 to 4.1 degrees for 10 %
-more nodes than ``-q2/10``. TetGen itself is AGPL-3.0 (its Python wrapper MIT): it is an
-optional extra, never a dependency of the package.
+scan's nearly flat facets can remain; the episode's summary reports the smallest angle. On the
+example scan these settings raise the smallest angle well above what TetGen's ``-q2/10`` leaves,
+for a few more nodes (``docs/benchmarks.md``). TetGen itself is AGPL-3.0 (its Python wrapper
+MIT): it is an optional extra, never a dependency of the package.
 
 Example:
     >>> import trimesh

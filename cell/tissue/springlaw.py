@@ -1,138 +1,102 @@
-"""One spring of the mass-spring material: its force law and its history, in numba.
+"""The mass-spring material's law and every compiled kernel that runs it, in numba.
 
-The law is shared by the muscles' kernel (:mod:`cell.tissue.massspring`) and the specimen tests
-(:mod:`cell.rheology.specimen`), so that a material fitted to measured tests is the material the
-muscles run. It works in the spring's strain x = l / l0 - 1 and returns its *stress* s, the tension
-over ``K0 l0`` where ``K0 = sum(V) / l0**2`` is the spring's geometric gain (Eq. 10 without the
-modulus): ``tension = K0 * l0 * s``.
+The law, :func:`spring_stress` (described with its parameters at
+:class:`~cell.tissue.packedlaw.SpringLaw`), serves the muscles' kernel (:func:`muscle_forces`,
+for :mod:`cell.tissue.massspring`) and the specimen's (:func:`uniaxial_stress`, for
+:mod:`cell.rheology.specimen`): a material fitted to measured tests is the one the muscles run.
 
-- Elastic stress (Eq. 10 with secant moduli): ``s_e = w ||E(x_e) u|| x_e / (1 + k x)``, El and
-  Et the material's curves at the elastic strain x_e (:class:`~cell.tissue.curves.ModulusCurve`),
-  its compression curves while x_e < 0; k is the material's ``geometric_compensation``
-  (:data:`LATTICE_STIFFENING` cancels the lattice's own geometric stiffening) and w =
-  ``1 + oblique 4 c**2 (1 - c**2)`` weighs springs oblique to the fibres (the material's
-  compression factor while x_e < 0).
-- Plasticity: x_e = x - p with p the spring's plastic strain; it flows when the elastic strain
-  leaves ``[-y, y]`` around the back strain ``H p``, H = h / (1 - h) for the hardening ratio h
-  (linear kinematic hardening: the tangent past yield is h times the elastic one).
-- Viscoelasticity: ``s = s_e - G r + sum_k q_k`` with ``G = sum g_k`` and the relaxing stress
-  ``r = w(x) s_e``, each ``q_k`` relaxing at ``tau_k`` and loaded by ``g_k dr``: the response
-  to a step is s_e at once and ``(1 - G w) s_e`` relaxed. With ``w = 1`` this is quasi-linear
-  viscoelasticity (``s = g_inf s_e + sum_k q_k``, g_inf = 1 - G); the material's
-  ``relaxation_strain_slope`` c makes the relaxed fraction depend on the strain held (plastic
-  part included), ``w = 1 + c (|x| - x_r)`` (clipped to [0, 1 / G]; x_r the material's
-  ``relaxation_reference_strain``, at which G relaxes): non-linear viscoelasticity, as muscle
-  relaxes a smaller fraction at larger strain (c < 0). The update is exact when r is linear in
-  time over a step, so steps need not be short against ``tau_k``.
-
-The history of E springs is an (E, 2 + K) array, one row per spring: plastic strain, last
-relaxing stress r, then the K relaxation states. Everything starts at rest (zeros).
-
-Every compiled kernel that calls :func:`spring_stress` lives in this module: the muscles'
-(:func:`muscle_forces`) and the specimen's (:func:`uniaxial_stress`). numba's on-disk cache
-(``cache=True``) checks only the source file of the kernel it loads, not those of the functions
-it calls, so a kernel in another module would keep running the law it was compiled with after
-the law changed; here one file's stamp covers the law and all its callers
-(``tests/test_kernel_cache.py``).
-The law is inlined into its callers (numba's ``inline="always"``): called, it left the
-muscles' kernel at 49 ns a spring, inlined 38 (990 nodes, the default meat, with a second
-trial call for the tangent's finite difference; the tangent is now the law's own analytic
-derivative, checked against central differences in ``tests/test_springlaw.py``).
+They share this file with the layouts of the packed arrays they read (the ``CURVE_``,
+``PARAM_``, ``HISTORY_``, ``TANGENT_`` columns): numba's on-disk cache checks only the source
+file of the kernel it loads, not those of the functions it calls or the constants it reads
+(``tests/test_kernel_cache.py``); the implicit step's kernels (:mod:`cell.tissue.implicit`)
+read the tangent columns too. The law is inlined into its callers (``inline="always"``),
+cheaper per spring than a call; its slope is its own analytic derivative.
 
 Example:
     >>> from cell.tissue.material import MassSpringMaterial
+    >>> from cell.tissue.packedlaw import SpringLaw
     >>> law = SpringLaw.of(MassSpringMaterial.isotropic(3e4, relaxation_weights=(0.5,),
     ...                                                 relaxation_times_s=(1.0,)))
     >>> history = law.history(1)
     >>> stress, _, _ = spring_stress(0.1, 1.0, law.curves, law.params, history, 0, 0.0, True)
-    >>> round(stress)  # instantaneous: the elastic 3e4 * 0.1
+    >>> round(stress)  # at once: the elastic 3e4 * 0.1
     3000
-    >>> stress, _, _ = spring_stress(0.1, 1.0, law.curves, law.params, history, 0, 100.0, True)
-    >>> round(stress)  # relaxed to g_inf = 0.5
-    1500
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from cell.tissue.curves import ModulusCurve
-from cell.tissue.material import MassSpringMaterial
-
-# The mirrored Kuhn lattice's geometric stiffening: linear springs give a uniaxial nominal
-# secant modulus of about E (1 + 0.28 strain); a compensation of 0.33 makes it E within 0.3% over
-# strains -0.3 to 0.25 (tests/test_specimen.py).
-LATTICE_STIFFENING = 0.33
-# Layout of SpringLaw.params.
-(_YIELD, _BACK, _GEOMETRY, _OBLIQUE, _OBLIQUE_COMPRESSION, _G_INF, _STRAIN_SLOPE,
- _REFERENCE_STRAIN, _TERMS) = range(9)
-# Layout of a history row.
-_PLASTIC, _LAST = 0, 1
-_STATES = 2
+#: Columns of a packed curve (:func:`~cell.tissue.packedlaw.pack_curve`): the secant modulus's
+#: polynomial in x = r - 1, coefficients from the constant term up to ``CURVE_DEGREE``; at the
+#: polynomial's low bound, and one column on at its high bound, x and the stress and modulus
+#: there (the straight continuation past the bound); the exponential curve's exponent (0: none).
+CURVE_COEFFICIENTS, CURVE_DEGREE = 0, 5
+CURVE_X_LOW, CURVE_STRESS_LOW, CURVE_MODULUS_LOW = 6, 8, 10
+CURVE_EXPONENT, CURVE_COLUMNS = 12, 13
+#: Rows of the packed curves: El, Et in tension, then the same in compression.
+CURVE_LONGITUDINAL, CURVE_TRANSVERSE, CURVE_COMPRESSION = 0, 1, 2
+#: Columns of the packed parameters (:class:`~cell.tissue.packedlaw.SpringLaw`): yield strain,
+#: back-strain factor H, geometric compensation, oblique factor in tension and in compression,
+#: g_inf, relaxation strain slope c and reference strain x_r, the number K of relaxation
+#: terms; then the K weights g_k and the K times tau_k (s) from ``PARAM_WEIGHTS`` on.
+(PARAM_YIELD, PARAM_BACK, PARAM_GEOMETRY, PARAM_OBLIQUE, PARAM_OBLIQUE_COMPRESSION,
+ PARAM_G_INF, PARAM_STRAIN_SLOPE, PARAM_REFERENCE_STRAIN, PARAM_TERMS, PARAM_WEIGHTS) = range(10)
+#: Columns of a spring's history row: plastic strain, last relaxing stress r, then the K
+#: relaxation states from ``HISTORY_STATES`` on.
+HISTORY_PLASTIC, HISTORY_LAST, HISTORY_STATES = 0, 1, 2
+#: Columns of a spring's tangent row (:func:`muscle_forces` writes it for the implicit step):
+#: its unit direction (three columns), its tangent stiffness dT/dl (N/m), its tension over its
+#: length (N/m), its dashpot (N s/m), the length (m) and the tension (N) at the law's last run.
+TANGENT_DIRECTION, TANGENT_STIFFNESS, TANGENT_TENSION_PER_LENGTH, TANGENT_DASHPOT = 0, 3, 4, 5
+TANGENT_LAW_LENGTH, TANGENT_LAW_TENSION, TANGENT_COLUMNS = 6, 7, 8
 # The specimen's Newton solve: iterations, relative tolerance, finite-difference probe.
 _NEWTON_ITERATIONS = 30
 _NEWTON_TOLERANCE = 1e-8
 _PROBE = 1e-7
 
 
-def pack_curve(curve: ModulusCurve, scale: float) -> np.ndarray:
-    """(13,) a curve for :func:`secant_modulus`, its moduli times ``scale``: the polynomial's
-    stress coefficients, the x bounds, the stresses and moduli at the bounds, the exponent."""
-    bounds = np.array([curve.r_min, curve.r_max])
-    return np.concatenate(
-        [
-            scale * curve.stress_coefficients()[1:],
-            bounds - 1.0,
-            scale * curve.stress_pa(bounds),
-            scale * curve.modulus_pa(bounds),
-            [curve.exponent],
-        ]
-    )
-
-
 @njit(cache=True, fastmath=False, inline="always")
 def secant_modulus(x: float, curves: np.ndarray, row: int, with_slope: bool
                    ) -> tuple[float, float]:
     """sigma(1 + x) / x, Pa, for the curve in row ``row`` of ``curves``, packed by
-    :func:`pack_curve` (x = r - 1), and with ``with_slope`` its derivative in x, Pa (the
-    right one at x = 0; else 0, for callers that have no use for it).
+    :func:`~cell.tissue.packedlaw.pack_curve` (x = r - 1), and with ``with_slope`` its
+    derivative in x, Pa (the right one at x = 0; else 0, for callers with no use for it).
 
     The row is indexed, not sliced: a slice of a runtime row is a new array whose reference
     count the kernel's inner loop would update for every spring.
     """
-    if x > curves[row, 7]:
-        value = (curves[row, 9] + curves[row, 11] * (x - curves[row, 7])) / x
-        if not with_slope:
-            return value, 0.0
-        return value, (curves[row, 11] * curves[row, 7] - curves[row, 9]) / (x * x)
-    if x < curves[row, 6]:
-        value = (curves[row, 8] + curves[row, 10] * (x - curves[row, 6])) / x
-        if not with_slope:
-            return value, 0.0
-        return value, (curves[row, 10] * curves[row, 6] - curves[row, 8]) / (x * x)
-    exponent = curves[row, 12]
+    side = (1 if x > curves[row, CURVE_X_LOW + 1]
+            else 0 if x < curves[row, CURVE_X_LOW] else -1)
+    if side >= 0:  # past a bound of the polynomial: the straight continuation
+        bound = curves[row, CURVE_X_LOW + side]
+        stress = curves[row, CURVE_STRESS_LOW + side]
+        modulus = curves[row, CURVE_MODULUS_LOW + side]
+        value = (stress + modulus * (x - bound)) / x
+        return value, (modulus * bound - stress) / (x * x) if with_slope else 0.0
+    exponent = curves[row, CURVE_EXPONENT]
     if exponent > 0.0:
         reach = exponent * abs(x)
         if reach == 0.0:
-            value = curves[row, 0]
+            value = curves[row, CURVE_COEFFICIENTS]
         else:
             grown = math.expm1(reach)
-            value = curves[row, 0] * grown / reach
+            value = curves[row, CURVE_COEFFICIENTS] * grown / reach
         if not with_slope:
             return value, 0.0
         # d/dy of expm1(y) / y, by its series where the closed form cancels.
         slope = (0.5 + reach * (1.0 / 3.0 + reach / 8.0) if reach < 1e-4
                  else ((grown + 1.0) * reach - grown) / (reach * reach))
-        return value, curves[row, 0] * (-exponent if x < 0.0 else exponent) * slope
-    value = curves[row, 5]
+        sign = -1.0 if x < 0.0 else 1.0
+        return value, curves[row, CURVE_COEFFICIENTS] * sign * exponent * slope
+    value = curves[row, CURVE_COEFFICIENTS + CURVE_DEGREE]
     slope = 0.0  # Horner's rule for the derivative alongside; dropped unused once inlined
-    for k in range(4, -1, -1):
+    for power in range(CURVE_DEGREE - 1, -1, -1):
         slope = slope * x + value
-        value = value * x + curves[row, k]
+        value = value * x + curves[row, CURVE_COEFFICIENTS + power]
     return value, slope if with_slope else 0.0
 
 
@@ -156,11 +120,11 @@ def spring_stress(
     ``commit`` stores the new state in ``history``; without it the call is a trial (a solver's
     iterate) and leaves the history as it was.
     """
-    plastic = history[row, _PLASTIC]
-    yield_strain = params[_YIELD]
+    plastic = history[row, HISTORY_PLASTIC]
+    yield_strain = params[PARAM_YIELD]
     flow = 0.0  # d plastic / dx
     if yield_strain > 0.0:
-        back = params[_BACK]
+        back = params[PARAM_BACK]
         over = x - plastic - back * plastic
         if over > yield_strain:
             plastic += (over - yield_strain) / (1.0 + back)
@@ -170,96 +134,50 @@ def spring_stress(
             flow = 1.0 / (1.0 + back)
     elastic = x - plastic
     squeezed = elastic < 0.0
-    first = 2 if squeezed else 0  # the compression curves follow the tension ones
-    el, el_slope = secant_modulus(elastic, curves, first, with_slope)
-    et, et_slope = secant_modulus(elastic, curves, first + 1, with_slope)
-    oblique = params[_OBLIQUE_COMPRESSION] if squeezed else params[_OBLIQUE]
+    first = CURVE_COMPRESSION if squeezed else 0
+    el, el_slope = secant_modulus(elastic, curves, first + CURVE_LONGITUDINAL, with_slope)
+    et, et_slope = secant_modulus(elastic, curves, first + CURVE_TRANSVERSE, with_slope)
+    oblique = params[PARAM_OBLIQUE_COMPRESSION] if squeezed else params[PARAM_OBLIQUE]
     weight = 1.0 + oblique * 4.0 * cos_sq * (1.0 - cos_sq)
     root = math.sqrt(et * et + (el * el - et * et) * cos_sq)
     modulus = root * weight
     # The lattice stiffens with its whole deformation, plastic part included.
-    stress = modulus * elastic / (1.0 + params[_GEOMETRY] * x)
+    stress = modulus * elastic / (1.0 + params[PARAM_GEOMETRY] * x)
     slope = 0.0
     if with_slope:
-        stiffening = 1.0 / (1.0 + params[_GEOMETRY] * x)
+        stiffening = 1.0 / (1.0 + params[PARAM_GEOMETRY] * x)
         modulus_slope = weight * (et * et_slope + (el * el_slope - et * et_slope) * cos_sq) / root
         slope = ((modulus_slope * elastic + modulus) * (1.0 - flow) * stiffening
-                 - stress * params[_GEOMETRY] * stiffening)
-    terms = int(params[_TERMS])
+                 - stress * params[PARAM_GEOMETRY] * stiffening)
+    terms = int(params[PARAM_TERMS])
     if terms > 0:
-        relaxing_share = 1.0 - params[_G_INF]
-        free_share = 1.0 + params[_STRAIN_SLOPE] * (abs(x) - params[_REFERENCE_STRAIN])
+        relaxing_share = 1.0 - params[PARAM_G_INF]
+        free_share = 1.0 + params[PARAM_STRAIN_SLOPE] * (abs(x) - params[PARAM_REFERENCE_STRAIN])
         share = min(max(free_share, 0.0), 1.0 / max(relaxing_share, 1e-12))
         share_slope = (0.0 if share != free_share
-                       else -params[_STRAIN_SLOPE] if x < 0.0 else params[_STRAIN_SLOPE])
+                       else -params[PARAM_STRAIN_SLOPE] if x < 0.0 else params[PARAM_STRAIN_SLOPE])
         relaxing = share * stress
         relaxing_slope = share_slope * stress + share * slope
-        change = relaxing - history[row, _LAST]
+        change = relaxing - history[row, HISTORY_LAST]
         total = stress - relaxing_share * relaxing
         slope -= relaxing_share * relaxing_slope
         for k in range(terms):
-            term_weight = params[_TERMS + 1 + k]
-            tau = params[_TERMS + 1 + terms + k]
+            term_weight = params[PARAM_WEIGHTS + k]
+            tau = params[PARAM_WEIGHTS + terms + k]
             ratio = timestep_s / tau
             decay = math.exp(-ratio)
             load = 1.0 if ratio == 0.0 else -math.expm1(-ratio) / ratio
-            state = decay * history[row, _STATES + k] + term_weight * load * change
+            state = decay * history[row, HISTORY_STATES + k] + term_weight * load * change
             total += state
             slope += term_weight * load * relaxing_slope
             if commit:
-                history[row, _STATES + k] = state
+                history[row, HISTORY_STATES + k] = state
         if commit:
-            history[row, _LAST] = relaxing
+            history[row, HISTORY_LAST] = relaxing
         stress = total
     if commit:
-        history[row, _PLASTIC] = plastic
+        history[row, HISTORY_PLASTIC] = plastic
     return stress, modulus, slope
-
-
-@dataclass(frozen=True, eq=False)
-class SpringLaw:
-    """A material packed for :func:`spring_stress`.
-
-    Attributes:
-        curves: (4, 13) El and Et in tension, then in compression (:func:`pack_curve`), times
-            their calibration factors.
-        params: yield strain, back-strain factor H, geometric compensation, oblique factor
-            in tension and in compression, g_inf, relaxation strain slope c and reference
-            strain x_r, K, g_1..g_K, tau_1..tau_K (s).
-
-    Example:
-        >>> SpringLaw.of(MassSpringMaterial()).params[:9].tolist()
-        [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
-    """
-
-    curves: np.ndarray
-    params: np.ndarray
-
-    @classmethod
-    def of(cls, material: MassSpringMaterial, calibration: tuple[float, float] = (1.0, 1.0),
-           compression_calibration: tuple[float, float] | None = None) -> SpringLaw:
-        """Pack ``material`` with its moduli times ``calibration`` (alpha, beta), its
-        compression curves times ``compression_calibration`` (the same when None)."""
-        squeezed = material.in_compression()
-        compression_calibration = compression_calibration or calibration
-        curves = np.stack([pack_curve(material.longitudinal, calibration[0]),
-                           pack_curve(material.transverse, calibration[1]),
-                           pack_curve(squeezed.longitudinal, compression_calibration[0]),
-                           pack_curve(squeezed.transverse, compression_calibration[1])])
-        weights = np.asarray(material.relaxation_weights, dtype=float)
-        back = material.hardening / (1.0 - material.hardening)
-        params = np.concatenate([
-            [material.yield_strain, back, material.geometric_compensation, material.oblique,
-             squeezed.oblique, 1.0 - weights.sum(), material.relaxation_strain_slope,
-             material.relaxation_reference_strain, len(weights)],
-            weights,
-            np.asarray(material.relaxation_times_s, dtype=float),
-        ])
-        return cls(curves, params)
-
-    def history(self, springs: int) -> np.ndarray:
-        """A history at rest for ``springs`` springs."""
-        return np.zeros((springs, _STATES + int(self.params[_TERMS])))
 
 
 @njit(cache=True, fastmath=False, inline="always")
@@ -293,10 +211,8 @@ def muscle_forces(qpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray, qposadr:
     history by ``timestep_s``.
 
     With a ``tangent`` of one row per spring (else of none), each row gets what an implicit
-    step needs (:mod:`cell.tissue.implicit`): the spring's unit direction, its tangent
-    stiffness along it dT/dl (N/m, the law's derivative over the step from
-    :func:`spring_stress`), its tension over its length (N/m), its dashpot (N s/m), then
-    the length (m) and the tension (N) at which the law last ran. Unless ``refresh_law``
+    step needs (:mod:`cell.tissue.implicit`; the ``TANGENT_`` columns, dT/dl the law's
+    derivative over the step from :func:`spring_stress`). Unless ``refresh_law``
     the law does not run: each spring's tension is that last tension plus dT/dl times the
     change of length since (the law's tangent line), and the history stays where it was;
     the next refresh advances it by its ``timestep_s``, the time since the last one.
@@ -317,14 +233,15 @@ def muscle_forces(qpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray, qposadr:
         rate = ((velocity[j, 0] - velocity[i, 0]) * ux + (velocity[j, 1] - velocity[i, 1]) * uy
                 + (velocity[j, 2] - velocity[i, 2]) * uz)
         if frozen:
-            elastic = tangent[e, 7] + tangent[e, 3] * (length - tangent[e, 6])
-            dashpot = tangent[e, 5]
+            elastic = tangent[e, TANGENT_LAW_TENSION] + tangent[e, TANGENT_STIFFNESS] * (
+                length - tangent[e, TANGENT_LAW_LENGTH])
+            dashpot = tangent[e, TANGENT_DASHPOT]
         else:
             strain = length / rest_length[e] - 1.0
             # Two inlined calls, each with a constant flag, and numpy's error model (no
             # zero-division checks, which kept the slope's divisions alive): one call with
-            # the runtime flag, or Python's error model, left the explicit step's kernel at
-            # 41 ns a spring instead of 30.
+            # the runtime flag, or Python's error model, made the explicit step's kernel
+            # markedly slower.
             if linearise:
                 stress, modulus, slope = spring_stress(strain, cos_sq[e], curves, params,
                                                        history, e, timestep_s, True, True)
@@ -334,15 +251,17 @@ def muscle_forces(qpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray, qposadr:
             elastic = gain[e] * rest_length[e] * stress
             dashpot = gain[e] * modulus * damping_s
             if linearise:
-                tangent[e, 3] = gain[e] * slope
-                tangent[e, 5] = dashpot
-                tangent[e, 6] = length
-                tangent[e, 7] = elastic
+                tangent[e, TANGENT_STIFFNESS] = gain[e] * slope
+                tangent[e, TANGENT_DASHPOT] = dashpot
+                tangent[e, TANGENT_LAW_LENGTH] = length
+                tangent[e, TANGENT_LAW_TENSION] = elastic
         # Positive when stretched or stretching: pulls i towards j and j towards i.
         tension = elastic + dashpot * rate
         if linearise:
-            tangent[e, 0], tangent[e, 1], tangent[e, 2] = ux, uy, uz
-            tangent[e, 4] = elastic / length
+            tangent[e, TANGENT_DIRECTION] = ux
+            tangent[e, TANGENT_DIRECTION + 1] = uy
+            tangent[e, TANGENT_DIRECTION + 2] = uz
+            tangent[e, TANGENT_TENSION_PER_LENGTH] = elastic / length
         if dofadr[i] >= 0:
             qfrc[dofadr[i]] += tension * ux
             qfrc[dofadr[i] + 1] += tension * uy
@@ -416,7 +335,8 @@ def uniaxial_stress(time_s: np.ndarray, strain: np.ndarray, directions: np.ndarr
     jacobian = np.zeros((3, 3))
     fresh = False
     # Stresses below this are round-off: the small-strain modulus times a micro-strain.
-    floor = 1e-6 * max(abs(curves[0, 0]), abs(curves[1, 0]))
+    floor = 1e-6 * max(abs(curves[CURVE_LONGITUDINAL, CURVE_COEFFICIENTS]),
+                       abs(curves[CURVE_TRANSVERSE, CURVE_COEFFICIENTS]))
     for k in range(time_s.shape[0]):
         timestep = time_s[k] - time_s[k - 1] if k > 0 else 0.0
         stretch = 1.0 + strain[k]

@@ -20,6 +20,7 @@ Example:
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,7 @@ import trimesh
 
 from cell.errors import MeshError, NotWatertightError, SelfIntersectionError
 from cell.extras import optional
+from cell.io import read_bytes
 
 #: Vertices this close to the table plane (m) are laid on it.
 BASE_TOLERANCE_M = 0.002
@@ -37,11 +39,14 @@ def load_surfaces(path: str | Path, field: str) -> list[trimesh.Trimesh]:
     them), each repaired (module docstring); ``field`` names the key that gave the file.
 
     Raises:
-        MeshError: the file cannot be read or holds no triangles.
+        MeshError: the file cannot be read (:func:`cell.io.read_bytes`: missing, a folder,
+            too large) or holds no triangles.
         NotWatertightError: a body still has open edges after repair.
     """
+    content = read_bytes(path, "mesh", MeshError)
     try:
-        loaded = trimesh.load(str(path), force="mesh", process=False)
+        loaded = trimesh.load(io.BytesIO(content), file_type=Path(path).suffix.lstrip("."),
+                              force="mesh", process=False)
     except (OSError, ValueError, KeyError, IndexError) as exc:
         raise MeshError(path, field, f"cannot read the surface: {exc}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:

@@ -1,0 +1,211 @@
+"""The command-line side of the benchmarks: ``musclecell bench [SUITE]``.
+
+Light at import (the parser is built for every command): the handlers import the rest. Each
+suite checks its outputs (:mod:`cell.outputs`) before it measures anything.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from cell.errors import InputError
+from cell.outputs import Output, check_outputs
+
+#: The scenario of the cell and perception suites when ``--scenario`` is not given: the
+#: project's default scenario, found next to the package wherever the command runs from.
+DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "default.toml"
+#: Where each suite writes its JSON when ``--json`` is not given.
+DEFAULT_JSON = {"cell": "out/bench.json", "tissue": "out/bench_tissue.json",
+                "perception": "out/bench_perception.json", "env": "out/bench_env.json",
+                "diagnose": "out/bench_diagnose.json", "sweep": "out/bench_sweep.json"}
+
+
+def add_bench(commands: argparse._SubParsersAction) -> None:
+    """The ``bench`` subcommand."""
+    bench = commands.add_parser(
+        "bench", help="benchmark the cell, the tissue models or the perception")
+    bench.add_argument("suite", nargs="?", choices=tuple(DEFAULT_JSON), default="cell",
+                       help="cell: the whole cell (default); tissue: every tissue model on "
+                       "the two muscles, with peers; perception: curvature, guideline and fit, "
+                       "with peers; env: Gymnasium env steps per second; diagnose: the "
+                       "diagnosis on unseen hidden-effect measurement sets")
+    bench.add_argument("--scenario", type=Path,
+                       help="scenario of the cell and perception suites (default: the "
+                       "project's scenarios/default.toml)")
+    bench.add_argument("--json", type=Path,
+                       help="JSON out (default out/bench.json, tissue: out/bench_tissue.json, "
+                       "perception: out/bench_perception.json, env: out/bench_env.json, "
+                       "diagnose: out/bench_diagnose.json, sweep: out/bench_sweep.json)")
+    bench.add_argument("--markdown", type=Path,
+                       help="tissue suite: Markdown tables out; diagnose: the confusion table")
+    bench.add_argument("--seeds", type=int,
+                       help="diagnose suite: number of sets (default 10, --quick 3)")
+    bench.add_argument("--pairs", action="store_true",
+                       help="diagnose suite: sets hiding two causes at once")
+    bench.add_argument("--subtle", action="store_true",
+                       help="diagnose suite: sets hiding one cause, half as strong")
+    bench.add_argument("--cut", action="store_true",
+                       help="diagnose suite: hidden-effect cut sets, made by the full "
+                       "simulation of a cut (with --pairs: two causes at once)")
+    bench.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                       help="diagnose suite: processes per diagnosis (default: every core)")
+    bench.add_argument("--shapes", type=int, default=0, help="perception: + N shape episodes")
+    bench.add_argument("--shape-seed", type=int, default=5000)
+    bench.add_argument("--quick", action="store_true",
+                       help="fewer repetitions and a short episode; tissue: the smallest "
+                       "mesh only (for smoke tests)")
+    bench.set_defaults(handler=bench_command)
+
+
+def bench_command(args: argparse.Namespace) -> int:
+    """``musclecell bench``: the options the suite takes checked, its outputs checked, then
+    the suite."""
+    suite = args.suite
+    if suite not in ("tissue", "diagnose", "sweep"):
+        for flag in ("seeds", "pairs", "subtle"):
+            if getattr(args, flag) not in (None, False):
+                raise InputError(None, f"--{flag}",
+                                 f"only `musclecell bench diagnose` takes --{flag}")
+        if args.markdown is not None:
+            raise InputError(None, "--markdown",
+                             "only `musclecell bench tissue` and `bench diagnose` write Markdown")
+    if args.shapes < 0:
+        raise InputError(None, "--shapes", f"must be >= 0, got {args.shapes}")
+    json_path = args.json or Path(DEFAULT_JSON[suite])
+    scenario = args.scenario
+    if suite in ("cell", "perception"):
+        scenario = args.scenario or DEFAULT_SCENARIO
+        if not scenario.is_file():
+            raise InputError(scenario, "--scenario", "no such scenario file")
+    check_outputs([Output(json_path, "--json"),
+                   args.markdown and Output(args.markdown, "--markdown")], [scenario])
+    return _SUITES[suite](args, json_path, scenario)
+
+
+def _cell(args: argparse.Namespace, json_path: Path, scenario: Path) -> int:
+    from cell.bench.cell import run_bench
+    from cell.io import write_json
+
+    report = run_bench(scenario, quick=args.quick)
+    write_json(json_path, report)
+    for name, entry in report["entries"].items():
+        print(f"{name}: {entry['value']:.4g} {entry['unit']}")
+    print(f"wrote {json_path}")
+    return 0
+
+
+def _tissue(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
+    from cell.bench.tissue import TissueBenchParams, markdown_report, run_tissue_bench
+    from cell.io import write_atomic, write_json
+
+    params = TissueBenchParams.quick() if args.quick else TissueBenchParams()
+    report = run_tissue_bench(params, progress=print)
+    write_json(json_path, report)
+    print(f"wrote {json_path}")
+    if args.markdown is not None:
+        write_atomic(args.markdown, markdown_report(report))
+        print(f"wrote {args.markdown}")
+    for name, target in report["targets"].items():
+        verdict = "not run" if target["pass"] is None else ("pass" if target["pass"] else "FAIL")
+        print(f"{name}: {verdict}")
+    return 0
+
+
+def _perception(args: argparse.Namespace, json_path: Path, scenario: Path) -> int:
+    from cell.bench.perception import run_perception_bench
+    from cell.bench.shapes import shape_lines
+    from cell.io import write_json
+
+    report = run_perception_bench(scenario, quick=args.quick, shapes=args.shapes,
+                                  shape_seed=args.shape_seed)
+    write_json(json_path, report)
+    _print_entries(report["entries"])
+    if "shapes" in report:
+        print("\n".join(shape_lines(report["shapes"])))
+    print(f"wrote {json_path}")
+    return 0
+
+
+def _print_entries(entries: dict) -> None:
+    """One line per bench entry: value, peer and ratio, the per-step split, the target."""
+    for name, entry in entries.items():
+        line = f"{name}: {entry['value']:.4g} {entry['unit']}"
+        if entry.get("ratio") is not None:
+            line += f" (peer {entry['peer']:.4g}, ratio {entry['ratio']:.3g})"
+        elif "skipped" in entry:
+            line += f" (peer skipped: {entry['skipped']})"
+        if "ms_per_step" in entry:
+            split = entry["ms_per_step"]
+            line += " (ms/step: " + ", ".join(f"{k} {v:.2f}" for k, v in split.items()) + ")"
+        if "pass" in entry:
+            line += f" target {entry['target']:.4g}: {'pass' if entry['pass'] else 'FAIL'}"
+        print(line)
+
+
+def _env(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
+    from cell.bench.env import run_env_bench
+    from cell.io import write_json
+
+    report = run_env_bench(quick=args.quick)
+    write_json(json_path, report)
+    _print_entries(report["entries"])
+    print(f"wrote {json_path}")
+    return 0
+
+
+def _sweep(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
+    from cell.bench.sweep import run_sweep_bench
+    from cell.io import write_json
+
+    for name, value in (("--quick", args.quick), ("--seeds", args.seeds),
+                        ("--markdown", args.markdown)):
+        if value:
+            raise InputError(None, name, "`musclecell bench sweep` runs the whole example "
+                             "sweep and takes only --json")
+    report = run_sweep_bench()
+    write_json(json_path, report)
+    _print_entries(report["entries"])
+    print(f"wrote {json_path}")
+    return 0
+
+
+def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
+    from cell.bench.diagnose import bench_seeds, run_diagnose_bench
+    from cell.io import write_atomic, write_json
+
+    kind = "pairs" if args.pairs else "subtle" if args.subtle else "single"
+    if args.pairs and args.subtle:
+        raise InputError(None, "--pairs", "give --pairs or --subtle, not both")
+    if args.cut and args.subtle:
+        raise InputError(None, "--subtle", "the cut sets have no subtle kind")
+    count = args.seeds if args.seeds is not None else (3 if args.quick else 10)
+    if count < 1:
+        raise InputError(None, "--seeds", f"must be >= 1, got {count}")
+    if args.cut:
+        from cell.bench import cutdiagnose
+
+        report = cutdiagnose.run_cut_diagnose_bench(cutdiagnose.bench_seeds(count, kind),
+                                                    kind, progress=print)
+    else:
+        report = run_diagnose_bench(bench_seeds(count, kind), workers=args.workers,
+                                    progress=print, kind=kind)
+    write_json(json_path, report)
+    print(report["markdown"], end="")
+    for name, entry in report["entries"].items():
+        print(f"{name}: {entry['value']:.4g} {entry['unit']}")
+    for name, target in report["targets"].items():
+        print(f"{name}: {target['value']:.4g} target {target['target']:.4g}: "
+              f"{'pass' if target['pass'] else 'FAIL'}")
+    print(f"wrote {json_path}")
+    if args.markdown is not None:
+        write_atomic(args.markdown, report["markdown"])
+        print(f"wrote {args.markdown}")
+    return 0
+
+
+_SUITES: dict[str, Callable[[argparse.Namespace, Path, Path | None], int]] = {
+    "cell": _cell, "tissue": _tissue, "perception": _perception, "env": _env,
+    "diagnose": _diagnose, "sweep": _sweep}

@@ -1,0 +1,171 @@
+"""The command-line side of learning: ``musclecell learn`` and ``musclecell evaluate``.
+
+Light at import (the parser is built for every command): the handlers import the rest, and
+Stable-Baselines3 (the ``learn`` extra) only when it is there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from cell.errors import LearningError
+from cell.outputs import Output, check_outputs
+
+
+def add_learning(commands: argparse._SubParsersAction) -> None:
+    """The ``learn`` and ``evaluate`` subcommands."""
+    from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
+
+    learn = commands.add_parser(
+        "learn", help="train a PPO policy on an env (needs the learn extra)")
+    learn.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v1 (or Cut-v1)")
+    learn.add_argument("--algo", choices=("ppo",), default="ppo", help="algorithm (ppo)")
+    learn.add_argument("--steps", type=int, required=True,
+                       help="env steps of the whole run, those before a --resume included")
+    learn.add_argument("--out", type=Path, required=True, help="folder of the run")
+    learn.add_argument("--seed", type=int, default=0,
+                       help=f"env i starts at seed SEED + i (training seeds < "
+                       f"{EVAL_SEED_START}); default 0")
+    learn.add_argument("--envs", type=int, help="envs side by side (default: one per core)")
+    learn.add_argument("--minutes", type=float, help="stop after this wall time, min")
+    learn.add_argument("--checkpoint-every", type=int, default=50_000,
+                       help="env steps between checkpoints (default 50000)")
+    learn.add_argument("--resume", action="store_true",
+                       help="continue the run in --out from its latest checkpoint")
+    learn.add_argument("--env-kwargs", help='JSON keyword arguments of the env, e.g. '
+                       '\'{"time_limit_s": 3.0}\'')
+    learn.add_argument("--hyper", help='JSON overrides of the PPO hyper-parameters, e.g. '
+                       '\'{"n_steps": 512}\'')
+    learn.add_argument("--warm-start", metavar="DEMONSTRATOR", help="clone this policy of "
+                       "the observation before PPO: table-skimming-knife (Cut-v1), "
+                       "hold-then-pull-away (Pull-v1)")
+    learn.add_argument("--warm-start-episodes", type=int, default=24,
+                       help="the demonstrator's episodes to clone (default 24)")
+    learn.add_argument("--warm-start-anchor", type=int, default=0, metavar="EPOCHS",
+                       help="after each PPO update, passes of the cloning loss over its "
+                       "rollout, holding PPO near the demonstrator (default 0: none)")
+    learn.set_defaults(handler=learn_command)
+
+    evaluation = commands.add_parser(
+        "evaluate", help="evaluate a learned policy beside the random, best constant, "
+        "scripted and hand-written (demonstrator) policies on the same seeds; without a "
+        "policy, the baselines alone")
+    evaluation.add_argument("policy", type=Path, nargs="?",
+                            help="learn output folder (or a checkpoint's, or its policy.json); "
+                            "leave it out to evaluate the baselines alone (then --out is "
+                            "needed)")
+    evaluation.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v1")
+    evaluation.add_argument("--episodes", type=int, default=50, help="per policy (default 50)")
+    evaluation.add_argument("--seed-start", type=int, default=EVAL_SEED_START,
+                            help=f"first evaluation seed (default {EVAL_SEED_START})")
+    evaluation.add_argument("--out", type=Path,
+                            help="folder of evaluation.json, evaluation.md and episodes.csv "
+                            "(default: POLICY's folder/evaluation; needed without POLICY)")
+    evaluation.add_argument("--json", type=Path, help="the report JSON here instead")
+    evaluation.add_argument("--markdown", type=Path, help="the Markdown table here instead")
+    evaluation.add_argument("--workers", type=int, help="processes (default: one per core)")
+    evaluation.add_argument("--env-kwargs", help="JSON keyword arguments of the env")
+    evaluation.add_argument("--constant-search-seeds", type=int, default=10,
+                            help=f"tuning episodes per constant action, seeds "
+                            f"{TUNING_SEED_START} on (default 10)")
+    evaluation.add_argument("--constant-actions",
+                            help="JSON list of the constant actions to choose from (default: "
+                            "zero and each axis alone at +-0.5 and +-1)")
+    evaluation.set_defaults(handler=evaluate_command)
+
+    convert = commands.add_parser(
+        "convert-policy", help="convert a run saved by an earlier release (pickled "
+        "policy.zip, vecnormalize.pkl) to the numbers-and-JSON policy files; unpickling runs "
+        "the files' code, so it needs --trust-pickle")
+    convert.add_argument("run", type=Path, help="learn output folder (its checkpoints too)")
+    convert.add_argument("--trust-pickle", action="store_true",
+                         help="you trust the run's source: its pickles may be loaded")
+    convert.set_defaults(handler=convert_command)
+
+
+def _require_learn_extra() -> None:
+    """Stable-Baselines3 (and torch) are the ``learn`` extra, not a dependency."""
+    import importlib.util
+
+    if importlib.util.find_spec("stable_baselines3") is None:
+        raise LearningError(None, None, "training and evaluation need the learn extra: "
+                            "pip install -e '.[learn]' (see README)")
+
+
+def learn_command(args: argparse.Namespace) -> int:
+    """``musclecell learn``: a new run in ``--out``, or ``--resume`` of the run there."""
+    check_outputs([Output(args.out, "--out", folder=True)])
+    _require_learn_extra()
+    from cell.learning import ppo
+    from cell.learning.environments import resolve_env_id
+    from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, parse_json_object
+
+    env_id = resolve_env_id(args.env)
+    envs = args.envs if args.envs is not None else os.cpu_count() or 1
+    if args.resume:
+        if args.env_kwargs is not None or args.hyper is not None or args.warm_start:
+            raise LearningError(None, "--resume", "continues the run as it was set: drop "
+                                "--env-kwargs, --hyper and --warm-start")
+        result = ppo.resume(args.out, env_id, args.steps, envs, args.minutes,
+                            args.checkpoint_every)
+    else:
+        if args.warm_start_anchor and not args.warm_start:
+            raise LearningError(None, "--warm-start-anchor", "needs --warm-start")
+        warm = (WarmStart(args.warm_start, episodes=args.warm_start_episodes,
+                          anchor_epochs=args.warm_start_anchor) if args.warm_start else None)
+        settings = LearnSettings(env_id, parse_json_object(args.env_kwargs, "--env-kwargs"),
+                                 args.seed, envs, args.steps, args.minutes,
+                                 args.checkpoint_every, warm)
+        hyper = PPOHyper().with_overrides(parse_json_object(args.hyper, "--hyper"))
+        result = ppo.learn(settings, hyper, args.out)
+    print(f"trained {result.steps} env steps in {result.wall_s:.1f} s (stopped by "
+          f"{result.stopped_by}); wrote {result.out}")
+    return 0
+
+
+def evaluate_command(args: argparse.Namespace) -> int:
+    """``musclecell evaluate``: the report's three files checked, then the episodes."""
+    _require_learn_extra()
+    from cell.learning.baselines import policy_folder
+    from cell.learning.environments import resolve_env_id
+    from cell.learning.evaluate import (
+        EvaluationSettings,
+        evaluate,
+        parse_constant_actions,
+        report_markdown,
+        write_report,
+    )
+    from cell.learning.hyper import parse_json_object
+
+    settings = EvaluationSettings(
+        args.episodes, args.seed_start, args.workers or os.cpu_count() or 1,
+        args.constant_search_seeds, parse_constant_actions(args.constant_actions))
+    if args.policy is None and args.out is None:
+        raise LearningError(None, "--out", "needed when no POLICY is given (the baselines "
+                            "alone have no run folder to write in)")
+    folder = None if args.policy is None else policy_folder(args.policy)
+    out = args.out or folder / "evaluation"
+    json_path = args.json or out / "evaluation.json"
+    markdown_path = args.markdown or out / "evaluation.md"
+    csv_path = out / "episodes.csv"
+    check_outputs([Output(json_path, "--json" if args.json else "--out"),
+                   Output(markdown_path, "--markdown" if args.markdown else "--out"),
+                   Output(csv_path, "--out")], [] if args.policy is None else [args.policy])
+    report = evaluate(folder, resolve_env_id(args.env),
+                      parse_json_object(args.env_kwargs, "--env-kwargs"), settings)
+    write_report(report, json_path, markdown_path, csv_path)
+    print(report_markdown(report), end="")
+    print(f"wrote {json_path}, {markdown_path} and {csv_path}")
+    return 0
+
+
+def convert_command(args: argparse.Namespace) -> int:
+    """``musclecell convert-policy``: the pickled run and its checkpoints converted."""
+    _require_learn_extra()
+    from cell.learning.convert import convert_run
+
+    for folder in convert_run(args.run, args.trust_pickle):
+        print(f"converted {folder}")
+    return 0

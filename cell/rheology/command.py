@@ -1,0 +1,78 @@
+"""The command-line side of the diagnosis: ``musclecell diagnose`` on one measurement set.
+
+Light at import, and never MuJoCo (the diagnosis side runs without it): the handler imports
+the rest. The ``--batch`` of many sets is added on top by the sweeps' package
+(:func:`cell.scale.command.add_batch`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from cell.errors import InputError
+from cell.outputs import Output, check_outputs
+
+
+def add_diagnose(commands: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """The ``diagnose`` subcommand for one set; returns its parser, for the batch's options."""
+    diagnosis = commands.add_parser(
+        "diagnose", help="diagnose a measurement set: what the simulation gets wrong, the "
+        "cause, the extended material and the gain on held-out tests")
+    diagnosis.add_argument("set_dir", type=Path, nargs="?",
+                           help="folder with specimen.toml and tests.csv")
+    diagnosis.add_argument("--json", type=Path, help="write the diagnosis here")
+    diagnosis.add_argument("--material", type=Path,
+                           help="write the extended material TOML here (default: next to the "
+                           "JSON, <name>-material.toml)")
+    diagnosis.add_argument("--report", type=Path,
+                           help="write plots and a Markdown report in this folder")
+    diagnosis.set_defaults(handler=diagnose_command, uses_mujoco=False)
+    return diagnosis
+
+
+def diagnose_command(args: argparse.Namespace) -> int:
+    """``musclecell diagnose SET_DIR --json FILE``: every output checked, then the set read
+    whole, then the diagnosis, then the files."""
+    if args.set_dir is None or args.json is None:
+        raise InputError(None, "set_dir" if args.set_dir is None else "--json",
+                         "missing: diagnose SET_DIR --json FILE, or --batch PARENT --out DIR")
+    if getattr(args, "address", None) is not None:
+        raise InputError(None, "--address", "only --batch runs on Ray")
+    workers = (os.cpu_count() or 1) if args.workers is None else args.workers
+    if workers < 1:
+        raise InputError(None, "--workers", f"must be >= 1, got {workers}")
+    material_path = args.material or args.json.with_name(f"{args.json.stem}-material.toml")
+    from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE
+
+    check_outputs([Output(args.json, "--json"),
+                   Output(material_path, "--material" if args.material else "--json"),
+                   args.report and Output(args.report, "--report", folder=True)],
+                  [args.set_dir, args.set_dir / SPECIMEN_FILE, args.set_dir / TESTS_FILE])
+    if args.report is not None:
+        from cell.extras import require
+
+        require("matplotlib", "report", "the diagnosis report")
+    from cell.io import json_text, write_atomic
+    from cell.rheology.cutdiagnosis import diagnose_set
+    from cell.rheology.measured import load_measurement_set
+    from cell.rheology.settings import DiagnosisParams
+    from cell.tissue.materialfile import material_to_toml
+
+    measurements = load_measurement_set(args.set_dir)  # reads everything before any write
+    result = diagnose_set(measurements, DiagnosisParams(workers=workers))
+    # Both checked before anything is written: a diverged fit (exit 3), a material of no
+    # plausible stiffness (exit 2).
+    diagnosis = json_text(result.to_json(), args.json)
+    material = material_to_toml(result.material(), result.material_comment())
+    if args.report is not None:
+        from cell.rheology.cutreport import write_set_report
+
+        write_set_report(result, args.report, material_path)
+    write_atomic(material_path, material)
+    write_atomic(args.json, diagnosis)
+    print(f"causes: {', '.join(result.causes) or 'none (the baseline explains the data)'}\n"
+          f"{result.summary()}\nwrote {args.json}, {material_path}"
+          + (f", {args.report}" if args.report is not None else ""))
+    return 0

@@ -1,0 +1,214 @@
+"""Fitting one candidate cutting model to a set's cut tests, and its error on held-out tests.
+
+The scheme of the uniaxial fits (:mod:`cell.rheology.fitting`) on the reduced model of a cut
+(:mod:`cell.rheology.cutreduced`): ``scipy.optimize.least_squares`` searches the shape
+parameters of a :class:`~cell.rheology.cutcauses.CutCandidate` on thinned samples of every
+test, the linear ones (toughness per layer, the faces' shear stress, the sensor's offset) are
+solved in closed form at each step (bounded: toughness and friction not negative); held-out
+errors are leave-one-test-out, each test predicted at every sample by one damped Gauss-Newton
+step from the full fit on the other tests' rows of its Jacobian, the linear parameters solved
+on the other tests again, the step not taken when it fits them worse.
+
+A test's force is one series, channel after channel (:func:`~cell.rheology.cutcauses.flat`):
+:class:`CutSeries` carries it under the names that the acceptance of a cause reads
+(:mod:`cell.rheology.acceptance`), so both kinds of test are judged by the same rules.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares, lsq_linear
+
+from cell.rheology.cutcauses import CutCandidate, flat, linear_columns
+from cell.rheology.cutreduced import CutKinematics
+from cell.rheology.cuts import Blade, Block, CutTest
+from cell.rheology.fitting import one_step_held_out
+from cell.tissue.cutmodel import CuttingParams
+
+# Relative tolerance of a fit: as the uniaxial fits'.
+_TOLERANCE = 1e-5
+
+
+@dataclass(frozen=True, eq=False)
+class CutSeries:
+    """One cut test as a single force series for the rules that judge a cause.
+
+    Attributes:
+        test_id: the test's name.
+        mode: ``"cut"``.
+        force_N: the measured force, channel after channel, N.
+    """
+
+    test_id: str
+    mode: str
+    force_N: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class CutProblem:
+    """A set's cut tests prepared for fits: their kinematics, every sample and thinned.
+
+    Attributes:
+        block: the block.
+        blade: the blade.
+        tests: the cut tests as force series (:class:`CutSeries`).
+        kinematics: per test, every sample.
+        thinned: per test, about ``samples`` of them.
+        thinned_force_n: per test, the thinned measured force as one series, N.
+    """
+
+    block: Block
+    blade: Blade
+    tests: tuple[CutSeries, ...]
+    kinematics: tuple[CutKinematics, ...]
+    thinned: tuple[CutKinematics, ...]
+    thinned_force_n: tuple[np.ndarray, ...]
+
+    @classmethod
+    def of(cls, block: Block, blade: Blade, tests: tuple[CutTest, ...],
+           samples: int) -> CutProblem:
+        """The problem of ``tests``, thinned to about ``samples`` samples each (evenly in
+        time)."""
+        kinematics = tuple(CutKinematics.of(t, block, blade) for t in tests)
+        rows = [np.unique(np.searchsorted(t.time_s, np.linspace(
+            t.time_s[0], t.time_s[-1], samples)).clip(0, len(t.time_s) - 1)) for t in tests]
+        return cls(block, blade, tuple(CutSeries(t.test_id, "cut", flat(t.force_n))
+                                       for t in tests), kinematics,
+                   tuple(k.rows(r) for k, r in zip(kinematics, rows, strict=True)),
+                   tuple(flat(t.force_n[r]) for t, r in zip(tests, rows, strict=True)))
+
+    def reference_speed_m_s(self) -> float:
+        """The median speed of the edges while they cut: the rate factor's v_ref."""
+        speeds = np.concatenate([np.linalg.norm(k.push_m_s + k.slice_m_s, axis=1)[
+            k.engaged_length_m > 0] for k in self.kinematics])
+        return float(np.median(speeds)) if len(speeds) else 0.01
+
+
+def solve_linear(columns: np.ndarray, measured: np.ndarray,
+                 model: CutCandidate) -> np.ndarray:
+    """The linear parameters of ``model`` for ``measured ~ columns @ linear``: toughness and
+    friction not negative, the offset free."""
+    lower = np.array([-np.inf if n.startswith("offset_") else 0.0 for n in model.linear_names])
+    scale = np.maximum(np.abs(columns).max(axis=0), 1e-300)
+    result = lsq_linear(columns / scale, measured, bounds=(lower, np.inf), method="bvls")
+    return result.x / scale
+
+
+@dataclass(frozen=True, eq=False)
+class CutFit:
+    """A cutting model fitted to a set's cut tests, and its error on held-out tests.
+
+    Attributes mirror :class:`~cell.rheology.fitting.ModelFit`: ``model``, ``shape``,
+    ``linear`` (the closed-form parameters), ``cutting`` (the fitted cutting model),
+    ``rmse_n`` (on the fitted samples), ``heldout_rmse_n`` (leave-one-test-out, every
+    sample), ``bic``, ``fitted_force_n`` and ``heldout_force_n`` (per test, one series each).
+    """
+
+    model: CutCandidate
+    shape: np.ndarray
+    linear: np.ndarray
+    cutting: CuttingParams
+    rmse_n: float
+    heldout_rmse_n: float
+    bic: float
+    fitted_force_n: tuple[np.ndarray, ...]
+    heldout_force_n: tuple[np.ndarray, ...]
+    failed_test: str | None = None
+
+    @property
+    def params(self) -> dict[str, float]:
+        """Fitted parameters in SI units."""
+        return self.model.reported(self.shape, self.linear)
+
+    @property
+    def offset_n(self) -> np.ndarray:
+        """The sensor's fitted offset, N (zero without ``blade_force_offset``)."""
+        solved = dict(zip(self.model.linear_names, self.linear, strict=True))
+        return np.array([solved.get(f"offset_{a}_n", 0.0) for a in "xyz"])
+
+    def heldout_mse_per_test(self, tests: tuple[CutSeries, ...]) -> np.ndarray:
+        """Each test's held-out mean square error, N^2."""
+        return np.array([np.mean((h - t.force_N) ** 2)
+                         for h, t in zip(self.heldout_force_n, tests, strict=True)])
+
+    def to_json(self) -> dict[str, Any]:
+        """The contract's ``baseline`` / ``extended`` entry (plus ``bic``)."""
+        return {"model": self.model.name, "params": self.params,
+                "heldout_rmse_N": self.heldout_rmse_n, "bic": self.bic}
+
+
+def _columns(problem: CutProblem, model: CutCandidate, shape: np.ndarray,
+             which: list[int], thinned: bool = True) -> list[np.ndarray]:
+    kinematics = problem.thinned if thinned else problem.kinematics
+    return [linear_columns(model, shape, kinematics[i]) for i in which]
+
+
+def misfit_rss(problem: CutProblem, model: CutCandidate, shape: np.ndarray) -> float:
+    """The residual sum of squares on every sample at ``shape``, the linear parameters
+    solved: the cheap look at a start that :func:`fit_cut` would refine, N^2."""
+    measured = np.concatenate([t.force_N for t in problem.tests])
+    columns = np.vstack(_columns(problem, model, shape, list(range(len(problem.tests))),
+                                 thinned=False))
+    misfit = columns @ solve_linear(columns, measured, model) - measured
+    return float(misfit @ misfit)
+
+
+def fit_cut(problem: CutProblem, model: CutCandidate, start: np.ndarray,
+            max_evaluations: int) -> CutFit:
+    """Fit ``model`` to every cut test from ``start`` and predict each test held out (module
+    docstring)."""
+    everything = list(range(len(problem.tests)))
+    measured = np.concatenate(problem.thinned_force_n)
+
+    def residual(shape: np.ndarray) -> np.ndarray:
+        columns = np.vstack(_columns(problem, model, shape, everything))
+        return columns @ solve_linear(columns, measured, model) - measured
+
+    lower, upper = model.bounds
+    if len(start):
+        result = least_squares(residual, np.clip(start, lower, upper), bounds=(lower, upper),
+                               x_scale="jac", diff_step=1e-3, ftol=_TOLERANCE,
+                               xtol=_TOLERANCE, max_nfev=max_evaluations)
+        shape, jacobian = result.x, result.jac
+    else:
+        shape, jacobian = np.asarray(start, dtype=float), np.zeros((len(measured), 0))
+    columns = np.vstack(_columns(problem, model, shape, everything))
+    linear = solve_linear(columns, measured, model)
+    misfit = columns @ linear - measured
+    rss, count = float(misfit @ misfit), len(misfit)
+    fitted = [c @ linear for c in _columns(problem, model, shape, everything, thinned=False)]
+    heldout = _held_out(problem, model, shape, misfit, jacobian, (lower, upper))
+    errors = np.concatenate([h - t.force_N for h, t in zip(heldout, problem.tests,
+                                                           strict=True)])
+    parameters = len(shape) + len(linear)
+    return CutFit(model, shape, linear, model.cutting(shape, linear), math.sqrt(rss / count),
+                  float(np.sqrt(np.mean(errors**2))),
+                  count * math.log(max(rss / count, 1e-300)) + parameters * math.log(count),
+                  tuple(fitted), tuple(heldout))
+
+
+def _held_out(problem: CutProblem, model: CutCandidate, shape: np.ndarray,
+              misfit: np.ndarray, jacobian: np.ndarray,
+              bounds: tuple[np.ndarray, np.ndarray]) -> list[np.ndarray]:
+    """Each test predicted at every sample by the one-step refit without it (module
+    docstring: the uniaxial fits' scheme, :func:`cell.rheology.fitting.one_step_held_out`)."""
+
+    def predict(left_out: int, trial: np.ndarray, worst_rss: float) -> np.ndarray | None:
+        others = [i for i in range(len(problem.tests)) if i != left_out]
+        if not others:
+            return None
+        measured = np.concatenate([problem.thinned_force_n[i] for i in others])
+        columns = np.vstack(_columns(problem, model, trial, others))
+        linear = solve_linear(columns, measured, model)
+        error = columns @ linear - measured
+        if float(error @ error) > worst_rss:
+            return None
+        return _columns(problem, model, trial, [left_out], thinned=False)[0] @ linear
+
+    return one_step_held_out([len(f) for f in problem.thinned_force_n],
+                             [len(t.force_N) for t in problem.tests], shape, misfit, jacobian,
+                             bounds, predict)

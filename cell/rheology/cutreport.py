@@ -1,0 +1,129 @@
+"""The report of a set's diagnosis for a person to read first, cut tests included.
+
+:func:`write_set_report` writes the uniaxial report (:func:`cell.rheology.report.write_report`)
+when the set has uniaxial tests, and for its cut tests:
+
+- ``cut-forces.png``: per cut test, the force that resists the edge's sinking against the
+  depth, measured and held-out predictions of the baseline and the extended cutting model;
+  for a sawing cut, a second panel with the force along the edge against the stroke;
+- ``cut-report.md``: the causes, the gain, the candidates, the steps and the extended cutting
+  model's parameters, with a link to the figure.
+
+Plots need matplotlib (the ``report`` extra), imported only when a report is written.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from cell.extras import require
+from cell.io import figure_png, write_atomic
+from cell.rheology.cutreduced import cutting_direction
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from cell.rheology.cutdiagnosis import SetDiagnosis
+
+_DPI = 110
+_BASELINE, _EXTENDED = "tab:red", "tab:blue"
+#: A cut whose edge travels more than this along itself is drawn as a sawing cut too, m.
+_SAWING_STROKE_M = 1e-3
+
+
+def write_set_report(diagnosis: SetDiagnosis, folder: Path,
+                     material_path: Path | None = None) -> list[Path]:
+    """Write the reports of ``diagnosis``'s parts into ``folder`` (module docstring).
+
+    Raises:
+        MissingExtraError: matplotlib is not installed.
+    """
+    require("matplotlib", "report", "the diagnosis report")
+    from matplotlib.figure import Figure
+
+    written = []
+    if diagnosis.uniaxial is not None:
+        from cell.rheology.report import write_report
+
+        written += write_report(diagnosis.uniaxial, folder, material_path)
+    if diagnosis.cut is not None:
+        folder = Path(folder)
+        forces = write_atomic(folder / "cut-forces.png",
+                              figure_png(_draw_cuts(Figure(layout="constrained"), diagnosis),
+                                         _DPI))
+        written += [forces, write_atomic(folder / "cut-report.md",
+                                         _markdown(diagnosis, folder, material_path, forces.name))]
+    return written
+
+
+def _series(flat_force: np.ndarray) -> np.ndarray:
+    """A force series channel after channel back as (n, 3)."""
+    return np.asarray(flat_force).reshape(3, -1).T
+
+
+def _draw_cuts(figure: Figure, diagnosis: SetDiagnosis) -> Figure:
+    """One row per cut test: force against depth, and against the stroke for a sawing cut."""
+    data, cut = diagnosis.measurements, diagnosis.cut
+    down = cutting_direction(data.blade)
+    along = np.asarray(data.blade.edge_direction)
+    tests = data.cut_tests
+    figure.set_size_inches(9.0, 2.8 * len(tests) + 0.6)
+    axes = figure.subplots(len(tests), 2, squeeze=False)
+    fits = (("measured", None), ("baseline held-out", cut.baseline),
+            ("extended held-out", cut.extended))
+    for k, test in enumerate(tests):
+        depth, stroke = test.depth_m(data.block), test.stroke_m(data.blade)
+        for label, fit in fits:
+            force = test.force_n if fit is None else _series(fit.heldout_force_n[k])
+            style = dict(marker=".", linestyle="none", color="0.45", markersize=2.5) \
+                if fit is None else dict(color=_BASELINE if fit is cut.baseline else _EXTENDED,
+                                         linestyle="--" if fit is cut.baseline else "-")
+            axes[k, 0].plot(1e3 * depth, -force @ down, label=label, **style)
+            axes[k, 1].plot(1e3 * stroke, force @ along, label=label, **style)
+        axes[k, 0].set_title(f"{test.test_id}: force against depth", fontsize=10)
+        axes[k, 0].set_xlabel("depth below the top face (mm)")
+        axes[k, 0].set_ylabel("force against the cut (N)")
+        sawing = float(np.ptp(stroke)) > _SAWING_STROKE_M
+        axes[k, 1].set_visible(sawing)
+        axes[k, 1].set_title(f"{test.test_id}: force along the edge", fontsize=10)
+        axes[k, 1].set_xlabel("stroke (mm)")
+        axes[k, 1].set_ylabel("force along the edge (N)")
+    figure.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside upper center", ncols=3)
+    return figure
+
+
+def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
+              forces: str) -> str:
+    """``cut-report.md``: causes, gain, candidates, steps, parameters, links."""
+    cut = diagnosis.cut
+    base, extended = cut.baseline, cut.extended
+    causes = (f"Causes, most important first: {', '.join(cut.causes)}." if cut.causes
+              else "No cause found: the constant toughness explains the cuts.")
+    lines = [f"# Diagnosis of the cut tests of {diagnosis.measurements.folder.name}", "",
+             causes, "",
+             f"Gain {cut.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
+             f"{extended.heldout_rmse_n:.4g} N (extended); noise {cut.noise_n:.3g} N.", "",
+             "## Candidates", "", "| cause | held-out RMSE (N) | BIC | selected |",
+             "|---|---|---|---|"]
+    for fit in (base, *cut.candidates):
+        cause = ", ".join(fit.model.causes) or "none (baseline)"
+        selected = "yes" if set(fit.model.causes) & set(cut.causes) else ""
+        lines.append(f"| {cause} | {fit.heldout_rmse_n:.4g} | {fit.bic:.1f} | {selected} |")
+    lines += ["", "## Steps", ""]
+    lines += [f"{k}. {' + '.join(fit.model.causes)}: held-out RMSE {fit.heldout_rmse_n:.4g} N, "
+              f"BIC {fit.bic:.1f}" for k, fit in enumerate(cut.steps, start=1)]
+    if not cut.steps:
+        lines.append("No cause was accepted.")
+    lines += ["", f"## Extended model: {extended.model.name}", "", "| parameter | value |",
+              "|---|---|"]
+    lines += [f"| {name} | {value:.4g} |" for name, value in extended.params.items()]
+    lines.append("")
+    if material_path is not None:
+        link = Path(os.path.relpath(Path(material_path).absolute(), folder.absolute()))
+        lines += [f"Material TOML: [{material_path}]({link.as_posix()})", ""]
+    lines += [f"![Measured and held-out cut forces]({forces})", ""]
+    return "\n".join(lines)

@@ -1,0 +1,197 @@
+"""Diagnosis of a set's cut tests: the cut baseline, the causes of the cut catalogue
+(:mod:`cell.rheology.cutcauses`), the extended cutting model and the gain on held-out tests.
+
+The search is the uniaxial diagnosis's own (:func:`cell.rheology.search.forward`, with its
+look-ahead, backward drops and second start, and :func:`cell.rheology.acceptance.accepts`
+judging each cause) walking the cut catalogue: :class:`CutSearch` fits the models it asks for
+on the reduced model of a cut (:mod:`cell.rheology.cutfitting`). The noise is the uniaxial
+estimate (:func:`cell.rheology.diagnosis.force_noise_n`) over each force channel.
+
+A depth where the toughness steps (``layered_toughness``) gives a fit no gradient to follow
+between samples: its fits start from the best of a grid of depths over the block's height (the
+linear parameters solved at each), then from the best of a finer grid around the first fit's
+and of the depths between the samples' depths there.
+
+Usage::
+
+    result = diagnose_cuts(data.block, data.blade, data.cut_tests)
+    result.causes  # cut catalogue names, most important first
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from cell.rheology.causes import UNEXPLAINED
+from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA, CutCandidate
+from cell.rheology.cutfitting import CutFit, CutProblem, fit_cut, misfit_rss
+from cell.rheology.cuts import Blade, Block, CutTest
+from cell.rheology.diagnosis import force_noise_n
+from cell.rheology.search import forward, second_start, unexplained
+from cell.rheology.settings import DiagnosisParams
+
+#: Starting depths of a layer boundary, as fractions of the block's height, then the finer
+#: grid's points around the best of them.
+_COARSE_DEPTHS = 16
+_FINE_DEPTHS = 8
+
+
+def _start(model: CutCandidate, previous: CutFit | None) -> np.ndarray:
+    """A start for ``model``: the values of a related fit where the names match, its initial
+    values elsewhere."""
+    start = model.initial.copy()
+    if previous is not None:
+        names = previous.model.parameter_names
+        for i, name in enumerate(model.parameter_names):
+            if name in names:
+                start[i] = previous.shape[names.index(name)]
+    return start
+
+
+def _best_depth(problem: CutProblem, model: CutCandidate, shape: np.ndarray,
+                depths: np.ndarray) -> np.ndarray:
+    """``shape`` with the layer boundary at the one of ``depths`` that fits best, the other
+    parameters as they are."""
+    index = model.parameter_names.index("layer_depth_0_m")
+    low, high = (b[index] for b in model.bounds)
+    trials = [np.where(np.arange(len(shape)) == index, np.clip(d, low, high), shape)
+              for d in depths]
+    return min(trials, key=lambda trial: misfit_rss(problem, model, trial))
+
+
+def fit_best(problem: CutProblem, model: CutCandidate, previous: CutFit | None,
+             max_evaluations: int) -> CutFit:
+    """``model`` fitted from the start :func:`_start` gives; a layered model's boundary first
+    picked on a grid of depths over the block, fitted there, then picked again on a finer grid
+    around it and fitted (module docstring)."""
+    start = _start(model, previous)
+    if "layered_toughness" not in model.causes or model.layers != 2:
+        return fit_cut(problem, model, start, max_evaluations)
+    coarse = model.depth_m * (np.arange(_COARSE_DEPTHS) + 0.5) / _COARSE_DEPTHS
+    first = fit_cut(problem, model, _best_depth(problem, model, start, coarse),
+                    max_evaluations)
+    spacing = model.depth_m / _COARSE_DEPTHS
+    depth = first.shape[model.parameter_names.index("layer_depth_0_m")]
+    # The misfit changes only where the boundary passes a sample's depth: between each two
+    # neighbouring sample depths near the first fit's boundary.
+    sampled = np.unique(np.concatenate([k.middle_depth_m[k.engaged_length_m > 0]
+                                        for k in problem.kinematics]))
+    near = sampled[np.abs(sampled - depth) <= spacing]
+    fine = np.concatenate([depth + np.linspace(-spacing, spacing, _FINE_DEPTHS + 1),
+                           0.5 * (near[1:] + near[:-1])])
+    second = fit_cut(problem, model, _best_depth(problem, model, first.shape, fine),
+                     max_evaluations)
+    return min((first, second), key=lambda f: f.rmse_n)
+
+
+class CutSearch:
+    """The fits of one cut diagnosis, remembered by their causes: what
+    :func:`cell.rheology.search.forward` asks of a search (``run``, ``problem.tests``,
+    ``params``, ``catalogue``)."""
+
+    def __init__(self, problem: CutProblem, params: DiagnosisParams,
+                 root: CutCandidate) -> None:
+        self.problem, self.params, self.root = problem, params, root
+        self.catalogue: tuple[str, ...] = CUT_CAUSES
+        self.fits: dict[frozenset[str], CutFit] = {}
+
+    def run(self, jobs: list[tuple[CutFit | None, str | None]]) -> list[CutFit]:
+        """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root model),
+        or removed when the fit has it; a model fitted before is fitted again only when a cause
+        is removed, the fit with the lower residual kept."""
+        results = []
+        for base, cause in jobs:
+            model = self.root if base is None else base.model
+            removing = cause is not None and cause in model.causes
+            if cause is not None:
+                kept = tuple(c for c in model.causes if c != cause)
+                model = replace(model, causes=kept if removing else (*model.causes, cause))
+            key = frozenset(model.causes)
+            if key not in self.fits or removing:
+                result = fit_best(self.problem, model, base, self.params.max_evaluations)
+                if key not in self.fits or result.rmse_n < self.fits[key].rmse_n:
+                    self.fits[key] = result
+            results.append(self.fits[key])
+        return results
+
+
+@dataclass(frozen=True, eq=False)
+class CutDiagnosis:
+    """What :func:`diagnose_cuts` found: as :class:`~cell.rheology.diagnosis.Diagnosis` for
+    the cut tests (``noise_n``, ``baseline``, ``candidates``, ``steps``, ``extended``,
+    ``causes``, ``params``)."""
+
+    noise_n: float
+    baseline: CutFit
+    candidates: tuple[CutFit, ...]
+    steps: tuple[CutFit, ...]
+    extended: CutFit
+    causes: tuple[str, ...]
+    params: DiagnosisParams = field(default_factory=DiagnosisParams)
+
+    @property
+    def gain(self) -> float:
+        """1 - extended over baseline held-out RMSE."""
+        return 1.0 - self.extended.heldout_rmse_n / self.baseline.heldout_rmse_n
+
+    def to_json(self) -> dict[str, Any]:
+        """The diagnosis contract of the spec for the cut tests, plus the noise and steps."""
+        return {
+            "baseline": self.baseline.to_json(),
+            "causes": list(self.causes),
+            "candidates": [
+                {"cause": fit.model.causes[0], "params": fit.params,
+                 "heldout_rmse_N": fit.heldout_rmse_n, "bic": fit.bic,
+                 "selected": fit.model.causes[0] in self.causes}
+                for fit in self.candidates
+            ],
+            "extended": self.extended.to_json(),
+            "gain": self.gain,
+            "noise_N": self.noise_n,
+            "steps": [{"causes": list(fit.model.causes), "heldout_rmse_N": fit.heldout_rmse_n,
+                       "bic": fit.bic} for fit in self.steps],
+        }
+
+
+def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
+                  params: DiagnosisParams | None = None,
+                  face_pressure_pa: float = FACE_PRESSURE_PA) -> CutDiagnosis:
+    """Diagnose a set's cut tests (module docstring); ``face_pressure_pa`` is the pressure a
+    fitted face shear stress is divided by (the material's, where it has a cutting model).
+
+    Example:
+        >>> from cell.rheology.cutreduced import simulate_cut
+        >>> from cell.tissue.cutmodel import CuttingParams
+        >>> block = Block((0.06, 0.04, 0.03))
+        >>> blade = Blade(0.12, 0.0015, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))
+        >>> t = np.linspace(0.0, 5.0, 200)
+        >>> tests = []
+        >>> for k, speed in enumerate((0.004, 0.006, 0.008)):
+        ...     edge = np.column_stack([0.03 + 0 * t, 0.02 + 0 * t, 0.032 - speed * t])
+        ...     force = simulate_cut(CutTest("c", t, edge, edge), block, blade,
+        ...                          CuttingParams(800.0)).total_n + [0.0, 0.0, 1.5]
+        ...     noisy = force + np.random.default_rng(k).normal(0.0, 0.05, force.shape)
+        ...     tests.append(CutTest(f"c{k}", t, edge, noisy))
+        >>> diagnose_cuts(block, blade, tuple(tests)).causes
+        ('blade_force_offset',)
+    """
+    params = DiagnosisParams() if params is None else params
+    problem = CutProblem.of(block, blade, tests, 2 * params.fit_samples)
+    root = CutCandidate((), problem.reference_speed_m_s(), block.top_z_m,
+                        face_pressure_pa=face_pressure_pa)
+    noise = force_noise_n([channel for test in tests for channel in test.force_n.T])
+    search = CutSearch(problem, params, root)
+    baseline = search.run([(None, None)])[0]
+    candidates = search.run([(baseline, c) for c in CUT_CAUSES])
+    current, steps, order = forward(search, baseline, candidates, noise)
+    if unexplained(current, noise, params, problem.tests):
+        current, steps, order = second_start(search, baseline, candidates, noise,
+                                             (current, steps, order))
+    causes = tuple(order)
+    if unexplained(current, noise, params, problem.tests):
+        causes += (UNEXPLAINED,)
+    return CutDiagnosis(noise, baseline, tuple(candidates), tuple(steps), current, causes,
+                        params)

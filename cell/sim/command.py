@@ -1,0 +1,152 @@
+"""The command-line side of the simulation: ``musclecell run``, ``plan``, ``export-mjcf`` and
+``render``.
+
+Light at import (the parser is built for every command): the handlers import the rest. Each
+handler checks its outputs (:mod:`cell.outputs`) before it builds anything.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from cell.errors import ScenarioError
+from cell.outputs import Output, check_outputs
+
+if TYPE_CHECKING:
+    from cell.sim.scenario import Scenario
+
+
+def add_simulation(commands: argparse._SubParsersAction) -> None:
+    """The ``run``, ``plan``, ``export-mjcf`` and ``render`` subcommands."""
+    run = commands.add_parser("run", help="run a scripted cutting episode")
+    run.add_argument("scenario", type=Path, help="scenario TOML file")
+    run.add_argument("--rerun", type=Path, help="write a Rerun recording (.rrd) here")
+    run.add_argument("--summary", type=Path, help="write the summary JSON here")
+    run.add_argument("--seed", type=int, help="override the scenario's seed")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.set_defaults(handler=run_command)
+
+    plan = commands.add_parser(
+        "plan", help="perceive the cut and plan the knife at the ready poses (no physics)")
+    plan.add_argument("scenario", type=Path, help="scenario TOML file")
+    plan.add_argument("--json", type=Path, required=True, help="write the plan's figures here")
+    plan.add_argument("--seed", type=int, help="override the scenario's seed (sensor noise)")
+    plan.set_defaults(handler=plan_command)
+
+    export = commands.add_parser("export-mjcf", help="write the scene as MJCF")
+    export.add_argument("scenario", type=Path)
+    export.add_argument("output", type=Path)
+    export.set_defaults(handler=export_command)
+
+    render = commands.add_parser(
+        "render", help="draw the scenario's cell at its start (arms at their ready poses) "
+        "as a PNG picture")
+    render.add_argument("scenario", type=Path, help="scenario TOML file")
+    render.add_argument("--png", type=Path, required=True, help="write the picture here")
+    render.add_argument("--width", type=int, default=1280, help="px (default 1280)")
+    render.add_argument("--height", type=int, default=720, help="px (default 720)")
+    render.add_argument("--camera", help="a camera of the model (e.g. camera/camera: what the "
+                        "cell's camera sees); default: a free view of the whole cell")
+    render.set_defaults(handler=render_command)
+
+
+def load(args: argparse.Namespace) -> Scenario:
+    """The scenario named on the command line, with ``--seed`` applied when the command
+    has one."""
+    from cell.sim.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    seed = getattr(args, "seed", None)
+    if seed is not None:
+        if seed < 0:
+            raise ScenarioError(None, "--seed", f"must be >= 0, got {seed}")
+        scenario = replace(scenario, seed=seed)
+    return scenario
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """``musclecell run``."""
+    from cell.io import write_json
+    from cell.sim.episode import Episode
+
+    check_outputs([args.rerun and Output(args.rerun, "--rerun"),
+                   args.summary and Output(args.summary, "--summary")], [args.scenario])
+    scenario = load(args)
+    summary = Episode(scenario).run(rerun_path=args.rerun, progress=not args.quiet)
+    if args.summary:
+        write_json(args.summary, summary)
+    result = summary["result"]
+    print(f"released {result['released_fraction']:.1%} of {result['bindings']} bindings "
+          f"{result['released_by_rule']}, median gap {result['gap_m']['median'] * 1e3:.1f} mm, "
+          f"knife tracking median {result['knife_tracking_error_m']['median'] * 1e3:.2f} mm, "
+          f"real-time factor {summary['timing']['real_time_factor']:.3f}")
+    return 0
+
+
+def plan_command(args: argparse.Namespace) -> int:
+    """``musclecell plan``: what the episode would see with this seed, and where the knife
+    would go."""
+    import numpy as np
+
+    from cell.io import write_json
+    from cell.robots.camera import CameraRig
+    from cell.robots.names import CAMERA, KNIFE_TIP
+    from cell.sim.episode import Episode
+    from controllers.knife import plan_cut
+
+    check_outputs([Output(args.json, "--json")], [args.scenario])
+    scenario = load(args)
+    episode = Episode(scenario)
+    truth = episode.scene.mesh
+    with CameraRig(episode.scene.model, CAMERA, scenario.camera.width_px,
+                   scenario.camera.height_px) as rig:
+        plan = episode.perceive(rig)
+    tip_m, tip_rotation = episode.ik.site_pose(KNIFE_TIP)
+    _, tip_path, window_s = plan_cut(
+        plan.guideline.points_m, scenario.cut, scenario.layout.table_height_m,
+        scenario.cut.start_s, tip_m, tip_rotation, interface_y=plan.interface_y)
+    # How far the planned blade tip is from the true interface: what the cut would part.
+    offset = np.abs(tip_path[:, 1] - truth.interface_y(tip_path[:, 0], tip_path[:, 2]))
+    summary = {"scenario": scenario.name, "seed": scenario.seed, **plan.summary(),
+               "knife": {"cut_window_s": list(window_s), "tip_points": len(tip_path),
+                         "tip_offset_from_true_interface_m": {"mean": float(offset.mean()),
+                                                              "max": float(offset.max())}}}
+    write_json(args.json, summary)
+    distance = plan.guideline_distance_m
+    depth = plan.cut_depth_m
+    print(f"guideline {plan.guideline.length_m:.3f} m, {len(plan.guideline.nodes)} nodes, "
+          f"{distance.mean_m * 1e3:.1f} mm mean / {distance.max_m * 1e3:.1f} mm max from the "
+          f"true top line; fit rms {plan.fit.rms_m * 1e3:.2f} mm; cut depth "
+          f"{depth.min() * 1e3:.0f}-{depth.max() * 1e3:.0f} mm; knife tip "
+          f"{offset.mean() * 1e3:.1f} mm mean from the true interface; perception "
+          f"{plan.timings_s['total']:.2f} s; wrote {args.json}")
+    return 0
+
+
+def export_command(args: argparse.Namespace) -> int:
+    """``musclecell export-mjcf``."""
+    from cell.sim.assembly import build_scene, export_mjcf
+
+    check_outputs([Output(args.output, "output")], [args.scenario])
+    path = export_mjcf(build_scene(load(args)), args.output)
+    print(f"wrote {path}")
+    return 0
+
+
+def render_command(args: argparse.Namespace) -> int:
+    """``musclecell render``: the cell as the episode starts it, arms at their ready poses."""
+    from cell.io import write_atomic
+    from cell.sim.episode import Episode
+    from cell.sim.picture import check_size, png_bytes, render_rgb
+
+    check_size(args.width, args.height)
+    check_outputs([Output(args.png, "--png")], [args.scenario])
+    episode = Episode(load(args))
+    rgb = render_rgb(episode.sim.model, episode.sim.data, args.width, args.height,
+                     args.camera)
+    write_atomic(args.png, png_bytes(rgb))
+    print(f"wrote {args.png} ({args.width} x {args.height} px)")
+    return 0

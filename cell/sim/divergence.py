@@ -1,0 +1,53 @@
+"""When a MuJoCo state is no longer data: the divergence checks that every stepping loop of the
+project runs (the cell's :class:`~cell.sim.simulation.TissueSimulation`, a cut test's block in
+:mod:`cell.sim.cuttest`).
+
+Example:
+    >>> import mujoco
+    >>> model = mujoco.MjModel.from_xml_string(
+    ...     '<mujoco><worldbody><body><freejoint/><geom size="1"/></body></worldbody>'
+    ...     '</mujoco>')
+    >>> data = mujoco.MjData(model)
+    >>> check_state(data, np.arange(6), fatal_warnings(data), 20.0, 0.0)  # at rest: nothing
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from cell.errors import DivergenceError
+
+#: Warnings after which MuJoCo's state is no longer a solution of the model.
+FATAL_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+)
+_FATAL_INDEX = np.array([int(w) for w in FATAL_WARNINGS])
+
+
+def fatal_warnings(data: mujoco.MjData) -> np.ndarray:
+    """How many times each of :data:`FATAL_WARNINGS` has fired in ``data``."""
+    return data.warning.number[_FATAL_INDEX]
+
+
+def check_state(data: mujoco.MjData, dofs: np.ndarray, warnings_before: np.ndarray,
+                max_speed_m_s: float, time_s: float) -> None:
+    """Raise :class:`DivergenceError` on a fatal MuJoCo warning since ``warnings_before``
+    (:func:`fatal_warnings` then), a non-finite state, or one of ``dofs`` faster than
+    ``max_speed_m_s`` (m/s).
+
+    ``time_s`` is the time the step should have reached: after a fatal warning MuJoCo
+    resets the state, time included, so ``data.time`` no longer tells.
+    """
+    fired = fatal_warnings(data) > warnings_before
+    if fired.any():
+        names = [w.name for w, f in zip(FATAL_WARNINGS, fired, strict=True) if f]
+        raise DivergenceError(time_s, f"MuJoCo warning {', '.join(names)}")
+    if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+        raise DivergenceError(float(data.time), "non-finite position or velocity")
+    speed = np.abs(data.qvel[dofs]).max(initial=0.0)
+    if speed > max_speed_m_s:
+        raise DivergenceError(float(data.time),
+                              f"tissue speed {speed:.3g} m/s above {max_speed_m_s} m/s")

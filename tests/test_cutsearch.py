@@ -1,0 +1,203 @@
+"""The diagnosis of cut tests (cell.rheology.cutcauses, cutfitting, cutsearch, cutdiagnosis) on
+sets that the reduced model makes, each with one hidden effect."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cell.errors import DiagnosisError
+from cell.rheology.cutcauses import CUT_CAUSES, CutCandidate
+from cell.rheology.cutdiagnosis import diagnose_set
+from cell.rheology.cutfitting import CutProblem, fit_cut
+from cell.rheology.cutreduced import simulate_cut
+from cell.rheology.cuts import Blade, Block, CutTest
+from cell.rheology.cutsearch import diagnose_cuts
+from cell.rheology.measured import MeasurementSet, load_measurement_set
+from cell.rheology.settings import DiagnosisParams
+from cell.tissue.cutmodel import CuttingParams
+from cell.tissue.materialfile import load_material, material_to_toml
+
+BLOCK = Block((0.06, 0.04, 0.03))
+BLADE = Blade(0.12, 0.0015, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))
+PLAIN = CuttingParams(900.0, face_pressure_pa=1600.0)
+PARAMS = DiagnosisParams(workers=1)
+
+
+def _press(speed_m_s: float, depth_m: float = 0.025, samples: int = 240
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """From 2 mm above the block down to ``depth_m`` and back."""
+    down = (0.002 + depth_m) / speed_m_s
+    t = np.linspace(0.0, 2.0 * down, samples)
+    z = 0.032 - speed_m_s * np.minimum(t, 2.0 * down - t)
+    return t, np.column_stack([np.full_like(t, 0.03), np.full_like(t, 0.02), z])
+
+
+def _saw(sink_m_s: float, stroke_m: float = 0.02, samples: int = 320
+         ) -> tuple[np.ndarray, np.ndarray]:
+    """Back and forth along the edge once a second while sinking to 25 mm."""
+    t = np.linspace(0.0, 0.027 / sink_m_s, samples)
+    y = 0.02 + 0.5 * stroke_m * np.sin(2.0 * np.pi * t)
+    return t, np.column_stack([np.full_like(t, 0.03), y, 0.032 - sink_m_s * t])
+
+
+def _cut_set(truth: CuttingParams, offset_n: tuple[float, float, float] = (0.0, 0.0, 0.0),
+             paths: list | None = None, seed: int = 0) -> tuple[CutTest, ...]:
+    """Cut tests of ``truth`` with 0.2 N of noise on each channel."""
+    rng = np.random.default_rng(seed)
+    paths = paths or [_press(0.005), _press(0.01), _press(0.03), _press(0.01, 0.015),
+                      _saw(0.004), _saw(0.008)]
+    tests = []
+    for k, (t, edge) in enumerate(paths):
+        force = simulate_cut(CutTest("truth", t, edge, edge), BLOCK, BLADE, truth).total_n
+        force = force + np.asarray(offset_n) + rng.normal(0.0, 0.2, force.shape)
+        tests.append(CutTest(f"cut{k}", t, edge, force))
+    return tuple(tests)
+
+
+HIDDEN = {
+    "blade_friction": (replace(PLAIN, face_friction=0.4), (0.0, 0.0, 0.0)),
+    "slicing": (replace(PLAIN, slicing_efficiency=1.0), (0.0, 0.0, 0.0)),
+    "rate_dependent_cutting": (replace(PLAIN, rate_exponent=0.3), (0.0, 0.0, 0.0)),
+    "indentation_stiffness": (replace(PLAIN, indentation_depth_m=0.004), (0.0, 0.0, 0.0)),
+    "layered_toughness": (replace(PLAIN, layer_depths_m=(0.012,), layer_factors=(1.0, 1.8)),
+                          (0.0, 0.0, 0.0)),
+    "blade_force_offset": (PLAIN, (0.5, -0.3, 2.0)),
+}
+
+
+def test_the_catalogue_has_the_specs_causes() -> None:
+    assert set(CUT_CAUSES) == set(HIDDEN)
+    with pytest.raises(DiagnosisError):
+        CutCandidate(("tissue_stiffness",))
+
+
+def test_the_baseline_fit_finds_the_toughness() -> None:
+    problem = CutProblem.of(BLOCK, BLADE, _cut_set(PLAIN), 64)
+    model = CutCandidate((), problem.reference_speed_m_s(), BLOCK.top_z_m)
+    fit = fit_cut(problem, model, model.initial, 100)
+    assert fit.params["toughness_j_m2"] == pytest.approx(900.0, rel=0.01)
+    assert fit.heldout_rmse_n == pytest.approx(0.2, rel=0.15)
+
+
+def test_a_set_with_no_hidden_effect_names_none() -> None:
+    assert diagnose_cuts(BLOCK, BLADE, _cut_set(PLAIN, seed=3), PARAMS).causes == ()
+
+
+@pytest.mark.parametrize("cause", sorted(HIDDEN))
+def test_a_hidden_cause_is_named_with_its_parameters(cause: str) -> None:
+    truth, offset = HIDDEN[cause]
+    result = diagnose_cuts(BLOCK, BLADE, _cut_set(truth, offset), PARAMS)
+    assert result.causes == (cause,)
+    assert result.gain > 0.3
+    fitted = result.extended.cutting
+    if cause == "blade_friction":
+        assert fitted.face_friction == pytest.approx(0.4, rel=0.15)
+    elif cause == "slicing":
+        assert fitted.slicing_efficiency == pytest.approx(1.0, rel=0.15)
+    elif cause == "rate_dependent_cutting":
+        assert fitted.rate_exponent == pytest.approx(0.3, rel=0.15)
+    elif cause == "indentation_stiffness":
+        assert fitted.indentation_depth_m == pytest.approx(0.004, rel=0.15)
+    elif cause == "layered_toughness":
+        assert fitted.layer_depths_m[0] == pytest.approx(0.012, rel=0.15)
+        assert fitted.layer_factors[1] == pytest.approx(1.8, rel=0.15)
+    else:
+        np.testing.assert_allclose(result.extended.offset_n, offset, atol=0.1)
+
+
+@pytest.mark.parametrize("slicing", [0.0, 1.0])
+def test_a_sawing_and_a_press_cut_together_tell_whether_slicing_acts(slicing: float) -> None:
+    truth = replace(PLAIN, slicing_efficiency=slicing)
+    tests = _cut_set(truth, paths=[_press(0.01), _saw(0.006)], seed=5)
+    causes = diagnose_cuts(BLOCK, BLADE, tests, PARAMS).causes
+    assert ("slicing" in causes) == (slicing > 0)
+
+
+def _write_cut_set(folder: Path, tests: tuple[CutTest, ...]) -> None:
+    """A measurement set of cut tests alone, as the spec writes it."""
+    folder.mkdir()
+    (folder / "specimen.toml").write_text(
+        "[block]\nsize_m = [0.06, 0.04, 0.03]\n\n[blade]\nedge_length_m = 0.12\n"
+        "thickness_m = 0.0015\nedge_direction = [0.0, 1.0, 0.0]\n"
+        "blade_normal = [1.0, 0.0, 0.0]\n")
+    rows = ["test_id,mode,time_s,edge_x_m,edge_y_m,edge_z_m,force_x_N,force_y_N,force_z_N"]
+    for test in tests:
+        for t, edge, force in zip(test.time_s, test.edge_m, test.force_n, strict=True):
+            rows.append(",".join([test.test_id, "cut", repr(float(t)),
+                                  *(repr(float(v)) for v in (*edge, *force))]))
+    (folder / "tests.csv").write_text("\n".join(rows) + "\n")
+
+
+def test_a_set_of_cut_tests_is_diagnosed_and_its_material_written(tmp_path: Path) -> None:
+    truth, offset = HIDDEN["slicing"]
+    _write_cut_set(tmp_path / "cuts", _cut_set(truth, offset))
+    measurements = load_measurement_set(tmp_path / "cuts")
+    result = diagnose_set(measurements, PARAMS)
+    assert result.causes == ("slicing",)
+    report = result.to_json()
+    assert report["causes"] == ["slicing"] and report["cut"]["causes"] == ["slicing"]
+    assert report["extended"]["params"]["slicing_efficiency"] == pytest.approx(1.0, rel=0.15)
+    path = tmp_path / "material.toml"
+    path.write_text(material_to_toml(result.material(), result.material_comment()))
+    assert load_material(path).cutting == result.cut.extended.cutting
+
+
+def test_a_set_without_tests_is_refused(tmp_path: Path) -> None:
+    empty = MeasurementSet(tmp_path, None, ())
+    with pytest.raises(DiagnosisError):
+        diagnose_set(empty, PARAMS)
+
+
+def test_the_command_diagnoses_a_cut_set_with_its_report(tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    from cell.cli import main
+
+    truth, offset = HIDDEN["blade_friction"]
+    _write_cut_set(tmp_path / "cuts", _cut_set(truth, offset, paths=[_press(0.01), _saw(0.006)]))
+    out = tmp_path / "out"
+    assert main(["diagnose", str(tmp_path / "cuts"), "--json", str(out / "d.json"),
+                 "--report", str(out / "report"), "--workers", "1"]) == 0
+    assert {p.name for p in (out / "report").iterdir()} == {"cut-forces.png", "cut-report.md"}
+    assert load_material(out / "d-material.toml").cutting.face_friction > 0.0
+
+
+def _mixed_set(folder: Path, cut_tests: tuple[CutTest, ...]) -> None:
+    """A generated uniaxial set with nothing hidden and ``cut_tests`` beside it, every row
+    leaving the other kind's columns empty."""
+    from cell.rheology.synthetic import write_hidden_effect_set
+
+    write_hidden_effect_set(folder, 2, None)
+    specimen = folder / "specimen.toml"
+    specimen.write_text(specimen.read_text() + "\n[block]\nsize_m = [0.06, 0.04, 0.03]\n\n"
+                        "[blade]\nedge_length_m = 0.12\nthickness_m = 0.0015\n"
+                        "edge_direction = [0.0, 1.0, 0.0]\nblade_normal = [1.0, 0.0, 0.0]\n")
+    lines = (folder / "tests.csv").read_text().splitlines()
+    cut_columns = "edge_x_m,edge_y_m,edge_z_m,force_x_N,force_y_N,force_z_N"
+    rows = [f"{lines[0]},{cut_columns}", *(f"{line},,,,,," for line in lines[1:])]
+    for test in cut_tests:
+        for t, edge, force in zip(test.time_s, test.edge_m, test.force_n, strict=True):
+            cells = [test.test_id, "cut", "", repr(float(t)), "", "",
+                     *(repr(float(v)) for v in (*edge, *force))]
+            rows.append(",".join(cells))
+    (folder / "tests.csv").write_text("\n".join(rows) + "\n")
+
+
+@pytest.mark.slow
+def test_a_set_of_both_kinds_is_diagnosed_in_one_run(tmp_path: Path) -> None:
+    truth, offset = HIDDEN["slicing"]
+    _mixed_set(tmp_path / "mixed", _cut_set(truth, offset))
+    measurements = load_measurement_set(tmp_path / "mixed")
+    assert measurements.tests and measurements.cut_tests
+    result = diagnose_set(measurements, DiagnosisParams(workers=2))
+    assert result.cut.causes == ("slicing",)
+    assert result.causes[-1] == "slicing" or "unexplained" in result.causes
+    report = result.to_json()
+    assert report["baseline"] == result.uniaxial.to_json()["baseline"]
+    assert report["cut"]["causes"] == ["slicing"]
+    material = result.material()
+    assert material.cutting == result.cut.extended.cutting
+    assert material.longitudinal == result.uniaxial.extended.material.longitudinal
