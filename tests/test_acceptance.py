@@ -26,7 +26,8 @@ def _fit(causes: tuple[str, ...], ramp_error_n: float, hold_error_n: float,
     heldout = (TESTS[0].force_N + ramp_error_n, TESTS[1].force_N + hold_error_n)
     rmse = float(np.sqrt((ramp_error_n**2 + hold_error_n**2) / 2.0))
     return ModelFit(CandidateMaterial(causes), np.zeros(0), np.zeros((0, 2)), 1e4, 0.0,
-                    MassSpringMaterial(), rmse, rmse, bic, heldout, heldout)
+                    MassSpringMaterial(), rmse_n=rmse, heldout_rmse_n=rmse, bic=bic,
+                    fitted_force_n=heldout, heldout_force_n=heldout)
 
 
 def test_a_non_linear_relaxation_is_judged_on_the_holds_alone() -> None:

@@ -203,3 +203,12 @@ def test_a_batch_records_unreadable_sets_and_diagnoses_the_good_one(tmp_path: Pa
     assert "specimen.toml: a folder, not a file" in rows["folders"]["error"]
     assert "specimen.size_m" in rows["huge"]["error"]
     assert all(rows[name]["status"] == "failed" for name in ("binary", "folders", "huge"))
+
+
+def test_a_set_of_one_test_names_its_test(cwd: Path) -> None:
+    """Each test is held out in turn, so one test of a kind leaves nothing to predict it."""
+    rows = (cwd / "set" / "tests.csv").read_text().splitlines()
+    kept = [rows[0], *(row for row in rows[1:] if row.startswith("t00,"))]
+    (cwd / "set" / "tests.csv").write_text("\n".join(kept) + "\n")
+    refused(cwd, "diagnose", "set", "--json", "out/d.json",
+            words=("tests.csv", "test_id", "t00", "at least two"))

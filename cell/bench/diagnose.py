@@ -80,6 +80,35 @@ def confusion_markdown(confusion: dict[str, dict[str, int]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def check_request(seeds: Sequence[int], kind: str, kinds: Sequence[str]) -> None:
+    """Check a diagnose bench's seeds and kind.
+
+    Raises:
+        MeasurementError: no seed, or a kind not in ``kinds``.
+    """
+    if not seeds:
+        raise MeasurementError(None, "seeds", "the diagnose bench needs at least one seed")
+    if kind not in kinds:
+        raise MeasurementError(None, "kind", f"must be one of {kinds}, got {kind!r}")
+
+
+def time_summary(times: Sequence[float], median_target: float, max_target: float
+                 ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The entries and the targets of a diagnose bench's wall times per set, s: the median
+    and the slowest against their targets."""
+    entries = {
+        "seconds_per_set_median": {"value": statistics.median(times), "unit": "s"},
+        "seconds_per_set_max": {"value": max(times), "unit": "s"},
+    }
+    targets = {
+        "time_per_set_median": {"value": statistics.median(times), "target": median_target,
+                                "unit": "s", "pass": statistics.median(times) <= median_target},
+        "time_per_set": {"value": max(times), "target": max_target, "unit": "s",
+                         "pass": max(times) <= max_target},
+    }
+    return entries, targets
+
+
 def _diagnose_one(folder: Path, params: Any) -> tuple[Any, float, Any]:
     """Read and diagnose the set in ``folder``: the diagnosis, its wall time (s), the set."""
     from cell.rheology.diagnosis import diagnose
@@ -115,10 +144,7 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
     Raises:
         MeasurementError: no seed, or an unknown kind.
     """
-    if not seeds:
-        raise MeasurementError(None, "seeds", "the diagnose bench needs at least one seed")
-    if kind not in KINDS:
-        raise MeasurementError(None, "kind", f"must be one of {KINDS}, got {kind!r}")
+    check_request(seeds, kind, KINDS)
     from cell.rheology.diagnosis import CAUSES
     from cell.rheology.settings import DiagnosisParams
 
@@ -164,9 +190,10 @@ def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]],
     count = len(sets)
     correct = sum(s["correct"] for s in sets)
     one = sum(s["one_named"] for s in sets)
+    time_entries, time_targets = time_summary(times, TARGET_SECONDS_MEDIAN,
+                                              TARGET_SECONDS_PER_SET)
     entries = {
-        "seconds_per_set_median": {"value": statistics.median(times), "unit": "s"},
-        "seconds_per_set_max": {"value": max(times), "unit": "s"},
+        **time_entries,
         "tests_per_set": {"value": statistics.median(s["tests"] for s in sets),
                           "unit": "tests"},
         "samples_per_set": {"value": statistics.median(s["samples"] for s in sets),
@@ -177,11 +204,7 @@ def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]],
                                 "unit": "fraction", "of": count},
     }
     targets = {
-        "time_per_set_median": {"value": statistics.median(times),
-                                "target": TARGET_SECONDS_MEDIAN, "unit": "s",
-                                "pass": statistics.median(times) <= TARGET_SECONDS_MEDIAN},
-        "time_per_set": {"value": max(times), "target": TARGET_SECONDS_PER_SET, "unit": "s",
-                         "pass": max(times) <= TARGET_SECONDS_PER_SET},
+        **time_targets,
         "correct": {"value": correct / count, "target": TARGET_CORRECT[kind],
                     "unit": "fraction", "pass": correct / count >= TARGET_CORRECT[kind]},
     }

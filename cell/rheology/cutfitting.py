@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
@@ -26,7 +25,7 @@ from scipy.optimize import least_squares, lsq_linear
 from cell.rheology.cutcauses import CutCandidate, flat, linear_columns
 from cell.rheology.cutreduced import CutKinematics
 from cell.rheology.cuts import Blade, Block, CutTest
-from cell.rheology.fitting import one_step_held_out
+from cell.rheology.fitting import HeldOutScores, one_step_held_out
 from cell.tissue.cutmodel import CuttingParams
 
 # Relative tolerance of a fit: as the uniaxial fits'.
@@ -99,25 +98,20 @@ def solve_linear(columns: np.ndarray, measured: np.ndarray,
 
 
 @dataclass(frozen=True, eq=False)
-class CutFit:
+class CutFit(HeldOutScores):
     """A cutting model fitted to a set's cut tests, and its error on held-out tests.
 
     Attributes mirror :class:`~cell.rheology.fitting.ModelFit`: ``model``, ``shape``,
-    ``linear`` (the closed-form parameters), ``cutting`` (the fitted cutting model),
-    ``rmse_n`` (on the fitted samples), ``heldout_rmse_n`` (leave-one-test-out, every
-    sample), ``bic``, ``fitted_force_n`` and ``heldout_force_n`` (per test, one series each).
+    ``linear`` (the closed-form parameters), ``cutting`` (the fitted cutting model), and
+    from :class:`~cell.rheology.fitting.HeldOutScores` ``rmse_n`` (on the fitted samples),
+    ``heldout_rmse_n`` (leave-one-test-out, every sample), ``bic``, ``fitted_force_n`` and
+    ``heldout_force_n`` (per test, one series each).
     """
 
     model: CutCandidate
     shape: np.ndarray
     linear: np.ndarray
     cutting: CuttingParams
-    rmse_n: float
-    heldout_rmse_n: float
-    bic: float
-    fitted_force_n: tuple[np.ndarray, ...]
-    heldout_force_n: tuple[np.ndarray, ...]
-    failed_test: str | None = None
 
     @property
     def params(self) -> dict[str, float]:
@@ -129,16 +123,6 @@ class CutFit:
         """The sensor's fitted offset, N (zero without ``blade_force_offset``)."""
         solved = dict(zip(self.model.linear_names, self.linear, strict=True))
         return np.array([solved.get(f"offset_{a}_n", 0.0) for a in "xyz"])
-
-    def heldout_mse_per_test(self, tests: tuple[CutSeries, ...]) -> np.ndarray:
-        """Each test's held-out mean square error, N^2."""
-        return np.array([np.mean((h - t.force_N) ** 2)
-                         for h, t in zip(self.heldout_force_n, tests, strict=True)])
-
-    def to_json(self) -> dict[str, Any]:
-        """The contract's ``baseline`` / ``extended`` entry (plus ``bic``)."""
-        return {"model": self.model.name, "params": self.params,
-                "heldout_rmse_N": self.heldout_rmse_n, "bic": self.bic}
 
 
 def _columns(problem: CutProblem, model: CutCandidate, shape: np.ndarray,
@@ -185,10 +169,11 @@ def fit_cut(problem: CutProblem, model: CutCandidate, start: np.ndarray,
     errors = np.concatenate([h - t.force_N for h, t in zip(heldout, problem.tests,
                                                            strict=True)])
     parameters = len(shape) + len(linear)
-    return CutFit(model, shape, linear, model.cutting(shape, linear), math.sqrt(rss / count),
-                  float(np.sqrt(np.mean(errors**2))),
-                  count * math.log(max(rss / count, 1e-300)) + parameters * math.log(count),
-                  tuple(fitted), tuple(heldout))
+    return CutFit(model, shape, linear, model.cutting(shape, linear),
+                  rmse_n=math.sqrt(rss / count),
+                  heldout_rmse_n=float(np.sqrt(np.mean(errors**2))),
+                  bic=count * math.log(max(rss / count, 1e-300)) + parameters * math.log(count),
+                  fitted_force_n=tuple(fitted), heldout_force_n=tuple(heldout))
 
 
 def _held_out(problem: CutProblem, model: CutCandidate, shape: np.ndarray,

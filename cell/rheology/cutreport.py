@@ -14,7 +14,6 @@ Plots need matplotlib (the ``report`` extra), imported only when a report is wri
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -23,6 +22,7 @@ import numpy as np
 from cell.extras import require
 from cell.io import figure_png, write_atomic
 from cell.rheology.cutreduced import cutting_direction
+from cell.rheology.report import search_lines
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -107,23 +107,6 @@ def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
              causes, "",
              f"Gain {cut.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
              f"{extended.heldout_rmse_n:.4g} N (extended); noise {cut.noise_n:.3g} N.", "",
-             "## Candidates", "", "| cause | held-out RMSE (N) | BIC | selected |",
-             "|---|---|---|---|"]
-    for fit in (base, *cut.candidates):
-        cause = ", ".join(fit.model.causes) or "none (baseline)"
-        selected = "yes" if set(fit.model.causes) & set(cut.causes) else ""
-        lines.append(f"| {cause} | {fit.heldout_rmse_n:.4g} | {fit.bic:.1f} | {selected} |")
-    lines += ["", "## Steps", ""]
-    lines += [f"{k}. {' + '.join(fit.model.causes)}: held-out RMSE {fit.heldout_rmse_n:.4g} N, "
-              f"BIC {fit.bic:.1f}" for k, fit in enumerate(cut.steps, start=1)]
-    if not cut.steps:
-        lines.append("No cause was accepted.")
-    lines += ["", f"## Extended model: {extended.model.name}", "", "| parameter | value |",
-              "|---|---|"]
-    lines += [f"| {name} | {value:.4g} |" for name, value in extended.params.items()]
-    lines.append("")
-    if material_path is not None:
-        link = Path(os.path.relpath(Path(material_path).absolute(), folder.absolute()))
-        lines += [f"Material TOML: [{material_path}]({link.as_posix()})", ""]
-    lines += [f"![Measured and held-out cut forces]({forces})", ""]
+             *search_lines(cut, folder, material_path),
+             f"![Measured and held-out cut forces]({forces})", ""]
     return "\n".join(lines)

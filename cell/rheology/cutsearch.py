@@ -21,7 +21,6 @@ Usage::
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 
@@ -29,7 +28,7 @@ from cell.rheology.causes import UNEXPLAINED
 from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA, CutCandidate
 from cell.rheology.cutfitting import CutFit, CutProblem, fit_cut, misfit_rss
 from cell.rheology.cuts import Blade, Block, CutTest
-from cell.rheology.diagnosis import force_noise_n
+from cell.rheology.diagnosis import SearchOutcome, force_noise_n
 from cell.rheology.search import forward, second_start, unexplained
 from cell.rheology.settings import DiagnosisParams
 
@@ -119,7 +118,7 @@ class CutSearch:
 
 
 @dataclass(frozen=True, eq=False)
-class CutDiagnosis:
+class CutDiagnosis(SearchOutcome):
     """What :func:`diagnose_cuts` found: as :class:`~cell.rheology.diagnosis.Diagnosis` for
     the cut tests (``noise_n``, ``baseline``, ``candidates``, ``steps``, ``extended``,
     ``causes``, ``params``)."""
@@ -131,29 +130,6 @@ class CutDiagnosis:
     extended: CutFit
     causes: tuple[str, ...]
     params: DiagnosisParams = field(default_factory=DiagnosisParams)
-
-    @property
-    def gain(self) -> float:
-        """1 - extended over baseline held-out RMSE."""
-        return 1.0 - self.extended.heldout_rmse_n / self.baseline.heldout_rmse_n
-
-    def to_json(self) -> dict[str, Any]:
-        """The diagnosis contract of the spec for the cut tests, plus the noise and steps."""
-        return {
-            "baseline": self.baseline.to_json(),
-            "causes": list(self.causes),
-            "candidates": [
-                {"cause": fit.model.causes[0], "params": fit.params,
-                 "heldout_rmse_N": fit.heldout_rmse_n, "bic": fit.bic,
-                 "selected": fit.model.causes[0] in self.causes}
-                for fit in self.candidates
-            ],
-            "extended": self.extended.to_json(),
-            "gain": self.gain,
-            "noise_N": self.noise_n,
-            "steps": [{"causes": list(fit.model.causes), "heldout_rmse_N": fit.heldout_rmse_n,
-                       "bic": fit.bic} for fit in self.steps],
-        }
 
 
 def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],

@@ -93,8 +93,38 @@ class Evidence:
                            for n, (v, lo, hi) in self.params.items()}}
 
 
+class SearchOutcome:
+    """What the uniaxial and the cut diagnosis share, from the fields of the dataclass that
+    takes it in: ``noise_n``, ``baseline``, ``candidates``, ``steps``, ``extended`` and
+    ``causes``."""
+
+    @property
+    def gain(self) -> float:
+        """1 - extended over baseline held-out RMSE."""
+        return 1.0 - self.extended.heldout_rmse_n / self.baseline.heldout_rmse_n
+
+    def to_json(self) -> dict[str, Any]:
+        """The diagnosis contract of ``spec/measured-data.md``, plus the noise, the
+        information criteria and the search's steps."""
+        return {
+            "baseline": self.baseline.to_json(),
+            "causes": list(self.causes),
+            "candidates": [
+                {"cause": fit.model.causes[0], "params": fit.params,
+                 "heldout_rmse_N": fit.heldout_rmse_n, "bic": fit.bic,
+                 "selected": fit.model.causes[0] in self.causes}
+                for fit in self.candidates
+            ],
+            "extended": self.extended.to_json(),
+            "gain": self.gain,
+            "noise_N": self.noise_n,
+            "steps": [{"causes": list(fit.model.causes), "heldout_rmse_N": fit.heldout_rmse_n,
+                       "bic": fit.bic} for fit in self.steps],
+        }
+
+
 @dataclass(frozen=True, eq=False)
-class Diagnosis:
+class Diagnosis(SearchOutcome):
     """What :func:`diagnose` found (module docstring).
 
     Attributes:
@@ -123,11 +153,6 @@ class Diagnosis:
     params: DiagnosisParams = field(default_factory=DiagnosisParams)
     explored: tuple[ModelFit, ...] = ()
 
-    @property
-    def gain(self) -> float:
-        """1 - extended over baseline held-out RMSE."""
-        return 1.0 - self.extended.heldout_rmse_n / self.baseline.heldout_rmse_n
-
     def material_comment(self) -> str:
         """The comment lines on top of the extended material's file: where it comes from,
         the causes, the held-out errors and a rig offset left out of it."""
@@ -145,22 +170,7 @@ class Diagnosis:
     def to_json(self) -> dict[str, Any]:
         """The diagnosis contract of ``spec/measured-data.md``, plus the noise, the
         information criteria, the search's steps and the evidence of each cause."""
-        return {
-            "baseline": self.baseline.to_json(),
-            "causes": list(self.causes),
-            "candidates": [
-                {"cause": fit.model.causes[0], "params": fit.params,
-                 "heldout_rmse_N": fit.heldout_rmse_n, "bic": fit.bic,
-                 "selected": fit.model.causes[0] in self.causes}
-                for fit in self.candidates
-            ],
-            "extended": self.extended.to_json(),
-            "gain": self.gain,
-            "noise_N": self.noise_n,
-            "steps": [{"causes": list(fit.model.causes), "heldout_rmse_N": fit.heldout_rmse_n,
-                       "bic": fit.bic} for fit in self.steps],
-            "evidence": [e.to_json() for e in self.evidence],
-        }
+        return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence]}
 
 
 def noise_n(measurements: MeasurementSet) -> float:

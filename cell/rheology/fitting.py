@@ -122,8 +122,43 @@ def scale_and_offset(unit: np.ndarray, measured: np.ndarray,
     return scale, float(solution[1]) if with_offset else 0.0
 
 
+@dataclass(frozen=True, eq=False, kw_only=True)
+class HeldOutScores:
+    """What a uniaxial and a cut fit share: their errors and forces (keyword arguments, after
+    the fitted model's own fields), and methods reading the ``model`` and ``params`` of the
+    dataclass that takes it in.
+
+    Attributes:
+        rmse_n: RMSE on the fitted samples, N.
+        heldout_rmse_n: RMSE of leave-one-test-out predictions over every sample, N.
+        bic: Bayesian information criterion of the fit.
+        fitted_force_n: per test, the fitted model's force at every sample, N.
+        heldout_force_n: per test, the force predicted by the fit without that test, N.
+        failed_test: the first test the fitted model could not run (None when all ran).
+    """
+
+    rmse_n: float
+    heldout_rmse_n: float
+    bic: float
+    fitted_force_n: tuple[np.ndarray, ...]
+    heldout_force_n: tuple[np.ndarray, ...]
+    failed_test: str | None = None
+
+    def heldout_mse_per_test(self, tests: tuple[Any, ...]) -> np.ndarray:
+        """Each test's held-out mean square error, N^2 (``tests``: the fitted ones, each with
+        its measured ``force_N``: :class:`MechanicalTest` or
+        :class:`~cell.rheology.cutfitting.CutSeries`)."""
+        return np.array([np.mean((h - t.force_N) ** 2)
+                         for h, t in zip(self.heldout_force_n, tests, strict=True)])
+
+    def to_json(self) -> dict[str, Any]:
+        """The contract's ``baseline`` / ``extended`` entry (plus ``bic``)."""
+        return {"model": self.model.name, "params": self.params,
+                "heldout_rmse_N": self.heldout_rmse_n, "bic": self.bic}
+
+
 @dataclass(frozen=True, eq=False)
-class ModelFit:
+class ModelFit(HeldOutScores):
     """A material model fitted to a set, and its error on held-out tests.
 
     Attributes:
@@ -133,12 +168,8 @@ class ModelFit:
         modulus_pa: fitted small-strain modulus E (geometric mean of El and Et), Pa.
         offset_n: fitted load-cell offset, N (0 without ``force_offset``).
         material: the fitted material.
-        rmse_n: RMSE on the fitted samples, N.
-        heldout_rmse_n: RMSE of leave-one-test-out predictions over every sample, N.
-        bic: Bayesian information criterion of the fit.
-        fitted_force_n: per test, the fitted model's force at every sample, N.
-        heldout_force_n: per test, the force predicted by the fit without that test, N.
-        failed_test: the first test the fitted material could not run (None when all ran).
+
+    Its errors and forces: :class:`HeldOutScores`.
     """
 
     model: CandidateMaterial
@@ -147,27 +178,11 @@ class ModelFit:
     modulus_pa: float
     offset_n: float
     material: MassSpringMaterial
-    rmse_n: float
-    heldout_rmse_n: float
-    bic: float
-    fitted_force_n: tuple[np.ndarray, ...]
-    heldout_force_n: tuple[np.ndarray, ...]
-    failed_test: str | None = None
 
     @property
     def params(self) -> dict[str, float]:
         """Fitted parameters in SI units."""
         return self.model.reported(self.shape, self.modulus_pa, self.offset_n)
-
-    def heldout_mse_per_test(self, tests: tuple[MechanicalTest, ...]) -> np.ndarray:
-        """Each test's held-out mean square error, N^2."""
-        return np.array([np.mean((h - t.force_N) ** 2)
-                         for h, t in zip(self.heldout_force_n, tests, strict=True)])
-
-    def to_json(self) -> dict[str, Any]:
-        """The contract's ``baseline`` / ``extended`` entry (plus ``bic``)."""
-        return {"model": self.model.name, "params": self.params,
-                "heldout_rmse_N": self.heldout_rmse_n, "bic": self.bic}
 
 
 def _residual_function(problem: Problem, model: CandidateMaterial, tests: list[int]):

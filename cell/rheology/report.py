@@ -34,6 +34,7 @@ from cell.io import figure_png, write_atomic
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from cell.rheology.cutsearch import CutDiagnosis
     from cell.rheology.diagnosis import Diagnosis, ModelFit
     from cell.rheology.measured import MechanicalTest, Specimen
 
@@ -195,10 +196,21 @@ def _markdown(diagnosis: Diagnosis, folder: Path, material_path: Path | None, fo
         f"# Diagnosis of {diagnosis.measurements.specimen.name}", "", causes, "",
         f"Gain {diagnosis.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
         f"{extended.heldout_rmse_n:.4g} N (extended); noise {diagnosis.noise_n:.3g} N.", "",
-        *_evidence_lines(diagnosis),
-        "## Candidates", "", "| cause | held-out RMSE (N) | BIC | selected |", "|---|---|---|---|",
+        *_evidence_lines(diagnosis), *search_lines(diagnosis, folder, material_path),
+        f"![Measured and held-out forces]({forces})", "",
+        f"![Held-out residuals]({residuals})", "",
     ]
-    for fit in (base, *diagnosis.candidates):
+    return "\n".join(lines)
+
+
+def search_lines(diagnosis: Diagnosis | CutDiagnosis, folder: Path,
+                 material_path: Path | None) -> list[str]:
+    """The search's sections of a report: the candidates, the steps and the extended model's
+    parameters, then the link to the material's file (relative to ``folder``) when there is
+    one; the uniaxial and the cut report share them."""
+    lines = ["## Candidates", "", "| cause | held-out RMSE (N) | BIC | selected |",
+             "|---|---|---|---|"]
+    for fit in (diagnosis.baseline, *diagnosis.candidates):
         cause = ", ".join(fit.model.causes) or "none (baseline)"
         selected = "yes" if set(fit.model.causes) & set(diagnosis.causes) else ""
         lines.append(f"| {cause} | {fit.heldout_rmse_n:.4g} | {fit.bic:.1f} | {selected} |")
@@ -207,6 +219,7 @@ def _markdown(diagnosis: Diagnosis, folder: Path, material_path: Path | None, fo
               f"BIC {fit.bic:.1f}" for k, fit in enumerate(diagnosis.steps, start=1)]
     if not diagnosis.steps:
         lines.append("No cause was accepted.")
+    extended = diagnosis.extended
     lines += ["", f"## Extended model: {extended.model.name}", "", "| parameter | value |",
               "|---|---|"]
     lines += [f"| {name} | {value:.4g} |" for name, value in extended.params.items()]
@@ -214,6 +227,4 @@ def _markdown(diagnosis: Diagnosis, folder: Path, material_path: Path | None, fo
     if material_path is not None:
         link = Path(os.path.relpath(Path(material_path).absolute(), folder.absolute()))
         lines += [f"Material TOML: [{material_path}]({link.as_posix()})", ""]
-    lines += [f"![Measured and held-out forces]({forces})", "",
-              f"![Held-out residuals]({residuals})", ""]
-    return "\n".join(lines)
+    return lines

@@ -10,17 +10,8 @@ They share this file with the layouts of the packed arrays they read (the ``CURV
 file of the kernel it loads, not those of the functions it calls or the constants it reads
 (``tests/test_kernel_cache.py``); the implicit step's kernels (:mod:`cell.tissue.implicit`)
 read the tangent columns too. The law is inlined into its callers (``inline="always"``),
-cheaper per spring than a call; its slope is its own analytic derivative.
-
-Example:
-    >>> from cell.tissue.material import MassSpringMaterial
-    >>> from cell.tissue.packedlaw import SpringLaw
-    >>> law = SpringLaw.of(MassSpringMaterial.isotropic(3e4, relaxation_weights=(0.5,),
-    ...                                                 relaxation_times_s=(1.0,)))
-    >>> history = law.history(1)
-    >>> stress, _, _ = spring_stress(0.1, 1.0, law.curves, law.params, history, 0, 0.0, True)
-    >>> round(stress)  # at once: the elastic 3e4 * 0.1
-    3000
+cheaper per spring than a call; its slope is its own analytic derivative. The example of
+:mod:`cell.tissue.packedlaw` packs a material and runs :func:`spring_stress`.
 """
 
 from __future__ import annotations
