@@ -105,18 +105,17 @@ def diagnose_set(measurements: MeasurementSet,
     """Diagnose every test of ``measurements``, each kind on its own (module docstring).
 
     Raises:
-        DiagnosisError: a set with no test or one test of a kind, or a uniaxial fit that
+        DiagnosisError: a set with no test or one uniaxial test, or a uniaxial fit that
             cannot run a test (:func:`cell.rheology.diagnosis.diagnose`).
     """
     params = DiagnosisParams() if params is None else params
     if not measurements.tests and not measurements.cut_tests:
         raise DiagnosisError(measurements.folder, None, "the set holds no test")
-    for kind, tests in (("uniaxial", measurements.tests), ("cut", measurements.cut_tests)):
-        if len(tests) == 1:
-            # Each test is predicted by the model fitted to the others: one alone has none.
-            raise DiagnosisError(measurements.folder / "tests.csv", "test_id",
-                                 f"one {kind} test ({tests[0].test_id}): the diagnosis holds "
-                                 "each test out in turn, so it needs at least two of a kind")
+    if len(measurements.tests) == 1:
+        # Each uniaxial test is predicted by the model fitted to the others: one has none.
+        raise DiagnosisError(measurements.folder / "tests.csv", "test_id",
+                             f"one uniaxial test ({measurements.tests[0].test_id}): the "
+                             "diagnosis holds each test out in turn, so it needs at least two")
     uniaxial = diagnose(measurements, params) if measurements.tests else None
     cut = None
     if measurements.cut_tests:
