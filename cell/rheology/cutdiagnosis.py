@@ -105,17 +105,12 @@ def diagnose_set(measurements: MeasurementSet,
     """Diagnose every test of ``measurements``, each kind on its own (module docstring).
 
     Raises:
-        DiagnosisError: a set with no test or one uniaxial test, or a uniaxial fit that
-            cannot run a test (:func:`cell.rheology.diagnosis.diagnose`).
+        DiagnosisError: a set with no test, or a uniaxial diagnosis that cannot run
+            (:func:`cell.rheology.diagnosis.diagnose`).
     """
     params = DiagnosisParams() if params is None else params
     if not measurements.tests and not measurements.cut_tests:
         raise DiagnosisError(measurements.folder, None, "the set holds no test")
-    if len(measurements.tests) == 1:
-        # Each uniaxial test is predicted by the model fitted to the others: one has none.
-        raise DiagnosisError(measurements.folder / "tests.csv", "test_id",
-                             f"one uniaxial test ({measurements.tests[0].test_id}): the "
-                             "diagnosis holds each test out in turn, so it needs at least two")
     uniaxial = diagnose(measurements, params) if measurements.tests else None
     cut = None
     if measurements.cut_tests:

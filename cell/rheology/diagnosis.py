@@ -259,10 +259,15 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     """Diagnose ``measurements`` (module docstring).
 
     Raises:
-        DiagnosisError: the baseline or the extended model cannot run a test (which, and with
-            which causes).
+        DiagnosisError: a set of one test (nothing to hold it out against), or the baseline
+            or the extended model cannot run a test (which, and with which causes).
     """
     params = DiagnosisParams() if params is None else params
+    if len(measurements.tests) == 1:
+        # Each test is predicted by the model fitted to the others: one alone has none.
+        raise DiagnosisError(measurements.folder / "tests.csv", "test_id",
+                             f"one uniaxial test ({measurements.tests[0].test_id}): the "
+                             "diagnosis holds each test out in turn, so it needs at least two")
     problem = Problem.of(measurements.specimen, measurements.tests, params.fit_samples)
     root = CandidateMaterial((), "exponential", _time_range_s(measurements), _RELAXATION_TERMS,
                              _stretch_range(measurements), oblique=True,
