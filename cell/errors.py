@@ -147,6 +147,44 @@ class EdgeInsideBlockError(CutTestError):
     the edge outside the block or on its surface."""
 
 
+class LogError(InputError):
+    """A separation log (``log.toml`` and its channels, docs/logs.md) that cannot be read or
+    replayed: a value that is not a finite number, a bad table or key.
+
+    Example:
+        >>> raise LogError("run/log.toml", "log.name", "expected text")
+        Traceback (most recent call last):
+        cell.errors.LogError: run/log.toml, log.name: expected text
+    """
+
+
+class MissingChannelError(LogError):
+    """A log without one of its channels: a missing file (``knife.csv``, ``gripper.csv``,
+    ``fixture.csv``) or a missing column of one."""
+
+
+class SampleError(LogError):
+    """A log's sample that is not a finite number (NaN, infinity, text), or a ``grasp`` that
+    is neither 0 nor 1."""
+
+
+class QuaternionError(LogError):
+    """A pose whose quaternion is not a unit one (its norm off 1 by more than 1e-3)."""
+
+
+class TimeOrderError(LogError):
+    """A channel whose time does not increase from one sample to the next."""
+
+
+class LogScenarioError(LogError):
+    """A log whose ``scenario`` names no file."""
+
+
+class LogBatchError(LogError):
+    """Logs given as one batch (one batch of meat: docs/logs.md) that do not share their
+    tools, sensors or material, fewer than two logs, or one log given twice."""
+
+
 class DiagnosisError(InputError):
     """Diagnosis settings out of range, or a cause the catalogue does not have."""
 

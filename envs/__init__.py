@@ -1,19 +1,20 @@
 """Gymnasium envs of the muscle separation cell, registered on import under ``musclecell/``:
 
-- ``musclecell/MuscleSeparation-v1``: the policy drives the knife and the pull
+- ``musclecell/MuscleSeparation-v2``: the policy drives the knife and the pull
   (:class:`envs.separation.MuscleSeparationEnv`),
-- ``musclecell/Cut-v1``: the knife only, the pull follows the scripted plan
+- ``musclecell/Cut-v2``: the knife only, the pull follows the scripted plan
   (:class:`envs.tasks.CutEnv`),
-- ``musclecell/Pull-v1``: the pull only, the knife follows the scripted plan, down to the
+- ``musclecell/Pull-v2``: the pull only, the knife follows the scripted plan, down to the
   table, at a pace of its own (:class:`envs.tasks.PullEnv`).
 
 Each class's docstring is its manual. Keyword arguments of ``gymnasium.make`` go to the
-class. The ``-v0`` ids of the previous release make the same envs with a warning
+class. The ``-v1`` ids make the same envs with the knife's force from the measured curve, as
+before the cutting model; the ``-v0`` ids of the release before make ``-v1``'s with a warning
 (:mod:`envs.registration`).
 
 Example:
     >>> import gymnasium, envs
-    >>> env = gymnasium.make("musclecell/Cut-v1", cell_size_m=0.05)
+    >>> env = gymnasium.make("musclecell/Cut-v2", cell_size_m=0.05)
 """
 
 from envs.observation import OBSERVATION_NAMES
@@ -23,6 +24,7 @@ from envs.randomization import Randomization, draw, load_randomization
 from envs.registration import DEPRECATED_IDS, ENV_IDS, register_envs
 from envs.separation import MuscleSeparationEnv
 from envs.settings import COARSE_CELL_SIZE_M, CUT_TASK, PULL_TASK, task_scenario
+from envs.steer import SteerEnv
 from envs.tasks import CutEnv, PullEnv
 
 register_envs()
@@ -42,6 +44,7 @@ __all__ = [
     "PullEnv",
     "Randomization",
     "RewardParams",
+    "SteerEnv",
     "TaskParams",
     "apply_options",
     "draw",

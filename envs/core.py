@@ -114,7 +114,7 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
             with CameraRig(episode.sim.model, CAMERA, scenario.camera.width_px,
                            scenario.camera.height_px) as rig:
                 perceived = episode.perceive(rig)
-        self.plan = plan = episode.plan(perceived)
+        self.plan = plan = episode.plan(self._planned_from(episode, perceived))
         self._dt_s = episode.control_dt_s
         self._knife = KnifeCommand(plan.knife, plan.cut_window_s, scenario.cut.speed_m_s,
                                    self.limits)
@@ -149,6 +149,11 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
         self._reading = self._sensing.read(self._knife)
         self._obs = self._observe()
         return_freed_memory()  # the previous cell's heap, or RSS creeps up over many resets
+
+    def _planned_from(self, episode: Episode, perceived: Any) -> Any:
+        """What ``episode``'s cut is planned from: ``perceived`` (None: the true interface);
+        a task whose perception errs (:class:`envs.steer.SteerEnv`) gives its own."""
+        return perceived
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """One control step (20 ms by default) of the policy's action.

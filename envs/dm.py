@@ -15,7 +15,7 @@ Needs the ``dm`` extra (``pip install 'musclecell[dm]'``).
 
 Example:
     >>> from envs.dm import make
-    >>> env = make("Cut-v1", seed=0, cell_size_m=0.05)
+    >>> env = make("Cut-v2", seed=0, cell_size_m=0.05)
     >>> env.action_spec().shape, env.observation_spec().name
     ((4,), 'observation')
 """
@@ -30,7 +30,7 @@ import numpy as np
 from cell.errors import InputError
 from cell.extras import optional
 from envs.observation import OBSERVATION_BOUND, OBSERVATION_NAMES
-from envs.registration import DEPRECATED_IDS
+from envs.registration import DEPRECATED_IDS, env_creator
 from envs.separation import MuscleSeparationEnv
 from envs.tasks import CutEnv, PullEnv
 
@@ -39,8 +39,12 @@ specs = dm_env.specs
 #: The Gymnasium ids' namespace, which the task names here leave out.
 NAMESPACE = "musclecell"
 
-#: The tasks by their Gymnasium ids (without the ``musclecell/`` namespace).
+#: The tasks by their Gymnasium ids (without the ``musclecell/`` namespace); a ``-v1`` task's
+#: knife meets the measured force curve (:mod:`envs.registration`).
 TASKS: dict[str, type[MuscleSeparationEnv]] = {
+    "MuscleSeparation-v2": MuscleSeparationEnv,
+    "Cut-v2": CutEnv,
+    "Pull-v2": PullEnv,
     "MuscleSeparation-v1": MuscleSeparationEnv,
     "Cut-v1": CutEnv,
     "Pull-v1": PullEnv,
@@ -119,4 +123,4 @@ def make(name: str, /, seed: int | None = None, **kwargs: Any) -> SeparationEnvi
                       FutureWarning, stacklevel=2)
     if name not in TASKS:
         raise InputError(None, "task", f"unknown task {name!r}; known: {', '.join(TASKS)}")
-    return SeparationEnvironment(TASKS[name](**kwargs), seed=seed)
+    return SeparationEnvironment(env_creator(f"{NAMESPACE}/{name}")(**kwargs), seed=seed)

@@ -14,7 +14,8 @@ Keys (every one optional; SI units):
   up out of the table's plane,
 - ``aponeurosis_stiffness_n_m``, ``tearing_stretch_m``, ``tearing_force_n``: the aponeurosis'
   stiffness and strength (``aponeurosis.stiffness_n_m``, ``.tearing_stretch_m``,
-  ``.tearing_force_n``); ``force_scale``: a factor on the measured cutting-force curve,
+  ``.tearing_force_n``); ``force_scale``: a factor on the knife's cutting force (the
+  seam's toughness; the measured curve's in the ``-v1`` envs),
 - ``table_friction``, ``tissue_friction``: the contact friction coefficients of the table
   and of the muscles' surface (:class:`~cell.sim.scenario.SimulationParams`),
 - ``force_noise_n``, ``torque_noise_nm``: the force/torque sensors' noise; ``force_bias_n``,

@@ -18,6 +18,8 @@ from envs.separation import MuscleSeparationEnv
 _TIP_HEIGHT = OBSERVATION_NAMES.index("tip_height_cm")
 _TIP_DEPTH = OBSERVATION_NAMES.index("tip_depth_cm")
 _PROGRESS = OBSERVATION_NAMES.index("path_progress")
+_KNIFE_FY = OBSERVATION_NAMES.index("knife_fy")
+_COMMAND_ACROSS = OBSERVATION_NAMES.index("command_across_cm")
 
 
 def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
@@ -52,7 +54,8 @@ class TableSkimmingKnife:
     """
 
     #: The envs whose observation and action this policy is written for.
-    fits: ClassVar[tuple[str, ...]] = ("musclecell/Cut-v1",)
+    fits: ClassVar[tuple[str, ...]] = ("musclecell/Cut-v2", "musclecell/Cut-v1",
+                                       "musclecell/Steer-v1")
     height_m: float = 0.002
     limits: ActionLimits = field(default_factory=ActionLimits)
 
@@ -80,7 +83,7 @@ class HoldThenPullAway:
     """
 
     #: The envs whose observation and action this policy is written for.
-    fits: ClassVar[tuple[str, ...]] = ("musclecell/Pull-v1",)
+    fits: ClassVar[tuple[str, ...]] = ("musclecell/Pull-v2", "musclecell/Pull-v1")
     away: tuple[float, float, float] = (0.0, 0.8, 0.8)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
@@ -89,13 +92,62 @@ class HoldThenPullAway:
         return np.array(self.away, dtype=np.float32)
 
 
+@dataclass(frozen=True)
+class SteeringKnife:
+    """The project's steering rule (:mod:`controllers.steering`) as a feedback policy of
+    ``Steer-v1``'s observation, on :class:`TableSkimmingKnife`'s knife: the load across the
+    blade (the F/T sensor's y, times ``load_sign``), what lies beyond ``dead_band_n`` about
+    ``on_interface_load_n`` integrated at ``gain_m_per_n_s`` into the across offset (a load
+    towards the side that gives less counting ``weak_side_gain`` times), in the middle
+    ``middle_fraction`` of the cut only, within ``max_across_m``. The integral is the offset
+    the knife is commanded now (the observation's ``command_across_cm``), so the policy holds
+    no state of its own: a clone, a worker process or another env may call it on any
+    observation. The depth is the table's: the tip held ``height_m`` above it, whatever the
+    path's height error. The defaults are those :func:`cell.learning.headroom.tune_rule`
+    chose (the docs' benchmarks page says on how many tuning episodes).
+
+    Example:
+        >>> obs = np.zeros(len(OBSERVATION_NAMES), np.float32)
+        >>> obs[_PROGRESS], obs[_KNIFE_FY] = 0.5, 0.3  # mid-cut, 3 N across
+        >>> bool(SteeringKnife()(obs)[1] < 0.0)  # steered away from the load
+        True
+    """
+
+    fits: ClassVar[tuple[str, ...]] = ("musclecell/Steer-v1",)
+    gain_m_per_n_s: float = 0.001
+    on_interface_load_n: float = 0.0
+    dead_band_n: float = 0.1
+    weak_side_gain: float = 4.0
+    load_sign: float = 1.0
+    middle_fraction: float = 0.75
+    max_across_m: float = 0.012
+    height_m: float = 0.002
+    dt_s: float = 0.02
+    limits: ActionLimits = field(default_factory=lambda: ActionLimits(knife_max_across_m=0.012))
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        across_m = float(obs[_COMMAND_ACROSS]) / 100.0
+        if abs(float(obs[_PROGRESS]) - 0.5) <= 0.5 * self.middle_fraction:
+            load = self.load_sign * float(obs[_KNIFE_FY]) * 10.0  # the observation's 10 N
+            beyond = load - self.on_interface_load_n
+            beyond = np.sign(beyond) * max(abs(beyond) - self.dead_band_n, 0.0)
+            if beyond < 0.0:
+                beyond *= self.weak_side_gain
+            across_m = float(np.clip(across_m - self.gain_m_per_n_s * beyond * self.dt_s,
+                                     -self.max_across_m, self.max_across_m))
+        action = TableSkimmingKnife(self.height_m, self.limits)(obs)
+        action[1] = np.clip(across_m / self.limits.knife_max_across_m, -1.0, 1.0)
+        return action
+
+
 #: The hand-written feedback policies of the observation, by name: what a warm start of
 #: ``musclecell learn`` clones and ``musclecell evaluate`` plays beside the learned policy
 #: (each reads nothing but the observation, and its class attribute ``fits`` names the env
 #: ids it is written for).
-DEMONSTRATORS: dict[str, type[TableSkimmingKnife] | type[HoldThenPullAway]] = {
+DEMONSTRATORS: dict[str, Callable[[], Callable[[np.ndarray], np.ndarray]]] = {
     "table-skimming-knife": TableSkimmingKnife,
     "hold-then-pull-away": HoldThenPullAway,
+    "steering-knife": SteeringKnife,
 }
 
 
@@ -202,3 +254,28 @@ def cross_entropy_search(env: gym.Env, params: CrossEntropyParams, seed: int,
         if report is not None:
             report(iteration, returns)
     return LinearPolicy.from_vector(mean, action_dims, obs_dims), curve
+
+
+def true_interface_policy(env: gym.Env, height_m: float = 0.002
+                          ) -> Callable[[np.ndarray], np.ndarray]:
+    """The ceiling of ``Steer-v1``: :class:`TableSkimmingKnife`'s knife with the across
+    offset that puts the tip on the true interface (a privileged baseline: it reads the
+    env's truth, :meth:`envs.steer.SteerEnv.across_to_interface_m`).
+
+    Example:
+        >>> import envs
+        >>> env = envs.SteerEnv(time_limit_s=0.1)
+        >>> obs, info = env.reset(seed=0)
+        >>> true_interface_policy(env)(obs).shape
+        (4,)
+    """
+    inner = env.unwrapped
+    skimming = TableSkimmingKnife(height_m, inner.limits)
+
+    def act(obs: np.ndarray) -> np.ndarray:
+        action = skimming(obs)
+        action[1] = np.clip(inner.across_to_interface_m() / inner.limits.knife_max_across_m,
+                            -1.0, 1.0)
+        return action
+
+    return act

@@ -19,7 +19,7 @@ from envs.settings import MAX_DRAWS
 
 class MuscleSeparationEnv(SeparationCore):
     """Separate the shank from the round: cut along the aponeurosis and pull
-    (``musclecell/MuscleSeparation-v1``).
+    (``musclecell/MuscleSeparation-v2``).
 
     .. rubric:: Description
 
@@ -132,7 +132,7 @@ class MuscleSeparationEnv(SeparationCore):
 
     .. rubric:: Arguments
 
-    ``gymnasium.make("musclecell/MuscleSeparation-v1", **kwargs)`` passes these:
+    ``gymnasium.make("musclecell/MuscleSeparation-v2", **kwargs)`` passes these:
 
     Args:
         scenario: the base cell and plan (default :func:`envs.settings.task_scenario`: the
@@ -159,6 +159,13 @@ class MuscleSeparationEnv(SeparationCore):
 
     .. rubric:: Version history
 
+    - v2: the knife meets the material's cutting model in the seam (the scenario's
+      ``aponeurosis.knife_force = "cutting"``: the seam's toughness on the length of edge in
+      uncut seam, the faces' friction, slicing and rate from the material's ``[cutting]``
+      table) instead of a share of the synthetic force curve: the knife's force while
+      cutting, the force rule's threshold and what tears change; ``force_scale`` scales the
+      seam's toughness. Everything else as v1. The ``-v1`` ids still make v1's envs (the
+      curve), seeded rollouts unchanged.
     - v1: the v0 envs' behaviour, seeded rollouts equal, under a new id: this manual; the
       cut and pull written in the env (:mod:`envs.settings`), not taken from the library's
       defaults; options named as their scenario keys (``aponeurosis_stiffness_n_m``,

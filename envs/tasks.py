@@ -12,7 +12,7 @@ from envs.settings import CUT_TASK, PULL_KNIFE_CLEARANCE_M, PULL_TASK, parameter
 
 class CutEnv(MuscleSeparationEnv):
     """Cut along the aponeurosis with the knife; the scripted pull keeps pace
-    (``musclecell/Cut-v1``).
+    (``musclecell/Cut-v2``).
 
     .. rubric:: Description
 
@@ -57,12 +57,13 @@ class CutEnv(MuscleSeparationEnv):
 
     .. rubric:: Version history
 
+    - v2: as ``MuscleSeparation-v2``'s: the knife meets the material's cutting model.
     - v1: as ``MuscleSeparation-v1``'s; seeded rollouts equal to v0's.
     - v0: the first version.
 
     Example:
         >>> import gymnasium, envs
-        >>> env = gymnasium.make("musclecell/Cut-v1", cell_size_m=0.05)
+        >>> env = gymnasium.make("musclecell/Cut-v2", cell_size_m=0.05)
         >>> env.action_space.shape
         (4,)
     """
@@ -73,7 +74,7 @@ class CutEnv(MuscleSeparationEnv):
 
 
 class PullEnv(MuscleSeparationEnv):
-    """Pull the shank away in pace with a scripted knife (``musclecell/Pull-v1``).
+    """Pull the shank away in pace with a scripted knife (``musclecell/Pull-v2``).
 
     .. rubric:: Description
 
@@ -121,12 +122,13 @@ class PullEnv(MuscleSeparationEnv):
 
     .. rubric:: Version history
 
+    - v2: as ``MuscleSeparation-v2``'s: the knife meets the material's cutting model.
     - v1: as ``MuscleSeparation-v1``'s; seeded rollouts equal to v0's.
     - v0: the first version.
 
     Example:
         >>> import gymnasium, envs
-        >>> env = gymnasium.make("musclecell/Pull-v1", cell_size_m=0.05)
+        >>> env = gymnasium.make("musclecell/Pull-v2", cell_size_m=0.05)
         >>> env.action_space.shape
         (3,)
     """

@@ -56,6 +56,9 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
     "cell.rheology.cutsearch": ("cell.rheology.synthetic", "cell.rheology.truth"),
     "cell.rheology.cutdiagnosis": ("cell.rheology.synthetic", "cell.rheology.truth"),
     "cell.rheology.cutreport": ("cell.rheology.synthetic", "cell.rheology.truth"),
+    # Nor does the batch diagnosis of separation logs read their generator.
+    **{f"cell.sim.{name}": ("cell.sim.logsets",)
+       for name in ("logcauses", "logfit", "logdiagnosis", "logreport", "logcommand")},
 }
 PROJECT_PACKAGES = ("cell", "controllers", "envs", "tests")
 #: The library's top-level packages, whose modules the rules check.

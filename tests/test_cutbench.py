@@ -51,7 +51,10 @@ def test_parameter_errors_are_relative_norms() -> None:
     assert error == pytest.approx(0.001 / np.hypot(0.01, 2.0))
     assert parameter_error("blade_force_offset", truth, fitted,
                            np.array([0.0, 0.0, 1.1])) == pytest.approx(0.1)
-    assert parameter_error("blade_friction", truth, fitted, np.zeros(3)) is None
+    rubbing = _Truth(CuttingParams(900.0, face_friction=0.3, face_pressure_pa=1600.0),
+                     (0.0, 0.0, 0.0), 0.1)
+    assert parameter_error("blade_friction", rubbing, CuttingParams(
+        900.0, face_friction=0.33, face_pressure_pa=1600.0), np.zeros(3)) == pytest.approx(0.1)
 
 
 def test_the_reduced_model_agrees_with_a_set_it_made() -> None:

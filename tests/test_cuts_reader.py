@@ -248,6 +248,10 @@ def test_bad_cut_rows_name_file_line_and_column(tmp_path: Path, rows: list[str],
 
 @pytest.mark.parametrize(("specimen", "rows", "named"), [
     (BLADE, PRESS_ROWS, ("specimen.toml", "block", "missing table")),
+    (BLOCK, PRESS_ROWS, ("specimen.toml", "blade", "missing table")),
+    (BLOCK + BLADE.replace("edge_direction = [0.0, 1.0, 0.0]",
+                           "edge_direction = [0.0, 0.9, 0.0]"), PRESS_ROWS,
+     ("specimen.toml", "blade.edge_direction", "unit vector")),
     (BLOCK + BLADE.replace("[1.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]"), PRESS_ROWS,
      ("specimen.toml", "blade.blade_normal", "perpendicular")),
     (BLOCK + BLADE, _replaced(PRESS_ROWS, 0, 5, "0.02"),
@@ -256,7 +260,7 @@ def test_bad_cut_rows_name_file_line_and_column(tmp_path: Path, rows: list[str],
      ("tests.csv", "line 4, column force_y_N")),
     (BLOCK + BLADE, _replaced(PRESS_ROWS, 3, 2, "0.001"),
      ("tests.csv", "line 5, column time_s")),
-], ids=["no block", "normal", "inside", "nan", "time"])
+], ids=["no block", "no blade", "not unit", "normal", "inside", "nan", "time"])
 def test_diagnose_refuses_a_bad_cut_set_and_writes_nothing(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture,
         specimen: str, rows: list[str], named: tuple[str, ...]) -> None:

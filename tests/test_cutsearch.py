@@ -44,7 +44,7 @@ def _saw(sink_m_s: float, stroke_m: float = 0.02, samples: int = 320
     return t, np.column_stack([np.full_like(t, 0.03), y, 0.032 - sink_m_s * t])
 
 
-def _cut_set(truth: CuttingParams, offset_n: tuple[float, float, float] = (0.0, 0.0, 0.0),
+def cut_set(truth: CuttingParams, offset_n: tuple[float, float, float] = (0.0, 0.0, 0.0),
              paths: list | None = None, seed: int = 0) -> tuple[CutTest, ...]:
     """Cut tests of ``truth`` with 0.2 N of noise on each channel."""
     rng = np.random.default_rng(seed)
@@ -76,7 +76,7 @@ def test_the_catalogue_has_the_specs_causes() -> None:
 
 
 def test_the_baseline_fit_finds_the_toughness() -> None:
-    problem = CutProblem.of(BLOCK, BLADE, _cut_set(PLAIN), 64)
+    problem = CutProblem.of(BLOCK, BLADE, cut_set(PLAIN), 64)
     model = CutCandidate((), problem.reference_speed_m_s(), BLOCK.top_z_m)
     fit = fit_cut(problem, model, model.initial, 100)
     assert fit.params["toughness_j_m2"] == pytest.approx(900.0, rel=0.01)
@@ -84,13 +84,13 @@ def test_the_baseline_fit_finds_the_toughness() -> None:
 
 
 def test_a_set_with_no_hidden_effect_names_none() -> None:
-    assert diagnose_cuts(BLOCK, BLADE, _cut_set(PLAIN, seed=3), PARAMS).causes == ()
+    assert diagnose_cuts(BLOCK, BLADE, cut_set(PLAIN, seed=3), PARAMS).causes == ()
 
 
 @pytest.mark.parametrize("cause", sorted(HIDDEN))
 def test_a_hidden_cause_is_named_with_its_parameters(cause: str) -> None:
     truth, offset = HIDDEN[cause]
-    result = diagnose_cuts(BLOCK, BLADE, _cut_set(truth, offset), PARAMS)
+    result = diagnose_cuts(BLOCK, BLADE, cut_set(truth, offset), PARAMS)
     assert result.causes == (cause,)
     assert result.gain > 0.3
     fitted = result.extended.cutting
@@ -112,7 +112,7 @@ def test_a_hidden_cause_is_named_with_its_parameters(cause: str) -> None:
 @pytest.mark.parametrize("slicing", [0.0, 1.0])
 def test_a_sawing_and_a_press_cut_together_tell_whether_slicing_acts(slicing: float) -> None:
     truth = replace(PLAIN, slicing_efficiency=slicing)
-    tests = _cut_set(truth, paths=[_press(0.01), _saw(0.006)], seed=5)
+    tests = cut_set(truth, paths=[_press(0.01), _saw(0.006)], seed=5)
     causes = diagnose_cuts(BLOCK, BLADE, tests, PARAMS).causes
     assert ("slicing" in causes) == (slicing > 0)
 
@@ -134,13 +134,19 @@ def _write_cut_set(folder: Path, tests: tuple[CutTest, ...]) -> None:
 
 def test_a_set_of_cut_tests_is_diagnosed_and_its_material_written(tmp_path: Path) -> None:
     truth, offset = HIDDEN["slicing"]
-    _write_cut_set(tmp_path / "cuts", _cut_set(truth, offset))
+    _write_cut_set(tmp_path / "cuts", cut_set(truth, offset))
     measurements = load_measurement_set(tmp_path / "cuts")
     result = diagnose_set(measurements, PARAMS)
     assert result.causes == ("slicing",)
     report = result.to_json()
     assert report["causes"] == ["slicing"] and report["cut"]["causes"] == ["slicing"]
     assert report["extended"]["params"]["slicing_efficiency"] == pytest.approx(1.0, rel=0.15)
+    (evidence,) = report["cut"]["evidence"]
+    assert evidence["cause"] == "slicing"
+    assert evidence["heldout_rmse_without_N"] > 2 * evidence["heldout_rmse_with_N"]
+    low, high = evidence["params"]["slicing_efficiency"]["ci95"]
+    assert low < evidence["params"]["slicing_efficiency"]["value"] < high and high - low < 0.3
+    assert set(report["extended"]["fitted"]) == {"slicing_efficiency", "toughness_j_m2"}
     path = tmp_path / "material.toml"
     path.write_text(material_to_toml(result.material(), result.material_comment()))
     assert load_material(path).cutting == result.cut.extended.cutting
@@ -157,20 +163,22 @@ def test_the_command_diagnoses_a_cut_set_with_its_report(tmp_path: Path) -> None
     from cell.cli import main
 
     truth, offset = HIDDEN["blade_friction"]
-    _write_cut_set(tmp_path / "cuts", _cut_set(truth, offset, paths=[_press(0.01), _saw(0.006)]))
+    _write_cut_set(tmp_path / "cuts", cut_set(truth, offset, paths=[_press(0.01), _saw(0.006)]))
     out = tmp_path / "out"
     assert main(["diagnose", str(tmp_path / "cuts"), "--json", str(out / "d.json"),
                  "--report", str(out / "report"), "--workers", "1"]) == 0
     assert {p.name for p in (out / "report").iterdir()} == {"cut-forces.png", "cut-report.md"}
+    assert "| blade_friction |" in (out / "report" / "cut-report.md").read_text()
     assert load_material(out / "d-material.toml").cutting.face_friction > 0.0
 
 
-def _mixed_set(folder: Path, cut_tests: tuple[CutTest, ...]) -> None:
-    """A generated uniaxial set with nothing hidden and ``cut_tests`` beside it, every row
-    leaving the other kind's columns empty."""
+def mixed_set(folder: Path, cut_tests: tuple[CutTest, ...],
+              effect: str | tuple[str, ...] | None = None) -> None:
+    """A generated uniaxial set with ``effect`` hidden (none by default) and ``cut_tests``
+    beside it, every row leaving the other kind's columns empty."""
     from cell.rheology.synthetic import write_hidden_effect_set
 
-    write_hidden_effect_set(folder, 2, None)
+    write_hidden_effect_set(folder, 2, effect)
     specimen = folder / "specimen.toml"
     specimen.write_text(specimen.read_text() + "\n[block]\nsize_m = [0.06, 0.04, 0.03]\n\n"
                         "[blade]\nedge_length_m = 0.12\nthickness_m = 0.0015\n"
@@ -189,7 +197,7 @@ def _mixed_set(folder: Path, cut_tests: tuple[CutTest, ...]) -> None:
 @pytest.mark.slow
 def test_a_set_of_both_kinds_is_diagnosed_in_one_run(tmp_path: Path) -> None:
     truth, offset = HIDDEN["slicing"]
-    _mixed_set(tmp_path / "mixed", _cut_set(truth, offset))
+    mixed_set(tmp_path / "mixed", cut_set(truth, offset))
     measurements = load_measurement_set(tmp_path / "mixed")
     assert measurements.tests and measurements.cut_tests
     result = diagnose_set(measurements, DiagnosisParams(workers=2))

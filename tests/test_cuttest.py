@@ -151,3 +151,21 @@ def test_a_generated_set_reads_back_and_holds_no_truth(tmp_path: Path) -> None:
     in_air = first.edge_m[:, 2] > data.block.top_z_m + 0.0005
     assert np.allclose(first.force_n[in_air].mean(axis=0), truth.offset_n,
                        atol=3 * truth.noise_n / np.sqrt(in_air.sum()) + 0.05)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("causes", [("slicing",), ()], ids=["slicing", "none"])
+def test_a_generated_sawing_and_press_cut_tell_whether_slicing_acts(
+        tmp_path: Path, causes: tuple[str, ...]) -> None:
+    # One press and one sawing cut of the same generated material (the full simulation),
+    # diagnosed together (issue 33, acceptance 2): slicing is named when it is hidden, and only
+    # then. The quick test in CI is tests/test_cutsearch.py's, on the reduced model's cuts.
+    from cell.rheology.cutsearch import diagnose_cuts
+    from cell.rheology.settings import DiagnosisParams
+
+    write_hidden_cut_set(tmp_path / "set", seed=11, causes=causes, tests=2, cell_size_m=0.012)
+    data = load_measurement_set(tmp_path / "set")
+    assert [float(np.ptp(t.edge_m[:, 1])) > 0.005 for t in data.cut_tests] == [False, True]
+    named = diagnose_cuts(data.block, data.blade, data.cut_tests,
+                          DiagnosisParams(workers=1)).causes
+    assert ("slicing" in named) == bool(causes), named

@@ -50,3 +50,15 @@ def test_reaction_lands_on_the_vertices_nearest_the_edge_and_keeps_other_loads(
     edge.apply(data, 0.0, centre, np.eye(3), HALF, np.zeros(3))
     assert data.xfrc_applied[other[0], 2] == 1.0
     assert np.count_nonzero(data.xfrc_applied) == 1
+
+
+def test_a_load_on_the_edge_and_faces_puts_its_reaction_on_the_tissue(
+        model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    edge = EdgeResistance(model)
+    centre = data.flexvert_xpos.mean(axis=0)
+    on_blade = np.array([-8.0, 0.5, 1.2])  # an edge's and faces' load, as the seam gives it
+    edge.load(data, on_blade, centre, np.eye(3), HALF)
+    assert len(np.flatnonzero(data.xfrc_applied[:, 0])) == REACTION_VERTICES
+    np.testing.assert_allclose(data.xfrc_applied[:, :3].sum(axis=0), -on_blade)
+    edge.load(data, np.zeros(3), centre, np.eye(3), HALF)
+    assert not data.xfrc_applied.any()

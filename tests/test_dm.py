@@ -33,7 +33,7 @@ def test_the_dm_env_steps_as_the_gymnasium_env_for_the_same_seed_and_actions() -
     # The time limit as a truncation (not the cell's cycle time), whose discount is 1.
     kwargs = {"cell_size_m": 0.05, "time_limit_s": 0.2, "task": {"cycle_time_fails": False}}
     gym_env = CutEnv(**kwargs)
-    dm = make("Cut-v1", seed=12, **kwargs)
+    dm = make("Cut-v2", seed=12, **kwargs)
     actions = np.random.default_rng(13).uniform(-1.0, 1.0, (10, 4)).astype(np.float32)
     observation, _ = gym_env.reset(seed=12)
     first = dm.reset()

@@ -2,9 +2,10 @@
 same id.
 
 The fingerprint of an id is its observation's names, its action space, its parameters (action
-limits, reward weights, task), the cut and pull it plans, its constructor's options, its
-default randomisation, and the rewards of a seeded rollout under a fixed action sequence on
-the coarse cell. The pinned values are in ``tests/env_fingerprints.json``.
+limits, reward weights, task), the cut and pull it plans, its constructor's options, where its
+knife's cutting force comes from, its default randomisation, and the rewards of a seeded
+rollout under a fixed action sequence on the coarse cell (a fingerprint pinned before a part
+existed is compared on the parts it has). The pinned values are in ``tests/env_fingerprints.json``.
 
 If this test fails, the env's behaviour changed: register the changed env under a new version
 (``envs/registration.py``, the card's version history) and pin the new id with
@@ -54,6 +55,7 @@ def fingerprint(env_id: str) -> dict[str, Any]:
         "cut": asdict(inner.base.cut),
         "pull": asdict(inner.base.pull),
         "options": inner.options,
+        "knife_force": inner.base.aponeurosis.knife_force,
         "randomization": [[key, asdict(distribution)]
                           for key, distribution in inner.randomization.entries],
     }

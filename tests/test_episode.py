@@ -63,13 +63,15 @@ def test_cut_and_pull_separate_the_muscles(full_episode: dict) -> None:
 def test_the_knife_feels_the_measured_cutting_force(full_episode: dict) -> None:
     # The default releases by force: the F/T sensor reads the measured order (5 to 20 N,
     # not the 1 N of knife release), most bindings are cut by the rule, and the load splits
-    # into hooked bindings, flesh on the blade and the edge's resistance.
+    # into hooked bindings, flesh on the blade, the edge's resistance and the faces' friction
+    # of the material's cutting model.
     assert full_episode["knife_force_peak_n"] > 3.0
     released = full_episode["released_by_rule"]
     assert released["force"] > released["tearing"]
     split = full_episode["knife_force_split_n"]
-    assert set(split) == {"bindings", "flesh", "edge"}
+    assert set(split) == {"bindings", "flesh", "edge", "faces"}
     assert split["bindings"]["peak"] > 0.0 and split["edge"]["mean"] > 1.0
+    assert split["faces"]["mean"] > 0.1
     assert full_episode["knife_force_cutting_mean_n"] > 1.0
 
 
@@ -175,9 +177,10 @@ def test_tracking_errors_are_measured_during_the_cut_only(full_episode: dict) ->
 
 
 def test_force_rule_alone_cuts_with_the_hooked_bindings() -> None:
-    # No edge resistance: hooked bindings resist the blade until they are cut, and the F/T
-    # sensor reads them.
-    scenario = coarse(aponeurosis=AponeurosisParams(release_rules=("force",), edge_share=0.0),
+    # No edge resistance (the curve's share at the edge none): hooked bindings resist the
+    # blade until they are cut, and the F/T sensor reads them.
+    scenario = coarse(aponeurosis=AponeurosisParams(release_rules=("force",), knife_force="curve",
+                                                    edge_share=0.0),
                       pull=PullPlan(enabled=False))
     summary = Episode(scenario).run()["result"]
     assert summary["released_by_rule"]["force"] > 0

@@ -47,6 +47,17 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
                        help="diagnose suite: sets hiding two causes at once")
     bench.add_argument("--subtle", action="store_true",
                        help="diagnose suite: sets hiding one cause, half as strong")
+    bench.add_argument("--triples", action="store_true",
+                       help="diagnose suite: sets hiding three causes at once")
+    bench.add_argument("--including", metavar="CAUSE",
+                       help="diagnose suite, with --pairs or --triples: only those that hold "
+                       "this cause (e.g. force_offset), on seeds of their own")
+    bench.add_argument("--suggest", action="store_true",
+                       help="diagnose suite: sets missing the tests that would show their "
+                       "effect; the suggested next test against a random one")
+    bench.add_argument("--spread", action="store_true",
+                       help="diagnose suite: thirty-test sets of repeats, with a specimen "
+                       "spread and without (--seeds pairs of sets)")
     bench.add_argument("--cut", action="store_true",
                        help="diagnose suite: hidden-effect cut sets, made by the full "
                        "simulation of a cut (with --pairs: two causes at once)")
@@ -65,7 +76,7 @@ def bench_command(args: argparse.Namespace) -> int:
     the suite."""
     suite = args.suite
     if suite not in ("tissue", "diagnose", "sweep"):
-        for flag in ("seeds", "pairs", "subtle"):
+        for flag in ("seeds", "pairs", "subtle", "spread", "triples", "including", "suggest"):
             if getattr(args, flag) not in (None, False):
                 raise InputError(None, f"--{flag}",
                                  f"only `musclecell bench diagnose` takes --{flag}")
@@ -172,26 +183,53 @@ def _sweep(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> 
     return 0
 
 
+def _diagnose_kind(args: argparse.Namespace) -> str:
+    """The kind of diagnose bench the flags ask for, checked: one kind at most (the cut sets
+    with --pairs alone), --including with --pairs or --triples and a cause of the catalogue."""
+    kinds = [flag for flag in ("pairs", "subtle", "triples", "suggest", "spread")
+             if getattr(args, flag)]
+    if len(kinds) > 1:
+        raise InputError(None, f"--{kinds[1]}", f"give one of --{' --'.join(kinds)}, not both")
+    if args.cut and kinds not in ([], ["pairs"]):
+        raise InputError(None, f"--{kinds[0]}", "the cut sets have single and --pairs kinds")
+    if args.including is not None:
+        from cell.rheology.causes import CAUSES
+
+        if kinds not in (["pairs"], ["triples"]) or args.cut:
+            raise InputError(None, "--including", "goes with --pairs or --triples (uniaxial)")
+        if args.including not in CAUSES:
+            raise InputError(None, "--including",
+                             f"must be a cause of {CAUSES}, got {args.including!r}")
+    return kinds[0] if kinds and kinds[0] in ("pairs", "subtle", "triples") else "single"
+
+
 def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
     from cell.bench.diagnose import bench_seeds, run_diagnose_bench
     from cell.io import write_atomic, write_json
 
-    kind = "pairs" if args.pairs else "subtle" if args.subtle else "single"
-    if args.pairs and args.subtle:
-        raise InputError(None, "--pairs", "give --pairs or --subtle, not both")
-    if args.cut and args.subtle:
-        raise InputError(None, "--subtle", "the cut sets have no subtle kind")
+    kind = _diagnose_kind(args)
     count = args.seeds if args.seeds is not None else (3 if args.quick else 10)
     if count < 1:
         raise InputError(None, "--seeds", f"must be >= 1, got {count}")
-    if args.cut:
+    if args.suggest:
+        from cell.bench import suggestbench
+
+        report = suggestbench.run_suggest_bench(suggestbench.bench_seeds(count),
+                                                workers=args.workers, progress=print)
+    elif args.spread:
+        from cell.bench import spread
+
+        report = spread.run_spread_bench(spread.bench_seeds(count), workers=args.workers,
+                                         progress=print)
+    elif args.cut:
         from cell.bench import cutdiagnose
 
         report = cutdiagnose.run_cut_diagnose_bench(cutdiagnose.bench_seeds(count, kind),
                                                     kind, progress=print)
     else:
-        report = run_diagnose_bench(bench_seeds(count, kind), workers=args.workers,
-                                    progress=print, kind=kind)
+        report = run_diagnose_bench(bench_seeds(count, kind, args.including),
+                                    workers=args.workers, progress=print, kind=kind,
+                                    including=args.including)
     write_json(json_path, report)
     print(report["markdown"], end="")
     for name, entry in report["entries"].items():

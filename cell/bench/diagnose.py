@@ -7,17 +7,24 @@ unseen. Three kinds of sets (:data:`KINDS`):
 - ``single``: the hidden effect cycles through the catalogue and none with the seed;
 - ``subtle``: the same, every effect half as strong;
 - ``pairs``: two causes at once, cycling through every pair of the catalogue (never both
+  viscoelasticities);
+- ``triples``: three causes at once, cycling through every triple of the catalogue (never both
   viscoelasticities).
+
+``including`` keeps the pairs or triples that hold one cause (``--including force_offset``:
+the load cell's offset beside each other effect), on seeds of their own.
 
 Every set is written to a temporary folder, read back, and diagnosed; the wall time of
 :func:`diagnose` is measured per set. A set is correct when the catalogue causes it names
-(``unexplained`` aside) are exactly its hidden effects, or none when none is hidden; a pair is
-half right when at least one of its two is named. The ``single`` kind also diagnoses the
-relaxation-only set shaped like published muscle tests (:func:`write_relaxation_set`).
+(``unexplained`` aside) are exactly its hidden effects, or none when none is hidden; a pair or a
+triple is half right when at least one of its causes is named. The ``single`` kind also
+diagnoses the relaxation-only set shaped like published muscle tests
+(:func:`write_relaxation_set`).
 
 Targets: median <= 20 s and max <= 60 s per ten-test set, the relaxation set in <= 60 s and
 named ``nonlinear_viscoelasticity`` first with a gain >= 0.7; exact: >= 95 % of single sets,
->= 80 % of subtle and of pair sets, and at least one of the two named in >= 97 % of pairs.
+>= 80 % of subtle and of pair sets (those with one cause included too), >= 60 % of triples,
+and at least one of the two named in >= 97 % of pairs.
 """
 
 from __future__ import annotations
@@ -33,34 +40,49 @@ from typing import Any, Literal
 from cell.errors import MeasurementError
 from cell.rheology import synthetic as generator
 
-Kind = Literal["single", "subtle", "pairs"]
-KINDS: tuple[Kind, ...] = ("single", "subtle", "pairs")
+Kind = Literal["single", "subtle", "pairs", "triples"]
+KINDS: tuple[Kind, ...] = ("single", "subtle", "pairs", "triples")
 #: Targets: wall time of one diagnosis of a ten-test set, s (the median, the slowest).
 TARGET_SECONDS_MEDIAN = 20.0
 TARGET_SECONDS_PER_SET = 60.0
 #: Target: fraction of the sets whose causes are exactly the hidden ones, per kind.
-TARGET_CORRECT: dict[str, float] = {"single": 0.95, "subtle": 0.8, "pairs": 0.8}
+TARGET_CORRECT: dict[str, float] = {"single": 0.95, "subtle": 0.8, "pairs": 0.8,
+                                     "triples": 0.6}
 #: Target: fraction of the pair sets with at least one of their two causes named.
 TARGET_ONE_OF_PAIR = 0.97
 #: Targets of the relaxation-only set: wall time, s, and gain.
 TARGET_RELAXATION_SECONDS = 60.0
 TARGET_RELAXATION_GAIN = 0.7
-#: The first seed of each kind; the tests use seeds below 10 000.
-FIRST_SEED: dict[str, int] = {"single": 10_000, "subtle": 20_000, "pairs": 30_000}
-#: Every pair of causes a set may hide (one viscoelasticity at most).
-PAIRS = tuple(pair for pair in itertools.combinations(generator.CAUSES, 2)
-              if set(pair) != {"viscoelasticity", "nonlinear_viscoelasticity"})
+#: The first seed of each kind (and of pairs or triples that include one cause); the tests use
+#: seeds below 10 000, the tuning seeds from 90 000 to 99 999.
+FIRST_SEED: dict[str, int] = {"single": 10_000, "subtle": 20_000, "pairs": 30_000,
+                              "triples": 130_000, "including": 33_000}
 
 
-def bench_seeds(count: int, kind: Kind = "single") -> list[int]:
-    """The seeds of ``count`` bench sets of ``kind``."""
-    return [FIRST_SEED[kind] + i for i in range(count)]
+def _combinations(size: int) -> tuple[tuple[str, ...], ...]:
+    """Every ``size`` causes a set may hide together (one viscoelasticity at most)."""
+    return tuple(c for c in itertools.combinations(generator.CAUSES, size)
+                 if not {"viscoelasticity", "nonlinear_viscoelasticity"} <= set(c))
 
 
-def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
-    """The causes a bench set of ``kind`` hides, cycling with its seed."""
-    if kind == "pairs":
-        return PAIRS[seed % len(PAIRS)]
+PAIRS = _combinations(2)
+TRIPLES = _combinations(3)
+
+
+def bench_seeds(count: int, kind: Kind = "single", including: str | None = None) -> list[int]:
+    """The seeds of ``count`` bench sets of ``kind`` (with ``including``: their own)."""
+    first = FIRST_SEED[kind] if including is None else FIRST_SEED["including"] + (
+        100_000 if kind == "triples" else 0)
+    return [first + i for i in range(count)]
+
+
+def hidden(seed: int, kind: Kind, including: str | None = None) -> tuple[str, ...]:
+    """The causes a bench set of ``kind`` hides, cycling with its seed (through the pairs or
+    triples that hold ``including``, when given)."""
+    if kind in ("pairs", "triples"):
+        chosen = [c for c in (PAIRS if kind == "pairs" else TRIPLES)
+                  if including is None or including in c]
+        return chosen[seed % len(chosen)]
     effect = generator.EFFECTS[seed % len(generator.EFFECTS)]
     return () if effect is None else (effect,)
 
@@ -80,16 +102,22 @@ def confusion_markdown(confusion: dict[str, dict[str, int]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def check_request(seeds: Sequence[int], kind: str, kinds: Sequence[str]) -> None:
-    """Check a diagnose bench's seeds and kind.
+def check_request(seeds: Sequence[int], kind: str, kinds: Sequence[str],
+                  including: str | None = None) -> None:
+    """Check a diagnose bench's seeds, kind and the cause its pairs or triples include.
 
     Raises:
-        MeasurementError: no seed, or a kind not in ``kinds``.
+        MeasurementError: no seed, a kind not in ``kinds``, or ``including`` with a kind other
+            than pairs or triples, or not a cause of the catalogue.
     """
     if not seeds:
         raise MeasurementError(None, "seeds", "the diagnose bench needs at least one seed")
     if kind not in kinds:
         raise MeasurementError(None, "kind", f"must be one of {kinds}, got {kind!r}")
+    if including is not None and (kind not in ("pairs", "triples")
+                                  or including not in generator.CAUSES):
+        raise MeasurementError(None, "including", f"a cause of {generator.CAUSES} that pairs or "
+                               f"triples include, got {including!r} with {kind}")
 
 
 def time_summary(times: Sequence[float], median_target: float, max_target: float
@@ -131,7 +159,7 @@ def _relaxation_entry(scratch: Path, seed: int, params: Any) -> dict[str, Any]:
 
 def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
                        progress: Callable[[str], None] | None = None,
-                       kind: Kind = "single") -> dict[str, Any]:
+                       kind: Kind = "single", including: str | None = None) -> dict[str, Any]:
     """Diagnose one hidden-effect set of ``kind`` per seed; times, correctness, confusion,
     targets (and the relaxation-only set, for the ``single`` kind).
 
@@ -139,12 +167,15 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
         seeds: one set per seed (:func:`bench_seeds` gives seeds the tests never use).
         workers: ``DiagnosisParams.workers`` (default: every core).
         progress: called with one line per set.
-        kind: ``single``, ``subtle`` (half as strong) or ``pairs`` (module docstring).
+        kind: ``single``, ``subtle`` (half as strong), ``pairs`` or ``triples`` (module
+            docstring).
+        including: with pairs or triples, only those that hold this cause.
 
     Raises:
-        MeasurementError: no seed, or an unknown kind.
+        MeasurementError: no seed, an unknown kind, or a bad ``including``
+            (:func:`check_request`).
     """
-    check_request(seeds, kind, KINDS)
+    check_request(seeds, kind, KINDS, including)
     from cell.rheology.diagnosis import CAUSES
     from cell.rheology.settings import DiagnosisParams
 
@@ -155,7 +186,7 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
     with tempfile.TemporaryDirectory(prefix="bench-diagnose-") as scratch:
         for seed in seeds:
             folder = Path(scratch) / f"set-{seed}"
-            expected = hidden(seed, kind)
+            expected = hidden(seed, kind, including)
             truth = generator.write_hidden_effect_set(folder, seed, expected,
                                                       0.5 if kind == "subtle" else 1.0)
             result, seconds, data = _diagnose_one(folder, params)
@@ -179,7 +210,8 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
             if progress is not None:
                 progress(f"relaxation set: named {_label(relaxation['causes'])}, gain "
                          f"{relaxation['gain']:.2f}, {relaxation['seconds']:.1f} s")
-    return _summary(sets, confusion, relaxation, kind, params.workers, seeds)
+    report = _summary(sets, confusion, relaxation, kind, params.workers, seeds)
+    return {**report, "including": including}
 
 
 def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]],
@@ -208,6 +240,9 @@ def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]],
         "correct": {"value": correct / count, "target": TARGET_CORRECT[kind],
                     "unit": "fraction", "pass": correct / count >= TARGET_CORRECT[kind]},
     }
+    if kind == "triples":
+        entries["one_named"] = {"value": one / count, "unit": "fraction", "count": one,
+                                "of": count}
     if kind == "pairs":
         entries["one_of_pair_named"] = {"value": one / count, "unit": "fraction",
                                         "count": one, "of": count}

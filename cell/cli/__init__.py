@@ -30,6 +30,7 @@ from cell.learning.command import add_learning
 from cell.rheology.command import add_diagnose
 from cell.scale.command import add_batch, add_sweep
 from cell.sim.command import add_simulation
+from cell.sim.logcommand import add_log_diagnosis
 
 #: Exit codes (module docstring).
 EXIT_INPUT, EXIT_DIVERGED, EXIT_INTERRUPTED = 2, 3, 130
@@ -44,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "written), 3 diverged, 130/143 stopped by SIGINT/SIGTERM")
     commands = parser.add_subparsers(dest="command", required=True)
     add_simulation(commands)
+    add_log_diagnosis(commands)
     add_batch(add_diagnose(commands))
     add_bench(commands)
     add_learning(commands)

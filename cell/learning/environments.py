@@ -10,6 +10,7 @@ import gymnasium as gym
 
 import envs
 from cell.errors import LearningError
+from cell.learning.segments import SegmentWorker
 
 if TYPE_CHECKING:
     from stable_baselines3.common.vec_env import VecEnv
@@ -52,13 +53,21 @@ def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
         raise LearningError(None, "--env-kwargs", str(exc)) from None
 
 
+def make_segment_worker(env_id: str, env_kwargs: dict[str, Any], index: int) -> SegmentWorker:
+    """Training env ``index``, which plays its own rollout segments
+    (:class:`~cell.learning.segments.SegmentWorker`)."""
+    return SegmentWorker(make_env(env_id, env_kwargs), index)
+
+
 def make_training_envs(env_id: str, env_kwargs: dict[str, Any], count: int) -> VecEnv:
     """``count`` envs in a ``VecMonitor`` (episode returns and lengths), one process each
-    when more than one; the caller seeds them and wraps them in ``VecNormalize``."""
+    when more than one, each a :func:`make_segment_worker`; the caller seeds them and wraps
+    them in ``VecNormalize``."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
     make_env(env_id, env_kwargs).close()  # a bad keyword fails here, not in a child process
-    factories = [partial(make_env, env_id, env_kwargs)] * count
+    factories = [partial(make_segment_worker, env_id, env_kwargs, index)
+                 for index in range(count)]
     if count == 1:
         return VecMonitor(DummyVecEnv(factories))
     return VecMonitor(SubprocVecEnv(factories, start_method=START_METHOD))

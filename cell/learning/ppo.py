@@ -7,7 +7,8 @@ reward statistics of ``VecNormalize``, which the policy's inputs need; ``optimiz
 Adam's state, for a resume; none of them pickled), ``learn.json`` (env, kwargs, seeds, steps,
 wall time, hyper-parameters, the warm start),
 ``progress.csv`` (PPO's values per update), ``episodes.csv`` (one row per training episode),
-``learning_curve.png`` and ``checkpoints/steps_NNNNNNNNN/`` (model, statistics, state). This
+``learning_curve.png`` and ``checkpoints/steps_NNNNNNNNN/`` (model, statistics, state). Each
+env process collects its own part of every rollout (:mod:`cell.learning.segmentppo`). This
 module imports Stable-Baselines3 and torch: the command line imports it when it trains.
 """
 
@@ -39,6 +40,7 @@ from cell.learning.policyfile import (
     restore_training,
     save_policy,
 )
+from cell.learning.segmentppo import SegmentPPO
 
 STATE_FILE = "state.json"
 LEARN_FILE = "learn.json"
@@ -178,8 +180,8 @@ def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
     try:
         if checkpoint is None:
             run.normalize = VecNormalize(venv, gamma=run.hyper.gamma)
-            model = PPO("MlpPolicy", run.normalize, seed=run.first_seed, device="cpu",
-                        **run.hyper.sb3_kwargs())
+            model = SegmentPPO("MlpPolicy", run.normalize, seed=run.first_seed, device="cpu",
+                               **run.hyper.sb3_kwargs())
             if settings.warm_start is not None:
                 from cell.learning.warmstart import warm_start
 
@@ -189,8 +191,8 @@ def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
             # Rebuilt from numbers, never unpickled: the network and Adam's state from the
             # checkpoint, env i's first reset at first_seed + i.
             run.normalize = restore_normalization(venv, read_normalization(checkpoint))
-            model = PPO("MlpPolicy", run.normalize, seed=run.first_seed, device="cpu",
-                        **run.hyper.sb3_kwargs())
+            model = SegmentPPO("MlpPolicy", run.normalize, seed=run.first_seed, device="cpu",
+                               **run.hyper.sb3_kwargs())
             restore_training(model, checkpoint)
         model.policy.log_std.requires_grad_(run.hyper.learn_log_std)
         model.set_logger(Logger(None, [HumanOutputFormat(sys.stdout),

@@ -12,6 +12,9 @@ cause                              panels
 ``tension_compression_asymmetry``  ``|force|`` against ``|strain|``, tension and compression
 ``plasticity``                     force against strain of the cyclic tests
 ``force_offset``                   force against strain near zero strain, every test
+``specimen_variability``           force against strain of the ramps, each predicted at its
+                                   specimen's factor within its group of repeats and at the
+                                   population's
 =================================  ============================================================
 
 Plots need matplotlib (the ``report`` extra); :mod:`cell.rheology.report` calls
@@ -91,7 +94,7 @@ _LABELS = {"strain": ("nominal strain", "force (N)"), "time": ("time in hold (s)
 
 
 def _draw_panel(ax: Axes, kind: str, rows: list[int], diagnosis: Diagnosis,
-                without: ModelFit) -> None:
+                fits: tuple[ModelFit, ModelFit]) -> None:
     data = diagnosis.measurements
     for k in rows:
         test = data.tests[k]
@@ -99,7 +102,7 @@ def _draw_panel(ax: Axes, kind: str, rows: list[int], diagnosis: Diagnosis,
         x, y = _curve(kind, test, test.force_N, strain)
         ax.plot(x, y, ".", markersize=2.5, alpha=0.6,
                 label=f"{test.test_id} ({test.mode}, {test.angle_deg:g}°)")
-        for fit, style, color in ((diagnosis.extended, "-", _WITH), (without, "--", _WITHOUT)):
+        for fit, style, color in zip(fits, ("-", "--"), (_WITH, _WITHOUT), strict=True):
             x, y = _curve(kind, test, fit.heldout_force_n[k], strain)
             ax.plot(x, y, style, color=color, linewidth=1.0)
     ax.set_xlabel(_LABELS[kind][0])
@@ -115,7 +118,8 @@ def draw_cause(figure: Figure, diagnosis: Diagnosis, evidence: Evidence) -> Figu
     figure.set_size_inches(5.5 * len(panels), 4.2)
     axes = figure.subplots(1, len(panels), squeeze=False).ravel()
     for ax, (kind, rows) in zip(axes, panels, strict=True):
-        _draw_panel(ax, kind, rows, diagnosis, evidence.without)
+        with_it = diagnosis.extended if evidence.with_fit is None else evidence.with_fit
+        _draw_panel(ax, kind, rows, diagnosis, (with_it, evidence.without))
     figure.suptitle(
         f"{evidence.cause}: held-out RMSE {evidence.heldout_rmse_with_n:.3g} N with it (solid "
         f"blue), {evidence.heldout_rmse_without_n:.3g} N without (dashed red); it improves "

@@ -64,6 +64,10 @@ CAUSES = (
     "force_offset",
 )
 UNEXPLAINED = "unexplained"
+#: Each test another specimen, the specimens' material spread: a random effect on the fitted
+#: material, judged after the search between tests under equal conditions
+#: (:mod:`cell.rheology.spread`), not a change to the material a search step adds.
+SPECIMEN_VARIABILITY = "specimen_variability"
 #: Causes that one model never holds together: the second is the first made non-linear.
 EXCLUSIVE = ("viscoelasticity", "nonlinear_viscoelasticity")
 RELAXING = EXCLUSIVE

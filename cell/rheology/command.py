@@ -28,6 +28,10 @@ def add_diagnose(commands: argparse._SubParsersAction) -> argparse.ArgumentParse
                            "JSON, <name>-material.toml)")
     diagnosis.add_argument("--report", type=Path,
                            help="write plots and a Markdown report in this folder")
+    diagnosis.add_argument("--suggest", action="store_true",
+                           help="when other models explain the set about as well, name the "
+                           "test to run next: the one whose outcome they predict most apart "
+                           "(in the JSON's suggestion)")
     diagnosis.set_defaults(handler=diagnose_command, uses_mujoco=False)
     return diagnosis
 
@@ -61,10 +65,20 @@ def diagnose_command(args: argparse.Namespace) -> int:
     from cell.tissue.materialfile import material_to_toml
 
     measurements = load_measurement_set(args.set_dir)  # reads everything before any write
+    if args.suggest and not measurements.tests:
+        raise InputError(args.set_dir / TESTS_FILE, "mode", "--suggest proposes uniaxial "
+                         "tests, and the set holds none (cut tests alone)")
     result = diagnose_set(measurements, DiagnosisParams(workers=workers))
+    suggestion = None
+    if args.suggest:
+        from cell.rheology.suggest import suggest
+
+        suggestion = suggest(result.uniaxial)
     # Both checked before anything is written: a diverged fit (exit 3), a material of no
     # plausible stiffness (exit 2).
-    diagnosis = json_text(result.to_json(), args.json)
+    diagnosis = json_text({**result.to_json(), **({} if suggestion is None else
+                                                  {"suggestion": suggestion.to_json()})},
+                          args.json)
     material = material_to_toml(result.material(), result.material_comment())
     if args.report is not None:
         from cell.rheology.cutreport import write_set_report
@@ -73,6 +87,8 @@ def diagnose_command(args: argparse.Namespace) -> int:
     write_atomic(material_path, material)
     write_atomic(args.json, diagnosis)
     print(f"causes: {', '.join(result.causes) or 'none (the baseline explains the data)'}\n"
-          f"{result.summary()}\nwrote {args.json}, {material_path}"
+          f"{result.summary()}\n"
+          + ("" if suggestion is None else suggestion.summary() + "\n")
+          + f"wrote {args.json}, {material_path}"
           + (f", {args.report}" if args.report is not None else ""))
     return 0

@@ -39,8 +39,8 @@ from cell.errors import DiagnosisError
 from cell.rheology.cutreduced import CutKinematics
 from cell.tissue.cutmodel import CUT_CAUSES, CuttingParams, beef_cutting
 
-__all__ = ["CUT_CAUSES", "FACE_PRESSURE_PA", "REPORTED_SPEED_M_S", "CutCandidate", "flat",
-           "linear_columns"]
+__all__ = ["CUT_CAUSES", "FACE_PRESSURE_PA", "REPORTED_SPEED_M_S", "CutCandidate", "cause_of",
+           "flat", "linear_columns"]
 _AXES = ("x", "y", "z")
 #: The faces' pressure that a fitted shear stress ``mu p`` is divided by, Pa, unless a
 #: material says otherwise: the default beef's.
@@ -192,6 +192,27 @@ class CutCandidate:
         params.update({f"blade_force_offset_{a}_n": solved[f"offset_{a}_n"] for a in _AXES
                        if self.has_offset})
         return params
+
+
+def cause_of(name: str) -> str | None:
+    """The cause a fitted parameter (:attr:`CutCandidate.parameter_names`,
+    :attr:`CutCandidate.linear_names`) belongs to; None for the baseline's toughness.
+
+    Example:
+        >>> cause_of("toughness_1_j_m2"), cause_of("face_shear_pa"), cause_of("toughness_j_m2")
+        ('layered_toughness', 'blade_friction', None)
+    """
+    owners = {"slicing_efficiency": "slicing", "rate_exponent": "rate_dependent_cutting",
+              "indentation_depth_m": "indentation_stiffness", "face_shear_pa": "blade_friction"}
+    if name in owners:
+        return owners[name]
+    if name.startswith("offset_"):
+        return "blade_force_offset"
+    if name.startswith("layer_depth_") or (name.startswith("toughness_")
+                                            and name not in ("toughness_j_m2",
+                                                             "toughness_0_j_m2")):
+        return "layered_toughness"
+    return None
 
 
 def flat(force_n: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
@@ -30,6 +31,8 @@ from cell.tissue.cutmodel import CuttingParams
 
 # Relative tolerance of a fit: as the uniaxial fits'.
 _TOLERANCE = 1e-5
+# The normal distribution's two-sided 95 % quantile.
+_Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,6 +115,23 @@ class CutFit(HeldOutScores):
     shape: np.ndarray
     linear: np.ndarray
     cutting: CuttingParams
+    ci95: np.ndarray
+
+    @property
+    def fitted(self) -> dict[str, tuple[float, float, float]]:
+        """Every fitted parameter in the fit's own names (the shape parameters, then the
+        linear ones: :attr:`CutCandidate.parameter_names`, :attr:`CutCandidate.linear_names`)
+        with its 95 % interval: (value, low, high), NaN where the data do not bound it."""
+        names = (*self.model.parameter_names, *self.model.linear_names)
+        values = np.concatenate([self.shape, self.linear])
+        return {n: (float(v), float(lo), float(hi))
+                for n, v, (lo, hi) in zip(names, values, self.ci95, strict=True)}
+
+    def to_json(self) -> dict[str, Any]:
+        """The contract's entry, plus ``fitted``: each fitted parameter with its 95 %
+        interval (:attr:`fitted`)."""
+        return {**super().to_json(), "fitted": {
+            n: {"value": v, "ci95": [lo, hi]} for n, (v, lo, hi) in self.fitted.items()}}
 
     @property
     def params(self) -> dict[str, float]:
@@ -170,10 +190,38 @@ def fit_cut(problem: CutProblem, model: CutCandidate, start: np.ndarray,
                                                            strict=True)])
     parameters = len(shape) + len(linear)
     return CutFit(model, shape, linear, model.cutting(shape, linear),
+                  _ci95(problem, model, shape, linear, rss, count),
                   rmse_n=math.sqrt(rss / count),
                   heldout_rmse_n=float(np.sqrt(np.mean(errors**2))),
                   bic=count * math.log(max(rss / count, 1e-300)) + parameters * math.log(count),
                   fitted_force_n=tuple(fitted), heldout_force_n=tuple(heldout))
+
+
+def _ci95(problem: CutProblem, model: CutCandidate, shape: np.ndarray, linear: np.ndarray,
+          rss: float, count: int) -> np.ndarray:
+    """(k, 2) 95 % intervals of the shape and linear parameters, from the Jacobian of the
+    thinned samples' force in all of them (central differences in the shape parameters, over
+    a fiftieth of their range for a layer's depth, which the force steps at, a thousandth
+    for the others; the columns for the linear ones)."""
+    everything = list(range(len(problem.tests)))
+    lower, upper = model.bounds
+    derivatives = []
+    for i, name in enumerate(model.parameter_names):
+        step = (upper[i] - lower[i]) * (0.02 if name.startswith("layer_depth_") else 1e-3)
+        sides = [np.vstack(_columns(problem, model, np.where(
+            np.arange(len(shape)) == i, np.clip(shape[i] + sign * step, lower[i], upper[i]),
+            shape), everything)) @ linear for sign in (1.0, -1.0)]
+        spread = min(shape[i] + step, upper[i]) - max(shape[i] - step, lower[i])
+        derivatives.append((sides[0] - sides[1]) / max(spread, 1e-300))
+    jacobian = np.column_stack([*derivatives, np.vstack(_columns(problem, model, shape,
+                                                                  everything))])
+    values = np.concatenate([shape, linear])
+    normal = jacobian.T @ jacobian
+    variance = rss / max(count - len(values), 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        half = _Z95 * np.sqrt(np.diag(np.linalg.pinv(normal)) * variance)
+    half = np.where(np.isfinite(half) & (np.diag(normal) > 0), half, np.nan)
+    return np.stack([values - half, values + half], axis=1)
 
 
 def _held_out(problem: CutProblem, model: CutCandidate, shape: np.ndarray,

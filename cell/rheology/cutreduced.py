@@ -41,7 +41,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell.rheology.cuts import Blade, Block, CutTest
-from cell.tissue.cutmodel import CuttingParams, edge_force, face_friction_force, push_and_slice
+from cell.tissue.cutmodel import (
+    CuttingParams,
+    edge_force,
+    face_friction_force,
+    path_velocity_m_s,
+    push_and_slice,
+)
 
 #: Strips across the edge that remember their crack front: the engaged length is resolved to
 #: the block's extent along the edge over this many.
@@ -95,8 +101,7 @@ def cutting_direction(blade: Blade) -> np.ndarray:
 def edge_velocity_m_s(test: CutTest) -> np.ndarray:
     """(n, 3) velocity of the edge's midpoint, m/s: the logged path's derivative, second order
     on the irregular samples (as the full simulation's edge term takes it)."""
-    order = 2 if len(test.time_s) > 2 else 1
-    return np.gradient(test.edge_m, test.time_s, axis=0, edge_order=order)
+    return path_velocity_m_s(test.time_s, test.edge_m)
 
 
 def _strips(block: Block, edge: np.ndarray, strips: int) -> tuple[np.ndarray, float]:

@@ -6,8 +6,9 @@ when the set has uniaxial tests, and for its cut tests:
 - ``cut-forces.png``: per cut test, the force that resists the edge's sinking against the
   depth, measured and held-out predictions of the baseline and the extended cutting model;
   for a sawing cut, a second panel with the force along the edge against the stroke;
-- ``cut-report.md``: the causes, the gain, the candidates, the steps and the extended cutting
-  model's parameters, with a link to the figure.
+- ``cut-report.md``: the causes, the gain, the evidence of each cause (held-out RMSE with and
+  without it, the tests it improves, its parameters with 95 % intervals), the candidates, the
+  steps and the extended cutting model's parameters, with a link to the figure.
 
 Plots need matplotlib (the ``report`` extra), imported only when a report is written.
 """
@@ -22,7 +23,7 @@ import numpy as np
 from cell.extras import require
 from cell.io import figure_png, write_atomic
 from cell.rheology.cutreduced import cutting_direction
-from cell.rheology.report import search_lines
+from cell.rheology.report import evidence_table, search_lines
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -107,6 +108,7 @@ def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
              causes, "",
              f"Gain {cut.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
              f"{extended.heldout_rmse_n:.4g} N (extended); noise {cut.noise_n:.3g} N.", "",
+             *(evidence_table(cut.evidence) if cut.evidence else []),
              *search_lines(cut, folder, material_path),
              f"![Measured and held-out cut forces]({forces})", ""]
     return "\n".join(lines)

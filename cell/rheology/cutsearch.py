@@ -21,14 +21,16 @@ Usage::
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
+from cell.rheology.acceptance import improved_fraction
 from cell.rheology.causes import UNEXPLAINED
-from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA, CutCandidate
+from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA, CutCandidate, cause_of
 from cell.rheology.cutfitting import CutFit, CutProblem, fit_cut, misfit_rss
 from cell.rheology.cuts import Blade, Block, CutTest
-from cell.rheology.diagnosis import SearchOutcome, force_noise_n
+from cell.rheology.diagnosis import Evidence, SearchOutcome, force_noise_n
 from cell.rheology.search import forward, second_start, unexplained
 from cell.rheology.settings import DiagnosisParams
 
@@ -121,7 +123,8 @@ class CutSearch:
 class CutDiagnosis(SearchOutcome):
     """What :func:`diagnose_cuts` found: as :class:`~cell.rheology.diagnosis.Diagnosis` for
     the cut tests (``noise_n``, ``baseline``, ``candidates``, ``steps``, ``extended``,
-    ``causes``, ``params``)."""
+    ``causes``, ``evidence``, ``params``); each cause's evidence is the uniaxial diagnosis's
+    :class:`~cell.rheology.diagnosis.Evidence`, its ``without`` a cut fit."""
 
     noise_n: float
     baseline: CutFit
@@ -129,7 +132,33 @@ class CutDiagnosis(SearchOutcome):
     steps: tuple[CutFit, ...]
     extended: CutFit
     causes: tuple[str, ...]
+    evidence: tuple[Evidence, ...] = ()
     params: DiagnosisParams = field(default_factory=DiagnosisParams)
+
+    def to_json(self) -> dict[str, Any]:
+        """The contract's JSON, plus the evidence of each cause (as the uniaxial
+        diagnosis's)."""
+        return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence]}
+
+
+def _evidence(search: CutSearch, final: CutFit, order: list[str]) -> tuple[Evidence, ...]:
+    """Per cause of ``final``: its held-out RMSE with and without the cause (the search's
+    fit without it, fitted now if the search has none), the share of tests the cause
+    improves, and the cause's own fitted parameters with their 95 % intervals (for
+    ``blade_friction`` the friction coefficient at the model's face pressure too)."""
+    evidence = []
+    fitted = final.fitted
+    for cause in order:
+        kept = frozenset(c for c in final.model.causes if c != cause)
+        without = search.fits.get(kept) or search.run([(final, cause)])[0]
+        own = {n: v for n, v in fitted.items() if cause_of(n) == cause}
+        if cause == "blade_friction":
+            own["face_friction"] = tuple(v / final.model.face_pressure_pa
+                                         for v in own["face_shear_pa"])
+        evidence.append(Evidence(cause, final.heldout_rmse_n, without.heldout_rmse_n,
+                                 improved_fraction(final, without, search.problem.tests),
+                                 own, without))
+    return tuple(evidence)
 
 
 def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
@@ -170,4 +199,4 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
     if unexplained(current, noise, params, problem.tests):
         causes += (UNEXPLAINED,)
     return CutDiagnosis(noise, baseline, tuple(candidates), tuple(steps), current, causes,
-                        params)
+                        _evidence(search, current, list(order)), params)

@@ -26,6 +26,15 @@ material, the gain on held-out tests, and the evidence for each cause.
    ``unexplained`` is added, unless the search run again from the runner-up single cause
    ends with less held-out error and no structure left (one cause can stand in for two others
    well enough to win the first step; the second path is kept then).
+5. Where tests repeat a condition (:mod:`cell.rheology.repeats`: mode, angle and displacement
+   path, never names), each is another specimen: the steps judge every cause with the
+   specimens' scatter within each group of repeats taken out
+   (:mod:`cell.rheology.repeatsearch`), and ``specimen_variability`` is named when the
+   repeats disagree beyond the noise, its spread fitted as a random effect
+   (:mod:`cell.rheology.spread`).
+6. Each held-out prediction of the extended model gets a 90 % interval holding the specimen
+   spread, the parameters' uncertainty and the model's discrepancy
+   (:mod:`cell.rheology.intervals`), and the share of held-out samples they cover.
 
 Candidates are fitted side by side in ``workers`` processes (default: every core). Usage::
 
@@ -52,11 +61,21 @@ import numpy as np
 
 from cell.errors import DiagnosisError
 from cell.rheology.acceptance import improved_fraction
-from cell.rheology.causes import CAUSES, EXCLUSIVE, UNEXPLAINED, CandidateMaterial
+from cell.rheology.causes import (
+    CAUSES,
+    EXCLUSIVE,
+    SPECIMEN_VARIABILITY,
+    UNEXPLAINED,
+    CandidateMaterial,
+)
 from cell.rheology.fitting import ModelFit, Problem
-from cell.rheology.measured import MeasurementSet
+from cell.rheology.intervals import PredictionIntervals, prediction_intervals
+from cell.rheology.measured import MeasurementSet, MechanicalTest
+from cell.rheology.repeats import repeat_groups
+from cell.rheology.repeatsearch import RepeatSearch, at_own_factors
 from cell.rheology.search import Search, forward, second_start, unexplained
 from cell.rheology.settings import DiagnosisParams
+from cell.rheology.spread import SpecimenSpread, specimen_spread
 
 _RELAXATION_TERMS = 2
 
@@ -75,6 +94,9 @@ class Evidence:
             do not bound it), in the units of their names (``log_`` ones: natural log, except
             ``log_relaxation_time``: log10 s).
         without: the fit without the cause (for plots).
+        with_fit: the fit with it, where that is not the extended model (for plots: for
+            ``specimen_variability``, each test at its specimen's factor within its group of
+            repeats).
     """
 
     cause: str
@@ -83,6 +105,7 @@ class Evidence:
     improved_fraction: float
     params: dict[str, tuple[float, float, float]]
     without: ModelFit
+    with_fit: ModelFit | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The evidence as the JSON's ``evidence`` entry."""
@@ -138,6 +161,10 @@ class Diagnosis(SearchOutcome):
         evidence: per accepted cause, in the order of ``causes``.
         params: the settings it ran with.
         explored: every model the search fitted.
+        specimen: the specimen spread between tests under equal conditions
+            (:mod:`cell.rheology.spread`).
+        intervals: the extended model's held-out predictions with their 90 % intervals
+            (:mod:`cell.rheology.intervals`).
 
     ``to_json()`` is the JSON that ``musclecell diagnose --json`` writes.
     """
@@ -152,6 +179,8 @@ class Diagnosis(SearchOutcome):
     evidence: tuple[Evidence, ...] = ()
     params: DiagnosisParams = field(default_factory=DiagnosisParams)
     explored: tuple[ModelFit, ...] = ()
+    specimen: SpecimenSpread = field(default_factory=SpecimenSpread.absent)
+    intervals: PredictionIntervals | None = None
 
     def material_comment(self) -> str:
         """The comment lines on top of the extended material's file: where it comes from,
@@ -169,8 +198,11 @@ class Diagnosis(SearchOutcome):
 
     def to_json(self) -> dict[str, Any]:
         """The diagnosis contract of ``spec/measured-data.md``, plus the noise, the
-        information criteria, the search's steps and the evidence of each cause."""
-        return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence]}
+        information criteria, the search's steps, the evidence of each cause, the specimen
+        spread and the held-out predictions with their intervals."""
+        intervals = {} if self.intervals is None else {"intervals": self.intervals.to_json()}
+        return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence],
+                "specimen_variability": self.specimen.to_json(), **intervals}
 
 
 def noise_n(measurements: MeasurementSet) -> float:
@@ -279,15 +311,22 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     # on-disk cache rather than compiling it again.
     pool = (ProcessPoolExecutor(params.workers, mp_context=get_context("spawn"))
             if params.workers > 1 else None)
+    groups = repeat_groups(tests, measurements.specimen)
     try:
-        search = Search(problem, params, root, pool)
+        search = RepeatSearch(problem, params, root, pool, groups)
         baseline = search.run([(None, None)])[0]
         _require_runs(baseline)
+        floor = _judged_noise(search.plain(baseline), tests, noise, groups)
         candidates = search.run([(baseline, c) for c in CAUSES])
-        current, steps, order = forward(search, baseline, candidates, noise)
-        if unexplained(current, noise, params, tests):
-            current, steps, order = second_start(search, baseline, candidates, noise,
+        current, steps, order = forward(search, baseline, candidates, floor)
+        if unexplained(current, floor, params, tests):
+            current, steps, order = second_start(search, baseline, candidates, floor,
                                                   (current, steps, order))
+        # The evidence, the intervals and the report read the plain held-out errors.
+        search.judging = False
+        judged, current = current, search.plain(current)
+        baseline, candidates = search.plain(baseline), [search.plain(c) for c in candidates]
+        steps = [search.plain(f) for f in steps]
         evidence = _evidence(search, current, order)
     finally:
         if pool is not None:
@@ -296,10 +335,35 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     order.sort(key=lambda c: -next(e.heldout_rmse_without_n for e in evidence if e.cause == c))
     evidence = tuple(sorted(evidence, key=lambda e: order.index(e.cause)))
     causes = tuple(order)
-    if unexplained(current, noise, params, tests):
+    spread = specimen_spread(tests, current.fitted_force_n, current.offset_n, noise, groups)
+    if spread.named:
+        causes += (SPECIMEN_VARIABILITY,)
+        evidence += (Evidence(SPECIMEN_VARIABILITY, judged.heldout_rmse_n,
+                              current.heldout_rmse_n, improved_fraction(judged, current, tests),
+                              {"log_modulus_sd": (spread.sd, *spread.ci95)}, current, judged),)
+    # With a spread named, what no specimen's factor explains is left, against the noise
+    # alone (the factors took the group means' spread too); else, what the steps judged.
+    left = ((at_own_factors(current, tests, None), noise) if spread.named else (judged, floor))
+    if unexplained(*left, params, tests):
         causes += (UNEXPLAINED,)
+    intervals = prediction_intervals(problem, current, noise, spread.sd if spread.named else 0.0)
     return Diagnosis(measurements, noise, baseline, tuple(candidates), tuple(steps), current,
-                     causes, evidence, params, tuple(search.fits.values()))
+                     causes, evidence, params, tuple(search.fits.values()), spread, intervals)
+
+
+def _judged_noise(baseline: ModelFit, tests: tuple[MechanicalTest, ...], noise: float,
+                  groups: list[list[int]]) -> float:
+    """The noise a cause must explain more than, N: the force noise, and where the repeats
+    show a specimen spread, the spread of each group's mean specimen (what the steps, judged
+    within groups, still see between conditions: ``sd**2 / n`` of the material force squared,
+    ``n`` the mean group size). The spread is read about the baseline: within groups its
+    misfit drops out (:mod:`cell.rheology.spread`)."""
+    spread = specimen_spread(tests, baseline.fitted_force_n, baseline.offset_n, noise, groups)
+    if not spread.named:
+        return noise
+    size = float(np.mean([len(g) for g in groups if len(g) >= 2]))
+    material = np.concatenate([f - baseline.offset_n for f in baseline.fitted_force_n])
+    return math.sqrt(noise**2 + spread.sd**2 / size * float(np.mean(material**2)))
 
 
 def _require_runs(model_fit: ModelFit) -> None:

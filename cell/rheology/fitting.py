@@ -40,8 +40,8 @@ from cell.rheology.measured import MechanicalTest, Specimen
 from cell.rheology.specimen import SpecimenLattice, simulate_tests
 from cell.tissue.material import MassSpringMaterial
 
-# Modulus of the unit-modulus runs that E scales, Pa.
-_REFERENCE_PA = 1.0e4
+#: Modulus of the unit-modulus runs that E scales, Pa.
+REFERENCE_PA = 1.0e4
 # Residual of a fit whose material has no equilibrium somewhere: far worse than any real fit.
 FAILED = 1.0e3
 # Relative tolerances of a fit: far below the noise of any measured force, and a tenth of
@@ -103,10 +103,10 @@ class Problem:
 
     def unit_forces(self, model: CandidateMaterial, shape: np.ndarray,
                     tests: tuple[MechanicalTest, ...]) -> list[np.ndarray] | None:
-        """Each test's force at modulus ``_REFERENCE_PA``, N; None when the lattice cannot give
+        """Each test's force at modulus ``REFERENCE_PA``, N; None when the lattice cannot give
         the material or a run has no equilibrium."""
         try:
-            material = model.material(shape, _REFERENCE_PA, self.specimen.density_kg_m3)
+            material = model.material(shape, REFERENCE_PA, self.specimen.density_kg_m3)
             return [run.force_N for run in
                     simulate_tests(tests, self.specimen, material, self.lattice)]
         except (DivergenceError, MaterialError):
@@ -241,8 +241,8 @@ def fit(problem: Problem, model: CandidateMaterial, start: np.ndarray,
     parameters = len(shape) + 1 + int(model.has_offset)
     return ModelFit(
         model=model, shape=shape, shape_ci95=_ci95(jacobian, rss, count, shape),
-        modulus_pa=scale * _REFERENCE_PA, offset_n=offset,
-        material=model.material(shape, scale * _REFERENCE_PA, problem.specimen.density_kg_m3),
+        modulus_pa=scale * REFERENCE_PA, offset_n=offset,
+        material=model.material(shape, scale * REFERENCE_PA, problem.specimen.density_kg_m3),
         rmse_n=math.sqrt(rss / count),
         heldout_rmse_n=float(np.sqrt(np.mean(np.concatenate(
             [(h - t.force_N) ** 2 for h, t in zip(heldout, problem.tests, strict=True)])))),

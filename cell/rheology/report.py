@@ -4,13 +4,15 @@ the extended model changes.
 :func:`write_report` writes three files into a folder:
 
 - ``forces.png``: per test, the measured force and the baseline's and the extended model's
-  held-out predictions (each from a fit without that test) against time;
+  held-out predictions (each from a fit without that test, the extended one with its 90 %
+  interval) against time;
 - ``residuals.png``: the held-out residuals (measured minus predicted) against nominal strain,
   strain rate, time in hold, fibre angle, tension or compression and loading or unloading;
 - ``cause-<name>.png``: per named cause, the tests where it shows, predicted held out with it
   and without it (:mod:`cell.rheology.causeplots`);
-- ``report.md``: the causes, the gain, the evidence of each cause, the candidates, the
-  selection steps and the extended model's parameters, with links to the figures.
+- ``report.md``: the causes, the gain, the evidence of each cause, the specimens' spread and
+  the coverage of the held-out predictions' 90 % intervals, the candidates, the selection
+  steps and the extended model's parameters, with links to the figures.
 
 Plots need matplotlib (the ``report`` extra); it is imported only when a report is written.
 Usage (a diagnosis takes minutes, so this is not run as an example)::
@@ -35,7 +37,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from cell.rheology.cutsearch import CutDiagnosis
-    from cell.rheology.diagnosis import Diagnosis, ModelFit
+    from cell.rheology.diagnosis import Diagnosis, Evidence, ModelFit
     from cell.rheology.measured import MechanicalTest, Specimen
 
 _DPI = 110
@@ -82,6 +84,10 @@ def _draw_forces(figure: Figure, diagnosis: Diagnosis) -> Figure:
         ax.plot(test.time_s, test.force_N, ".", color="0.45", markersize=2.5, label="measured")
         ax.plot(test.time_s, diagnosis.extended.heldout_force_n[k], color=_EXTENDED,
                 label=f"extended held-out ({diagnosis.extended.heldout_rmse_n:.3g} N RMSE)")
+        if diagnosis.intervals is not None:
+            ax.fill_between(test.time_s, diagnosis.intervals.lower_n[k],
+                            diagnosis.intervals.upper_n[k], color=_EXTENDED, alpha=0.15,
+                            linewidth=0, label="its 90 % interval")
         # Dashed, so that it shows on the extended when no cause was accepted.
         ax.plot(test.time_s, diagnosis.baseline.heldout_force_n[k], "--", color=_BASELINE,
                 label=f"baseline held-out ({diagnosis.baseline.heldout_rmse_n:.3g} N RMSE)")
@@ -169,20 +175,50 @@ def _residual(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> np.ndarray:
                                                           strict=True)])
 
 
-def _evidence_lines(diagnosis: Diagnosis) -> list[str]:
-    """The evidence section: per cause, held-out RMSE with and without it, the share of tests
-    it improves, its parameters with 95 % intervals, its figure."""
-    if not diagnosis.evidence:
-        return []
+def evidence_table(evidence: tuple[Evidence, ...]) -> list[str]:
+    """The evidence section's table: per cause, held-out RMSE with and without it, the share
+    of tests it improves, its parameters with 95 % intervals (the cut report's too)."""
     lines = ["## Evidence", "", "| cause | held-out RMSE with (N) | without (N) | tests improved "
              "| parameters (95 % interval) |", "|---|---|---|---|---|"]
-    for e in diagnosis.evidence:
+    for e in evidence:
         values = "; ".join(f"{n} {v:.3g} [{lo:.3g}, {hi:.3g}]"
                            for n, (v, lo, hi) in e.params.items()) or "-"
         lines.append(f"| {e.cause} | {e.heldout_rmse_with_n:.4g} | "
                      f"{e.heldout_rmse_without_n:.4g} | {e.improved_fraction:.0%} | {values} |")
-    lines.append("")
+    return [*lines, ""]
+
+
+def _evidence_lines(diagnosis: Diagnosis) -> list[str]:
+    """The evidence section: :func:`evidence_table` and each cause's figure."""
+    if not diagnosis.evidence:
+        return []
+    lines = evidence_table(diagnosis.evidence)
     lines += [f"![{e.cause}: with and without it](cause-{e.cause}.png)" for e in diagnosis.evidence]
+    return [*lines, ""]
+
+
+def _interval_lines(diagnosis: Diagnosis) -> list[str]:
+    """The specimens and the held-out predictions' 90 % intervals: the spread between repeats,
+    the coverage of each test's samples by its interval, the parts of the intervals."""
+    spread, intervals = diagnosis.specimen, diagnosis.intervals
+    lines = ["## Specimens and predictions with intervals", ""]
+    if spread.groups:
+        low, high = spread.ci95
+        lines += [f"{len(spread.groups)} groups of tests under equal conditions; the spread "
+                  f"between their specimens (sd of the log modulus factor) {spread.sd:.3g} "
+                  f"[{low:.3g}, {high:.3g}], likelihood ratio {spread.likelihood_ratio:.3g} "
+                  f"against none (named above {spread.critical:.3g}).", ""]
+    else:
+        lines += ["No tests under equal conditions: the spread between specimens is not "
+                  "measured, and the intervals hold it in the model's discrepancy.", ""]
+    if intervals is None:
+        return lines
+    parts = ", ".join(f"{name} {value:.3g} N" for name, value in intervals.parts_n.items())
+    lines += [f"The 90 % intervals of the held-out predictions cover "
+              f"{intervals.overall_coverage:.1%} of the held-out samples (RMS parts: {parts}).",
+              "", "| test | coverage | discrepancy (relative) |", "|---|---|---|"]
+    lines += [f"| {t} | {c:.0%} | {d:.3g} |" for t, c, d in
+              zip(intervals.test_ids, intervals.coverage, intervals.discrepancy, strict=True)]
     return [*lines, ""]
 
 
@@ -196,7 +232,8 @@ def _markdown(diagnosis: Diagnosis, folder: Path, material_path: Path | None, fo
         f"# Diagnosis of {diagnosis.measurements.specimen.name}", "", causes, "",
         f"Gain {diagnosis.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
         f"{extended.heldout_rmse_n:.4g} N (extended); noise {diagnosis.noise_n:.3g} N.", "",
-        *_evidence_lines(diagnosis), *search_lines(diagnosis, folder, material_path),
+        *_evidence_lines(diagnosis), *_interval_lines(diagnosis),
+        *search_lines(diagnosis, folder, material_path),
         f"![Measured and held-out forces]({forces})", "",
         f"![Held-out residuals]({residuals})", "",
     ]

@@ -26,6 +26,9 @@ from cell.rheology.settings import DiagnosisParams
 
 # Single additions whose pairs the search tries when none passes alone.
 _LOOK_AHEAD = 3
+# Causes that the other causes' parameters absorb in part while they are missing: added to a
+# model, they are also fitted from the model's own start.
+_ABSORBED = (*RELAXING, "force_offset")
 
 
 def _task(args: tuple) -> ModelFit:
@@ -67,6 +70,17 @@ def _variants(model: CandidateMaterial, cause: str) -> list[CandidateMaterial]:
     return [base]
 
 
+def _mirrored(fitted: ModelFit) -> tuple[tuple[str, ...], np.ndarray]:
+    """``fitted``'s (names, values) with each compression term (``*_compressed``,
+    ``compression_*``) at the value of its tension twin."""
+    names, values = fitted.model.parameter_names, fitted.shape.copy()
+    for i, name in enumerate(names):
+        twin = name.removesuffix("_compressed").removeprefix("compression_")
+        if twin != name and twin in names:
+            values[i] = values[names.index(twin)]
+    return names, values
+
+
 class Search:
     """The fits of one diagnosis, remembered by their causes, run side by side in ``pool``
     (None: in this process); ``root`` is the material every candidate extends (the module
@@ -99,10 +113,16 @@ class Search:
             else:
                 models = _variants(model, cause)
             starts = [None if base is None else (base.model.parameter_names, base.shape)]
-            if cause in RELAXING and base is not None and base.model.causes:
-                # The other causes' parameters, fitted without relaxation, may sit where they
-                # absorbed some of it: a fit from there can stall far from the best.
+            if cause in _ABSORBED and base is not None and base.model.causes:
+                # The other causes' parameters, fitted without relaxation or without the
+                # load cell's offset, may sit where they absorbed some of it: a fit from there
+                # can stall far from the best, and the cause then looks to explain too little.
                 starts.append(None)
+                if cause == "force_offset":
+                    # An offset is followed by the compression terms (an anisotropy's oblique
+                    # factor in compression bent far from the tension one), and a fit from
+                    # there, or from none, stays in that basin.
+                    starts.append(_mirrored(base))
             keys.append(frozenset(models[0].causes))
             tasks.append((self.problem, models, starts, self.params.max_evaluations))
         todo = [(k, t) for k, t in zip(keys, tasks, strict=True)

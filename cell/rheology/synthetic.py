@@ -35,7 +35,7 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -149,12 +149,15 @@ class HiddenEffect:
         magnitudes: the drawn parameters: ``young_pa`` (baseline E) always, plus each
             effect's own (:func:`cell.rheology.truth.draw_magnitudes`).
         noise_n: standard deviation of the force noise, N.
+        specimen_factors: per test, the factor of its specimen on the material (empty for
+            one specimen throughout: a set without :class:`Repeats`).
     """
 
     effects: tuple[str, ...]
     seed: int
     magnitudes: dict[str, float]
     noise_n: float
+    specimen_factors: tuple[float, ...] = ()
 
     @property
     def effect(self) -> str | None:
@@ -221,7 +224,46 @@ def _protocol(rng: np.random.Generator) -> list[TestPlan]:
     return tests
 
 
-_HIDDEN_DIGITS = Digits(time_s=4, displacement_m=10, force_n=8, size_m=5)
+HIDDEN_DIGITS = Digits(time_s=4, displacement_m=10, force_n=8, size_m=5)
+"""Decimals of the hidden-effect sets' files (and of a test added to one)."""
+
+
+@dataclass(frozen=True)
+class Repeats:
+    """Tests repeated under equal conditions, each on another specimen: the first
+    ``conditions`` tests of the protocol, ``count`` times each (ids ``<id>-<k>``), every test's
+    force times its specimen's factor ``exp(u)``, ``u ~ N(0, spread_sd**2)`` (a factor on the
+    whole material: every term of the truth's stress scales with its modulus).
+
+    Attributes:
+        conditions: tests of the protocol kept (1 to 10).
+        count: repeats of each (at least 1).
+        spread_sd: standard deviation of the log factor (0: one material throughout).
+
+    Example:
+        >>> Repeats(5, 3, 0.2).count
+        3
+    """
+
+    conditions: int = 10
+    count: int = 3
+    spread_sd: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (1 <= self.conditions <= 10 and self.count >= 1 and self.spread_sd >= 0.0):
+            raise MeasurementError(None, "repeats", f"1 to 10 conditions, at least one "
+                                   f"repeat and a spread >= 0, got {self}")
+
+    def apply(self, plans: list[TestPlan], forces: list[np.ndarray], rng: np.random.Generator
+              ) -> tuple[list[TestPlan], list[np.ndarray], tuple[float, ...]]:
+        """The repeated plans, their forces and the specimens' factors."""
+        kept = range(self.conditions)
+        factors = np.exp(rng.normal(0.0, self.spread_sd, self.conditions * self.count))
+        repeated = [replace(plans[i], test_id=f"{plans[i].test_id}-{k}")
+                    for i in kept for k in range(self.count)]
+        scaled = [forces[i] * factors[j] for j, i in
+                  enumerate(i for i in kept for _ in range(self.count))]
+        return repeated, scaled, tuple(float(f) for f in factors)
 
 
 def _pick(rng: np.random.Generator, effect: Effects) -> tuple[str, ...]:
@@ -236,18 +278,21 @@ def _pick(rng: np.random.Generator, effect: Effects) -> tuple[str, ...]:
 
 
 def write_hidden_effect_set(folder: Path, seed: int, effect: Effects = "random",
-                            strength: float = 1.0) -> HiddenEffect:
+                            strength: float = 1.0, repeats: Repeats | None = None
+                            ) -> HiddenEffect:
     """Draw a set from ``seed`` with ``effect`` hidden in it, write it in ``folder``, return it.
 
     ``effect`` is a cause, several (a tuple: a combination), None, or ``"random"`` (one of
     :data:`EFFECTS`); ``strength`` in (0, 1] scales every effect towards none
-    (:func:`cell.rheology.truth.draw_magnitudes`). Everything comes from
-    ``np.random.default_rng(seed)``; the draws other than the effects' own parameters do not
-    depend on the effects. Writes ``specimen.toml`` and ``tests.csv`` (creating ``folder``).
+    (:func:`cell.rheology.truth.draw_magnitudes`); ``repeats`` repeats tests of the protocol,
+    each repeat another specimen (:class:`Repeats`). Everything comes from
+    ``np.random.default_rng(seed)`` (the specimens' factors from their own stream); the draws
+    other than the effects' own parameters do not depend on the effects, nor on the spread.
+    Writes ``specimen.toml`` and ``tests.csv`` (creating ``folder``).
 
     Raises:
-        MeasurementError: an unknown effect, one twice, both viscoelasticities, or a
-            ``strength`` outside (0, 1].
+        MeasurementError: an unknown effect, one twice, both viscoelasticities, a
+            ``strength`` outside (0, 1], or repeats out of range.
     """
     if not 0.0 < strength <= 1.0:
         raise MeasurementError(None, "strength", f"must be in (0, 1], got {strength}")
@@ -263,15 +308,19 @@ def write_hidden_effect_set(folder: Path, seed: int, effect: Effects = "random",
         return truth_stress_pa(time_s, strain, angle_deg, magnitudes)
 
     forces = [true_force_n(test, stress, area) for test in tests]
+    factors: tuple[float, ...] = ()
+    if repeats is not None:
+        tests, forces, factors = repeats.apply(tests, forces, np.random.default_rng([seed, 1]))
+        magnitudes["specimen_log_sd"] = repeats.spread_sd
     peak = max(float(np.abs(f).max()) for f in forces)
     offset = magnitudes.get("offset_fraction", 0.0) * peak
     noise_n = rng.uniform(0.003, 0.015) * peak
     measured = measure(tests, forces, height, Noise(noise_n, DISPLACEMENT_NOISE_M, offset), rng)
     write_set(folder,
               specimen_toml(_HIDDEN_HEADER, f"hidden-effect-{seed} (synthetic)", size,
-                            {"machine": "uniaxial tester (synthetic)"}, _HIDDEN_DIGITS),
-              csv_text(tests, measured, _HIDDEN_DIGITS))
-    return HiddenEffect(effects, seed, magnitudes, float(noise_n))
+                            {"machine": "uniaxial tester (synthetic)"}, HIDDEN_DIGITS),
+              csv_text(tests, measured, HIDDEN_DIGITS))
+    return HiddenEffect(effects, seed, magnitudes, float(noise_n), factors)
 
 
 def write_relaxation_set(folder: Path, seed: int) -> HiddenEffect:
@@ -307,8 +356,8 @@ def write_relaxation_set(folder: Path, seed: int) -> HiddenEffect:
     measured = measure(tests, forces, size[2], Noise(noise_n, DISPLACEMENT_NOISE_M), rng)
     write_set(folder,
               specimen_toml(_HIDDEN_HEADER, f"relaxation-{seed} (synthetic)", size,
-                            {"machine": "uniaxial tester (synthetic)"}, _HIDDEN_DIGITS),
-              csv_text(tests, measured, _HIDDEN_DIGITS))
+                            {"machine": "uniaxial tester (synthetic)"}, HIDDEN_DIGITS),
+              csv_text(tests, measured, HIDDEN_DIGITS))
     return HiddenEffect(("nonlinear_viscoelasticity",), seed, magnitudes, float(noise_n))
 
 
@@ -316,4 +365,5 @@ def describe(truth: HiddenEffect) -> dict[str, Any]:
     """The truth as plain JSON-able values (for reports)."""
     return {"effects": list(truth.effects), "seed": truth.seed,
             "magnitudes": {k: float(v) for k, v in truth.magnitudes.items()},
-            "noise_n": truth.noise_n}
+            "noise_n": truth.noise_n,
+            "specimen_factors": [float(f) for f in truth.specimen_factors]}

@@ -96,7 +96,8 @@ def diagnose_batch_command(args: argparse.Namespace) -> int:
 
     extra = [name for name, value in (("set_dir", args.set_dir), ("--json", args.json),
                                       ("--material", args.material),
-                                      ("--report", args.report)) if value is not None]
+                                      ("--report", args.report),
+                                      ("--suggest", args.suggest or None)) if value is not None]
     if extra or args.out is None:
         raise InputError(None, extra[0] if extra else "--out",
                          "diagnose --batch PARENT takes --out DIR (and --address, --workers), "

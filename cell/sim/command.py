@@ -26,6 +26,8 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--rerun", type=Path, help="write a Rerun recording (.rrd) here")
     run.add_argument("--summary", type=Path, help="write the summary JSON here")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
+    run.add_argument("--log", type=Path, help="write the episode's separation log (sensors "
+                     "over time, docs/logs.md) into this folder")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(handler=run_command)
 
@@ -35,6 +37,17 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     plan.add_argument("--json", type=Path, required=True, help="write the plan's figures here")
     plan.add_argument("--seed", type=int, help="override the scenario's seed (sensor noise)")
     plan.set_defaults(handler=plan_command)
+
+    replay = commands.add_parser(
+        "replay", help="replay a separation log: the tools follow its poses, every channel "
+        "compared per phase (docs/logs.md)")
+    replay.add_argument("logs", type=Path, nargs="+", metavar="LOG",
+                        help="the log's folder (log.toml, knife.csv, ...); several: one batch "
+                        "of meat, which must share tools, sensors and material")
+    replay.add_argument("--out", type=Path, help="write replay.json and the channels side "
+                        "by side (<channel>.csv) into this folder (several logs: a folder "
+                        "each in it, by the log folder's name)")
+    replay.set_defaults(handler=replay_command)
 
     export = commands.add_parser("export-mjcf", help="write the scene as MJCF")
     export.add_argument("scenario", type=Path)
@@ -71,13 +84,18 @@ def run_command(args: argparse.Namespace) -> int:
     """``musclecell run``."""
     from cell.io import write_json
     from cell.sim.episode import Episode
+    from cell.sim.logwriter import LoggedEpisode, write_log
 
     check_outputs([args.rerun and Output(args.rerun, "--rerun"),
-                   args.summary and Output(args.summary, "--summary")], [args.scenario])
+                   args.summary and Output(args.summary, "--summary"),
+                   args.log and Output(args.log, "--log", folder=True)], [args.scenario])
     scenario = load(args)
-    summary = Episode(scenario).run(rerun_path=args.rerun, progress=not args.quiet)
+    episode = LoggedEpisode(scenario) if args.log else Episode(scenario)
+    summary = episode.run(rerun_path=args.rerun, progress=not args.quiet)
     if args.summary:
         write_json(args.summary, summary)
+    if isinstance(episode, LoggedEpisode):
+        write_log(args.log, episode, args.scenario)
     result = summary["result"]
     print(f"released {result['released_fraction']:.1%} of {result['bindings']} bindings "
           f"{result['released_by_rule']}, median gap {result['gap_m']['median'] * 1e3:.1f} mm, "
@@ -150,3 +168,36 @@ def render_command(args: argparse.Namespace) -> int:
     write_atomic(args.png, png_bytes(rgb))
     print(f"wrote {args.png} ({args.width} x {args.height} px)")
     return 0
+
+
+def replay_command(args: argparse.Namespace) -> int:
+    """``musclecell replay``: the logs read (a bad one, or logs that are not one batch, stop
+    it: nothing written), replayed and compared."""
+    from cell.sim.logbatch import read_log_batch
+    from cell.sim.logformat import read_log
+    from cell.sim.replay import replay, write_replay
+
+    check_outputs([args.out and Output(args.out, "--out", folder=True)], args.logs)
+    logs = (read_log_batch(args.logs).logs if len(args.logs) > 1
+            else (read_log(args.logs[0]),))
+    names = [log.folder.name for log in logs]
+    if len(set(names)) < len(names):
+        names = [f"{k + 1}-{name}" for k, name in enumerate(names)]
+    for log, name in zip(logs, names, strict=True):
+        result = replay(log)
+        if args.out:
+            write_replay(args.out / name if len(logs) > 1 else args.out, result)
+        _print_replay(result.summary())
+    return 0
+
+
+def _print_replay(summary: dict) -> None:
+    print(f"{summary['log']}:")
+    for name, phases in summary["rmse_share"].items():
+        shares = ", ".join(f"{phase} {'-' if v is None else f'{v:.1%}'}"
+                           for phase, v in phases.items())
+        print(f"  {name}: RMSE over peak {shares}")
+    counts = summary["counts"]
+    print(f"  released {counts['released']['replayed']} (logged "
+          f"{counts['released']['logged']}), torn {counts['torn']['replayed']} (logged "
+          f"{counts['torn']['logged']}) of {summary['bindings']} bindings")

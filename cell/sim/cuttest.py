@@ -23,9 +23,15 @@ The physics (scene: :mod:`cell.sim.cuttestscene`):
   the cut faces' contact on the blade, not a tearing of the mesh that would change with its
   cell size. The crack follows the edge's path through the rest frame (the depth the
   reduced model uses), not the deformed tissue;
-- the **faces** press on the blade through MuJoCo's contacts, with the material's
-  ``face_friction``: their pressure comes from the tissue closing on the blade's thickness
-  (``face_pressure_pa``, the reduced model's stand-in for it, is not used here).
+- the **faces** press on the blade through MuJoCo's contacts (frictionless), and drag with
+  the material's face law (:func:`~cell.tissue.cutmodel.face_friction_force`: ``mu p`` on
+  each face) over the area of the cut that the blade is in, read on the mesh (the released
+  ties above the edge, each with its share of the plane: :meth:`_Cut.face_area_m2`). The
+  pressure p is the material's ``face_pressure_pa``, as in the reduced model, not the
+  contacts': the mesh's contacts press on the blade with what the lattice's cells push
+  across a blade thinner than one of them, far below the material's and changing with the
+  cell size, a property of the mesh, whereas the faces' drag is the material's (the
+  diagnosis page, "The faces of a cut").
 
 The edge is engaged (cuts fresh material) while it sinks below the deepest point it has
 reached; moving back out or along its own cut only the faces drag.
@@ -61,7 +67,13 @@ from cell.errors import InputError
 from cell.rheology.cuts import Blade, Block
 from cell.sim.cuttestscene import HALVES, CutScene, build_cut_scene, normal_axis
 from cell.sim.divergence import check_state, fatal_warnings
-from cell.tissue.cutmodel import CuttingParams, edge_force, push_and_slice
+from cell.tissue.cutmodel import (
+    CuttingParams,
+    edge_force,
+    face_friction_force,
+    path_velocity_m_s,
+    push_and_slice,
+)
 from cell.tissue.massspring import MassSpringModel
 from cell.tissue.material import MassSpringMaterial
 
@@ -120,7 +132,8 @@ class SimulatedCut:
         time_s: (n,) the test's times, s.
         force_n: (n, 3) force the block exerts on the blade, N: ``edge_n + faces_n``.
         edge_n: (n, 3) the edge term's share, N.
-        faces_n: (n, 3) the cut faces' contacts on the blade (pressure and friction), N.
+        faces_n: (n, 3) the cut faces on the blade: their contacts' pressure and the face
+            law's friction, N.
         released: (n,) ties released so far.
         ties: number of ties of the plane.
         nodes: tissue vertices of the mesh.
@@ -173,7 +186,7 @@ def edge_term_n(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bla
         >>> (force[:, 2] + 0.0).tolist()  # in air, then 500 J/m^2 over the 0.03 m block
         [0.0, 15.0, 15.0]
     """
-    velocity = np.gradient(edge_m, time_s, axis=0, edge_order=2 if len(time_s) > 2 else 1)
+    velocity = path_velocity_m_s(time_s, edge_m)
     edge_direction = np.asarray(blade.edge_direction)
     push, slide = push_and_slice(velocity, edge_direction, blade.blade_normal)
     spine = edge_m @ spine_direction
@@ -181,6 +194,22 @@ def edge_term_n(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bla
     length = np.array([engaged_length_m(block, p, edge_direction, blade.edge_length_m)
                        for p in edge_m]) * fresh
     return edge_force(cutting, length, push, slide, block.top_z_m - edge_m[:, 2])
+
+
+def _spans(coordinate_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's interval on a grid's axis, m: halfway to its neighbours on the grid, the
+    grid's ends at its first and last row.
+
+    Example:
+        >>> [v.tolist() for v in _spans(np.array([0.0, 0.01, 0.02, 0.01]))]
+        [[0.0, 0.005, 0.015, 0.005], [0.005, 0.015, 0.02, 0.015]]
+    """
+    rounded = np.round(coordinate_m, 9)
+    rows = np.unique(rounded)
+    middles = (rows[1:] + rows[:-1]) / 2
+    row = np.searchsorted(rows, rounded)
+    return (np.concatenate([rows[:1], middles])[row],
+            np.concatenate([middles, rows[-1:]])[row])
 
 
 class _Cut:
@@ -198,6 +227,8 @@ class _Cut:
         points = scene.tie_points_m
         self.tie_spine = points @ scene.spine_direction
         self.tie_along = points @ scene.edge_direction
+        self.tie_along_span = _spans(self.tie_along)
+        self.tie_spine_span = _spans(self.tie_spine)
         self.bound = np.ones(len(scene.ties), dtype=bool)
         self.warnings = fatal_warnings(self.data).copy()
 
@@ -218,6 +249,19 @@ class _Cut:
         if newly.any():
             self.data.eq_active[scene.ties[newly]] = 0
             self.bound &= ~newly
+
+    def face_area_m2(self, position: np.ndarray) -> float:
+        """Area of one face of the blade (edge midpoint at ``position``) in the cut, m^2: the
+        released ties' shares of the plane (halfway to their neighbours) between the edge and
+        the spine's side, within the edge's length."""
+        along = position @ self.scene.edge_direction
+        half = self.blade.edge_length_m / 2
+        low, high = self.tie_along_span
+        width = np.clip(np.minimum(high, along + half) - np.maximum(low, along - half), 0, None)
+        bottom, top = self.tie_spine_span
+        height = np.clip(top - np.maximum(bottom, position @ self.scene.spine_direction), 0,
+                         None)
+        return float((width * height)[~self.bound].sum())
 
     def faces(self) -> np.ndarray:
         """The flex contacts' force on the blade, N (block frame). With elliptic cones a
@@ -275,8 +319,8 @@ def simulate_cut(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bl
     started = clock.perf_counter()
     scene = build_cut_scene(block, blade, material,
                             float(np.median(edge_m[:, normal_axis(blade)])),
-                            settings.cell_size_m, edge_m[0], cutting.face_friction,
-                            settings.board_friction, settings.timestep_s)
+                            settings.cell_size_m, edge_m[0], settings.board_friction,
+                            settings.timestep_s)
     if block.fibre_direction is not None:
         material = replace(material, fibre_direction=block.fibre_direction)
     cut = _Cut(scene, blade, material, settings)
@@ -293,6 +337,7 @@ def simulate_cut(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bl
     read = np.zeros(len(steps), dtype=bool)
     read[chosen] = True
     face_log = np.zeros((len(steps), 3))
+    area = np.zeros(len(steps))
     released = np.zeros(len(steps), dtype=int)
     for k, end in enumerate(steps):
         start = end - dt
@@ -305,12 +350,15 @@ def simulate_cut(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bl
         cut.step()
         if read[k]:
             face_log[k] = cut.faces()
+            area[k] = cut.face_area_m2(position)
             released[k] = int((~cut.bound).sum())
         if k % 50 == 49:
             cut.check(float(end))
     cut.check(float(steps[-1]))
     edge_n = edge_term_n(time_s, edge_m, block, blade, cutting, scene.spine_direction)
-    faces_n = face_log[chosen]
+    push, slide = push_and_slice(path_velocity_m_s(time_s, edge_m), scene.edge_direction,
+                                 blade.blade_normal)
+    faces_n = face_log[chosen] + face_friction_force(cutting, area[chosen], push, slide)
     return SimulatedCut(time_s.copy(), edge_n + faces_n, edge_n, faces_n,
                         released[chosen], len(scene.ties),
                         int(cut.springs.vertex_count), clock.perf_counter() - started)

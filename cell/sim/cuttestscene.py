@@ -8,17 +8,16 @@ blade's plane (the plane a cut test's edge moves in: its edge and its sinking di
 plane's vertices doubled, each pair held by a ``connect`` equality: the material's springs
 across the plane lumped into one tie per pair, as the paper binds its two muscles. Releasing
 the ties that the edge has passed (:mod:`cell.sim.cuttest`) separates the material behind the
-edge, and the cut faces then press on the blade through MuJoCo's contacts with the blade's
-face friction, as the muscles' faces press on the cell's knife.
+edge, and the cut faces then press on the blade through MuJoCo's contacts, frictionless: the
+faces' drag is the cutting model's law over the cut's area (:mod:`cell.sim.cuttest`).
 
 The blade is the cell's blade (a box of the blade's thickness and edge length, its height
 from edge to spine the cell's :class:`~cell.robots.tools.KnifeParams` width or the block's
 height, whichever is larger, so its spine never enters the block) with the bevel of
 ``edge_angle_deg`` as a wedge along its edge, so that the edge opens a released cut instead of
 pressing its faces down. It hangs on three slide joints along the block's axes, its weight
-compensated: its position and velocity are written from the logged path before every step.
-A mocap body would not do: MuJoCo gives it no velocity, so its contacts would have no
-sliding friction.
+compensated: its position and velocity are written from the logged path before every step
+(a mocap body would have no velocity for its contacts' damping).
 
 The block frame is the world frame: the board's top at z = 0.
 
@@ -54,8 +53,8 @@ HALVES = ("near", "far")
 DEFAULT_EDGE_ANGLE_DEG = 20.0
 #: The blade's contact impedance (MuJoCo's solimp). Stiffer than the cell's knife's
 #: (:data:`cell.robots.tools.BLADE_SOLIMP`), which keeps the cell's stiff meat from flinging
-#: vertices off the blade at its 5 ms step: with that one the cut faces' friction hardly
-#: changed with the friction coefficient, and the faces' drag is what a cut test measures.
+#: vertices off the blade at its 5 ms step: chosen when the contacts carried the faces'
+#: friction, which with the cell's hardly changed with the friction coefficient.
 BLADE_SOLIMP = (0.95, 0.99, 0.001, 0.5, 2.0)
 #: solref (time constant s, damping ratio) and solimp of the ties and of the board's contacts:
 #: stiff, for MuJoCo scales a soft constraint's stiffness with the vertices' small masses, and
@@ -147,8 +146,8 @@ def _wedge_vertices(blade: Blade, height_m: float) -> np.ndarray:
                      for x, z in ((0.0, 0.0), (-half_t, height_m), (half_t, height_m))])
 
 
-def _blade_xml(blade: Blade, frame: np.ndarray, reach_m: float, start: np.ndarray,
-               friction: str) -> tuple[str, str]:
+def _blade_xml(blade: Blade, frame: np.ndarray, reach_m: float, start: np.ndarray
+               ) -> tuple[str, str]:
     """The blade's body (the bevel's wedge and the box above it; ``reach_m``, how far the
     block reaches along the spine) and the bevel's mesh asset, as MJCF."""
     angle = math.radians(blade.edge_angle_deg or DEFAULT_EDGE_ANGLE_DEG)
@@ -161,7 +160,7 @@ def _blade_xml(blade: Blade, frame: np.ndarray, reach_m: float, start: np.ndarra
     joints = "".join(f'<joint name="blade_{a}" type="slide" axis="{" ".join(map(str, e))}"/>'
                      for a, e in zip("xyz", np.eye(3).astype(int), strict=True))
     geom = (f'contype="{ROBOTS.contype}" conaffinity="{ROBOTS.conaffinity}" '
-            f'friction="{friction}" solimp="{" ".join(map(str, BLADE_SOLIMP))}" '
+            f'condim="1" solimp="{" ".join(map(str, BLADE_SOLIMP))}" '
             f'mass="{_BLADE_MASS_KG / 2}" quat="{turn}"')
     body = f"""<body name="blade" pos="{start[0]} {start[1]} {start[2]}" gravcomp="1">
     {joints}
@@ -196,13 +195,14 @@ def _feet_and_ties(spec: mujoco.MjSpec, halves: list[tuple[np.ndarray, np.ndarra
 
 def build_cut_scene(block: Block, blade: Blade, material: MassSpringMaterial, plane_m: float,
                     cell_size_m: float, edge_start_m: np.ndarray | None = None,
-                    face_friction: float = 0.0, board_friction: float = 1.0,
+                    board_friction: float = 1.0,
                     timestep_s: float = 1e-3) -> CutScene:
     """Mesh ``block`` in two halves meeting on the blade's plane at ``plane_m`` (m along the
     normal's axis), put it on the board and add ``blade`` (module docstring).
 
     ``edge_start_m``: where the edge starts (the spine's side; the block's top centre raised
-    by default); ``face_friction``: friction of the blade's faces on the cut faces.
+    by default). The blade's contacts with the tissue are frictionless: the faces' drag is
+    the cutting model's (:mod:`cell.sim.cuttest`).
 
     Raises:
         InputError: the normal off the block's axes, or the plane within half a cell of a face.
@@ -219,16 +219,14 @@ def build_cut_scene(block: Block, blade: Blade, material: MassSpringMaterial, pl
     halves = [_half_grid(block, axis, 0.0, plane_m, cell_size_m),
               _half_grid(block, axis, plane_m, size[axis], cell_size_m)]
     tissue, _ = muscles(False)
-    friction = f"{face_friction} 0.005 0.0001"
     contact = (f'contype="{tissue.contype}" conaffinity="{ROBOTS.conaffinity}" '
-               f'selfcollide="none" condim="{3 if face_friction > 0 else 1}" '
-               f'friction="{friction}" solref="0.005 1"')
+               'selfcollide="none" condim="1" solref="0.005 1"')
     flexes = "".join(
         flexcomp_xml(name, points, tets, material,
                      material.density_kg_m3 * np.prod(np.ptp(points, axis=0)),
                      radius_m=0.0002, contact=contact)
         for name, (points, tets) in zip(HALVES, halves, strict=True))
-    blade_body, bevel = _blade_xml(blade, frame, size @ np.abs(frame[:, 2]), start, friction)
+    blade_body, bevel = _blade_xml(blade, frame, size @ np.abs(frame[:, 2]), start)
     stiff_solref, stiff_solimp = (" ".join(map(str, v)) for v in (STIFF_SOLREF, STIFF_SOLIMP))
     spec = mujoco.MjSpec.from_string(f"""<mujoco model="cut_test">
 <option timestep="{timestep_s}" integrator="implicitfast" solver="CG" cone="elliptic"/>

@@ -146,6 +146,17 @@ class Episode:
         for _ in range(_READY_ITERATIONS):
             self.ik.solve(self.control_dt_s)
 
+    def start_tools_at(self, knife_pose: tuple[np.ndarray, np.ndarray],
+                       grasp_pose: tuple[np.ndarray, np.ndarray]) -> None:
+        """Start the arms with the knife's tip and the jaws at these poses (position m,
+        rotation) instead of the ready poses, before the first control step: where a replayed
+        log starts. IK (kinematics only) from the ready poses; the arms placed there."""
+        self.ik.knife.set_target(pose(*knife_pose))
+        self.ik.grasp.set_target(pose(*grasp_pose))
+        for _ in range(_READY_ITERATIONS):
+            self.ik.solve(self.control_dt_s)
+        self._place_arms()
+
     def _place_arms(self) -> None:
         data = self.sim.data
         q = self.ik.configuration.q[self.ik_qpos]

@@ -21,6 +21,7 @@ from cell.errors import InputError, MaterialError, ScenarioError
 from cell.perception.params import PerceptionParams
 from cell.robots.tools import CameraParams, FixtureParams, GripperParams, KnifeParams
 from cell.tissue.aponeurosis import ReleaseRule
+from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.geometry import MuscleShape
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial, default_meat
 from cell.tissue.materialfile import load_material, material_from_table
@@ -96,18 +97,24 @@ class AponeurosisParams:
     ``tearing_stretch_m``: stretch beyond rest length that tears a binding (paper: 1e-2 m);
     ``tearing_force_n``: a pull-off strength that tears it too (0: none).
     ``knife_margin_m``: how far beyond the blade box a binding counts as under the blade.
-    ``force_curve``: the measured knife cutting force against time since the cut began (CSV,
-    path relative to the scenario file, or ``assets/...`` for the package's own data);
-    ``force_share``: the fraction of that force one binding under the blade must carry to be
-    cut (the knife force also shears muscle and overcomes friction); ``force_scale``
-    multiplies the curve (a duller or sharper knife, a tougher or weaker aponeurosis).
-    ``edge_share``: the fraction of that force the blade's edge meets in the flesh while the
-    knife cuts (fracture and friction that neither the hooked bindings nor the flex contacts
-    make: :class:`~cell.tissue.cutting.EdgeResistance`), under any release rule; 0: none.
-    ``force_share`` and ``edge_share`` were chosen on the default episode so that the force
-    rule cuts the bindings within the blade's reach and the pull tears those below it, and the
+    ``knife_force``: where the knife's cutting force comes from. ``"cutting"`` (the default):
+    the material's cutting model (its ``[cutting]`` table, :mod:`cell.tissue.cutmodel`) with
+    the seam's toughness ``toughness_j_m2`` (J/m^2: the edge cuts aponeurosis, not muscle),
+    on the length of edge in uncut seam and the blade's area in the meat, from the geometry
+    (:class:`~cell.tissue.seamcut.SeamCut`); a material without a ``[cutting]`` table gets
+    the plain cut (the toughness alone). ``"curve"``: a measured cutting force against time,
+    ``force_curve`` (CSV, path relative to the scenario file, or ``assets/...`` for the
+    package's own data), of which the blade's edge meets ``edge_share`` in the flesh while
+    the knife cuts (:class:`~cell.tissue.cutting.EdgeResistance`; 0: none), the releases
+    before this option. ``force_share``: the fraction of the cutting force (the model's force
+    to push the edge through the seam, or the curve's) one binding under the blade must
+    carry to be cut by the force rule (the knife force also shears muscle and overcomes
+    friction); ``force_scale`` multiplies the cutting force (the seam's toughness or the
+    curve: a duller or sharper knife, a tougher or weaker aponeurosis). ``force_share`` and
+    ``edge_share`` were chosen on the default episode with the curve so that the force rule
+    cuts the bindings within the blade's reach and the pull tears those below it, and the
     knife reads about the curve's force while cutting (docs/benchmarks.md gives the
-    measurements).
+    measurements); docs/simulation.md gives the seam's toughness and its sources.
 
     Example:
         >>> AponeurosisParams(release_rules=("knife",)).tearing_stretch_m
@@ -126,6 +133,8 @@ class AponeurosisParams:
     timeconst_s: float = 0.01
     dampratio: float = 1.0
     knife_margin_m: float = 0.003
+    knife_force: Literal["cutting", "curve"] = "cutting"
+    toughness_j_m2: float = 170.0
     force_curve: str = str(asset_path("cutting_force/boning_knife_synthetic.csv"))
     force_share: float = 0.05
     force_scale: float = 1.0
@@ -137,12 +146,26 @@ class AponeurosisParams:
             if rule not in known:
                 raise InputError(None, "release_rules", f"unknown rule {rule!r}; known: {known}")
         require_positive(self, "stiffness_n_m", "tearing_stretch_m", "timeconst_s", "dampratio",
-                  "force_share", "force_scale")
+                  "force_share", "force_scale", "toughness_j_m2")
         require_non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m",
                              "edge_share")
         if "force" in self.release_rules and self.law != "spring":
             raise InputError(None, "release_rules",
                              "the force rule needs law = \"spring\" (a binding force in N)")
+
+    def cutting(self, material: CuttingParams | None) -> CuttingParams:
+        """The cutting model the knife meets in the seam: the material's (``material``, its
+        ``[cutting]`` table; None: the plain cut) with the seam's toughness times
+        ``force_scale``.
+
+        Example:
+            >>> AponeurosisParams(force_scale=2.0).cutting(None).toughness_j_m2
+            340.0
+        """
+        toughness = self.toughness_j_m2 * self.force_scale
+        if material is None:
+            return CuttingParams(toughness_j_m2=toughness)
+        return replace(material, toughness_j_m2=toughness)
 
 
 @dataclass(frozen=True)

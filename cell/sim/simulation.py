@@ -12,12 +12,14 @@ from cell.errors import MaterialError, ScenarioError
 from cell.robots.names import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM
 from cell.sim.assembly import Scene
 from cell.sim.divergence import FATAL_WARNINGS, check_state, fatal_warnings
+from cell.sim.dynamometer import Dynamometer, contact_load
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import ReleaseRule
 from cell.tissue.cutting import EdgeResistance
 from cell.tissue.forcecurve import ForceCurve
 from cell.tissue.forces import TissueForces
 from cell.tissue.massspring import MassSpringModel
+from cell.tissue.seamcut import SeamCut
 
 _SENSORS_OFF = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
 
@@ -146,7 +148,7 @@ class Simulation(TissueSimulation):
         >>> {rule.value: len(i) for rule, i in sim.apply_release_rules().items()}  # no cut yet
         {'tearing': 0}
         >>> sim.knife_load_n()  # the knife is far from the meat
-        {'bindings': 0.0, 'flesh': 0.0, 'edge': 0.0}
+        {'bindings': 0.0, 'flesh': 0.0, 'edge': 0.0, 'faces': 0.0}
     """
 
     def __init__(self, scene: Scene, scenario: Scenario) -> None:
@@ -161,6 +163,7 @@ class Simulation(TissueSimulation):
             "knife/force", "knife/torque", "gripper/force", "gripper/torque")}
         self._flex_load: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}
         self._tare = {name: np.zeros(3) for name in self._sensor}
+        self.dynamometer = Dynamometer(self.model, scene.aponeurosis)
         self._blade = self.model.geom(KNIFE_BLADE_GEOM).id
         self._knife = self.model.geom_bodyid[self._blade]
         self._gripper = self.model.body(GRIPPER_BODY).id
@@ -173,12 +176,16 @@ class Simulation(TissueSimulation):
                                 f"{stable:.3g} s of this mass-spring material and mesh "
                                 "(simulation.tissue_step = \"implicit\" has no bound)")
         params = scenario.aponeurosis
-        self.force_curve = (ForceCurve.from_csv(params.force_curve)
-                            if ReleaseRule.FORCE.value in params.release_rules
-                            or params.edge_share > 0 else None)
+        by_model = params.knife_force == "cutting"
+        self.force_curve = (ForceCurve.from_csv(params.force_curve) if not by_model and (
+            ReleaseRule.FORCE.value in params.release_rules or params.edge_share > 0) else None)
+        # The material's cutting model in the seam, or a share of the curve at the edge.
+        self.seam = (SeamCut(params.cutting(scenario.material.cutting), scene.mesh.top_line,
+                             float(scene.mesh.origin_m[2])) if by_model else None)
         self.edge = EdgeResistance(self.model)
-        self._edge_force_n = 0.0  # what the edge meets until the next release check, N
-        self._on_blade = {"bindings": np.zeros(3), "edge": np.zeros(3)}
+        self._edge_force_n = 0.0  # the curve's share the edge meets until the next check, N
+        self._cutting_n = 0.0  # the seam's force to cut where the edge was at the last step, N
+        self._on_blade = {"bindings": np.zeros(3), "edge": np.zeros(3), "faces": np.zeros(3)}
         self._lever_moment = np.zeros(3)
 
     def reset(self, state: mujoco.MjData | None = None) -> None:
@@ -190,8 +197,10 @@ class Simulation(TissueSimulation):
         self._flex_load = {}
         self.grasped = np.zeros(0, dtype=int)
         self.edge.reset()
-        self._edge_force_n = 0.0
-        self._on_blade = {"bindings": np.zeros(3), "edge": np.zeros(3)}
+        if self.seam is not None:
+            self.seam.reset()
+        self._edge_force_n = self._cutting_n = 0.0
+        self._on_blade = {"bindings": np.zeros(3), "edge": np.zeros(3), "faces": np.zeros(3)}
 
     def _sensor_slice(self, name: str) -> slice:
         sensor = self.model.sensor(name)
@@ -219,22 +228,13 @@ class Simulation(TissueSimulation):
         contacts out of ``cfrc_ext``, so out of its force and torque sensors: the knife body's
         ``cfrc_ext`` equals its ``xfrc_applied`` while the blade presses into the flesh."""
         model, data = self.model, self.data
-        force, moment = np.zeros(3), np.zeros(3)
         count = data.ncon
         if count == 0:
-            return force, moment
+            return np.zeros(3), np.zeros(3)
         geoms, flexes = data.contact.geom[:count], data.contact.flex[:count]
         on_tool = (geoms >= 0) & np.isin(model.geom_bodyid[np.maximum(geoms, 0)], bodies)
-        wrench = np.zeros(6)
-        for i in np.flatnonzero(on_tool.any(axis=1) & (flexes >= 0).any(axis=1)):
-            mujoco.mj_contactForce(model, data, i, wrench)
-            # The contact frame's first row is the normal, from geom 1 to geom 2, and the
-            # force it gives acts on geom 2.
-            world = data.contact.frame[i].reshape(3, 3).T @ wrench[:3]
-            world = world if on_tool[i, 1] else -world
-            force += world
-            moment += np.cross(data.contact.pos[i] - point_m, world)
-        return force, moment
+        on_tool &= (flexes >= 0).any(axis=1)[:, None]
+        return contact_load(model, data, on_tool, point_m)
 
     def _tool_flex_load(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`flex_contact_load` on the tool of sensor ``name``, about its site; computed
@@ -251,8 +251,9 @@ class Simulation(TissueSimulation):
         """Sensor ``name``'s reading, the flex contacts on a tool added as a real
         force/torque sensor feels them (the load on the tool pulls on the sensor: minus)."""
         value = self.data.sensordata[self._sensor[name]]
-        if name not in self._tool_sensor:
-            return value.copy()
+        if name not in self._tool_sensor:  # the fixture: what the round carries from elsewhere
+            missing = self.dynamometer.missing_load(self.data)
+            return value - self.data.site_xmat[self._sensor_site[name]].reshape(3, 3).T @ missing
         force, moment = self._tool_flex_load(name)
         load = moment if name.endswith("torque") else force
         site = self._tool_sensor[name][0]
@@ -263,14 +264,22 @@ class Simulation(TissueSimulation):
         blade_pos, blade_mat = data.geom_xpos[self._blade], data.geom_xmat[self._blade]
         self.scene.aponeurosis.track_blade(blade_pos, blade_mat)
         hooks, moment = self.tissue.apply(data)
+        half = self.model.geom_size[self._blade]
         velocity = np.zeros(6)
-        if self._edge_force_n:
+        if self._edge_force_n or self.seam is not None:
             mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_GEOM, self._blade,
                                      velocity, 0)
-        edge, edge_moment = self.edge.apply(data, self._edge_force_n, blade_pos, blade_mat,
-                                            self.model.geom_size[self._blade], velocity[3:])
-        self._on_blade = {"bindings": hooks, "edge": edge}
-        force, moment = hooks + edge, moment + edge_moment
+        if self.seam is not None:
+            seam = self.seam.load(blade_pos, blade_mat, half, velocity[3:])
+            self.edge.load(data, seam.on_blade_n, blade_pos, blade_mat, half)
+            self._cutting_n = seam.resistance_n
+            self._on_blade = {"bindings": hooks, "edge": seam.edge_n, "faces": seam.faces_n}
+            force, moment = hooks + seam.on_blade_n, moment + seam.moment_nm
+        else:
+            edge, edge_moment = self.edge.apply(data, self._edge_force_n, blade_pos, blade_mat,
+                                                half, velocity[3:])
+            self._on_blade = {"bindings": hooks, "edge": edge, "faces": np.zeros(3)}
+            force, moment = hooks + edge, moment + edge_moment
         if force.any() or data.xfrc_applied[self._knife].any():
             # xfrc_applied acts at the knife's centre of mass, the hooks' and the edge's
             # moments are about the blade centre. mju_cross: np.cross is dear on one vector.
@@ -296,8 +305,10 @@ class Simulation(TissueSimulation):
         """Release bindings by the scenario's rules; returns the indices released per rule.
 
         ``knife_time_s`` is the time since the knife began cutting (None when it does not
-        cut): the force rule reads the measured cutting force at that time, and the blade's
-        edge meets its ``edge_share`` until the next call (:class:`EdgeResistance`).
+        cut). The force rule's cutting force is the seam's force to cut where the edge is
+        (``knife_force = "cutting"``: :class:`~cell.tissue.seamcut.SeamCut`), or the measured
+        curve's at that time, of which the blade's edge meets its ``edge_share`` until the
+        next call (``"curve"``: :class:`EdgeResistance`).
         """
         params = self.scenario.aponeurosis
         apo = self.scene.aponeurosis
@@ -309,9 +320,14 @@ class Simulation(TissueSimulation):
         if ReleaseRule.KNIFE.value in rules:
             released[ReleaseRule.KNIFE] = apo.release_by_knife(self.data, self.time_s,
                                                                under_blade)
-        cutting_n = (params.force_scale * self.force_curve.at(knife_time_s)
-                     if self.force_curve is not None and knife_time_s is not None else 0.0)
-        self._edge_force_n = params.edge_share * cutting_n
+        if knife_time_s is None:
+            cutting_n = 0.0
+        elif self.seam is not None:
+            cutting_n = self._cutting_n
+        else:
+            cutting_n = (params.force_scale * self.force_curve.at(knife_time_s)
+                         if self.force_curve is not None else 0.0)
+        self._edge_force_n = 0.0 if self.seam is not None else params.edge_share * cutting_n
         if ReleaseRule.FORCE.value in rules and knife_time_s is not None:
             apo.hook(self.data, under_blade)
             threshold = params.force_share * cutting_n
@@ -325,12 +341,14 @@ class Simulation(TissueSimulation):
 
     def knife_load_n(self) -> dict[str, float]:
         """How the force on the knife splits, N (norms of world-frame vectors): ``bindings``
-        hooked on the edge, ``flesh`` pushing on the knife (its flex contacts), and the
-        ``edge``'s cutting resistance (:class:`EdgeResistance`)."""
+        hooked on the edge, ``flesh`` pushing on the knife (its flex contacts), the
+        ``edge``'s cutting resistance and the ``faces``' friction in the cut (the cutting
+        model's, :class:`~cell.tissue.seamcut.SeamCut`; none from a curve)."""
         contacts, _ = self._tool_flex_load("knife/force")
         return {"bindings": float(np.linalg.norm(self._on_blade["bindings"])),
                 "flesh": float(np.linalg.norm(contacts)),
-                "edge": float(np.linalg.norm(self._on_blade["edge"]))}
+                "edge": float(np.linalg.norm(self._on_blade["edge"])),
+                "faces": float(np.linalg.norm(self._on_blade["faces"]))}
 
     def grasp(self, jaw_half_size_m: np.ndarray) -> int:
         """Bind the shank vertices inside the jaw box (centred on the grasp site, in its frame)
@@ -360,13 +378,13 @@ class Simulation(TissueSimulation):
         site = self._sensor_site[name]
         return self.data.site_xmat[site].reshape(3, 3) @ self.read(name)
 
-    def read(self, name: str) -> np.ndarray:
+    def read(self, name: str, rng: np.random.Generator | None = None) -> np.ndarray:
         """A tared 3-vector sensor reading with the sensors' bias and noise: ``knife/force``,
         ``knife/torque``, ``gripper/force``, ``gripper/torque`` (N, N m, sensor frame) or
-        ``fixture_force``."""
+        ``fixture_force``; the noise drawn from ``rng`` (default: the sensors' own stream)."""
         params = self.scenario.sensors
         torque = name.endswith("torque")
         sigma = params.torque_noise_nm if torque else params.force_noise_n
         bias = np.asarray(params.torque_bias_nm if torque else params.force_bias_n)
         value = self._raw(name) - self._tare[name]
-        return value + bias + self.rng.normal(0.0, sigma, 3)
+        return value + bias + (self.rng if rng is None else rng).normal(0.0, sigma, 3)

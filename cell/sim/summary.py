@@ -103,7 +103,7 @@ def episode_summary(scenario: Scenario, scene: Scene, sim: Simulation, trace: Ep
         "knife_force_peak_n": _peak(trace.knife_force_n),
         "knife_force_cutting_mean_n": _mean(trace.cutting_force_n),
         # While the knife cuts: bindings hooked on its edge, flesh pushing on the blade
-        # (contacts), the edge's cutting resistance.
+        # (contacts), the edge's cutting resistance and the faces' friction in the cut.
         "knife_force_split_n": {part: {"peak": _peak(series), "mean": _mean(series)}
                                 for part, series in trace.knife_load_n.items()},
         "knife_torque_peak_nm": _peak(trace.knife_torque_nm),

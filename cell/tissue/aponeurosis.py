@@ -201,6 +201,30 @@ class Aponeurosis:
         np.add.at(squared, data.efc_id[: data.nefc][rows], data.efc_force[: data.nefc][rows] ** 2)
         return np.sqrt(squared[self.equality_ids])
 
+    def round_end_force(self, data: mujoco.MjData) -> np.ndarray:
+        """Total force (N, world frame) the spring bindings put on their round ends, pinned
+        ones too (MuJoCo applies those to nothing; they act on the fixture): what MuJoCo's
+        force sensors leave out of the fixture's load. Zero under the constraint law, whose
+        equality forces MuJoCo counts itself."""
+        count = len(self)
+        if self.law is not BindingLaw.SPRING or count == 0:
+            return np.zeros(3)
+        # The kernel on dofs of the bindings' own: round ends at 3p, shank ends after them.
+        ends = 3 * np.arange(count)
+        shank = np.where(self._shank_free, 3 * count + ends, -1)
+        qvel = np.zeros(6 * count)
+        for k in range(3):
+            free = self._round_dof >= 0
+            qvel[ends[free] + k] = data.qvel[self._round_dof[free] + k]
+            qvel[shank[self._shank_free] + k] = data.qvel[self._shank_dof[self._shank_free] + k]
+        qfrc = np.zeros(6 * count)
+        _binding_springs(data.flexvert_xpos, qvel, qfrc, self.round_vertices,
+                         self.shank_vertices, ends, shank, self.rest_length_m,
+                         self.released_at_s, self.hooked, self.hook_local, self._blade_pos,
+                         self._blade_rot, self.stiffness_n_m, self.damping_n_s_m, True,
+                         np.zeros(count), np.zeros(6))
+        return qfrc[:3 * count].reshape(count, 3).sum(axis=0)
+
     def release(self, data: mujoco.MjData, which: np.ndarray, time_s: float,
                 rule: ReleaseRule) -> np.ndarray:
         """Release the still-bound bindings selected by ``which`` (bool mask or indices);

@@ -280,6 +280,19 @@ def push_and_slice(velocity_m_s: ArrayLike, edge_direction: ArrayLike,
     return push, slide
 
 
+def path_velocity_m_s(time_s: ArrayLike, position_m: ArrayLike) -> np.ndarray:
+    """(n, 3) the velocity along a logged path of positions (n, 3) at increasing times (n,),
+    m/s: its derivative, second order on irregular samples (first with two samples).
+
+    Example:
+        >>> path_velocity_m_s([0.0, 0.5, 2.0], [[0, 0, 0], [0, 0, -0.005], [0, 0, -0.02]])[1]
+        array([ 0.  ,  0.  , -0.01])
+    """
+    time = np.asarray(time_s, dtype=float)
+    return np.gradient(np.asarray(position_m, dtype=float), time, axis=0,
+                       edge_order=2 if len(time) > 2 else 1)
+
+
 def beef_cutting() -> CuttingParams:
     """The cutting model of the default beef (``assets/materials/beef_default.toml``, whose
     comments give the sources and the derivations in full).

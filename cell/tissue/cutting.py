@@ -1,11 +1,12 @@
-"""The flesh's resistance to the knife's edge while it cuts.
+"""The flesh's resistance to the knife's edge while it cuts, and its reaction on the tissue.
 
-The measured cutting force (:class:`~cell.tissue.forcecurve.ForceCurve`) is what a knife meets
-cutting meat. The simulated cell makes only part of it: the bindings hooked on the edge and
-the flex contacts on the blade's faces. Fracture at the edge and friction along the faces, which
-a mass-spring mesh of centimetre cells cannot make, are put in here: a force against the edge's
-advance on the blade, and its reaction on the tissue vertices nearest the edge, so that the
-fixture and the table bear it as they would.
+A mass-spring mesh of centimetre cells cannot separate under a blade: fracture at the edge and
+friction along the faces are put in as forces on the blade, and their reaction on the tissue
+vertices nearest the edge, so that the fixture and the table bear it as they would. They come
+from the material's cutting model (:class:`~cell.tissue.seamcut.SeamCut`, the scenario's
+``aponeurosis.knife_force = "cutting"``, whose reaction :meth:`EdgeResistance.load` spreads)
+or from a share of a measured cutting-force curve (:meth:`EdgeResistance.apply`,
+``knife_force = "curve"``: :class:`~cell.tissue.forcecurve.ForceCurve`).
 """
 
 from __future__ import annotations
@@ -14,15 +15,13 @@ import mujoco
 import numpy as np
 from numba import njit
 
+from cell.tissue.seamcut import STALL_SPEED_M_S
+
 #: Tissue vertices that share the reaction: the flesh within a few cells of the edge. Fewer
 #: push the vertices next to the edge ahead of the blade and stretch the bindings there, and
 #: tear about twice as many of them on the default episode; this many tear about as many as
 #: without the resistance.
 REACTION_VERTICES = 96
-#: Edge speed (m/s) at which the resistance reaches 76 % of its full value (tanh(1)): it acts
-#: like friction, against the edge's motion and fading when the knife stands, so it takes energy
-#: out and never pushes a knife that has stopped. The cut runs at several times this speed.
-STALL_SPEED_M_S = 0.005
 
 
 class EdgeResistance:
@@ -83,17 +82,38 @@ class EdgeResistance:
         magnitude = force_n * np.tanh(float(blade_velocity @ edge) / STALL_SPEED_M_S)
         if magnitude == 0.0 or len(self._vertices) == 0:
             return np.zeros(3), np.zeros(3)
-        distance, along = _from_edge(data.flexvert_xpos, self._vertices,
-                                     blade_pos + half_size_m[0] * edge, axis, half_size_m[2])
+        on_blade = -magnitude * edge
+        along = self._spread(data, on_blade, blade_pos + half_size_m[0] * edge, axis,
+                             half_size_m[2])
+        # Applied on the edge (x) at the loaded vertices' mean height along the blade (z):
+        # z cross x is the blade's y.
+        return on_blade, -magnitude * along * rot[:, 1]
+
+    def load(self, data: mujoco.MjData, on_blade_n: np.ndarray, blade_pos: np.ndarray,
+             blade_mat: np.ndarray, half_size_m: np.ndarray) -> None:
+        """Put the reaction of ``on_blade_n`` (N, world: a load the caller puts on the blade's
+        edge and faces, such as :class:`~cell.tissue.seamcut.SeamCut`'s) on the tissue,
+        taking back the last step's."""
+        _add_rows(data.xfrc_applied, self._loaded, -self._load)
+        self._loaded = np.zeros(0, dtype=int)
+        if not on_blade_n.any() or len(self._vertices) == 0:
+            return
+        rot = np.asarray(blade_mat, float).reshape(3, 3)
+        self._spread(data, on_blade_n, blade_pos + half_size_m[0] * rot[:, 0], rot[:, 2],
+                     half_size_m[2])
+
+    def _spread(self, data: mujoco.MjData, on_blade: np.ndarray, edge_centre: np.ndarray,
+                axis: np.ndarray, half_length: float) -> float:
+        """Spread ``-on_blade`` over the vertices nearest the edge; returns their mean place
+        along the blade's axis from the edge's centre, m."""
+        distance, along = _from_edge(data.flexvert_xpos, self._vertices, edge_centre, axis,
+                                     half_length)
         count = min(REACTION_VERTICES, len(self._vertices))
         near = np.argpartition(distance, count - 1)[:count]
-        on_blade = -magnitude * edge
         self._loaded, self._load = self._bodies[near], -on_blade / count
         _add_rows(data.xfrc_applied, self._loaded, self._load)
-        # Applied on the edge (x) at the loaded vertices' mean height along the blade (z):
-        # z cross x is the blade's y. sum / count is ndarray.mean's arithmetic, without its
-        # overhead.
-        return on_blade, -magnitude * float(along[near].sum() / count) * rot[:, 1]
+        # sum / count is ndarray.mean's arithmetic, without its overhead.
+        return float(along[near].sum() / count)
 
 
 @njit(cache=True)

@@ -1,0 +1,168 @@
+"""``musclecell bench diagnose --spread``: sets of tests repeated under equal conditions, each
+test another specimen, diagnosed unseen.
+
+Per seed two sets of the same structure (the hidden-effect protocol's ten tests, three times
+each: thirty tests, :class:`~cell.rheology.synthetic.Repeats`) and the same draws: one with a
+hidden specimen spread (the standard deviation of the log modulus factor drawn in
+:data:`SPREAD_RANGE`), one without. The material effect hidden beside it cycles through the
+catalogue and none with the seed, as the ``single`` kind of :mod:`cell.bench.diagnose` does.
+Each set is written to a temporary folder, read back and diagnosed; the wall time of
+:func:`~cell.rheology.diagnosis.diagnose` is measured per set.
+
+Targets (:data:`TARGETS`): ``specimen_variability`` named in >= 90 % of the sets with a spread
+and <= 10 % of those without; the fitted spread within 35 % of the truth in >= 75 % of the
+sets with one; the 90 % intervals of the held-out predictions covering 85 to 95 % of the
+held-out samples (the median over sets, for each kind of set); median <= 45 s and max <= 90 s
+per set.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cell.bench.diagnose import check_request, hidden, time_summary
+from cell.rheology import synthetic as generator
+
+#: The spread's standard deviation (of the log modulus factor) is drawn in this range.
+SPREAD_RANGE = (0.10, 0.30)
+#: Conditions and repeats of a set.
+CONDITIONS, REPEATS = 10, 3
+#: The first seed; the tests use seeds below 10 000, the tuning 90 000 to 93 999.
+FIRST_SEED = 60_000
+#: Targets: wall time of one diagnosis of a thirty-test set, s (the median, the slowest).
+TARGET_SECONDS_MEDIAN = 45.0
+TARGET_SECONDS_PER_SET = 90.0
+#: Targets on fractions of sets (module docstring).
+TARGETS = {"named_with_spread": 0.9, "named_without_spread": 0.1, "spread_within_35pc": 0.75}
+#: Target range of the median coverage of the held-out samples by their 90 % intervals.
+TARGET_COVERAGE = (0.85, 0.95)
+KINDS = ("spread", "no_spread")
+
+
+def bench_seeds(count: int) -> list[int]:
+    """The seeds of ``count`` pairs of sets."""
+    return [FIRST_SEED + i for i in range(count)]
+
+
+def spread_sd(seed: int) -> float:
+    """The hidden spread of the set of ``seed`` with one (its own stream: the set's other draws
+    are those of the set without)."""
+    return float(np.random.default_rng([seed, 2]).uniform(*SPREAD_RANGE))
+
+
+def run_one(folder: Path, seed: int, kind: str, workers: int) -> dict[str, Any]:
+    """Write, read and diagnose the set of ``seed`` and ``kind``: its row of the bench."""
+    from cell.rheology.diagnosis import CAUSES, diagnose
+    from cell.rheology.measured import load_measurement_set
+    from cell.rheology.settings import DiagnosisParams
+
+    effects = hidden(seed, "single")
+    sd = spread_sd(seed) if kind == "spread" else 0.0
+    truth = generator.write_hidden_effect_set(folder, seed, effects,
+                                              repeats=generator.Repeats(CONDITIONS, REPEATS, sd))
+    data = load_measurement_set(folder)
+    start = time.perf_counter()
+    result = diagnose(data, DiagnosisParams(workers=workers))
+    seconds = time.perf_counter() - start
+    named = [c for c in result.causes if c in CAUSES]
+    intervals = result.intervals
+    return {"seed": seed, "kind": kind, "truth": generator.describe(truth),
+            "causes": list(result.causes), "spread_sd_truth": sd,
+            "spread_named": "specimen_variability" in result.causes,
+            "spread_sd_fitted": result.specimen.sd, "spread_ci95": list(result.specimen.ci95),
+            "spread_within_35pc": sd > 0 and abs(result.specimen.sd - sd) <= 0.35 * sd,
+            "material_causes_correct": sorted(named) == sorted(effects),
+            "coverage": intervals.overall_coverage if intervals else float("nan"),
+            "coverage_per_test": dict(zip(intervals.test_ids, intervals.coverage, strict=True))
+            if intervals else {},
+            "interval_parts_rms_N": intervals.parts_n if intervals else {},
+            "repeat_groups": len(result.specimen.groups), "seconds": seconds,
+            "tests": len(data.tests)}
+
+
+def run_spread_bench(seeds: Sequence[int], workers: int | None = None,
+                     progress: Callable[[str], None] | None = None,
+                     kinds: Sequence[str] = KINDS) -> dict[str, Any]:
+    """Diagnose the sets of each seed and kind (module docstring): rows, entries, targets.
+
+    Raises:
+        MeasurementError: no seed, or an unknown kind.
+    """
+    import os
+
+    for kind in kinds:
+        check_request(seeds, kind, KINDS)
+    workers = workers or os.cpu_count() or 1
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="bench-spread-") as scratch:
+        for seed in seeds:
+            for kind in kinds:
+                row = run_one(Path(scratch) / f"{kind}-{seed}", seed, kind, workers)
+                rows.append(row)
+                if progress is not None:
+                    progress(f"seed {seed} {kind}: spread {row['spread_sd_truth']:.3f}, fitted "
+                             f"{row['spread_sd_fitted']:.3f}, named {'+'.join(row['causes'])}"
+                             f", coverage {row['coverage']:.3f}, {row['seconds']:.1f} s")
+    return summarize(rows, workers, list(seeds))
+
+
+def summarize(rows: list[dict[str, Any]], workers: int, seeds: list[int]) -> dict[str, Any]:
+    """The bench's JSON from its rows (several runs' rows may be joined)."""
+    entries: dict[str, Any] = {}
+    targets: dict[str, Any] = {}
+    for kind in KINDS:
+        kept = [r for r in rows if r["kind"] == kind]
+        if not kept:
+            continue
+        named = sum(r["spread_named"] for r in kept)
+        coverage = [r["coverage"] for r in kept]
+        entries[f"{kind}_named"] = {"value": named / len(kept), "unit": "fraction",
+                                    "count": named, "of": len(kept)}
+        entries[f"{kind}_coverage_median"] = {"value": statistics.median(coverage),
+                                              "unit": "fraction"}
+        entries[f"{kind}_coverage_range"] = {"value": max(coverage) - min(coverage),
+                                             "unit": "fraction", "min": min(coverage),
+                                             "max": max(coverage),
+                                             "quartiles": statistics.quantiles(coverage, n=4)
+                                             if len(coverage) > 1 else coverage * 3}
+        entries[f"{kind}_material_causes_correct"] = {
+            "value": sum(r["material_causes_correct"] for r in kept) / len(kept),
+            "unit": "fraction", "of": len(kept)}
+        median = statistics.median(coverage)
+        targets[f"{kind}_coverage_median"] = {
+            "value": median, "target": TARGET_COVERAGE[0], "unit": "fraction",
+            "pass": TARGET_COVERAGE[0] <= median <= TARGET_COVERAGE[1]}
+        key = "named_with_spread" if kind == "spread" else "named_without_spread"
+        share = named / len(kept)
+        targets[key] = {"value": share, "target": TARGETS[key], "unit": "fraction",
+                        "pass": share >= TARGETS[key] if kind == "spread"
+                        else share <= TARGETS[key]}
+        if kind == "spread":
+            within = sum(r["spread_within_35pc"] for r in kept) / len(kept)
+            entries["spread_within_35pc"] = {"value": within, "unit": "fraction"}
+            targets["spread_within_35pc"] = {"value": within,
+                                             "target": TARGETS["spread_within_35pc"],
+                                             "unit": "fraction",
+                                             "pass": within >= TARGETS["spread_within_35pc"]}
+    time_entries, time_targets = time_summary([r["seconds"] for r in rows],
+                                              TARGET_SECONDS_MEDIAN, TARGET_SECONDS_PER_SET)
+    return {"suite": "diagnose", "kind": "spread", "workers": workers, "seeds": seeds,
+            "sets": rows, "entries": {**time_entries, **entries},
+            "targets": {**time_targets, **targets}, "markdown": markdown(rows)}
+
+
+def markdown(rows: list[dict[str, Any]]) -> str:
+    """One line per set: seed, kind, spread (truth, fitted), causes, coverage, seconds."""
+    lines = ["| seed | kind | spread truth | fitted | named | coverage | s |",
+             "| --- | --- | ---: | ---: | --- | ---: | ---: |"]
+    lines += [f"| {r['seed']} | {r['kind']} | {r['spread_sd_truth']:.3f} | "
+              f"{r['spread_sd_fitted']:.3f} | {', '.join(r['causes']) or 'none'} | "
+              f"{r['coverage']:.3f} | {r['seconds']:.1f} |" for r in rows]
+    return "\n".join(lines) + "\n"

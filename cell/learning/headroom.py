@@ -1,0 +1,168 @@
+"""What ``Steer-v1`` leaves to gain before any training: its baselines on the same seeds (no
+steering, the steering rule tuned on tuning seeds, and the ceiling that steers on the true
+interface), each episode's tip-to-interface distance and outcome, the table with 95 %
+intervals and the paired differences.
+
+Seeds: the rule is tuned on :data:`RULE_TUNING_SEED_START` on (no test, evaluation or
+constant search uses them), the table is measured on the evaluation seeds (100000 on).
+"""
+
+from __future__ import annotations
+
+import itertools
+import multiprocessing
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from cell.learning.environments import START_METHOD, make_env
+from cell.learning.paired import paired_mean_difference, paired_success_difference
+from cell.learning.table import mean_interval, wilson
+from envs.policies import SteeringKnife, TableSkimmingKnife, true_interface_policy
+
+ENV_ID = "musclecell/Steer-v1"
+#: First seed of the episodes that tune the steering rule.
+RULE_TUNING_SEED_START = 300_000
+#: The rule's settings tried by :func:`tune_rule`: every combination.
+RULE_GRID: dict[str, tuple[float, ...]] = {
+    "load_sign": (1.0, -1.0),
+    "gain_m_per_n_s": (0.001, 0.003, 0.01),
+    "on_interface_load_n": (0.0,),
+    "weak_side_gain": (1.0, 4.0),
+}
+#: The baselines by name.
+BASELINES = ("no-steering", "rule", "ceiling")
+
+
+@dataclass(frozen=True)
+class SteerEpisode:
+    """One episode to play: the baseline's name (or ``learned``), the rule's settings (for
+    ``rule``), the seed, the env's keyword arguments and the learned policy's folder (for
+    ``learned``)."""
+
+    policy: str
+    rule: tuple[tuple[str, float], ...]
+    seed: int
+    env_kwargs: tuple[tuple[str, Any], ...] = ()
+    learned: str = ""
+
+
+def play(task: SteerEpisode) -> dict[str, Any]:
+    """One episode of ``task``: its outcome and the tip's distance to the interface."""
+    env = make_env(ENV_ID, dict(task.env_kwargs))
+    if task.policy == "ceiling":
+        policy = true_interface_policy(env)
+    elif task.policy == "learned":
+        from cell.learning.baselines import load_learned
+
+        policy = load_learned(task.learned)
+    elif task.policy == "rule":
+        policy = SteeringKnife(**dict(task.rule))
+    else:
+        policy = TableSkimmingKnife(limits=env.unwrapped.limits)
+    obs, info = env.reset(seed=task.seed)
+    done = False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(policy(obs))
+        done = terminated or truncated
+    env.close()
+    return {"policy": task.policy, "rule": dict(task.rule), "seed": task.seed,
+            "tip_mean_mm": _mm(info["tip_distance_mean_m"]),
+            "tip_max_mm": _mm(info["tip_distance_max_m"]), "success": bool(info["success"]),
+            "torn_fraction": float(info["torn_fraction"]),
+            "released_fraction": float(info["released_fraction"]),
+            "elapsed_s": float(info["elapsed_s"]), "path_error": info["path_error"]}
+
+
+def _mm(metres: float | None) -> float:
+    # A tip that never came across from the interface scores as far as the worst bound.
+    return 1e3 * metres if metres is not None else float("nan")
+
+
+def play_all(tasks: Sequence[SteerEpisode], workers: int) -> list[dict[str, Any]]:
+    """``tasks`` in ``workers`` processes, in order."""
+    if workers <= 1:
+        return [play(task) for task in tasks]
+    with multiprocessing.get_context(START_METHOD).Pool(workers) as pool:
+        return pool.map(play, tasks, chunksize=1)
+
+
+def rule_settings() -> list[dict[str, float]]:
+    """Every combination of :data:`RULE_GRID`."""
+    names = list(RULE_GRID)
+    return [dict(zip(names, values, strict=True))
+            for values in itertools.product(*RULE_GRID.values())]
+
+
+def tune_rule(episodes: int, workers: int, env_kwargs: Mapping[str, Any]
+              ) -> dict[str, Any]:
+    """Each of :func:`rule_settings` on ``episodes`` tuning seeds; the chosen one has the
+    least mean tip distance among those whose success rate is no lower than no steering's
+    on the same seeds."""
+    seeds = range(RULE_TUNING_SEED_START, RULE_TUNING_SEED_START + episodes)
+    kwargs = tuple(sorted(env_kwargs.items()))
+    settings = rule_settings()
+    tasks = [SteerEpisode("no-steering", (), seed, kwargs) for seed in seeds]
+    tasks += [SteerEpisode("rule", tuple(sorted(rule.items())), seed, kwargs)
+              for rule in settings for seed in seeds]
+    rows = play_all(tasks, workers)
+    plain = rows[:episodes]
+    floor = np.mean([row["success"] for row in plain])
+    scores = []
+    for index, rule in enumerate(settings):
+        mine = rows[episodes * (index + 1):episodes * (index + 2)]
+        scores.append({"rule": rule, "tip_mean_mm": float(np.nanmean(
+            [row["tip_mean_mm"] for row in mine])), "success_rate": float(np.mean(
+                [row["success"] for row in mine]))})
+    allowed = [score for score in scores if score["success_rate"] >= floor] or scores
+    chosen = min(allowed, key=lambda score: score["tip_mean_mm"])
+    return {"seeds": [seeds.start, seeds.stop - 1], "no_steering": {
+        "tip_mean_mm": float(np.nanmean([row["tip_mean_mm"] for row in plain])),
+        "success_rate": float(floor)}, "scores": scores, "chosen": chosen["rule"]}
+
+
+def baseline_table(rule: Mapping[str, float], seeds: Sequence[int], workers: int,
+                   env_kwargs: Mapping[str, Any], learned: str = "") -> dict[str, Any]:
+    """The three baselines (and the policy of the run folder ``learned``, if given) on
+    ``seeds``: per policy the mean tip distance (mm), its max, the torn fraction and the time
+    with 95 % t intervals, the success rate with its Wilson interval; the paired differences
+    of the tip distance and the success (rule less no steering, ceiling less rule, ceiling
+    less no steering, learned less rule); and every episode."""
+    kwargs = tuple(sorted(env_kwargs.items()))
+    names = (*BASELINES, "learned") if learned else BASELINES
+    tasks = [SteerEpisode(name, tuple(sorted(rule.items())) if name == "rule" else (), seed,
+                          kwargs, learned) for name in names for seed in seeds]
+    rows = play_all(tasks, workers)
+    by_name = {name: [row for row in rows if row["policy"] == name] for name in names}
+    table = {name: _summary(mine) for name, mine in by_name.items()}
+    pairs = {}
+    compared = [("rule", "no-steering"), ("ceiling", "rule"), ("ceiling", "no-steering")]
+    for better, worse in compared + ([("learned", "rule")] if learned else []):
+        scored = [(a["tip_mean_mm"], b["tip_mean_mm"])
+                  for a, b in zip(by_name[better], by_name[worse], strict=True)
+                  if np.isfinite(a["tip_mean_mm"]) and np.isfinite(b["tip_mean_mm"])]
+        pairs[f"{better} - {worse}"] = {
+            "tip_mean_mm": paired_mean_difference(*map(list, zip(*scored, strict=True))),
+            "tip_scored_on": len(scored),
+            "success": paired_success_difference(
+                [row["success"] for row in by_name[better]],
+                [row["success"] for row in by_name[worse]])}
+    return {"env": ENV_ID, "seeds": [min(seeds), max(seeds)], "rule": dict(rule),
+            "table": table, "paired": pairs, "episodes": rows}
+
+
+def _summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """One policy's row; the tip's distances over the episodes that scored it (a protective
+    stop at the entry ends an episode before the tip comes across from the interface)."""
+    successes = sum(row["success"] for row in rows)
+    scored = [row for row in rows if np.isfinite(row["tip_mean_mm"])]
+    return {"episodes": len(rows), "successes": successes,
+            "success_rate": successes / len(rows), "success_interval": wilson(successes,
+                                                                              len(rows)),
+            "tip_unscored": len(rows) - len(scored),
+            **{key: mean_interval([row[key] for row in scored])
+               for key in ("tip_mean_mm", "tip_max_mm")},
+            **{key: mean_interval([row[key] for row in rows])
+               for key in ("torn_fraction", "elapsed_s")}}

@@ -1,0 +1,31 @@
+"""``learn --envs 2`` over ``--envs 1`` alone (the ``learn_scaling_2_over_1`` entry of
+``musclecell bench env``): two ``learn Cut-v1`` runs of the same steps per env and per update,
+their env steps per second and ratio, with the load average, as JSON. Run it on otherwise
+idle cores; the default (65536 steps per env, 1024 per update) takes about five minutes with
+one env and three with two on a 2-core machine."""
+
+import argparse
+import json
+from pathlib import Path
+
+from cell.bench.env import LEARN_SCALING_STEPS, bench_learn_scaling
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--steps-per-env", type=int, default=LEARN_SCALING_STEPS[0])
+    parser.add_argument("--n-steps", type=int, default=LEARN_SCALING_STEPS[1],
+                        help="env steps per env between updates")
+    parser.add_argument("--json", type=Path, default=Path("out/bench_learn_scaling.json"))
+    args = parser.parse_args()
+    entry = bench_learn_scaling(args.steps_per_env, args.n_steps)
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(entry, indent=2) + "\n")
+    print(f"learn --envs 2 over --envs 1: {entry['value']:.2f} (target {entry['target']}: "
+          f"{'pass' if entry['pass'] else 'FAIL'}); envs 1 {entry['envs1']['value']:.0f}, "
+          f"envs 2 {entry['envs2']['value']:.0f} env steps/s; load {entry['load_1min']}; "
+          f"wrote {args.json}")
+
+
+if __name__ == "__main__":
+    main()

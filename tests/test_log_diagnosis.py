@@ -1,0 +1,188 @@
+"""The pieces of the batch diagnosis of separation logs: the causes as changes of the world
+(:mod:`cell.sim.logcauses`), the linear algebra (:mod:`cell.sim.logfit`: the closed-form
+offset, the forward selection, the logs left out) and the command line's refusals."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cell.cli import main
+from cell.errors import LogError
+from cell.sim.logbatch import LogBatch
+from cell.sim.logcauses import (
+    CAUSES,
+    GradedSeam,
+    applicable,
+    changed_world,
+    episode_adjustment,
+    magnitudes_json,
+)
+from cell.sim.logdiagnosis import LogDiagnosis
+from cell.sim.logfit import (
+    Rows,
+    broyden,
+    decorrelation_rows,
+    forward_selection,
+    heldout,
+    logged_vector,
+    rmse_n,
+    signature,
+    simulated_vector,
+    solve,
+)
+from cell.sim.logformat import Channel, SeparationLog
+from cell.sim.logreport import MATERIAL, SCENARIO, write_log_diagnosis
+from cell.sim.scenario import Scenario, load_scenario
+from cell.tissue.seamcut import SeamLoad
+from tests.paths import PROJECT_ROOT
+
+
+def test_each_world_cause_changes_its_part_of_the_world_by_its_magnitude() -> None:
+    belief = Scenario()
+    double = math.log(2.0)
+    strong = changed_world(belief, {"binding_strength": double})
+    assert strong.aponeurosis.toughness_j_m2 == pytest.approx(
+        2 * belief.aponeurosis.toughness_j_m2)
+    assert strong.aponeurosis.stiffness_n_m == pytest.approx(2 * belief.aponeurosis.stiffness_n_m)
+    torn = changed_world(belief, {"tearing_threshold": -double})
+    assert torn.aponeurosis.tearing_stretch_m == pytest.approx(
+        belief.aponeurosis.tearing_stretch_m / 2)
+    stiff = changed_world(belief, {"tissue_stiffness": double})
+    assert np.allclose(stiff.material.longitudinal.coefficients,
+                       2 * np.asarray(belief.material.longitudinal.coefficients))
+    turned = changed_world(belief, {"fibre_direction": math.radians(30.0)})
+    before, after = np.asarray(belief.material.fibre_direction), np.asarray(
+        turned.material.fibre_direction)
+    assert math.degrees(math.acos(before @ after)) == pytest.approx(30.0)
+    rough = changed_world(belief, {"blade_friction": double})
+    assert rough.material.cutting.face_friction == pytest.approx(
+        2 * belief.material.cutting.face_friction)
+    assert changed_world(belief, {}) == belief
+    assert set(applicable(belief)) == set(CAUSES)
+    with pytest.raises(LogError, match="unknown cause"):
+        changed_world(belief, {"sensor_offset": 1.0})
+
+
+def test_the_binding_gradient_grades_the_seams_edge_along_the_interface() -> None:
+    class Seam:
+        def load(self, *args: object) -> SeamLoad:
+            return SeamLoad(np.array([1.0, 0, 0]), np.array([0, 2.0, 0]), np.zeros(3), 10.0,
+                            0.05, 1e-3)
+
+    graded = GradedSeam(Seam(), math.log(4.0), 0.0, 0.4)
+    at = lambda x: graded.load(np.array([x, 0, 0]), np.eye(3), np.ones(3), np.zeros(3))  # noqa: E731
+    assert at(0.4).resistance_n / at(0.0).resistance_n == pytest.approx(4.0)
+    assert at(0.2).edge_n[0] == pytest.approx(1.0)
+    assert at(0.4).faces_n[1] == 2.0  # the faces' friction is not the seam's strength
+    assert episode_adjustment({"binding_strength": 0.3}) is None
+    assert callable(episode_adjustment({"binding_gradient": 0.3}))
+    assert magnitudes_json({"fibre_direction": math.radians(45.0)})[
+        "fibre_direction"]["angle_deg"] == pytest.approx(45.0)
+
+
+def _log(n: int, offset: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> SeparationLog:
+    t = np.linspace(0.0, 1.0, n)
+    wave = np.stack([np.sin(3 * t), np.cos(2 * t), t], axis=1)
+    pose = {"position_m": np.zeros((n, 3)), "quaternion": np.tile([1.0, 0, 0, 0], (n, 1))}
+    channels = {"knife": Channel(t, wave, **pose), "gripper": Channel(t, 2 * wave, **pose),
+                "fixture": Channel(t, wave + np.asarray(offset))}
+    return SeparationLog(Path("log"), "log", Path("scenario.toml"), 0, channels)
+
+
+def test_the_stacked_channels_and_a_sensors_offset_in_closed_form() -> None:
+    offset = (0.5, -1.0, 2.0)
+    logs = [_log(50, offset), _log(40, offset)]
+    measured, rows = logged_vector(logs)
+    simulated = np.concatenate([simulated_vector(log, _log(4001).channels) for log in logs])
+    assert measured.size == 3 * 3 * 90 and rows.log.max() == 1
+    residual = measured - simulated
+    fitted, left = solve(residual, {"fixture": rows.offset_columns("fixture")})
+    assert np.allclose(fitted["fixture"], offset, atol=1e-5)
+    assert rmse_n(left) < 1e-4 < rmse_n(residual)
+    assert rmse_n(heldout(residual, {"fixture": rows.offset_columns("fixture")}, rows)) < 1e-4
+    column = rows.resting_offset(residual, "fixture")  # every sample is before a cut here
+    fixture = (rows.channel == 2) & (rows.log == 0)
+    assert np.allclose(column[fixture, 0][:3], offset, atol=1e-5)
+    assert not column[rows.channel != 2].any()
+    taken, left = solve(residual, {"rest": column}, None, frozenset({"rest"}))
+    assert taken["rest"].tolist() == [1.0] and rmse_n(left) < 1e-4
+
+
+def test_the_forward_selection_names_what_shows_and_nothing_else() -> None:
+    rng = np.random.default_rng(0)
+    n = 600
+    rows = Rows(np.repeat([0, 1, 2], n // 3), np.tile(np.repeat([0, 1, 2], 3), n // 9 + 1)[:n],
+                np.tile([0, 1, 2], n // 3))
+    signature = np.sin(np.linspace(0.0, 30.0, n))[:, None]
+    unrelated = rng.normal(size=(n, 1))
+    noise = 0.05 * rng.normal(size=n)
+    blocks = {"shown": signature, "unrelated": unrelated,
+              "offset": rows.offset_columns("knife")}
+    steps = forward_selection(0.7 * signature[:, 0] + noise, blocks, rows, 0.15)
+    assert [step.added for step in steps] == ["", "shown"]
+    assert forward_selection(noise, blocks, rows, 0.15)[1:] == []
+    assert decorrelation_rows(noise, rows) == 1
+
+
+def test_broydens_update_makes_the_signature_explain_the_replay() -> None:
+    jacobian = np.array([[1.0], [0.0]])
+    updated = broyden(jacobian, np.array([2.0]), np.array([4.0, 2.0]))
+    assert np.allclose(updated @ [2.0], [4.0, 2.0])
+    assert broyden(jacobian, np.zeros(1), np.ones(2)) is jacobian
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--causes", "sensor_offset"], "--causes"), (["--workers", "0"], "--workers")])
+def test_diagnose_logs_refuses_bad_options_and_writes_nothing(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], arguments: list[str],
+        message: str) -> None:
+    out = tmp_path / "out"
+    assert main(["diagnose-logs", "a", "b", "--out", str(out), "--no-plots", *arguments]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_diagnose_logs_refuses_a_batch_of_one_log(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    assert main(["diagnose-logs", str(tmp_path / "one"), "--out", str(out), "--no-plots"]) == 2
+    assert "at least two logs" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_causes_signature_is_the_secant_of_the_side_it_acts_on() -> None:
+    up, down = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 1.0])
+    residual = 0.5 * down  # the cause acts only when lowered: here by 0.5 (magnitude -0.5)
+    sides = [(0.3, 0.3 * up), (-0.3, -0.3 * -down)]
+    chosen = signature(residual, sides)
+    assert np.allclose(chosen[:, 0], -down)
+    assert signature(residual, [(0.3, None)]) is None
+
+
+def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> None:
+    quick = PROJECT_ROOT / "scenarios" / "quick.toml"
+    logs = tuple(replace(_log(30), scenario=quick, name=f"log-{k}") for k in (1, 2))
+    batch = LogBatch(logs, (load_scenario(quick),) * 2)
+    measured, _ = logged_vector(logs)
+    strength = magnitudes_json({"binding_strength": math.log(1.5)})
+    diagnosis = LogDiagnosis(
+        ["log-1", "log-2"], [1.0, 1.0], ["binding_strength", "sensor_offset"], [],
+        {"params": {**strength, "sensor_offset": {"knife": [0.5, 0.0, 0.0]}}},
+        {"baseline": 2.0, "extended": 1.0}, {}, [],
+        {"baseline": measured + 1.0, "extended": measured + 0.1, "measured": measured},
+        {"replays": 9, "replay_wall_s": 1.0, "fit_s": 0.1, "total_s": 1.1})
+    written = write_log_diagnosis(tmp_path / "out", batch, diagnosis, plots=True)
+    assert {p.name for p in written} >= {"diagnosis.json", "report.md", "channels-1.png",
+                                         SCENARIO, MATERIAL}
+    extended = load_scenario(tmp_path / "out" / SCENARIO)
+    assert extended.aponeurosis.toughness_j_m2 == pytest.approx(
+        1.5 * batch.scenarios[0].aponeurosis.toughness_j_m2)
+    assert extended.material == batch.scenarios[0].material
+    assert "sensor_offset" in (tmp_path / "out" / SCENARIO).read_text()
+    assert diagnosis.gain == pytest.approx(0.5)
+    assert "gain 0.50" in (tmp_path / "out" / "report.md").read_text()
