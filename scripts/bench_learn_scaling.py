@@ -1,8 +1,7 @@
 """``learn --envs 2`` over ``--envs 1`` alone (the ``learn_scaling_2_over_1`` entry of
-``musclecell bench env``): two ``learn Cut-v1`` runs of the same steps per env and per update,
-their env steps per second and ratio, with the load average, as JSON. Run it on otherwise
-idle cores; the default (65536 steps per env, 1024 per update) takes about five minutes with
-one env and three with two on a 2-core machine."""
+``musclecell bench env``): two ``learn`` runs of the same steps per env and per update, their
+env steps per second and ratio, with the load average, as JSON. Run it on otherwise idle
+cores; the benchmarks page gives its duration."""
 
 import argparse
 import json
