@@ -3,7 +3,7 @@
 The knife's path is planned from a perceived interface that is off by errors of the size the
 cell's perception makes on unseen shapes (the benchmarks page: millimetres at depth from the
 interface's lean, up to about a centimetre at the entry, where the guideline's walk starts on
-the meat's tapered end, under a millimetre mid-cut). The policy sees what ``Cut-v1``'s sees
+the meat's tapered end, under a millimetre mid-cut). The policy sees what ``Cut-v2``'s sees
 (the tip against the wrong path, the knife's force and torque, its progress, the path ahead)
 and corrects across and in depth; the score is the tip's mean distance to the true interface
 over the cut (:class:`cell.sim.cutscore.CutScore`).
@@ -24,7 +24,7 @@ from envs.params import ActionLimits
 from envs.settings import parameters
 from envs.tasks import CutEnv
 
-#: The knife's action limits of the task: ``Cut-v1``'s, but the across offset's bound, which
+#: The knife's action limits of the task: ``Cut-v2``'s, but the across offset's bound, which
 #: the path's errors need (its entry's error and its lean at the meat's depth reach about a
 #: centimetre).
 STEER_LIMITS = ActionLimits(knife_max_across_m=0.012)
@@ -142,32 +142,32 @@ class SteerEnv(CutEnv):
 
     .. rubric:: Action space
 
-    ``Cut-v1``'s: ``Box(-1, 1, (4,), float32)`` (along speed, across, depth, yaw), the
+    ``Cut-v2``'s: ``Box(-1, 1, (4,), float32)`` (along speed, across, depth, yaw), the
     across offset's bound 12 mm (:data:`STEER_LIMITS`).
 
     .. rubric:: Observation space
 
-    ``Cut-v1``'s 35 entries, measured against the wrong path.
+    ``Cut-v2``'s 35 entries, measured against the wrong path.
 
     .. rubric:: Rewards
 
-    ``Cut-v1``'s terms and ``off_interface``: ``-off_interface_per_cm`` times the tip's
+    ``Cut-v2``'s terms and ``off_interface``: ``-off_interface_per_cm`` times the tip's
     distance across from the true interface (cm) each step while the knife cuts.
 
     .. rubric:: Starting state
 
-    As ``Cut-v1``'s, the knife in at the entry of the wrong path.
+    As ``Cut-v2``'s, the knife in at the entry of the wrong path.
 
     .. rubric:: Episode end
 
-    As ``Cut-v1``'s. The final step's info adds ``tip_distance_mean_m`` and
+    As ``Cut-v2``'s. The final step's info adds ``tip_distance_mean_m`` and
     ``tip_distance_max_m`` (the tip's distance to the true, deforming interface over the
     cut: :class:`~cell.sim.cutscore.CutScore`; None when the tip never came across from
     it) and ``path_error`` (the world's draw).
 
     .. rubric:: Arguments
 
-    ``Cut-v1``'s, and ``steer`` (a :class:`SteerParams`, or a mapping of its fields).
+    ``Cut-v2``'s, and ``steer`` (a :class:`SteerParams`, or a mapping of its fields).
 
     .. rubric:: Version history
 
@@ -213,7 +213,7 @@ class SteerEnv(CutEnv):
         return -error_y * float(self._knife.path_pose()[1][1, 1])
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """``Cut-v1``'s step, the tip scored against the true interface while it cuts."""
+        """``Cut-v2``'s step, the tip scored against the true interface while it cuts."""
         cutting = self.episode is not None and self._knife.progress < 1.0
         obs, reward, terminated, truncated, info = super().step(action)
         if cutting and not self.diverged:

@@ -56,7 +56,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
                             help="learn output folder (or a checkpoint's, or its policy.json); "
                             "leave it out to evaluate the baselines alone (then --out is "
                             "needed)")
-    evaluation.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v1")
+    evaluation.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v2")
     evaluation.add_argument("--episodes", type=int, default=50, help="per policy (default 50)")
     evaluation.add_argument("--seed-start", type=int, default=EVAL_SEED_START,
                             help=f"first evaluation seed (default {EVAL_SEED_START})")
