@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from cell.errors import DiagnosisError
-from cell.rheology.cutcauses import CUT_CAUSES, CutCandidate
+from cell.rheology.cutcauses import CUT_CAUSES, CutCandidate, linear_columns
 from cell.rheology.cutdiagnosis import diagnose_set
-from cell.rheology.cutfitting import CutProblem, fit_cut
+from cell.rheology.cutfitting import CutProblem, best_layer_depth, fit_cut
 from cell.rheology.cutreduced import simulate_cut
 from cell.rheology.cuts import Blade, Block, CutTest
 from cell.rheology.cutsearch import diagnose_cuts
@@ -81,6 +81,26 @@ def test_the_baseline_fit_finds_the_toughness() -> None:
     fit = fit_cut(problem, model, model.initial, 100)
     assert fit.params["toughness_j_m2"] == pytest.approx(900.0, rel=0.01)
     assert fit.heldout_rmse_n == pytest.approx(0.2, rel=0.15)
+
+
+def _misfit_rss(problem: CutProblem, model: CutCandidate, shape: np.ndarray) -> float:
+    """The least-squares misfit over every sample, the linear parameters solved unbounded."""
+    columns = np.vstack([linear_columns(model, shape, k) for k in problem.kinematics])
+    measured = np.concatenate([t.force_N for t in problem.tests])
+    misfit = columns @ np.linalg.lstsq(columns, measured, rcond=None)[0] - measured
+    return float(misfit @ misfit)
+
+
+def test_a_layers_depth_is_put_where_the_misfit_is_least() -> None:
+    truth, _ = HIDDEN["layered_toughness"]
+    problem = CutProblem.of(BLOCK, BLADE, cut_set(truth, (0.5, -0.3, 2.0), seed=2), 64)
+    model = CutCandidate(("layered_toughness", "blade_force_offset"),
+                         problem.reference_speed_m_s(), BLOCK.top_z_m)
+    found = best_layer_depth(problem, model, model.initial)
+    assert found[0] == pytest.approx(0.012, abs=3e-4)
+    for depth in (0.0118, 0.012, 0.0122, 0.005, 0.02):
+        assert _misfit_rss(problem, model, found) <= _misfit_rss(problem, model,
+                                                                 np.array([depth])) + 1e-9
 
 
 def test_a_set_with_no_hidden_effect_names_none() -> None:

@@ -153,13 +153,12 @@ def test_a_generated_set_reads_back_and_holds_no_truth(tmp_path: Path) -> None:
                        atol=3 * truth.noise_n / np.sqrt(in_air.sum()) + 0.05)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("causes", [("slicing",), ()], ids=["slicing", "none"])
 def test_a_generated_sawing_and_press_cut_tell_whether_slicing_acts(
         tmp_path: Path, causes: tuple[str, ...]) -> None:
-    # One press and one sawing cut of the same generated material (the full simulation),
-    # diagnosed together (issue 33, acceptance 2): slicing is named when it is hidden, and only
-    # then. The quick test in CI is tests/test_cutsearch.py's, on the reduced model's cuts.
+    # One press and one sawing cut of the same generated material (the full simulation, on
+    # coarse cells to stay quick), diagnosed together (issue 33, acceptance 2): slicing is
+    # named when it is hidden, and only then.
     from cell.rheology.cutsearch import diagnose_cuts
     from cell.rheology.settings import DiagnosisParams
 

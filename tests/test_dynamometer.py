@@ -15,7 +15,7 @@ import pytest
 from cell.perception.params import PerceptionParams
 from cell.robots.names import GRASP_SITE, KNIFE_TIP
 from cell.sim.assembly import build_scene
-from cell.sim.episode import Episode
+from cell.sim.episode import TARE_LEAD_S, Episode
 from cell.sim.scenario import Scenario, SensorParams
 from cell.sim.simulation import Simulation
 from cell.tissue.geometry import MuscleShape
@@ -102,6 +102,26 @@ def test_a_knife_pressing_on_the_round_loads_the_fixture_as_it_reads() -> None:
     # The knife's sensor reads its push on the flesh; the fixture holds it up.
     assert push[2] < -2.0
     assert np.linalg.norm(fixture + push) < 0.15 * np.linalg.norm(push)
+
+
+def test_the_grippers_zero_holds_its_weight_not_the_inertia_of_its_stop() -> None:
+    # The gripper is tared on its way to the grasp (TARE_LEAD_S before its jaws close), not as
+    # it stops there: at rest with its jaws closed on nothing it then reads nothing, where a
+    # zero taken in its stop read the stop's inertial load (3.5 N) until the end.
+    episode = Episode(_coarse())
+    plan, sim = episode.plan(), episode.sim
+    schedule = plan.schedule
+    site = sim.model.sensor("gripper/force").objid[0]
+    weight_n = sim.model.body_subtreemass[sim.model.site_bodyid[site]] * 9.81
+    untared, at_rest = [], []
+    while sim.time_s < schedule.grasp_s - 2 * episode.control_dt_s:
+        episode.control_step(plan, None, plan.pull.sample(sim.time_s + episode.control_dt_s))
+        if sim.time_s < schedule.close_s - TARE_LEAD_S - episode.control_dt_s:
+            untared.append(np.linalg.norm(sim.read("gripper/force")))
+        elif sim.time_s > schedule.close_s + TARE_LEAD_S:
+            at_rest.append(np.linalg.norm(sim.read("gripper/force")))
+    assert np.mean(untared[-10:]) == pytest.approx(weight_n, rel=0.02)
+    assert len(at_rest) >= 5 and max(at_rest) < 0.1
 
 
 def _grasp_force(sim: Simulation) -> np.ndarray:

@@ -203,6 +203,7 @@ def test_a_meat_twenty_times_stiffer_runs_the_default_episode_unchanged() -> Non
     assert result["muscles_apart"]
 
 
+@pytest.mark.slow
 def test_the_papers_stiff_material_runs_the_default_episode() -> None:
     # scenarios/paper_material.toml, 10 to 25 times stiffer than the default meat, on a seed
     # where the blade's fully resolved contacts made the stiff flesh chatter until the

@@ -160,6 +160,7 @@ def test_diagnosis_names_the_hidden_effect(tmp_path: Path, effect: str | None,
         assert result.gain > 0.5, note
 
 
+@pytest.mark.slow
 def test_diagnose_bench_runs_on_one_set() -> None:
     from cell.bench.diagnose import run_diagnose_bench
 

@@ -54,6 +54,7 @@ def _run(folder: Path) -> list[float]:
     return json.loads(out.stdout)
 
 
+@pytest.mark.slow
 def test_a_changed_law_reaches_every_cached_kernel(tmp_path: Path) -> None:
     module = tmp_path / "springlaw.py"
     shutil.copy(PROJECT_ROOT / "cell" / "tissue" / "springlaw.py", module)

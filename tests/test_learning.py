@@ -126,6 +126,7 @@ def test_the_baselines_alone_with_the_demonstrator_that_fits(tmp_path: Path) -> 
         tmp_path / "evaluation.md").read_text()
 
 
+@pytest.mark.slow
 def test_the_best_constant_is_searched_on_one_axis_then_on_two(run: Path, tmp_path: Path
                                                                ) -> None:
     assert main(["evaluate", str(run), ENV_ID, "--episodes", "1", "--workers", "2",

@@ -170,17 +170,16 @@ def test_example_set_simulates() -> None:
         assert np.isfinite(run.force_N).all()
 
 
-# Each meshed reference run takes 30-60 s: the plain tension case runs by default, the others
-# with ``-m slow``.
+# Each meshed reference run takes 10-60 s.
+@pytest.mark.slow
 @pytest.mark.parametrize(("test", "material"), [
     pytest.param(_ramp(0.0, 0.04), ISOTROPIC, id="tension"),
-    pytest.param(_ramp(45.0, 0.04), ANISOTROPIC, id="tension at 45 degrees",
-                 marks=pytest.mark.slow),
+    pytest.param(_ramp(45.0, 0.04), ANISOTROPIC, id="tension at 45 degrees"),
     pytest.param(_ramp(0.0, 0.03, duration_s=1.0, hold_s=1.5),
                  replace(ISOTROPIC, relaxation_weights=(0.4,), relaxation_times_s=(0.5,)),
-                 id="relaxation", marks=pytest.mark.slow),
+                 id="relaxation"),
     pytest.param(_cycle(90.0, 0.04, 3.0), replace(ISOTROPIC, yield_strain=0.02, hardening=0.6),
-                 id="plastic cycle", marks=pytest.mark.slow),
+                 id="plastic cycle"),
 ])
 def test_quasi_static_lattice_is_within_two_percent_of_the_fine_slow_reference(
         test: MechanicalTest, material: MassSpringMaterial) -> None:

@@ -143,7 +143,8 @@ def test_the_suggest_bench_runs_on_one_set() -> None:
 
     report = run_suggest_bench([9000], workers=1)
     assert {"named_after_suggested", "named_after_random", "suggest_time",
-            "suggested_beats_random"} <= report["targets"].keys() | report["entries"].keys()
+            "diagnose_suggest_seconds_max", "suggested_beats_random"} <= (
+                report["targets"].keys() | report["entries"].keys())
     entry = report["sets"][0]
     assert entry["missing"] == "compression" and entry["suggested"]["test"]["mode"]
     assert "| missing |" in report["markdown"]

@@ -72,6 +72,7 @@ def _kill_when_running(title: str, killed: list[int], stop: threading.Event) -> 
         time.sleep(0.02)
 
 
+@pytest.mark.slow
 def test_a_killed_worker_fails_its_run_and_the_others_match_a_sweep_without_ray(
         tmp_path: Path) -> None:
     path = tmp_path / "sweep.toml"

@@ -61,6 +61,9 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--cut", action="store_true",
                        help="diagnose suite: hidden-effect cut sets, made by the full "
                        "simulation of a cut (with --pairs: two causes at once)")
+    bench.add_argument("--logs", action="store_true",
+                       help="diagnose suite: hidden-effect batches of separation logs, "
+                       "diagnosed as diagnose-logs does (with --pairs: two causes at once)")
     bench.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                        help="diagnose suite: processes per diagnosis (default: every core)")
     bench.add_argument("--shapes", type=int, default=0, help="perception: + N shape episodes")
@@ -76,7 +79,8 @@ def bench_command(args: argparse.Namespace) -> int:
     the suite."""
     suite = args.suite
     if suite not in ("tissue", "diagnose", "sweep"):
-        for flag in ("seeds", "pairs", "subtle", "spread", "triples", "including", "suggest"):
+        for flag in ("seeds", "pairs", "subtle", "spread", "triples", "including", "suggest",
+                     "logs"):
             if getattr(args, flag) not in (None, False):
                 raise InputError(None, f"--{flag}",
                                  f"only `musclecell bench diagnose` takes --{flag}")
@@ -185,17 +189,21 @@ def _sweep(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> 
 
 def _diagnose_kind(args: argparse.Namespace) -> str:
     """The kind of diagnose bench the flags ask for, checked: one kind at most (the cut sets
-    with --pairs alone), --including with --pairs or --triples and a cause of the catalogue."""
+    and the log batches with --pairs alone), --including with --pairs or --triples and a
+    cause of the catalogue."""
     kinds = [flag for flag in ("pairs", "subtle", "triples", "suggest", "spread")
              if getattr(args, flag)]
     if len(kinds) > 1:
         raise InputError(None, f"--{kinds[1]}", f"give one of --{' --'.join(kinds)}, not both")
-    if args.cut and kinds not in ([], ["pairs"]):
-        raise InputError(None, f"--{kinds[0]}", "the cut sets have single and --pairs kinds")
+    if args.cut and args.logs:
+        raise InputError(None, "--logs", "give one of --cut --logs, not both")
+    if (args.cut or args.logs) and kinds not in ([], ["pairs"]):
+        what = "cut sets" if args.cut else "log batches"
+        raise InputError(None, f"--{kinds[0]}", f"the {what} have single and --pairs kinds")
     if args.including is not None:
         from cell.rheology.causes import CAUSES
 
-        if kinds not in (["pairs"], ["triples"]) or args.cut:
+        if kinds not in (["pairs"], ["triples"]) or args.cut or args.logs:
             raise InputError(None, "--including", "goes with --pairs or --triples (uniaxial)")
         if args.including not in CAUSES:
             raise InputError(None, "--including",
@@ -221,6 +229,13 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
 
         report = spread.run_spread_bench(spread.bench_seeds(count), workers=args.workers,
                                          progress=print)
+    elif args.logs:
+        from cell.bench import logdiagnose
+
+        params = (logdiagnose.LogBenchParams.quick(args.workers) if args.quick
+                  else logdiagnose.LogBenchParams(workers=args.workers))
+        report = logdiagnose.run_log_diagnose_bench(logdiagnose.bench_seeds(count, kind), kind,
+                                                    params, progress=print)
     elif args.cut:
         from cell.bench import cutdiagnose
 

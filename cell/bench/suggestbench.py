@@ -205,14 +205,18 @@ def _summary(sets: list[dict[str, Any]], workers: int, seeds: Sequence[int]) -> 
     rate = {label: sum(s[label]["named"] for s in sets) / count
             for label in ("suggested", "random")}
     before = sum(s["named_before"] for s in sets) / count
-    slowest = max(s["suggest_seconds"] for s in sets)
+    # What a user waits for: `diagnose --suggest` diagnoses the set, then suggests.
+    whole = [s["diagnosis_seconds"] + s["suggest_seconds"] for s in sets]
+    slowest = max(whole)
     entries = {
         "named_before": {"value": before, "unit": "fraction", "of": count},
         "named_after_suggested": {"value": rate["suggested"], "unit": "fraction", "of": count},
         "named_after_random": {"value": rate["random"], "unit": "fraction", "of": count},
         "suggest_seconds_median": {"value": statistics.median(s["suggest_seconds"]
                                                               for s in sets), "unit": "s"},
-        "suggest_seconds_max": {"value": slowest, "unit": "s"},
+        "suggest_seconds_max": {"value": max(s["suggest_seconds"] for s in sets), "unit": "s"},
+        "diagnose_suggest_seconds_median": {"value": statistics.median(whole), "unit": "s"},
+        "diagnose_suggest_seconds_max": {"value": slowest, "unit": "s"},
         "kinds_of_missing_evidence": {"value": len({s["missing"] for s in sets}),
                                       "unit": "kinds"},
     }

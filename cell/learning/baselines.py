@@ -110,17 +110,41 @@ def policy_folder(path: str | Path) -> Path:
 
 
 @dataclass(frozen=True)
+class BasePolicy:
+    """A demonstrator of :data:`envs.policies.DEMONSTRATORS` (``name``) whose action entries
+    ``learned`` (indices) a network gives: a learned policy that learns only part of the
+    action, such as the across offset of a knife whose depth a servo of the observation holds.
+
+    Example:
+        >>> base = BasePolicy("table-skimming-knife", (1,))
+        >>> base.act(np.zeros(35, np.float32), np.array([0.0, 0.5, 0.0, 0.0]))[:2]
+        array([1. , 0.5], dtype=float32)
+    """
+
+    name: str
+    learned: tuple[int, ...]
+
+    def act(self, obs: np.ndarray, network_action: np.ndarray) -> np.ndarray:
+        """The demonstrator's action at ``obs``, the ``learned`` entries the network's."""
+        action = np.array(DEMONSTRATORS[self.name]()(obs), np.float32)
+        action[list(self.learned)] = np.asarray(network_action)[list(self.learned)]
+        return action
+
+
+@dataclass(frozen=True)
 class LearnedPolicy:
     """A learned policy loaded from its files: deterministic actions of the network for
-    observations normalised with the training's frozen statistics; ``env_id`` is the env it
-    was trained on."""
+    observations normalised with the training's frozen statistics (on a ``base`` policy, the
+    network's entries of its action); ``env_id`` is the env it was trained on."""
 
     network: Any
     normalize: ObservationNormalizer
     env_id: str
+    base: BasePolicy | None = None
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        return self.network.predict(self.normalize(obs), deterministic=True)[0]
+        action = self.network.predict(self.normalize(obs), deterministic=True)[0]
+        return action if self.base is None else self.base.act(obs, action)
 
 
 @lru_cache(maxsize=4)  # once per worker process, not once per episode
@@ -133,9 +157,12 @@ def load_learned(folder: str) -> LearnedPolicy:
         LearningError: a missing or broken file, named.
     """
     record, arrays = read_policy(Path(folder))
+    base = record.get("base_policy")
     return LearnedPolicy(build_policy(record, arrays, Path(folder)),
                          observation_normalizer(read_normalization(Path(folder))),
-                         record["env_id"])
+                         record["env_id"],
+                         None if base is None else BasePolicy(base["name"],
+                                                              tuple(base["learned"])))
 
 
 def make_policy(spec: PolicySpec, env: gym.Env, seed: int) -> Policy:

@@ -44,14 +44,15 @@ from cell.learning.baselines import (
 from cell.learning.environments import START_METHOD, make_env
 from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
 from cell.learning.paired import compare, comparison_markdown
-from cell.learning.table import markdown, summarize
+from cell.learning.table import SCORED_COLUMNS, markdown, summarize
 from envs.policies import demonstrators_for, episode_return
 
 #: Keys of the final step's info that each episode's row keeps.
 INFO_COLUMNS = ("success", "released_fraction", "torn_fraction", "knife_force_peak_n",
                 "flesh_damage_s", "elapsed_s", "diverged", "protective_stop")
-#: Columns of the episodes CSV.
-EPISODE_COLUMNS = ("policy", "seed", "return", *INFO_COLUMNS, "wall_s")
+#: Columns of the episodes CSV (a scored column blank for an env without it, or an
+#: episode that did not score it).
+EPISODE_COLUMNS = ("policy", "seed", "return", *INFO_COLUMNS, *SCORED_COLUMNS, "wall_s")
 
 
 @dataclass(frozen=True)
@@ -137,7 +138,8 @@ def _env(env_id: str, env_kwargs_json: str) -> gym.Env:
 
 def run_episode(task: EpisodeTask) -> dict[str, Any]:
     """Play one episode; its row: policy, seed, return, :data:`INFO_COLUMNS` from the final
-    step's info, wall time (s)."""
+    step's info, the tip's mean distance to the true interface (``tip_distance_mm``, None
+    when unscored) where the env gives it (``Steer-v1``), wall time (s)."""
     started = time.perf_counter()
     env = _env(task.env_id, task.env_kwargs_json)
     total, info = episode_return(env, make_policy(task.policy, env, task.seed), task.seed)
@@ -145,6 +147,9 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
     for key in INFO_COLUMNS:
         value = info[key]
         row[key] = bool(value) if isinstance(value, bool | np.bool_) else float(value)
+    if "tip_distance_mean_m" in info:
+        tip = info["tip_distance_mean_m"]
+        row["tip_distance_mm"] = None if tip is None else 1e3 * float(tip)
     return {**row, "wall_s": time.perf_counter() - started}
 
 
@@ -156,9 +161,11 @@ def _one_thread() -> None:
 
 
 @contextmanager
-def episode_runner(workers: int) -> Iterator[Callable[[list[EpisodeTask]], list[dict[str, Any]]]]:
-    """A function that plays a list of tasks and returns their rows in the tasks' order, on
-    ``workers`` processes (started once, for every list) or in this process for one.
+def episode_runner(workers: int, play: Callable[[Any], dict[str, Any]] = run_episode
+                   ) -> Iterator[Callable[[list[Any]], list[dict[str, Any]]]]:
+    """A function that plays a list of tasks with ``play`` (by default :func:`run_episode`)
+    and returns their rows in the tasks' order, on ``workers`` processes (started once, for
+    every list) or in this process for one.
 
     Example:
         >>> with episode_runner(1) as run:
@@ -166,11 +173,11 @@ def episode_runner(workers: int) -> Iterator[Callable[[list[EpisodeTask]], list[
         []
     """
     if workers == 1:
-        yield lambda tasks: [run_episode(task) for task in tasks]
+        yield lambda tasks: [play(task) for task in tasks]
         return
     context = multiprocessing.get_context(START_METHOD)
     with ProcessPoolExecutor(workers, mp_context=context, initializer=_one_thread) as pool:
-        yield lambda tasks: list(pool.map(run_episode, tasks))
+        yield lambda tasks: list(pool.map(play, tasks))
 
 
 def _check_policy(folder: Path, env: gym.Env) -> None:

@@ -128,8 +128,9 @@ def baseline_table(rule: Mapping[str, float], seeds: Sequence[int], workers: int
     """The three baselines (and the policy of the run folder ``learned``, if given) on
     ``seeds``: per policy the mean tip distance (mm), its max, the torn fraction and the time
     with 95 % t intervals, the success rate with its Wilson interval; the paired differences
-    of the tip distance and the success (rule less no steering, ceiling less rule, ceiling
-    less no steering, learned less rule); and every episode."""
+    of the tip distance, the success, the torn fraction and the time (rule less no
+    steering, ceiling less rule, ceiling less no steering, learned less rule); and every
+    episode."""
     kwargs = tuple(sorted(env_kwargs.items()))
     names = (*BASELINES, "learned") if learned else BASELINES
     tasks = [SteerEpisode(name, tuple(sorted(rule.items())) if name == "rule" else (), seed,
@@ -148,7 +149,10 @@ def baseline_table(rule: Mapping[str, float], seeds: Sequence[int], workers: int
             "tip_scored_on": len(scored),
             "success": paired_success_difference(
                 [row["success"] for row in by_name[better]],
-                [row["success"] for row in by_name[worse]])}
+                [row["success"] for row in by_name[worse]]),
+            **{key: paired_mean_difference([row[key] for row in by_name[better]],
+                                           [row[key] for row in by_name[worse]])
+               for key in ("torn_fraction", "elapsed_s")}}
     return {"env": ENV_ID, "seeds": [min(seeds), max(seeds)], "rule": dict(rule),
             "table": table, "paired": pairs, "episodes": rows}
 

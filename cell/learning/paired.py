@@ -17,7 +17,7 @@ from typing import Any
 
 from scipy import stats
 
-from cell.learning.table import mean_interval, wilson
+from cell.learning.table import SCORED_COLUMNS, mean_interval, wilson
 
 #: The outcome columns compared as per-seed differences of means.
 PAIRED_MEANS = ("torn_fraction", "released_fraction")
@@ -94,7 +94,9 @@ def paired_mean_difference(first: Sequence[float], second: Sequence[float]
 def compare(rows: Sequence[Mapping[str, Any]], policy: str, other: str) -> dict[str, Any]:
     """``policy`` against ``other`` on the seeds both played (episode rows with ``policy``,
     ``seed``, ``success`` and the :data:`PAIRED_MEANS`): the paired success difference and
-    the paired difference of each mean, ``policy`` minus ``other``.
+    the paired difference of each mean, ``policy`` minus ``other``; and of each of the
+    :data:`~cell.learning.table.SCORED_COLUMNS` the rows have, on the seeds both scored
+    (with ``scored_on``, their count).
 
     Example:
         >>> rows = [{"policy": p, "seed": s, "success": p == "a", "torn_fraction": 0.1,
@@ -111,7 +113,20 @@ def compare(rows: Sequence[Mapping[str, Any]], policy: str, other: str) -> dict[
                                                  [row["success"] for row in theirs]),
             **{column: paired_mean_difference([row[column] for row in mine],
                                               [row[column] for row in theirs])
-               for column in PAIRED_MEANS}}
+               for column in PAIRED_MEANS},
+            **{column: _scored_difference([(a[column], b[column])
+                                           for a, b in zip(mine, theirs, strict=True)])
+               for column in SCORED_COLUMNS if mine and column in mine[0]}}
+
+
+def _scored_difference(pairs: Sequence[tuple[float | None, float | None]]
+                       ) -> dict[str, float | int | None]:
+    """:func:`paired_mean_difference` over the pairs where both scored (not None)."""
+    scored = [(a, b) for a, b in pairs if a is not None and b is not None]
+    if not scored:
+        return {"mean": None, "low": None, "high": None, "scored_on": 0}
+    first, second = zip(*scored, strict=True)
+    return {**paired_mean_difference(list(first), list(second)), "scored_on": len(scored)}
 
 
 def comparison_markdown(comparison: Mapping[str, Any]) -> str:
@@ -132,9 +147,14 @@ def comparison_markdown(comparison: Mapping[str, Any]) -> str:
              f"| success rate | {success['difference']:+.3g} [{success['low']:.3g}, "
              f"{success['high']:.3g}] | {policy} only: {success['first_only']}, {other} only: "
              f"{success['second_only']}, McNemar p = {success['mcnemar_p']:.3g} |"]
-    for column in PAIRED_MEANS:
+    for column in (*PAIRED_MEANS, *(c for c in SCORED_COLUMNS if c in comparison)):
         entry = comparison[column]
+        name = SCORED_COLUMNS.get(column, column.replace("_", " "))
+        note = f"on the {entry['scored_on']} seeds both scored" if "scored_on" in entry else ""
+        if entry["mean"] is None:
+            lines.append(f"| {name} | - | {note} |")
+            continue
         interval = ("" if entry["low"] is None
                     else f" [{entry['low']:.3g}, {entry['high']:.3g}]")
-        lines.append(f"| {column.replace('_', ' ')} | {entry['mean']:+.3g}{interval} | |")
+        lines.append(f"| {name} | {entry['mean']:+.3g}{interval} | {note} |")
     return "\n".join(lines) + "\n"

@@ -186,10 +186,30 @@ def restore_normalization(venv: VecEnv, record: dict[str, Any]) -> VecNormalize:
 def save_policy(folder: Path, model: PPO, normalize: VecNormalize, env_id: str) -> None:
     """Write ``model``'s policy, ``normalize``'s statistics and the optimizer's state in
     ``folder`` (the four files of this module)."""
-    import stable_baselines3
     import torch
 
     policy = model.policy
+    save_network(folder, policy, normalization_record(normalize), env_id, "PPO",
+                 int(model.num_timesteps), int(model._n_updates))
+    optimizer = policy.optimizer.state_dict()
+    state = {f"state.{index}.{key}": torch.as_tensor(value).cpu().numpy()
+             for index, entries in optimizer["state"].items() for key, value in entries.items()}
+    groups = json.dumps(optimizer["param_groups"], default=list)
+    write_atomic(folder / OPTIMIZER_FILE, _npz_bytes({**state, "param_groups": np.array(groups)}))
+
+
+def save_network(folder: Path, policy: ActorCriticPolicy, normalization: dict[str, Any],
+                 env_id: str, algorithm: str, num_timesteps: int, n_updates: int,
+                 base_policy: dict[str, Any] | None = None) -> None:
+    """Write ``policy``'s network, trained by ``algorithm``, and the observation statistics
+    ``normalization`` (a :func:`normalization_record`) in ``folder``: what :func:`read_policy` and
+    :func:`read_normalization` load (a policy trained without PPO, such as
+    :mod:`cell.learning.dagger`'s, has no optimizer state to resume). ``base_policy``
+    (``{"name": DEMONSTRATOR, "learned": [indices]}``): the policy acts as that
+    demonstrator but for the action's ``learned`` entries, which the network gives."""
+    import stable_baselines3
+    import torch
+
     if policy.use_sde or policy.squash_output:
         raise LearningError(folder, None, "only a Gaussian policy without gSDE or squashing "
                             "is saved in this format")
@@ -201,22 +221,18 @@ def save_policy(folder: Path, model: PPO, normalize: VecNormalize, env_id: str) 
     write_atomic(folder / WEIGHTS_FILE, _npz_bytes(arrays))
     net_arch = policy.net_arch
     write_json(folder / POLICY_FILE, {
-        "format": FORMAT, "version": FORMAT_VERSION, "env_id": env_id, "algorithm": "PPO",
+        "format": FORMAT, "version": FORMAT_VERSION, "env_id": env_id, "algorithm": algorithm,
         "policy_kwargs": {
             "net_arch": dict(net_arch) if isinstance(net_arch, dict) else list(net_arch),
             "activation_fn": policy.activation_fn.__name__,
             "log_std_init": float(policy.log_std_init),
             "share_features_extractor": bool(policy.share_features_extractor)},
         "dtypes": {space: str(getattr(policy, space).dtype) for space in _SPACES},
-        "num_timesteps": int(model.num_timesteps), "n_updates": int(model._n_updates),
+        "num_timesteps": num_timesteps, "n_updates": n_updates,
+        **({} if base_policy is None else {"base_policy": base_policy}),
         "versions": {"stable_baselines3": stable_baselines3.__version__,
                      "torch": torch.__version__}})
-    write_json(folder / NORMALIZATION_FILE, normalization_record(normalize))
-    optimizer = policy.optimizer.state_dict()
-    state = {f"state.{index}.{key}": torch.as_tensor(value).cpu().numpy()
-             for index, entries in optimizer["state"].items() for key, value in entries.items()}
-    groups = json.dumps(optimizer["param_groups"], default=list)
-    write_atomic(folder / OPTIMIZER_FILE, _npz_bytes({**state, "param_groups": np.array(groups)}))
+    write_json(folder / NORMALIZATION_FILE, normalization)
 
 
 def read_policy(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -253,7 +269,23 @@ def read_policy(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         for bound in ("low", "high"):
             if f"{space}.{bound}" not in arrays:
                 raise LearningError(folder / WEIGHTS_FILE, f"{space}.{bound}", "missing")
+    if "base_policy" in record:
+        _check_base_policy(record["base_policy"], len(arrays["action_space.low"]), path)
     return record, arrays
+
+
+def _check_base_policy(base: Any, action_dims: int, path: Path) -> None:
+    """A policy file's ``base_policy``: a demonstrator's ``name`` and the entries of its
+    action the network gives (``learned``, indices)."""
+    from envs.policies import DEMONSTRATORS
+
+    if _field(base, "name", path, str) not in DEMONSTRATORS:
+        raise LearningError(path, "base_policy.name", f"one of {', '.join(DEMONSTRATORS)}, "
+                            f"got {base['name']!r}")
+    learned = _field(base, "learned", path, list)
+    if not learned or not all(type(i) is int and 0 <= i < action_dims for i in learned):
+        raise LearningError(path, "base_policy.learned", f"must be action indices below "
+                            f"{action_dims}, got {learned!r}")
 
 
 def build_policy(record: dict[str, Any], arrays: dict[str, np.ndarray], path: Path

@@ -99,21 +99,22 @@ def _discounted(rewards: np.ndarray, gamma: float) -> np.ndarray:
     return returns
 
 
-def _fit(policy: ActorCriticPolicy, optimizer: torch.optim.Optimizer,
-         generator: torch.Generator, warm: WarmStart, epochs: int, inputs: torch.Tensor,
-         actions: torch.Tensor, returns: torch.Tensor | None = None) -> dict[str, float | None]:
-    """``epochs`` passes of ``optimizer`` over shuffled batches of the squared error of the
-    action mean to ``actions`` plus, given ``returns``, ``warm.value_weight`` times the
-    value's; returns the last pass's mean losses."""
+def fit_actor(policy: ActorCriticPolicy, optimizer: torch.optim.Optimizer,
+              generator: torch.Generator, batch_size: int, epochs: int, inputs: torch.Tensor,
+              actions: torch.Tensor, returns: torch.Tensor | None = None,
+              value_weight: float = 0.5) -> dict[str, float | None]:
+    """``epochs`` passes of ``optimizer`` over shuffled batches of ``batch_size`` of the
+    squared error of the action mean to ``actions`` plus, given ``returns``, ``value_weight``
+    times the value's; returns the last pass's mean losses."""
     for _ in range(epochs):
         action_losses, value_losses = [], []
-        for batch in torch.randperm(len(actions), generator=generator).split(warm.batch_size):
+        for batch in torch.randperm(len(actions), generator=generator).split(batch_size):
             mean = policy.get_distribution(inputs[batch]).distribution.mean
             loss = action_loss = torch.mean((mean - actions[batch]) ** 2)
             if returns is not None:
                 value = policy.predict_values(inputs[batch]).squeeze(-1)
                 value_loss = torch.mean((value - returns[batch]) ** 2)
-                loss = action_loss + warm.value_weight * value_loss
+                loss = action_loss + value_weight * value_loss
                 value_losses.append(value_loss.item())
             optimizer.zero_grad()
             loss.backward()
@@ -130,10 +131,11 @@ def clone(model: PPO, normalize: VecNormalize, demonstrations: Demonstrations,
     inputs = torch.as_tensor(normalize.normalize_obs(demonstrations.observations),
                              dtype=torch.float32)
     optimizer = torch.optim.Adam(model.policy.parameters(), lr=warm.learning_rate)
-    return _fit(model.policy, optimizer, torch.Generator().manual_seed(seed), warm,
-                warm.epochs, inputs,
-                torch.as_tensor(demonstrations.actions, dtype=torch.float32),
-                torch.as_tensor(demonstrations.returns, dtype=torch.float32))
+    return fit_actor(model.policy, optimizer, torch.Generator().manual_seed(seed),
+                     warm.batch_size, warm.epochs, inputs,
+                     torch.as_tensor(demonstrations.actions, dtype=torch.float32),
+                     torch.as_tensor(demonstrations.returns, dtype=torch.float32),
+                     warm.value_weight)
 
 
 def warm_start(model: PPO, normalize: VecNormalize, warm: WarmStart, seed: int
@@ -209,5 +211,5 @@ class DemonstratorAnchor(BaseCallback):
         policy = self.model.policy
         if self.optimizer is None:
             self.optimizer = torch.optim.Adam(policy.parameters(), lr=self.warm.learning_rate)
-        _fit(policy, self.optimizer, self.generator, self.warm, self.warm.anchor_epochs,
-             inputs, labels)
+        fit_actor(policy, self.optimizer, self.generator, self.warm.batch_size,
+                  self.warm.anchor_epochs, inputs, labels)

@@ -141,7 +141,7 @@ class CutCandidate:
         """The shape parameters by name."""
         return dict(zip(self.parameter_names, (float(v) for v in shape), strict=True))
 
-    def _unit_edge(self, shape: np.ndarray) -> tuple[CuttingParams, tuple[float, ...]]:
+    def unit_edge(self, shape: np.ndarray) -> tuple[CuttingParams, tuple[float, ...]]:
         """The model at unit toughness without layers, and the layer depths (sorted)."""
         value = self.values(shape)
         depths = tuple(sorted(value[n] for n in self.parameter_names
@@ -155,7 +155,7 @@ class CutCandidate:
     def cutting(self, shape: np.ndarray, linear: np.ndarray) -> CuttingParams:
         """The cutting model of ``shape`` and the linear parameters ``linear`` (no offset:
         the sensor's is not the material's)."""
-        unit, depths = self._unit_edge(shape)
+        unit, depths = self.unit_edge(shape)
         solved = dict(zip(self.linear_names, (float(v) for v in linear), strict=True))
         toughness = [solved[n] for n in self.linear_names if n.startswith("toughness")]
         base = max(toughness[0], 1e-9)
@@ -225,7 +225,7 @@ def linear_columns(model: CutCandidate, shape: np.ndarray,
                    kinematics: CutKinematics) -> np.ndarray:
     """(3 n, k) the force of one test (:func:`flat`) per unit of each of ``model``'s linear
     parameters (:attr:`CutCandidate.linear_names`) at ``shape``."""
-    unit, depths = model._unit_edge(shape)
+    unit, depths = model.unit_edge(shape)
     ramp = unit.indentation_ramp(kinematics.depth_m)
     if "layered_toughness" in model.causes:
         layer = np.searchsorted(np.asarray(depths), kinematics.depth_m, side="right")

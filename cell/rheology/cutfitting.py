@@ -17,7 +17,7 @@ A test's force is one series, channel after channel (:func:`~cell.rheology.cutca
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -27,7 +27,7 @@ from cell.rheology.cutcauses import CutCandidate, flat, linear_columns
 from cell.rheology.cutreduced import CutKinematics
 from cell.rheology.cuts import Blade, Block, CutTest
 from cell.rheology.fitting import HeldOutScores, one_step_held_out
-from cell.tissue.cutmodel import CuttingParams
+from cell.tissue.cutmodel import CuttingParams, edge_force
 
 # Relative tolerance of a fit: as the uniaxial fits'.
 _TOLERANCE = 1e-5
@@ -151,14 +151,120 @@ def _columns(problem: CutProblem, model: CutCandidate, shape: np.ndarray,
     return [linear_columns(model, shape, kinematics[i]) for i in which]
 
 
-def misfit_rss(problem: CutProblem, model: CutCandidate, shape: np.ndarray) -> float:
-    """The residual sum of squares on every sample at ``shape``, the linear parameters
-    solved: the cheap look at a start that :func:`fit_cut` would refine, N^2."""
-    measured = np.concatenate([t.force_N for t in problem.tests])
-    columns = np.vstack(_columns(problem, model, shape, list(range(len(problem.tests))),
-                                 thinned=False))
-    misfit = columns @ solve_linear(columns, measured, model) - measured
-    return float(misfit @ misfit)
+def best_layer_depth(problem: CutProblem, model: CutCandidate, shape: np.ndarray
+                     ) -> np.ndarray:
+    """``shape`` with its layer boundary (``layer_depth_0_m``, of a two-layer model) at the
+    depth where the misfit over every sample of every test is least, the other shape
+    parameters as they are and the linear ones solved there (without their bounds).
+
+    The force changes with the boundary only where it passes a depth that the edge cut fresh
+    material at, so every depth halfway between two neighbouring such depths is tried: the
+    edge's column of the layer above the boundary is the sum of the strips cut above it,
+    and the normal equations of each try are sums over the samples of that column's
+    products, which a cumulative sum over the tried depths gives all at once."""
+    index = model.parameter_names.index("layer_depth_0_m")
+    low, high = (float(b[index]) for b in model.bounds)
+    base = replace(model, causes=tuple(c for c in model.causes if c != "layered_toughness"))
+    base_shape = np.delete(shape, index)
+    unit = model.unit_edge(shape)[0]
+    parts = [_layer_products(unit, base, base_shape, k, np.asarray(t.force_N))
+             for k, t in zip(problem.kinematics, problem.tests, strict=True)]
+    depths = np.unique(np.concatenate([p.depth for p in parts]))
+    tried = 0.5 * (depths[1:] + depths[:-1])
+    tried = tried[(tried > low) & (tried < high)]
+    if not len(tried):
+        return shape
+    columns = parts[0].columns.shape[1]
+    gram = np.zeros((len(tried), columns + 1, columns + 1))
+    right = np.zeros((len(tried), columns + 1))
+    for part in parts:
+        gram[:, :columns, :columns] += part.columns.T @ part.columns
+        right[:, :columns] += part.columns.T @ part.measured
+        upper = part.upper_weights(tried)
+        gram[:, -1, -1] += (upper**2).T @ part.unit_sq
+        cross = upper.T @ part.unit_dot_columns
+        gram[:, -1, :columns] += cross
+        gram[:, :columns, -1] += cross
+        right[:, -1] += upper.T @ part.unit_dot_measured
+    scale = np.sqrt(np.maximum(np.einsum("mii->mi", gram), 1e-300))
+    scaled = gram / scale[:, :, None] / scale[:, None, :] + 1e-10 * np.eye(columns + 1)
+    solved = np.linalg.solve(scaled, (right / scale)[..., None])[..., 0]
+    explained = np.einsum("mi,mi->m", solved, right / scale)
+    best = shape.copy()
+    best[index] = tried[int(np.argmax(explained))]
+    return best
+
+
+@dataclass(frozen=True, eq=False)
+class _LayerProducts:
+    """One test's share of :func:`best_layer_depth`'s normal equations, over its samples
+    that cut fresh material (its rows); u is the edge's force per metre of engaged edge.
+
+    Attributes:
+        columns: (3 n, k) the model's linear columns without layers, every sample.
+        measured: (3 n,) the measured force, N.
+        unit_sq: (rows,) u squared.
+        unit_dot_columns: (rows, k) u with each column at the row's sample.
+        unit_dot_measured: (rows,) u with the measured force at the row's sample.
+        row: (pairs,) the row of each fresh strip.
+        depth: (pairs,) the strip's depth, m.
+        weight: (pairs,) the strip's width times the indentation ramp there, m.
+    """
+
+    columns: np.ndarray
+    measured: np.ndarray
+    unit_sq: np.ndarray
+    unit_dot_columns: np.ndarray
+    unit_dot_measured: np.ndarray
+    row: np.ndarray
+    depth: np.ndarray
+    weight: np.ndarray
+
+    def upper_weights(self, tried: np.ndarray) -> np.ndarray:
+        """(rows, m) each row's engaged length above each tried depth (ramp-weighted)."""
+        steps = np.zeros((len(self.unit_sq), len(tried) + 1))
+        np.add.at(steps, (self.row, np.searchsorted(tried, self.depth, side="right")),
+                  self.weight)
+        return np.cumsum(steps, axis=1)[:, :-1]
+
+
+def _layer_products(unit: CuttingParams, base: CutCandidate, base_shape: np.ndarray,
+                    kinematics: CutKinematics, measured: np.ndarray) -> _LayerProducts:
+    """The products of :class:`_LayerProducts` for one test."""
+    n = len(kinematics.middle_depth_m)
+    columns = linear_columns(base, base_shape, kinematics)
+    weights = kinematics.strip_width_m * np.where(
+        kinematics.fresh, unit.indentation_ramp(kinematics.depth_m), 0.0)
+    rows = np.flatnonzero((weights > 0).any(axis=1))
+    per_metre = edge_force(unit.uniform(), np.ones(n), kinematics.push_m_s,
+                           kinematics.slice_m_s, kinematics.middle_depth_m)[rows]
+    at_rows = np.stack([columns[rows + axis * n] for axis in range(3)], axis=1)
+    seen = np.stack([measured[rows + axis * n] for axis in range(3)], axis=1)
+    row, strip = np.nonzero(weights[rows] > 0)
+    return _LayerProducts(columns, measured, np.einsum("ra,ra->r", per_metre, per_metre),
+                          np.einsum("ra,rak->rk", per_metre, at_rows),
+                          np.einsum("ra,ra->r", per_metre, seen), row,
+                          kinematics.depth_m[rows][row, strip], weights[rows][row, strip])
+
+
+def refine(problem: CutProblem, model: CutCandidate, start: np.ndarray,
+           max_evaluations: int) -> tuple[np.ndarray, np.ndarray]:
+    """The shape parameters of ``model`` that fit the thinned samples of every test best from
+    ``start`` (the linear ones solved at each step), and the residuals' Jacobian there."""
+    everything = list(range(len(problem.tests)))
+    measured = np.concatenate(problem.thinned_force_n)
+    if not len(start):
+        return np.asarray(start, dtype=float), np.zeros((len(measured), 0))
+
+    def residual(shape: np.ndarray) -> np.ndarray:
+        columns = np.vstack(_columns(problem, model, shape, everything))
+        return columns @ solve_linear(columns, measured, model) - measured
+
+    lower, upper = model.bounds
+    result = least_squares(residual, np.clip(start, lower, upper), bounds=(lower, upper),
+                           x_scale="jac", diff_step=1e-3, ftol=_TOLERANCE, xtol=_TOLERANCE,
+                           max_nfev=max_evaluations)
+    return result.x, result.jac
 
 
 def fit_cut(problem: CutProblem, model: CutCandidate, start: np.ndarray,
@@ -167,19 +273,8 @@ def fit_cut(problem: CutProblem, model: CutCandidate, start: np.ndarray,
     docstring)."""
     everything = list(range(len(problem.tests)))
     measured = np.concatenate(problem.thinned_force_n)
-
-    def residual(shape: np.ndarray) -> np.ndarray:
-        columns = np.vstack(_columns(problem, model, shape, everything))
-        return columns @ solve_linear(columns, measured, model) - measured
-
+    shape, jacobian = refine(problem, model, start, max_evaluations)
     lower, upper = model.bounds
-    if len(start):
-        result = least_squares(residual, np.clip(start, lower, upper), bounds=(lower, upper),
-                               x_scale="jac", diff_step=1e-3, ftol=_TOLERANCE,
-                               xtol=_TOLERANCE, max_nfev=max_evaluations)
-        shape, jacobian = result.x, result.jac
-    else:
-        shape, jacobian = np.asarray(start, dtype=float), np.zeros((len(measured), 0))
     columns = np.vstack(_columns(problem, model, shape, everything))
     linear = solve_linear(columns, measured, model)
     misfit = columns @ linear - measured

@@ -8,9 +8,10 @@ on the reduced model of a cut (:mod:`cell.rheology.cutfitting`). The noise is th
 estimate (:func:`cell.rheology.diagnosis.force_noise_n`) over each force channel.
 
 A depth where the toughness steps (``layered_toughness``) gives a fit no gradient to follow
-between samples: its fits start from the best of a grid of depths over the block's height (the
-linear parameters solved at each), then from the best of a finer grid around the first fit's
-and of the depths between the samples' depths there.
+between samples: the boundary is put where it fits best among every depth between two that
+the edges cut at (:func:`cell.rheology.cutfitting.best_layer_depth`, the linear parameters
+solved at each, all at once), the other parameters fitted, the boundary put again and the
+whole fitted with its held-out predictions once.
 
 Usage::
 
@@ -28,16 +29,11 @@ import numpy as np
 from cell.rheology.acceptance import improved_fraction
 from cell.rheology.causes import UNEXPLAINED
 from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA, CutCandidate, cause_of
-from cell.rheology.cutfitting import CutFit, CutProblem, fit_cut, misfit_rss
+from cell.rheology.cutfitting import CutFit, CutProblem, best_layer_depth, fit_cut, refine
 from cell.rheology.cuts import Blade, Block, CutTest
 from cell.rheology.diagnosis import Evidence, SearchOutcome, force_noise_n
 from cell.rheology.search import forward, second_start, unexplained
 from cell.rheology.settings import DiagnosisParams
-
-#: Starting depths of a layer boundary, as fractions of the block's height, then the finer
-#: grid's points around the best of them.
-_COARSE_DEPTHS = 16
-_FINE_DEPTHS = 8
 
 
 def _start(model: CutCandidate, previous: CutFit | None) -> np.ndarray:
@@ -52,40 +48,17 @@ def _start(model: CutCandidate, previous: CutFit | None) -> np.ndarray:
     return start
 
 
-def _best_depth(problem: CutProblem, model: CutCandidate, shape: np.ndarray,
-                depths: np.ndarray) -> np.ndarray:
-    """``shape`` with the layer boundary at the one of ``depths`` that fits best, the other
-    parameters as they are."""
-    index = model.parameter_names.index("layer_depth_0_m")
-    low, high = (b[index] for b in model.bounds)
-    trials = [np.where(np.arange(len(shape)) == index, np.clip(d, low, high), shape)
-              for d in depths]
-    return min(trials, key=lambda trial: misfit_rss(problem, model, trial))
-
-
 def fit_best(problem: CutProblem, model: CutCandidate, previous: CutFit | None,
              max_evaluations: int) -> CutFit:
     """``model`` fitted from the start :func:`_start` gives; a layered model's boundary first
-    picked on a grid of depths over the block, fitted there, then picked again on a finer grid
-    around it and fitted (module docstring)."""
+    put where it fits best with the start's other parameters, those fitted, the boundary put
+    again where it fits best with them, and the whole fitted from there (module docstring)."""
     start = _start(model, previous)
-    if "layered_toughness" not in model.causes or model.layers != 2:
-        return fit_cut(problem, model, start, max_evaluations)
-    coarse = model.depth_m * (np.arange(_COARSE_DEPTHS) + 0.5) / _COARSE_DEPTHS
-    first = fit_cut(problem, model, _best_depth(problem, model, start, coarse),
-                    max_evaluations)
-    spacing = model.depth_m / _COARSE_DEPTHS
-    depth = first.shape[model.parameter_names.index("layer_depth_0_m")]
-    # The misfit changes only where the boundary passes a sample's depth: between each two
-    # neighbouring sample depths near the first fit's boundary.
-    sampled = np.unique(np.concatenate([k.middle_depth_m[k.engaged_length_m > 0]
-                                        for k in problem.kinematics]))
-    near = sampled[np.abs(sampled - depth) <= spacing]
-    fine = np.concatenate([depth + np.linspace(-spacing, spacing, _FINE_DEPTHS + 1),
-                           0.5 * (near[1:] + near[:-1])])
-    second = fit_cut(problem, model, _best_depth(problem, model, first.shape, fine),
-                     max_evaluations)
-    return min((first, second), key=lambda f: f.rmse_n)
+    if "layered_toughness" in model.causes and model.layers == 2:
+        shape, _ = refine(problem, model, best_layer_depth(problem, model, start),
+                          max_evaluations)
+        start = best_layer_depth(problem, model, shape)
+    return fit_cut(problem, model, start, max_evaluations)
 
 
 class CutSearch:

@@ -6,7 +6,9 @@ straddles the blade's plane stays whole whatever springs inside it are removed, 
 cannot pass through one flex. The block is therefore meshed as two flexes that meet on the
 blade's plane (the plane a cut test's edge moves in: its edge and its sinking direction), the
 plane's vertices doubled, each pair held by a ``connect`` equality: the material's springs
-across the plane lumped into one tie per pair, as the paper binds its two muscles. Releasing
+across the plane lumped into one tie per pair, as the paper binds its two muscles. Each pair
+lies a contact radius apart, one to either side of the plane (:data:`PARTING_M`), so that the
+edge enters between them rather than pressing the top row down head on. Releasing
 the ties that the edge has passed (:mod:`cell.sim.cuttest`) separates the material behind the
 edge, and the cut faces then press on the blade through MuJoCo's contacts, frictionless: the
 faces' drag is the cutting model's law over the cut's area (:mod:`cell.sim.cuttest`).
@@ -63,6 +65,15 @@ STIFF_SOLREF = (0.002, 1.0)
 STIFF_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 #: Radius of the spheres under the block's bottom vertices that rest on the board, m.
 _FOOT_RADIUS_M = 0.0005
+#: Radius of the tissue's contact with the blade (the flexes' collision radius), m.
+CONTACT_RADIUS_M = 0.0002
+#: How far each of the plane's doubled vertices lies off the plane, to its half's side, m:
+#: the ties hold the pair that far apart, their contact spheres touching on the plane, so
+#: that the edge enters the block between them. On the plane, the top row met the edge head
+#: on and was pressed down with the lattice under it until it slipped aside most of a cell
+#: deep: a push on the blade that grew with the cell size, the mesh's own indentation on top
+#: of the material's (its ``[cutting]`` ``indentation_depth_m``).
+PARTING_M = CONTACT_RADIUS_M
 #: The blade's mass while a step's constraints solve, kg: far above a vertex's, so the
 #: contacts hardly move it before the path puts it back.
 _BLADE_MASS_KG = 1.0
@@ -183,7 +194,7 @@ def _feet_and_ties(spec: mujoco.MjSpec, halves: list[tuple[np.ndarray, np.ndarra
                 conaffinity=FEET.conaffinity, friction=[board_friction, 0.005, 0.0001],
                 solref=STIFF_SOLREF, solimp=STIFF_SOLIMP)
     near, far = (points for points, _ in halves)
-    on_plane = np.flatnonzero(np.abs(near[:, axis] - plane_m) < 1e-9)
+    on_plane = np.flatnonzero(np.abs(near[:, axis] - plane_m) < PARTING_M + 1e-9)
     partner = np.array([np.argmin(np.linalg.norm(far - near[i], axis=1)) for i in on_plane])
     for k, (i, j) in enumerate(zip(on_plane, partner, strict=True)):
         spec.add_equality(name=f"tie_{k}", type=mujoco.mjtEq.mjEQ_CONNECT,
@@ -218,13 +229,15 @@ def build_cut_scene(block: Block, blade: Blade, material: MassSpringMaterial, pl
                       spine_direction(blade, start, block)], axis=1)
     halves = [_half_grid(block, axis, 0.0, plane_m, cell_size_m),
               _half_grid(block, axis, plane_m, size[axis], cell_size_m)]
+    for (points, _), side in zip(halves, (-1.0, 1.0), strict=True):
+        points[np.abs(points[:, axis] - plane_m) < 1e-9, axis] += side * PARTING_M
     tissue, _ = muscles(False)
     contact = (f'contype="{tissue.contype}" conaffinity="{ROBOTS.conaffinity}" '
                'selfcollide="none" condim="1" solref="0.005 1"')
     flexes = "".join(
         flexcomp_xml(name, points, tets, material,
                      material.density_kg_m3 * np.prod(np.ptp(points, axis=0)),
-                     radius_m=0.0002, contact=contact)
+                     radius_m=CONTACT_RADIUS_M, contact=contact)
         for name, (points, tets) in zip(HALVES, halves, strict=True))
     blade_body, bevel = _blade_xml(blade, frame, size @ np.abs(frame[:, 2]), start)
     stiff_solref, stiff_solimp = (" ".join(map(str, v)) for v in (STIFF_SOLREF, STIFF_SOLIMP))

@@ -51,6 +51,10 @@ _READY_ITERATIONS = 200
 _HELD_SITES = {"camera": "camera/optical", "gripper": GRASP_SITE, "knife": KNIFE_TIP}
 #: Which random stream of the seed the camera's noise draws from (the sensors use stream 0).
 _PERCEPTION_STREAM = 1
+#: How long before its tool starts work a sensor is tared (the knife before its cut, the
+#: gripper and the fixture before the jaws close): the tool still moves steadily then, so the
+#: zero holds the tool's weight and not the inertial load of its stop at the work.
+TARE_LEAD_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -322,10 +326,11 @@ class Episode:
             sim.step(sensors=i == self.substeps)
         self._ctrl_prev = ctrl_next
         t = sim.time_s
-        if not self._knife_tared and t >= cut_start - 0.1:
+        if not self._knife_tared and t >= cut_start - TARE_LEAD_S:
             sim.tare("knife/force", "knife/torque")
             self._knife_tared = True
-        if scenario.pull.enabled and not self._gripper_tared and t >= schedule.close_s:
+        if (scenario.pull.enabled and not self._gripper_tared
+                and t >= schedule.close_s - TARE_LEAD_S):
             sim.tare("gripper/force", "gripper/torque", "fixture_force")
             self._gripper_tared = True
         if scenario.pull.enabled and not self._grasped and t >= schedule.grasp_s:

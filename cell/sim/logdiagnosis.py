@@ -90,7 +90,7 @@ class LogDiagnosis:
         evidence: per named cause, the held-out RMSE with and without it.
         steps: the forward selection's steps.
         simulated: the simulated vectors of the baseline and the extended world.
-        timing: replays, their wall time, and the fits' time, s.
+        timing: replays, their wall and CPU time, and the fits' (the rest's), s.
 
     Example:
         >>> LogDiagnosis(["a", "b"], [2.0, 2.0], [], [], {}, {"baseline": 2.0, "extended": 1.5},
@@ -128,21 +128,24 @@ class LogDiagnosis:
                 "timing": self.timing}
 
 
-def _replay_task(task: tuple[str, tuple[tuple[str, float], ...]]) -> np.ndarray | None:
+def _replay_task(task: tuple[str, tuple[tuple[str, float], ...]]
+                 ) -> tuple[np.ndarray | None, float]:
     """One replay in a worker: the log in ``task[0]`` in the world of the magnitudes
-    ``task[1]``; its simulated vector, or None where the physics blew up."""
+    ``task[1]``; its simulated vector (None where the physics blew up) and the CPU time it
+    took, s."""
     from cell.errors import DivergenceError
     from cell.sim.logformat import read_log
     from cell.sim.replay import replay
 
+    started = time.process_time()
     log = read_log(task[0])
     magnitudes = dict(task[1])
     world = changed_world(log_scenario(log), magnitudes)
     try:
         result = replay(log, world, episode_adjustment(magnitudes))
     except DivergenceError:
-        return None
-    return simulated_vector(log, result.simulated)
+        return None, time.process_time() - started
+    return simulated_vector(log, result.simulated), time.process_time() - started
 
 
 def _one_thread() -> None:
@@ -152,7 +155,7 @@ def _one_thread() -> None:
 
 class Replayer:
     """Replays a batch's logs in changed worlds, side by side on ``workers`` processes (one:
-    in this process), counting them and their wall time.
+    in this process), counting them, their wall time and their CPU time (the workers').
 
     Example:
         >>> Replayer([], 1).count
@@ -161,7 +164,7 @@ class Replayer:
 
     def __init__(self, folders: Sequence[str], workers: int) -> None:
         self.folders = [str(folder) for folder in folders]
-        self.count, self.wall_s = 0, 0.0
+        self.count, self.wall_s, self.cpu_s = 0, 0.0, 0.0
         self._pool = (ProcessPoolExecutor(workers, mp_context=get_context("spawn"),
                                           initializer=_one_thread) if workers > 1 else None)
 
@@ -181,7 +184,13 @@ class Replayer:
                    else [_replay_task(task) for task in tasks])
         self.count += len(tasks)
         self.wall_s += time.perf_counter() - started
-        return results
+        self.cpu_s += sum(cpu for _, cpu in results)
+        return [vector for vector, _ in results]
+
+    @property
+    def in_process(self) -> bool:
+        """Whether the replays run in this process (their CPU time is then this process's)."""
+        return self._pool is None
 
     def batches(self, worlds: Sequence[dict[str, float]]) -> list[np.ndarray | None]:
         """Each world's simulated batch vector (every log replayed; None: one blew up)."""
@@ -205,7 +214,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None) -> 
     names = [c for c in applicable(batch.scenarios[0])
              if params.causes is None or c in params.causes]
     workers = params.workers or os.cpu_count() or 1
-    started = time.perf_counter()
+    started, cpu_started = time.perf_counter(), time.process_time()
     jobs = len(batch.logs) * (2 * len(names) + 1)
     with Replayer([log.folder for log in batch.logs], min(workers, jobs)) as replayer:
         base, blocks = _screen(replayer, measured, names)
@@ -236,9 +245,17 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None) -> 
         [{"added": s.added, "information": s.information, "heldout_rmse_N": s.heldout_rmse_n}
          for s in steps], {"baseline": base, "extended": fit["simulated"],
                            "measured": measured},
-        {"replays": replayer.count, "replay_wall_s": replayer.wall_s,
-         "fit_s": time.perf_counter() - started - replayer.wall_s,
-         "total_s": time.perf_counter() - started})
+        _timing(replayer, started, cpu_started))
+
+
+def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str, float]:
+    """Where the time went: the replays' and the rest's (the fits', in this process), wall
+    and CPU, s."""
+    wall = time.perf_counter() - started
+    cpu = time.process_time() - cpu_started - (replayer.cpu_s if replayer.in_process else 0.0)
+    return {"replays": replayer.count, "replay_wall_s": replayer.wall_s,
+            "fit_s": wall - replayer.wall_s, "total_s": wall, "replay_cpu_s": replayer.cpu_s,
+            "fit_cpu_s": cpu}
 
 
 def _screen(replayer: Replayer, measured: np.ndarray, names: list[str]

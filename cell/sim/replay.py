@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from cell.robots.names import GRASP_SITE, KNIFE_TIP
-from cell.sim.episode import Episode, EpisodePlan
+from cell.sim.episode import TARE_LEAD_S, Episode, EpisodePlan
 from cell.sim.logbatch import log_scenario
 from cell.sim.logformat import Channel, SeparationLog
 from cell.sim.logwriter import SensorSampler
@@ -99,18 +99,23 @@ def _target(channel: Channel, time_s: float, offset: tuple[np.ndarray, np.ndarra
     return position + rotation @ offset[0], rotation @ offset[1]
 
 
-def _replay_plan(plan: EpisodePlan, log: SeparationLog) -> EpisodePlan:
-    """The plan's clock set by the log: the tares, the grasp and the cut windows."""
+def _replay_plan(plan: EpisodePlan, log: SeparationLog, control_dt_s: float) -> EpisodePlan:
+    """The plan's clock set by the log: the tares, the grasp and the cut windows. The
+    episode tares a sensor :data:`~cell.sim.episode.TARE_LEAD_S` before its tool's work (the
+    jaws closing, the cut); the replay's events fall on the control step of the logged one,
+    half a step early so that rounding cannot put them a step late."""
     grasp = log.channels["gripper"].grasp
     gripper_time = log.channels["gripper"].time_s
-    grasp_s = (float(gripper_time[np.argmax(grasp > 0)]) if grasp is not None and grasp.any()
-               else np.inf)
-    close_s = log.sensors.get("gripper_tare_s", grasp_s)
+    grasp_s = (float(gripper_time[np.argmax(grasp > 0)]) - control_dt_s / 2
+               if grasp is not None and grasp.any() else np.inf)
+    work = TARE_LEAD_S - control_dt_s / 2
+    close_s = (log.sensors["gripper_tare_s"] + work if "gripper_tare_s" in log.sensors
+               else grasp_s)
     windows = tuple(CutWindow(a, b) for a, b in log.cut_windows_s) or (CutWindow(np.inf,
                                                                                  np.inf),)
     knife_tare = log.sensors.get("knife_tare_s", float(log.channels["knife"].time_s[0]))
     return replace(plan, schedule=replace(plan.schedule, close_s=close_s, grasp_s=grasp_s),
-                   cut_window_s=CutWindow(knife_tare + 0.1, windows[-1].end_s),
+                   cut_window_s=CutWindow(knife_tare + work, windows[-1].end_s),
                    passes=replace(plan.passes, windows_s=windows))
 
 
@@ -134,7 +139,7 @@ def replay(log: SeparationLog, scenario: Scenario | None = None,
     # The arms start where the log starts, not at the scenario's ready poses: a start
     # elsewhere would jerk the tools toward the log's first poses.
     episode.start_tools_at(_target(knife, 0.0, offsets[0]), _target(gripper, 0.0, offsets[1]))
-    plan = _replay_plan(episode.plan(), log)
+    plan = _replay_plan(episode.plan(), log, episode.control_dt_s)
     sampler = SensorSampler(episode.sim, REPLAY_STREAM)
     end_s = float(knife.time_s[-1])
     while episode.sim.time_s < end_s - 1e-9:
