@@ -32,7 +32,14 @@ from typing import Any, Literal
 
 import numpy as np
 
-from cell.bench.diagnose import check_request, confusion_markdown, time_summary
+from cell.bench.diagnose import (
+    cause_label,
+    check_request,
+    confusion_markdown,
+    cycled_causes,
+    fraction,
+    time_summary,
+)
 from cell.tissue.cutmodel import CUT_CAUSES, CuttingParams
 
 Kind = Literal["single", "pairs"]
@@ -63,15 +70,8 @@ def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
         >>> hidden(41_000, "single"), hidden(41_006, "single"), hidden(41_007, "single")
         (('blade_friction',), (), ())
     """
-    offset = seed - FIRST_SEED[kind]
-    if kind == "pairs":
-        return PAIRS[offset % len(PAIRS)]
-    cycle = (*((c,) for c in CUT_CAUSES), (), ())
-    return cycle[offset % len(cycle)]
-
-
-def _label(causes: Sequence[str]) -> str:
-    return " + ".join(sorted(causes)) or "none"
+    return cycled_causes(seed - FIRST_SEED[kind], CUT_CAUSES, 2,
+                         PAIRS if kind == "pairs" else None)
 
 
 def _truth_vector(cause: str, cutting: CuttingParams, offset_n: Sequence[float]
@@ -151,8 +151,8 @@ def run_cut_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
             error = (parameter_error(expected[0], truth, result.extended.cutting,
                                      result.extended.offset_n)
                      if len(expected) == 1 and named == list(expected) else None)
-            row = confusion.setdefault(_label(expected), {})
-            row[_label(result.causes)] = row.get(_label(result.causes), 0) + 1
+            row = confusion.setdefault(cause_label(expected), {})
+            row[cause_label(result.causes)] = row.get(cause_label(result.causes), 0) + 1
             sets.append({"seed": seed, "truth": describe(truth), "causes": list(result.causes),
                          "correct": sorted(named) == sorted(expected),
                          "parameter_error": error, "gain": float(result.gain),
@@ -161,16 +161,12 @@ def run_cut_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
                          "reduced_vs_full": reduced_vs_full(data, truth),
                          "tests": len(data.cut_tests)})
             if progress is not None:
-                progress(f"seed {seed}: truth {_label(expected)}, named "
-                         f"{_label(result.causes)}, {seconds:.1f} s ({cpu_seconds:.1f} s of "
+                progress(f"seed {seed}: truth {cause_label(expected)}, named "
+                         f"{cause_label(result.causes)}, {seconds:.1f} s ({cpu_seconds:.1f} s of "
                          f"CPU; simulated in "
                          f"{truth.wall_s:.0f} s), reduced vs full "
                          f"{sets[-1]['reduced_vs_full']:.3f}")
     return _summary(sets, confusion, kind, seeds)
-
-
-def _fraction(flags: list[bool]) -> float:
-    return sum(flags) / len(flags) if flags else math.nan
 
 
 def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]], kind: str,
@@ -192,7 +188,7 @@ def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]], k
         "cpu_seconds_per_set_max": {"value": max(s["cpu_seconds"] for s in sets), "unit": "s"},
         "simulation_seconds_per_set_median": {
             "value": statistics.median(s["simulation_seconds"] for s in sets), "unit": "s"},
-        "correct": {"value": _fraction([s["correct"] for s in sets]), "unit": "fraction",
+        "correct": {"value": fraction([s["correct"] for s in sets]), "unit": "fraction",
                     "of": len(sets)},
         "cut_reduced_vs_full_median": {"value": statistics.median(agreement),
                                        "unit": "fraction of the peak force"},
@@ -209,7 +205,7 @@ def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]], k
                                 "pass": max(agreement) <= TARGET_REDUCED_VS_FULL},
     }
     if compared:
-        within = _fraction([e <= PARAMS_TOLERANCE for e in compared])
+        within = fraction([e <= PARAMS_TOLERANCE for e in compared])
         entries["parameters_within_15_percent"] = {"value": within, "unit": "fraction",
                                                    "of": len(compared)}
         targets["parameters_within_15_percent"] = {"value": within,
@@ -217,7 +213,7 @@ def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]], k
                                                    "unit": "fraction",
                                                    "pass": within >= TARGET_PARAMS_WITHIN}
     if without:
-        none = _fraction([not s["causes"] for s in without])
+        none = fraction([not s["causes"] for s in without])
         entries["none_named_without_cause"] = {"value": none, "unit": "fraction",
                                                "of": len(without)}
         targets["none_named_without_cause"] = {"value": none, "target": TARGET_NONE,

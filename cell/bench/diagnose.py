@@ -30,6 +30,7 @@ and at least one of the two named in >= 97 % of pairs.
 from __future__ import annotations
 
 import itertools
+import math
 import statistics
 import tempfile
 import time
@@ -89,6 +90,36 @@ def hidden(seed: int, kind: Kind, including: str | None = None) -> tuple[str, ..
 
 def _label(causes: Sequence[str]) -> str:
     return "+".join(causes) or "none"
+
+
+def cause_label(causes: Sequence[str]) -> str:
+    """A set of causes as a confusion table names it.
+
+    Example:
+        >>> cause_label(("slicing", "blade_friction")), cause_label(())
+        ('blade_friction + slicing', 'none')
+    """
+    return " + ".join(sorted(causes)) or "none"
+
+
+def fraction(flags: Sequence[bool]) -> float:
+    """The share of true flags (NaN for none)."""
+    return sum(flags) / len(flags) if flags else math.nan
+
+
+def cycled_causes(offset: int, catalogue: Sequence[str], nones: int,
+                  pairs: Sequence[tuple[str, str]] | None = None) -> tuple[str, ...]:
+    """The causes of the ``offset``-th bench set: every pair in turn when ``pairs`` is given,
+    else the catalogue's causes one at a time in turn, then ``nones`` sets with none.
+
+    Example:
+        >>> [cycled_causes(k, ("a", "b"), 1) for k in range(4)]
+        [('a',), ('b',), (), ('a',)]
+    """
+    if pairs is not None:
+        return pairs[offset % len(pairs)]
+    cycle = (*((c,) for c in catalogue), *((),) * nones)
+    return cycle[offset % len(cycle)]
 
 
 def confusion_markdown(confusion: dict[str, dict[str, int]]) -> str:

@@ -32,7 +32,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from cell.bench.diagnose import check_request, confusion_markdown, time_summary
+from cell.bench.diagnose import (
+    cause_label,
+    check_request,
+    confusion_markdown,
+    cycled_causes,
+    fraction,
+    time_summary,
+)
 
 Kind = Literal["single", "pairs"]
 KINDS: tuple[Kind, ...] = ("single", "pairs")
@@ -94,16 +101,8 @@ def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
         >>> hidden(70_000, "single"), hidden(70_006, "single"), hidden(70_007, "single")
         (('binding_strength',), (), ('binding_strength',))
     """
-    offset = seed - FIRST_SEED[kind]
-    if kind == "pairs":
-        return PAIRS[offset % len(PAIRS)]
-    cycle = (*((c,) for c in LOG_TABLE), ())
-    return cycle[offset % len(cycle)]
-
-
-def label(causes: Sequence[str]) -> str:
-    """A set of causes as a confusion table names it."""
-    return " + ".join(sorted(causes)) or "none"
+    return cycled_causes(seed - FIRST_SEED[kind], LOG_TABLE, 1,
+                         PAIRS if kind == "pairs" else None)
 
 
 def magnitude_error(cause: str, truth: Mapping[str, Any], offset_channel: str,
@@ -195,8 +194,8 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
             rows.append(row)
             if progress is not None:
                 split = row["split"]
-                progress(f"seed {seed}: truth {label(row['truth']['causes'])}, named "
-                         f"{label(row['causes'])}, gain {row['gain']:.2f}, "
+                progress(f"seed {seed}: truth {cause_label(row['truth']['causes'])}, named "
+                         f"{cause_label(row['causes'])}, gain {row['gain']:.2f}, "
                          f"{row['seconds']:.0f} s ({row['replays']} replays "
                          f"{split['replay_wall_s']:.0f} s, fits {split['fit_wall_s']:.0f} s; "
                          f"CPU {row['cpu_seconds']:.0f} s; simulated in "
@@ -205,10 +204,6 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
     return {**report, "seeds": list(seeds), "quick": params.end_s is not None,
             "params": {"base": params.base.name, "end_s": params.end_s,
                        "workers": params.workers}}
-
-
-def _fraction(flags: Sequence[bool]) -> float:
-    return sum(flags) / len(flags) if flags else math.nan
 
 
 def _target(value: float, target: float, unit: str, at_least: bool = True) -> dict[str, Any]:
@@ -221,11 +216,11 @@ def summary(rows: Sequence[dict[str, Any]], kind: str) -> dict[str, Any]:
     table (truth rows, named columns) and its Markdown."""
     confusion: dict[str, dict[str, int]] = {}
     for row in rows:
-        cells = confusion.setdefault(label(row["truth"]["causes"]), {})
-        cells[label(row["causes"])] = cells.get(label(row["causes"]), 0) + 1
+        cells = confusion.setdefault(cause_label(row["truth"]["causes"]), {})
+        cells[cause_label(row["causes"])] = cells.get(cause_label(row["causes"]), 0) + 1
     with_cause = [r for r in rows if r["truth"]["causes"]]
     without = [r for r in rows if not r["truth"]["causes"]]
-    correct = _fraction([r["correct"] for r in rows])
+    correct = fraction([r["correct"] for r in rows])
     time_entries, time_targets = time_summary([r["seconds"] for r in rows],
                                               TARGET_SECONDS_MEDIAN, TARGET_SECONDS_PER_BATCH)
     cpu = [r["cpu_seconds"] for r in rows]
@@ -246,7 +241,7 @@ def summary(rows: Sequence[dict[str, Any]], kind: str) -> dict[str, Any]:
                **{name.replace("per_set", "per_batch"): target
                   for name, target in time_targets.items()}}
     if with_cause:
-        within = _fraction([r["magnitude_within"] for r in with_cause])
+        within = fraction([r["magnitude_within"] for r in with_cause])
         gain = statistics.median(r["gain"] for r in with_cause)
         entries["magnitude_within_20_percent"] = {"value": within, "unit": "fraction",
                                                   "of": len(with_cause)}
