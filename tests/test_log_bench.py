@@ -35,8 +35,10 @@ def _row(truth: tuple[str, ...], named: tuple[str, ...], gain: float, seconds: f
 
 
 def test_the_single_batches_cycle_through_the_log_table_and_none() -> None:
-    seeds = bench_seeds(len(LOG_TABLE) + 1)
-    assert [hidden(s, "single") for s in seeds] == [(c,) for c in LOG_TABLE] + [()]
+    seeds = bench_seeds(len(LOG_TABLE) + 3)
+    assert [hidden(s, "single") for s in seeds] == [(c,) for c in LOG_TABLE] + [()] * 3
+    seventeen = [hidden(s, "single") for s in bench_seeds(17)]
+    assert seventeen.count(()) == 5 and all(seventeen.count((c,)) == 2 for c in LOG_TABLE)
     assert {hidden(FIRST_SEED["pairs"] + k, "pairs") for k in range(len(PAIRS))} == set(PAIRS)
     assert len(PAIRS) == 15
     bench = set(bench_seeds(100)) | set(bench_seeds(100, "pairs"))
