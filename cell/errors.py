@@ -220,8 +220,20 @@ class PickledPolicyError(LearningError):
 
 
 class SweepError(InputError):
-    """A sweep file (or a sweep's results folder) with a wrong key, type, value or range, or
-    a request to run one that cannot be met (no Ray where a cluster is named)."""
+    """A sweep file (or a sweep's results folder) with a wrong key, type, value or range."""
+
+
+class PoolError(InputError):
+    """A request to play runs side by side (:mod:`cell.scale.pool`: a sweep's runs, a batch's
+    sets, a log diagnosis's replays) that cannot be met: fewer than one worker, an address
+    that is not a Ray cluster's or does not answer, no Ray installed; or a run whose worker
+    died. ``field`` is the option at fault (``--address``, ``--workers``).
+
+    Example:
+        >>> raise PoolError(None, "--address", "not a Ray address: 'x'")
+        Traceback (most recent call last):
+        cell.errors.PoolError: --address: not a Ray address: 'x'
+    """
 
 
 class MeshError(InputError):

@@ -234,18 +234,23 @@ class AtomicFile:
         'done'
     """
 
+    _mode = 0o666  # what a plain open() gives a new file, less the umask
+
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         # The folders made for it, deepest first: a discarded file takes them back too.
         self._made = [p for p in (self.path.parent, *self.path.parent.parents)
                       if not p.exists()]
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.temporary = self._make_temporary()
+        self.committed = False
+        _PENDING.add(self)
+
+    def _make_temporary(self) -> Path:
         fd, name = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp",
                                     dir=self.path.parent)
         os.close(fd)
-        self.temporary = Path(name)
-        self.committed = False
-        _PENDING.add(self)
+        return Path(name)
 
     def __enter__(self) -> AtomicFile:
         return self
@@ -259,10 +264,10 @@ class AtomicFile:
         # mkstemp makes the file private; give it the mode a plain open() would.
         umask = os.umask(0)
         os.umask(umask)
-        os.chmod(self.temporary, 0o666 & ~umask)
+        os.chmod(self.temporary, self._mode & ~umask)
         os.replace(self.temporary, self.path)
         self.committed = True
-        _PENDING.discard(self)
+        self.discard()  # no longer pending (nothing of the committed file is removed)
         return self.path
 
     def discard(self) -> None:
@@ -277,7 +282,7 @@ class AtomicFile:
                 break
 
 
-#: This process's :class:`AtomicFile` objects not yet committed or discarded.
+#: This process's :class:`AtomicFile` objects (folders too) not yet committed or discarded.
 _PENDING: set[AtomicFile] = set()
 
 

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 #: The project's packages that the rules know, bottom layer first.
-BASE = ("cell.errors", "cell.io", "cell.outputs", "cell.config", "cell.collision",
-        "cell.polyline", "cell.memory", "cell.assets", "cell.extras")
+BASE = ("cell.errors", "cell.io", "cell.folders", "cell.outputs", "cell.config",
+        "cell.collision", "cell.polyline", "cell.memory", "cell.assets", "cell.extras")
 ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.robots": BASE,
     "cell.tissue": BASE,
@@ -58,7 +58,8 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
     "cell.rheology.cutreport": ("cell.rheology.synthetic", "cell.rheology.truth"),
     # Nor does the batch diagnosis of separation logs read their generator.
     **{f"cell.sim.{name}": ("cell.sim.logsets",)
-       for name in ("logcauses", "logfit", "logdiagnosis", "logreport", "logcommand")},
+       for name in ("logcauses", "logfit", "logdiagnosis", "logreplays", "logreport",
+                    "logcommand")},
 }
 PROJECT_PACKAGES = ("cell", "controllers", "envs", "tests")
 #: The library's top-level packages, whose modules the rules check.

@@ -12,7 +12,7 @@ import pytest
 from cell.errors import DiagnosisError
 from cell.rheology.cutcauses import CUT_CAUSES, CutCandidate, linear_columns
 from cell.rheology.cutdiagnosis import diagnose_set
-from cell.rheology.cutfitting import CutProblem, best_layer_depth, fit_cut
+from cell.rheology.cutfitting import CutProblem, best_layer_depth, fit_cut, solve_linear
 from cell.rheology.cutreduced import simulate_cut
 from cell.rheology.cuts import Blade, Block, CutTest
 from cell.rheology.cutsearch import diagnose_cuts
@@ -101,6 +101,15 @@ def test_a_layers_depth_is_put_where_the_misfit_is_least() -> None:
     for depth in (0.0118, 0.012, 0.0122, 0.005, 0.02):
         assert _misfit_rss(problem, model, found) <= _misfit_rss(problem, model,
                                                                  np.array([depth])) + 1e-9
+
+
+def test_a_toughness_that_no_sample_depends_on_is_zero_not_round_off() -> None:
+    # Leaving out the one test that cut into the deeper layer leaves its column all zero.
+    model = CutCandidate(("layered_toughness",), 0.01, BLOCK.top_z_m)
+    shallow = np.linspace(0.0, 0.02, 50)
+    columns = np.column_stack([shallow, np.zeros_like(shallow)])
+    linear = solve_linear(columns, 800.0 * shallow, model)
+    assert linear[0] == pytest.approx(800.0) and linear[1] == 0.0
 
 
 def test_a_set_with_no_hidden_effect_names_none() -> None:

@@ -10,6 +10,7 @@ import argparse
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from cell.errors import InputError
 from cell.outputs import Output, check_outputs
@@ -64,8 +65,12 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--logs", action="store_true",
                        help="diagnose suite: hidden-effect batches of separation logs, "
                        "diagnosed as diagnose-logs does (with --pairs: two causes at once)")
-    bench.add_argument("--workers", type=int, default=os.cpu_count() or 1,
-                       help="diagnose suite: processes per diagnosis (default: every core)")
+    bench.add_argument("--workers", type=int,
+                       help="diagnose suite: processes per diagnosis (default: every core; "
+                       "with --address, the whole cluster)")
+    bench.add_argument("--address",
+                       help="diagnose suite with --logs: replay on this Ray cluster: auto, "
+                       "HEAD_HOST:PORT or ray://HOST:PORT (needs the scale extra)")
     bench.add_argument("--shapes", type=int, default=0, help="perception: + N shape episodes")
     bench.add_argument("--shape-seed", type=int, default=5000)
     bench.add_argument("--quick", action="store_true",
@@ -87,6 +92,9 @@ def bench_command(args: argparse.Namespace) -> int:
         if args.markdown is not None:
             raise InputError(None, "--markdown",
                              "only `musclecell bench tissue` and `bench diagnose` write Markdown")
+    if args.address is not None and not (suite == "diagnose" and args.logs):
+        raise InputError(None, "--address",
+                         "only `musclecell bench diagnose --logs` takes --address")
     if args.shapes < 0:
         raise InputError(None, "--shapes", f"must be >= 0, got {args.shapes}")
     json_path = args.json or Path(DEFAULT_JSON[suite])
@@ -219,23 +227,19 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
     count = args.seeds if args.seeds is not None else (3 if args.quick else 10)
     if count < 1:
         raise InputError(None, "--seeds", f"must be >= 1, got {count}")
+    workers = args.workers if args.workers is not None else os.cpu_count() or 1
     if args.suggest:
         from cell.bench import suggestbench
 
         report = suggestbench.run_suggest_bench(suggestbench.bench_seeds(count),
-                                                workers=args.workers, progress=print)
+                                                workers=workers, progress=print)
     elif args.spread:
         from cell.bench import spread
 
-        report = spread.run_spread_bench(spread.bench_seeds(count), workers=args.workers,
+        report = spread.run_spread_bench(spread.bench_seeds(count), workers=workers,
                                          progress=print)
     elif args.logs:
-        from cell.bench import logdiagnose
-
-        params = (logdiagnose.LogBenchParams.quick(args.workers) if args.quick
-                  else logdiagnose.LogBenchParams(workers=args.workers))
-        report = logdiagnose.run_log_diagnose_bench(logdiagnose.bench_seeds(count, kind), kind,
-                                                    params, progress=print)
+        report = _log_bench(args, kind, count, workers)
     elif args.cut:
         from cell.bench import cutdiagnose
 
@@ -243,7 +247,7 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
                                                     kind, progress=print)
     else:
         report = run_diagnose_bench(bench_seeds(count, kind, args.including),
-                                    workers=args.workers, progress=print, kind=kind,
+                                    workers=workers, progress=print, kind=kind,
                                     including=args.including)
     write_json(json_path, report)
     print(report["markdown"], end="")
@@ -257,6 +261,24 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
         write_atomic(args.markdown, report["markdown"])
         print(f"wrote {args.markdown}")
     return 0
+
+
+def _log_bench(args: argparse.Namespace, kind: str, count: int, workers: int
+               ) -> dict[str, Any]:
+    """The log batches' bench, its replays here (``workers`` processes) or, with
+    ``--address``, on that Ray cluster (joined once, before the first batch is drawn)."""
+    from contextlib import nullcontext
+
+    from cell.bench import logdiagnose
+    from cell.scale.command import log_cluster
+
+    cluster = None if args.address is None else log_cluster(args.workers, args.address)
+    asked = workers if cluster is None else args.workers  # a cluster's: None, all of it
+    params = (logdiagnose.LogBenchParams.quick(asked) if args.quick
+              else logdiagnose.LogBenchParams(workers=asked))
+    with cluster or nullcontext() as pool:
+        return logdiagnose.run_log_diagnose_bench(logdiagnose.bench_seeds(count, kind), kind,
+                                                  params, progress=print, cluster=pool)
 
 
 _SUITES: dict[str, Callable[[argparse.Namespace, Path, Path | None], int]] = {

@@ -30,7 +30,7 @@ import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from cell.bench.diagnose import (
     cause_label,
@@ -40,6 +40,9 @@ from cell.bench.diagnose import (
     fraction,
     time_summary,
 )
+
+if TYPE_CHECKING:
+    from cell.sim.logreplays import ReplayPool
 
 Kind = Literal["single", "pairs"]
 KINDS: tuple[Kind, ...] = ("single", "pairs")
@@ -73,7 +76,8 @@ class LogBenchParams:
     Attributes:
         base: the scenario the batches are drawn on.
         end_s: every episode (and so every log) cut short here, s (None: whole).
-        workers: replays side by side (None: one per core).
+        workers: replays side by side (None: one per core; on a cluster, as many as it
+            takes).
 
     Example:
         >>> LogBenchParams.quick(workers=2).end_s
@@ -166,8 +170,10 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "simulation_seconds": truth.wall_s}
 
 
-def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams) -> dict[str, Any]:
-    """Draw, write, read and diagnose the batch of ``seed``: its row of the bench."""
+def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
+            cluster: ReplayPool | None = None) -> dict[str, Any]:
+    """Draw, write, read and diagnose the batch of ``seed`` (its replays on ``cluster``, an
+    entered :class:`cell.scale.pool.RunPool`, where given): its row of the bench."""
     from cell.sim.logbatch import read_log_batch
     from cell.sim.logdiagnosis import LogDiagnosisParams, diagnose_logs
     from cell.sim.logsets import LOG_COUNT, write_hidden_log_batch
@@ -175,15 +181,16 @@ def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams) -> dict
     expected = hidden(seed, kind)
     truth = write_hidden_log_batch(folder, seed, params.base, expected, end_s=params.end_s)
     batch = read_log_batch([folder / f"log-{k}" for k in range(1, LOG_COUNT + 1)])
-    diagnosis = diagnose_logs(batch, LogDiagnosisParams(workers=params.workers))
+    diagnosis = diagnose_logs(batch, LogDiagnosisParams(workers=params.workers), cluster)
     return _batch_row(seed, expected, truth, diagnosis.to_json())
 
 
 def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
                            params: LogBenchParams | None = None,
-                           progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+                           progress: Callable[[str], None] | None = None,
+                           cluster: ReplayPool | None = None) -> dict[str, Any]:
     """Draw, write, read and diagnose one hidden-effect log batch of ``kind`` per seed
-    (module docstring).
+    (module docstring); the replays on ``cluster`` where given (:func:`run_one`).
 
     Raises:
         MeasurementError: no seed, or an unknown kind.
@@ -193,7 +200,7 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
     rows = []
     with tempfile.TemporaryDirectory(prefix="bench-log-diagnose-") as scratch:
         for seed in seeds:
-            row = run_one(Path(scratch) / f"batch-{seed}", seed, kind, params)
+            row = run_one(Path(scratch) / f"batch-{seed}", seed, kind, params, cluster)
             rows.append(row)
             if progress is not None:
                 split = row["split"]

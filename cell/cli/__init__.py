@@ -28,7 +28,7 @@ from cell.errors import DivergenceError, MusclecellError, Stopped
 from cell.io import discard_pending
 from cell.learning.command import add_learning
 from cell.rheology.command import add_diagnose
-from cell.scale.command import add_batch, add_sweep
+from cell.scale.command import add_batch, add_log_cluster, add_sweep
 from cell.sim.command import add_simulation
 from cell.sim.logcommand import add_log_diagnosis
 
@@ -45,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "written), 3 diverged, 130/143 stopped by SIGINT/SIGTERM")
     commands = parser.add_subparsers(dest="command", required=True)
     add_simulation(commands)
-    add_log_diagnosis(commands)
+    add_log_cluster(add_log_diagnosis(commands))
     add_batch(add_diagnose(commands))
     add_bench(commands)
     add_learning(commands)

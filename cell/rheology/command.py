@@ -52,7 +52,8 @@ def diagnose_command(args: argparse.Namespace) -> int:
 
     check_outputs([Output(args.json, "--json"),
                    Output(material_path, "--material" if args.material else "--json"),
-                   args.report and Output(args.report, "--report", folder=True)],
+                   args.report and Output(args.report, "--report", folder=True, whole=True,
+                                          marks=("report.md", "cut-report.md"))],
                   [args.set_dir, args.set_dir / SPECIMEN_FILE, args.set_dir / TESTS_FILE])
     if args.report is not None:
         from cell.extras import require
@@ -81,9 +82,10 @@ def diagnose_command(args: argparse.Namespace) -> int:
                           args.json)
     material = material_to_toml(result.material(), result.material_comment())
     if args.report is not None:
+        from cell.folders import write_folder
         from cell.rheology.cutreport import write_set_report
 
-        write_set_report(result, args.report, material_path)
+        write_folder(args.report, lambda folder: write_set_report(result, folder, material_path))
     write_atomic(material_path, material)
     write_atomic(args.json, diagnosis)
     print(f"causes: {', '.join(result.causes) or 'none (the baseline explains the data)'}\n"

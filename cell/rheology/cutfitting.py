@@ -93,11 +93,19 @@ class CutProblem:
 def solve_linear(columns: np.ndarray, measured: np.ndarray,
                  model: CutCandidate) -> np.ndarray:
     """The linear parameters of ``model`` for ``measured ~ columns @ linear``: toughness and
-    friction not negative, the offset free."""
+    friction not negative, the offset free; zero where no sample depends on one (a layer no
+    edge reached, in a fit that leaves out the one test that reached it)."""
     lower = np.array([-np.inf if n.startswith("offset_") else 0.0 for n in model.linear_names])
-    scale = np.maximum(np.abs(columns).max(axis=0), 1e-300)
-    result = lsq_linear(columns / scale, measured, bounds=(lower, np.inf), method="bvls")
-    return result.x / scale
+    scale = np.abs(columns).max(axis=0)
+    # A column of zeros leaves its parameter free: the solver's value there is round-off,
+    # and dividing it by the column's scale would blow it up.
+    used = scale > 0.0
+    linear = np.zeros(columns.shape[1])
+    if used.any():
+        result = lsq_linear(columns[:, used] / scale[used], measured,
+                            bounds=(lower[used], np.inf), method="bvls")
+        linear[used] = result.x / scale[used]
+    return linear
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,5 +1,6 @@
 """The command-line side of sweeps and batches: ``musclecell sweep``, the ``--batch`` of
-``musclecell diagnose``, and their ``--address`` and ``--workers``.
+``musclecell diagnose``, and their ``--address`` and ``--workers``; the ``--address`` of
+``musclecell diagnose-logs`` (its replays on a Ray cluster).
 
 Light at import (the parser is built for every command): the handlers import the rest.
 """
@@ -14,7 +15,10 @@ from cell.errors import InputError
 from cell.outputs import Output, check_outputs
 
 if TYPE_CHECKING:
-    from cell.scale.pool import Workers
+    from cell.scale.pool import RunPool, Workers
+
+#: What a log diagnosis does without Ray (the end of the install hint).
+LOGS_WITHOUT_RAY = "drop --address: the replays run on this machine's cores"
 
 
 def add_sweep(commands: argparse._SubParsersAction) -> None:
@@ -50,6 +54,38 @@ def add_batch(diagnosis: argparse.ArgumentParser) -> None:
         return diagnose_batch_command(args) if args.batch is not None else one_set(args)
 
     diagnosis.set_defaults(handler=handler)
+
+
+def add_log_cluster(logs: argparse.ArgumentParser) -> None:
+    """``--address`` on the ``diagnose-logs`` parser: with it, the replays run on that Ray
+    cluster (:func:`log_cluster`), else on this machine's cores as before."""
+    here = logs.get_default("handler")
+    logs.add_argument("--address",
+                      help="Ray cluster to replay on: auto, HEAD_HOST:PORT or ray://HOST:PORT "
+                      "(needs the scale extra; --workers is then the replays at a time, "
+                      "default the whole cluster; default: processes on this machine)")
+
+    def handler(args: argparse.Namespace) -> int:
+        if args.address is None:
+            return here(args)
+        return here(args, cluster=log_cluster(args.workers, args.address))
+
+    logs.set_defaults(handler=handler)
+
+
+def log_cluster(workers: int | None, address: str) -> RunPool:
+    """The pool, not yet entered, that plays a log diagnosis's replays on the Ray cluster at
+    ``address``, ``workers`` at a time (None: as many as the cluster takes); checked first.
+
+    Raises:
+        PoolError: ``address`` is not a Ray address, ``workers`` is below one, or Ray is not
+            installed (the install hint).
+    """
+    from cell.scale.pool import RunPool, Workers, require_ray
+
+    pool = RunPool(Workers(workers, address))
+    require_ray("--address", LOGS_WITHOUT_RAY)
+    return pool
 
 
 def add_workers(command: argparse.ArgumentParser, note: str = "") -> None:

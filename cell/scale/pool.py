@@ -1,6 +1,7 @@
-"""Where a sweep's runs are played: one Ray task per run, on a Ray started here (one worker
-per core by default) or on a cluster given by its address; or one after the other in this
-process, without Ray, for debugging.
+"""Where many runs are played (a sweep's runs, a batch's sets, a log diagnosis's replays on
+a cluster): one Ray task per run, on a Ray started here (one worker per core by default) or
+on a cluster given by its address; or one after the other in this process, without Ray, for
+debugging.
 
 Ray is the ``scale`` extra: it is imported only when a pool uses it.
 """
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, TypeVar
 
-from cell.errors import SweepError
+from cell.errors import PoolError
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -26,8 +27,10 @@ _ADDRESS = re.compile(r"(?:ray://)?(?P<host>[A-Za-z0-9._\-]+|\[[0-9A-Fa-f:]+\])"
                       r":(?P<port>\d{1,5})")
 #: How long a cluster's head may take to answer before the address counts as unreachable, s.
 CONNECT_TIMEOUT_S = 5.0
-#: What the CLI tells a user without Ray.
-INSTALL_HINT = "pip install -e '.[scale]' (or --workers 1 runs without Ray, in this process)"
+#: What the CLI tells a user without Ray: how to install it, then what runs without it.
+INSTALL_HINT = "pip install -e '.[scale]'"
+#: What a sweep or a batch runs without Ray.
+WITHOUT_RAY = "--workers 1 runs without Ray, in this process"
 
 
 @dataclass(frozen=True)
@@ -47,7 +50,7 @@ class Workers:
         (True, False)
         >>> Workers(0)
         Traceback (most recent call last):
-        cell.errors.SweepError: --workers: must be >= 1, got 0
+        cell.errors.PoolError: --workers: must be >= 1, got 0
     """
 
     count: int | None = None
@@ -56,14 +59,14 @@ class Workers:
 
     def __post_init__(self) -> None:
         if self.count is not None and self.count < 1:
-            raise SweepError(None, "--workers", f"must be >= 1, got {self.count}")
+            raise PoolError(None, "--workers", f"must be >= 1, got {self.count}")
         if self.ray is False and self.address is not None:
-            raise SweepError(None, "--address", "a cluster is reached through Ray")
+            raise PoolError(None, "--address", "a cluster is reached through Ray")
         if self.address is not None and self.address != "auto":
             match = _ADDRESS.fullmatch(self.address)
             if match is None or not 0 < int(match["port"]) < 65536:
-                raise SweepError(None, "--address", f"not a Ray address: {self.address!r} "
-                                 "(auto, HEAD_HOST:PORT or ray://HOST:PORT)")
+                raise PoolError(None, "--address", f"not a Ray address: {self.address!r} "
+                                "(auto, HEAD_HOST:PORT or ray://HOST:PORT)")
 
     @property
     def in_process(self) -> bool:
@@ -81,6 +84,9 @@ class RunPool:
         >>> with RunPool(Workers(1)) as pool:
         ...     sorted(pool.play(abs, [-2, 3], ["a", "b"]))
         [(0, 2, ''), (1, 3, '')]
+        >>> with RunPool(Workers(1)) as pool:
+        ...     sorted(pool.play(pow, [2, 3], ["a", "b"], shared=pool.share(10)))
+        [(0, 100, ''), (1, 1000, '')]
     """
 
     def __init__(self, workers: Workers) -> None:
@@ -99,8 +105,8 @@ class RunPool:
             try:
                 self._ray.init(**self._init_options())
             except (ConnectionError, TimeoutError, RuntimeError, ValueError) as exc:
-                raise SweepError(None, "--address" if self.workers.address else "--workers",
-                                 f"cannot start or join Ray: {exc}") from None
+                raise PoolError(None, "--address" if self.workers.address else "--workers",
+                                f"cannot start or join Ray: {exc}") from None
             self._started_ray = True
         self.startup_s = time.perf_counter() - started
         return self
@@ -122,14 +128,23 @@ class RunPool:
                 "num_cpus": self.workers.count or os.cpu_count() or 1,
                 "include_dashboard": False}
 
-    def play(self, function: Callable[[T], R], tasks: Sequence[T], names: Sequence[str]
-             ) -> Iterator[tuple[int, R | None, str]]:
+    def share(self, value: Any) -> Any:
+        """``value``, an input every task reads, ready for :meth:`play`'s ``shared``: on Ray,
+        put in its object store once (each node fetches it once, from this machine: a
+        cluster's nodes need not share its disk), else ``value`` itself."""
+        return value if self._ray is None else self._ray.put(value)
+
+    def play(self, function: Callable[..., R], tasks: Sequence[T], names: Sequence[str],
+             shared: Any = None) -> Iterator[tuple[int, R | None, str]]:
         """``function`` on each task; yields ``(position, result, error)`` as tasks finish:
         ``error`` is empty, or says why a task gave no result (its worker or node died).
-        ``names`` name the tasks in Ray (and in the workers' process titles)."""
+        ``names`` name the tasks in Ray (and in the workers' process titles). With ``shared``
+        (from :meth:`share`), each call is ``function(value, task)``, ``value`` the one
+        shared."""
+        first = () if shared is None else (shared,)
         if self._ray is None:
             for position, task in enumerate(tasks):
-                yield position, function(task), ""
+                yield position, function(*first, task), ""
             return
         ray = self._ray
         remote = ray.remote(num_cpus=1, max_retries=0)(function)
@@ -140,7 +155,8 @@ class RunPool:
         def submit() -> None:
             position = next(waiting, None)
             if position is not None:
-                ref = remote.options(name=names[position]).remote(tasks[position])
+                # Ray hands a task the value of an object reference passed as an argument.
+                ref = remote.options(name=names[position]).remote(*first, tasks[position])
                 pending[ref] = position
 
         for _ in range(min(limit, len(tasks))):
@@ -160,7 +176,7 @@ def _reachable(address: str | None) -> None:
     Ray itself keeps trying for a minute or more.
 
     Raises:
-        SweepError: naming ``--address`` and what the connection said.
+        PoolError: naming ``--address`` and what the connection said.
     """
     match = None if address is None else _ADDRESS.fullmatch(address)
     if match is None:
@@ -169,19 +185,21 @@ def _reachable(address: str | None) -> None:
     try:
         socket.create_connection((host, int(match["port"])), timeout=CONNECT_TIMEOUT_S).close()
     except OSError as exc:
-        raise SweepError(None, "--address", f"cannot reach {address}: "
-                         f"{exc.strerror or exc or 'no answer'}") from None
+        raise PoolError(None, "--address", f"cannot reach {address}: "
+                        f"{exc.strerror or exc or 'no answer'}") from None
 
 
-def require_ray(option: str) -> Any:
-    """The ``ray`` module, or a :class:`SweepError` on ``option`` that says how to install it.
+def require_ray(option: str, instead: str = WITHOUT_RAY) -> Any:
+    """The ``ray`` module, or a :class:`~cell.errors.PoolError` on ``option`` that says how to
+    install it, or ``instead`` what runs without it.
 
-    Usage statistics are off unless the user turned them on: a sweep does not report to
+    Usage statistics are off unless the user turned them on: musclecell does not report to
     anyone, and CI machines have no network.
     """
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     try:
         import ray
     except ImportError:
-        raise SweepError(None, option, f"Ray is not installed: {INSTALL_HINT}") from None
+        raise PoolError(None, option,
+                        f"Ray is not installed: {INSTALL_HINT} (or {instead})") from None
     return ray

@@ -89,7 +89,8 @@ def run_sweep(sweep_file: str | Path, out: str | Path, workers: Workers, *,
     failed or diverged too), then write the table, the plots and the summary of all of them.
 
     Raises:
-        SweepError: a bad sweep file (naming it and the key), or no Ray.
+        SweepError: a bad sweep file (naming it and the key).
+        PoolError: no Ray, or a cluster that cannot be reached.
         MissingExtraError: no matplotlib for the plots.
         ScenarioError: a bad base scenario.
     """

@@ -82,20 +82,23 @@ def load(args: argparse.Namespace) -> Scenario:
 
 def run_command(args: argparse.Namespace) -> int:
     """``musclecell run``."""
+    from cell.folders import write_folder
     from cell.io import write_json
     from cell.sim.episode import Episode
     from cell.sim.logwriter import LoggedEpisode, write_log
 
     check_outputs([args.rerun and Output(args.rerun, "--rerun"),
                    args.summary and Output(args.summary, "--summary"),
-                   args.log and Output(args.log, "--log", folder=True)], [args.scenario])
+                   args.log and Output(args.log, "--log", folder=True, whole=True,
+                                       marks=("log.toml",))],
+                  [args.scenario])
     scenario = load(args)
     episode = LoggedEpisode(scenario) if args.log else Episode(scenario)
     summary = episode.run(rerun_path=args.rerun, progress=not args.quiet)
     if args.summary:
         write_json(args.summary, summary)
     if isinstance(episode, LoggedEpisode):
-        write_log(args.log, episode, args.scenario)
+        write_folder(args.log, lambda folder: write_log(folder, episode, args.scenario))
     result = summary["result"]
     print(f"released {result['released_fraction']:.1%} of {result['bindings']} bindings "
           f"{result['released_by_rule']}, median gap {result['gap_m']['median'] * 1e3:.1f} mm, "
@@ -173,21 +176,28 @@ def render_command(args: argparse.Namespace) -> int:
 def replay_command(args: argparse.Namespace) -> int:
     """``musclecell replay``: the logs read (a bad one, or logs that are not one batch, stop
     it: nothing written), replayed and compared."""
+    from cell.folders import write_folder
     from cell.sim.logbatch import read_log_batch
     from cell.sim.logformat import read_log
     from cell.sim.replay import replay, write_replay
 
-    check_outputs([args.out and Output(args.out, "--out", folder=True)], args.logs)
+    check_outputs([args.out and Output(args.out, "--out", folder=True, whole=True,
+                                      marks=("replay.json",))],
+                  args.logs)
     logs = (read_log_batch(args.logs).logs if len(args.logs) > 1
             else (read_log(args.logs[0]),))
     names = [log.folder.name for log in logs]
     if len(set(names)) < len(names):
         names = [f"{k + 1}-{name}" for k, name in enumerate(names)]
-    for log, name in zip(logs, names, strict=True):
-        result = replay(log)
-        if args.out:
-            write_replay(args.out / name if len(logs) > 1 else args.out, result)
-        _print_replay(result.summary())
+    results = []
+    for log in logs:
+        results.append(replay(log))
+        _print_replay(results[-1].summary())
+    if args.out:
+        # One folder for all the logs, written whole once every replay is done.
+        write_folder(args.out, lambda folder: [
+            write_replay(folder / name if len(logs) > 1 else folder, result)
+            for name, result in zip(names, results, strict=True)])
     return 0
 
 

@@ -7,14 +7,19 @@ checks its outputs and the logs before any replay.
 from __future__ import annotations
 
 import argparse
+from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from cell.errors import LogError
 from cell.outputs import Output, check_outputs
 
+if TYPE_CHECKING:
+    from cell.sim.logreplays import ReplayPool
 
-def add_log_diagnosis(commands: argparse._SubParsersAction) -> None:
-    """The ``diagnose-logs`` subcommand."""
+
+def add_log_diagnosis(commands: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """The ``diagnose-logs`` subcommand (its parser: :mod:`cell.scale` adds ``--address``)."""
     parser = commands.add_parser(
         "diagnose-logs", help="diagnose a batch of separation logs of one batch of meat: "
         "what the simulation gets wrong about them, why, and the extended world "
@@ -26,24 +31,30 @@ def add_log_diagnosis(commands: argparse._SubParsersAction) -> None:
                         help="write diagnosis.json, extended-material.toml, "
                         "extended-scenario.toml and report.md (with plots) into this folder")
     parser.add_argument("--workers", type=int, help="replays side by side (default: one "
-                        "per core)")
+                        "per core; with --address, the whole cluster)")
     parser.add_argument("--causes", nargs="+", metavar="CAUSE",
                         help="screen only these world causes (default: every one that "
                         "applies)")
     parser.add_argument("--no-plots", action="store_true",
                         help="no channels-<log>.png (they need the report extra)")
     parser.set_defaults(handler=diagnose_logs_command)
+    return parser
 
 
-def diagnose_logs_command(args: argparse.Namespace) -> int:
-    """Read the batch (a bad log stops it: nothing written), diagnose it, write it."""
+def diagnose_logs_command(args: argparse.Namespace,
+                          cluster: AbstractContextManager[ReplayPool] | None = None) -> int:
+    """Read the batch (a bad log stops it: nothing written), diagnose it, write it; the
+    replays on this machine's processes, or on ``cluster`` (a pool entered only once the
+    options and the logs are checked)."""
     from cell.extras import require
+    from cell.folders import write_folder
     from cell.sim.logbatch import read_log_batch
     from cell.sim.logcauses import CAUSES
     from cell.sim.logdiagnosis import LogDiagnosisParams, diagnose_logs
     from cell.sim.logreport import write_log_diagnosis
 
-    check_outputs([Output(args.out, "--out", folder=True)], args.logs)
+    check_outputs([Output(args.out, "--out", folder=True, whole=True,
+                          marks=("diagnosis.json",))], args.logs)
     if args.workers is not None and args.workers < 1:
         raise LogError(None, "--workers", f"must be >= 1, got {args.workers}")
     unknown = sorted(set(args.causes or ()) - set(CAUSES))
@@ -54,8 +65,10 @@ def diagnose_logs_command(args: argparse.Namespace) -> int:
     batch = read_log_batch(args.logs)
     params = LogDiagnosisParams(workers=args.workers,
                                 causes=tuple(args.causes) if args.causes else None)
-    diagnosis = diagnose_logs(batch, params)
-    write_log_diagnosis(args.out, batch, diagnosis, plots=not args.no_plots)
+    with cluster or nullcontext() as pool:
+        diagnosis = diagnose_logs(batch, params, pool)
+    write_folder(args.out, lambda folder: write_log_diagnosis(folder, batch, diagnosis,
+                                                              plots=not args.no_plots))
     data = diagnosis.to_json()
     print(f"causes: {', '.join(data['causes']) or 'none'}; held-out force RMSE "
           f"{data['baseline']['heldout_rmse_N']:.3f} N -> "

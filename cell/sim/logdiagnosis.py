@@ -9,32 +9,23 @@ magnitude one way and the other (its linearised signature: the change of every c
 every sample), a greedy forward selection on those signatures (:mod:`cell.sim.logfit`: a
 sensor's offset is a constant on its channel, in closed form), Gauss-Newton steps on the
 causes selected, each confirmed by replaying the batch (Broyden's update keeps the
-signatures true to the replays), and one replay per log left out. Replays run side by side
-on every core.
+signatures true to the replays), and one replay per log left out, in the world fitted on the
+others: unless those lower the held-out error by the gain asked, the world's causes are not
+named (a change that fits the logs it was fitted to but no log left out). Replays run side by side
+on every core, or on a Ray cluster (:mod:`cell.sim.logreplays`).
 """
 
 from __future__ import annotations
 
 import os
 import time
-from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
-from multiprocessing import get_context
-from types import TracebackType
 from typing import Any
 
 import numpy as np
 
-from cell.sim.logbatch import LogBatch, log_scenario
-from cell.sim.logcauses import (
-    CAUSES,
-    SENSOR_OFFSET,
-    applicable,
-    changed_world,
-    episode_adjustment,
-    magnitudes_json,
-)
+from cell.sim.logbatch import LogBatch
+from cell.sim.logcauses import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
 from cell.sim.logfit import (
     FORCE_CHANNELS,
     Rows,
@@ -44,9 +35,9 @@ from cell.sim.logfit import (
     logged_vector,
     rmse_n,
     signature,
-    simulated_vector,
     solve,
 )
+from cell.sim.logreplays import Replayer, ReplayPool
 
 #: The largest magnitude a Gauss-Newton step may reach (a factor of about 4.5, or 86 deg):
 #: beyond it the cell is another cell, and its physics may not hold.
@@ -59,9 +50,11 @@ class LogDiagnosisParams:
     """How the batch diagnosis searches.
 
     Attributes:
-        workers: replays side by side (None: one per core).
+        workers: replays side by side on this machine (None: one per core); on a cluster
+            (:func:`diagnose_logs`'s ``cluster``), its pool says how many.
         min_heldout_gain: the share by which a cause must lower the held-out RMSE (linearised
-            in the selection; replayed to confirm the world causes).
+            in the selection; replayed to confirm the world causes, on the logs fitted and
+            on each log left out).
         newton_steps: Gauss-Newton steps on the causes selected, a batch replay each.
         causes: the world causes screened (None: every one that applies).
 
@@ -128,86 +121,15 @@ class LogDiagnosis:
                 "timing": self.timing}
 
 
-def _replay_task(task: tuple[str, tuple[tuple[str, float], ...]]
-                 ) -> tuple[np.ndarray | None, float]:
-    """One replay in a worker: the log in ``task[0]`` in the world of the magnitudes
-    ``task[1]``; its simulated vector (None where the physics blew up) and the CPU time it
-    took, s."""
-    from cell.errors import DivergenceError
-    from cell.sim.logformat import read_log
-    from cell.sim.replay import replay
-
-    started = time.process_time()
-    log = read_log(task[0])
-    magnitudes = dict(task[1])
-    world = changed_world(log_scenario(log), magnitudes)
-    try:
-        result = replay(log, world, episode_adjustment(magnitudes))
-    except DivergenceError:
-        return None, time.process_time() - started
-    return simulated_vector(log, result.simulated), time.process_time() - started
-
-
-def _one_thread() -> None:
-    # Replays run side by side, a core each: numeric libraries' own threads only compete.
-    os.environ["OMP_NUM_THREADS"] = "1"
-
-
-class Replayer:
-    """Replays a batch's logs in changed worlds, side by side on ``workers`` processes (one:
-    in this process), counting them, their wall time and their CPU time (the workers').
-
-    Example:
-        >>> Replayer([], 1).count
-        0
-    """
-
-    def __init__(self, folders: Sequence[str], workers: int) -> None:
-        self.folders = [str(folder) for folder in folders]
-        self.count, self.wall_s, self.cpu_s = 0, 0.0, 0.0
-        self._pool = (ProcessPoolExecutor(workers, mp_context=get_context("spawn"),
-                                          initializer=_one_thread) if workers > 1 else None)
-
-    def __enter__(self) -> Replayer:
-        return self
-
-    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
-                 trace: TracebackType | None) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(cancel_futures=True)
-
-    def run(self, jobs: Sequence[tuple[int, dict[str, float]]]) -> list[np.ndarray | None]:
-        """The simulated vectors of ``jobs`` (a log's index and the world's magnitudes)."""
-        tasks = [(self.folders[i], tuple(sorted(m.items()))) for i, m in jobs]
-        started = time.perf_counter()
-        results = (list(self._pool.map(_replay_task, tasks)) if self._pool is not None
-                   else [_replay_task(task) for task in tasks])
-        self.count += len(tasks)
-        self.wall_s += time.perf_counter() - started
-        self.cpu_s += sum(cpu for _, cpu in results)
-        return [vector for vector, _ in results]
-
-    @property
-    def in_process(self) -> bool:
-        """Whether the replays run in this process (their CPU time is then this process's)."""
-        return self._pool is None
-
-    def batches(self, worlds: Sequence[dict[str, float]]) -> list[np.ndarray | None]:
-        """Each world's simulated batch vector (every log replayed; None: one blew up)."""
-        logs = range(len(self.folders))
-        flat = self.run([(i, world) for world in worlds for i in logs])
-        out = []
-        for k in range(len(worlds)):
-            parts = flat[k * len(logs):(k + 1) * len(logs)]
-            out.append(None if any(p is None for p in parts) else np.concatenate(parts))
-        return out
-
-
-def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None) -> LogDiagnosis:
-    """Diagnose ``batch`` (module docstring).
+def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
+                  cluster: ReplayPool | None = None) -> LogDiagnosis:
+    """Diagnose ``batch`` (module docstring), its replays on ``params.workers`` processes
+    here, or on ``cluster`` (an entered :class:`cell.scale.pool.RunPool` on a Ray cluster,
+    whose ``Workers`` then say how many run at a time).
 
     Raises:
         DivergenceError: the lab's own world blew up in a replay.
+        PoolError: a replay on ``cluster`` gave no result (its worker or node died).
     """
     params = params or LogDiagnosisParams()
     measured, rows = logged_vector(batch.logs)
@@ -216,7 +138,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None) -> 
     workers = params.workers or os.cpu_count() or 1
     started, cpu_started = time.perf_counter(), time.process_time()
     jobs = len(batch.logs) * (2 * len(names) + 1)
-    with Replayer([log.folder for log in batch.logs], min(workers, jobs)) as replayer:
+    with Replayer(batch, min(workers, jobs), cluster) as replayer:
         base, blocks = _screen(replayer, measured, names)
         residual = measured - base
         blocks.update({_OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})
@@ -229,6 +151,15 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None) -> 
         if world and not fit["confirmed"]:
             world, fit = [], _newton(replayer, measured, base, blocks, [], offsets, params)
         left = _heldout_replays(replayer, measured, rows, fit, world, offsets)
+        without = heldout(residual, offsets, rows, _fixed(offsets))
+        if world and rmse_n(left) > (1.0 - params.min_heldout_gain) * rmse_n(without):
+            # Confirmed on the logs it was fitted to, but no better on each log left out:
+            # the change does not carry from one separation to the next, so it is not named.
+            dropped = {"causes": world, "heldout_rmse_N": rmse_n(left),
+                       "without_N": rmse_n(without)}
+            world, fit = [], _newton(replayer, measured, base, blocks, [], offsets, params)
+            left = without
+            fit["dropped"] = dropped
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
     heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
@@ -237,7 +168,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None) -> 
     extended = {"model": "the logs' scenarios with the causes' changes",
                 "params": {**magnitudes_json(fit["magnitudes"]),
                            **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
-                "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"]}
+                "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
+                **({"dropped": fit["dropped"]} if "dropped" in fit else {})}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
         _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
