@@ -1,15 +1,18 @@
 """Output folders that appear whole or not at all: a command fills its folder (a report, a
 log, a replay) in a temporary folder beside it, renamed into place once every file is in, as
 :class:`cell.io.AtomicFile` does for one file. A stopped or failed command leaves neither
-the folder nor the temporary one, and a folder that was there keeps what it had.
+the folder nor the temporary one, and a folder that was there keeps what it had. Several
+outputs of one command (a report, a material, a JSON) can appear together the same way
+(:func:`write_together`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from cell.io import AtomicFile
@@ -81,3 +84,34 @@ def write_folder(path: str | Path, fill: Callable[[Path], object]) -> Path:
     with AtomicFolder(path) as target:
         fill(target.temporary)
         return target.commit()
+
+
+def write_together(files: Mapping[Path, str | bytes],
+                   folders: Mapping[Path, Callable[[Path], object]] | None = None) -> None:
+    """Write ``files`` (path to content) and ``folders`` (path to the function that fills the
+    temporary folder it is given) as one output: every one is filled in its temporary first,
+    and they are renamed into place one after the other only once all are filled, so a
+    failure or a stop while filling leaves none of them.
+
+    Example:
+        >>> import tempfile
+        >>> out = Path(tempfile.mkdtemp())
+        >>> write_together({out / "a.json": "{}"}, {out / "report": lambda f: None})
+        >>> sorted(p.name for p in out.iterdir())
+        ['a.json', 'report']
+    """
+    with contextlib.ExitStack() as stack:
+        targets: list[AtomicFile] = []
+        for path, fill in (folders or {}).items():
+            folder = stack.enter_context(AtomicFolder(path))
+            fill(folder.temporary)
+            targets.append(folder)
+        for path, content in files.items():
+            target = stack.enter_context(AtomicFile(path))
+            if isinstance(content, bytes):
+                target.temporary.write_bytes(content)
+            else:
+                target.temporary.write_text(content)
+            targets.append(target)
+        for target in targets:
+            target.commit()

@@ -20,7 +20,7 @@ import pytest
 
 from cell.cli import main
 from cell.errors import Stopped
-from cell.folders import AtomicFolder, write_folder
+from cell.folders import AtomicFolder, write_folder, write_together
 from cell.io import write_atomic
 from tests.paths import EXAMPLE_SET, PROJECT_ROOT
 
@@ -154,7 +154,7 @@ def test_a_writer_stopped_or_failing_midway_leaves_the_folder_as_it_was(
     else:
         with pytest.raises(OSError, match="disk full"):
             main(argv)
-    # Nothing of the command's (no d.json either: the report comes first), no temporary.
+    # Nothing of the command's (no d.json either: its outputs appear together), no temporary.
     assert listing(work) == kept
 
 
@@ -275,3 +275,20 @@ def test_a_link_to_a_folder_points_at_the_new_folder(tmp_path: Path) -> None:
     assert (tmp_path / "link").is_symlink()
     assert listing(tmp_path / "real") == {"new.txt": "new\n"}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "real"]
+
+
+def test_outputs_written_together_appear_only_once_all_are_filled(tmp_path: Path) -> None:
+    filled = []
+
+    def report(folder: Path) -> None:
+        (folder / "report.md").write_text("the report\n")
+        filled.append(folder)
+
+    broken: Any = None  # a content that cannot be written, after the report is filled
+    with pytest.raises(TypeError):
+        write_together({tmp_path / "m.toml": "material\n", tmp_path / "d.json": broken},
+                       {tmp_path / "report": report})
+    assert filled and listing(tmp_path) == {}
+    write_together({tmp_path / "d.json": "{}"}, {tmp_path / "report": report})
+    assert listing(tmp_path) == {"d.json": "{}", "report": "dir",
+                                 "report/report.md": "the report\n"}

@@ -59,7 +59,7 @@ def diagnose_command(args: argparse.Namespace) -> int:
         from cell.extras import require
 
         require("matplotlib", "report", "the diagnosis report")
-    from cell.io import json_text, write_atomic
+    from cell.io import json_text
     from cell.rheology.cutdiagnosis import diagnose_set
     from cell.rheology.measured import load_measurement_set
     from cell.rheology.settings import DiagnosisParams
@@ -81,13 +81,15 @@ def diagnose_command(args: argparse.Namespace) -> int:
                                                   {"suggestion": suggestion.to_json()})},
                           args.json)
     material = material_to_toml(result.material(), result.material_comment())
+    from cell.folders import write_together
+
+    report = {}
     if args.report is not None:
-        from cell.folders import write_folder
         from cell.rheology.cutreport import write_set_report
 
-        write_folder(args.report, lambda folder: write_set_report(result, folder, material_path))
-    write_atomic(material_path, material)
-    write_atomic(args.json, diagnosis)
+        report[args.report] = lambda folder: write_set_report(result, folder, material_path)
+    # The report, the material and the JSON appear together or not at all.
+    write_together({material_path: material, args.json: diagnosis}, report)
     print(f"causes: {', '.join(result.causes) or 'none (the baseline explains the data)'}\n"
           f"{result.summary()}\n"
           + ("" if suggestion is None else suggestion.summary() + "\n")
