@@ -114,7 +114,7 @@ class SteeringKnife:
     """
 
     fits: ClassVar[tuple[str, ...]] = ("musclecell/Steer-v1",)
-    gain_m_per_n_s: float = 0.001
+    gain_m_per_n_s: float = 0.003
     on_interface_load_n: float = 0.0
     dead_band_n: float = 0.1
     weak_side_gain: float = 4.0
