@@ -148,18 +148,20 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         world = [c for c in chosen if c in CAUSES]
         offsets = {c: blocks[c] for c in chosen if c.startswith(_OFFSET)}
         fit = _newton(replayer, measured, base, blocks, world, offsets, params)
-        if world and not fit["confirmed"]:
-            world, fit = [], _newton(replayer, measured, base, blocks, [], offsets, params)
-        left = _heldout_replays(replayer, measured, rows, fit, world, offsets)
         without = heldout(residual, offsets, rows, _fixed(offsets))
-        if world and rmse_n(left) > (1.0 - params.min_heldout_gain) * rmse_n(without):
-            # Confirmed on the logs it was fitted to, but no better on each log left out:
-            # the change does not carry from one separation to the next, so it is not named.
-            dropped = {"causes": world, "heldout_rmse_N": rmse_n(left),
-                       "without_N": rmse_n(without)}
-            world, fit = [], _newton(replayer, measured, base, blocks, [], offsets, params)
-            left = without
-            fit["dropped"] = dropped
+        left = (_heldout_replays(replayer, measured, rows, fit, world, offsets)
+                if world and fit["confirmed"] else without)
+        if world and (not fit["confirmed"] or rmse_n(left)
+                      > (1.0 - params.min_heldout_gain) * rmse_n(without)):
+            # Only the offsets stand when the world's causes do not lower the error of the logs
+            # they were fitted to, or do but not of each log left out (the change does not
+            # carry from one separation to the next): then they are named as dropped.
+            dropped = ({"causes": world, "heldout_rmse_N": rmse_n(left),
+                        "without_N": rmse_n(without)} if fit["confirmed"] else None)
+            world, left = [], without
+            fit = _newton(replayer, measured, base, blocks, world, offsets, params)
+            if dropped is not None:
+                fit["dropped"] = dropped
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
     heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
@@ -245,11 +247,8 @@ def _newton(replayer: Replayer, measured: np.ndarray, base: np.ndarray,
 def _heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows,
                      fit: dict[str, Any], world: list[str], offsets: dict[str, np.ndarray]
                      ) -> np.ndarray:
-    """Each log's residual in the world fitted on the other logs (a Gauss-Newton step from
-    the batch's fit on their rows): replayed where world causes are named, in closed form
-    where only offsets are."""
-    if not world:
-        return heldout(measured - fit["simulated"], offsets, rows, _fixed(offsets))
+    """Each log's residual in the world of ``world``'s causes fitted on the other logs (a
+    Gauss-Newton step from the batch's fit on their rows), replayed."""
     residual = measured - fit["simulated"]
     left = np.empty_like(measured)
     jobs, fits = [], []
