@@ -43,6 +43,9 @@ from cell.sim.logreplays import Replayer, ReplayPool
 #: beyond it the cell is another cell, and its physics may not hold.
 MAX_MAGNITUDE = 1.5
 _OFFSET = SENSOR_OFFSET + ":"
+#: The line search's factor on the fitted magnitudes (:func:`_stretch`) and its most replays.
+STRETCH = 1.3
+STRETCH_REPLAYS = 3
 
 
 @dataclass(frozen=True)
@@ -239,8 +242,36 @@ def _newton(replayer: Replayer, measured: np.ndarray, base: np.ndarray,
             best = {"magnitudes": dict(zip(world, magnitudes.tolist(), strict=True)),
                     "simulated": simulated, "left": left, "offsets": fitted,
                     "jacobian": jacobian}
+    if best["magnitudes"]:
+        best = _stretch(replayer, measured, offsets, world, best)
     best["confirmed"] = bool(best["magnitudes"]) and (
         rmse_n(best["left"]) <= (1.0 - params.min_heldout_gain) * rmse_n(start_left))
+    return best
+
+
+def _stretch(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+             world: list[str], best: dict[str, Any]) -> dict[str, Any]:
+    """A line search along the lab's world to the best fit: the fitted magnitudes scaled by
+    :data:`STRETCH` while that lowers the replayed error, or once by its inverse where the
+    first stretch does not. A cause's response flattens as it grows (a turned fibre, a
+    stiffer muscle), so signatures taken at the screening step and Gauss-Newton on them stop
+    short of a strong cause."""
+    direction = np.array([best["magnitudes"][c] for c in world])
+    scale, factor = 1.0, STRETCH
+    for _ in range(STRETCH_REPLAYS):
+        trial = np.clip(direction * scale * factor, -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        (replayed,) = replayer.batches([dict(zip(world, trial.tolist(), strict=True))])
+        better = False
+        if replayed is not None:
+            fitted, left = solve(measured - replayed, offsets, None, _fixed(offsets))
+            if rmse_n(left) < rmse_n(best["left"]):
+                best = {**best, "magnitudes": dict(zip(world, trial.tolist(), strict=True)),
+                        "simulated": replayed, "left": left, "offsets": fitted}
+                scale, better = scale * factor, True
+        if not better:
+            if factor < 1.0 or scale != 1.0:
+                break
+            factor = 1.0 / STRETCH
     return best
 
 
