@@ -103,8 +103,8 @@ def test_a_replay_of_a_cell_log_reproduces_its_channels(tmp_path: Path) -> None:
     write_log(tmp_path / "log", episode, QUICK)
     log = read_log(tmp_path / "log")
     result = replay(log)
-    # Each tool sits where the logged one sat under the meat's load (off its aim by the servos'
-    # give, 0.1-0.4 mm, were the replay aimed at the logged pose alone).
+    # Each tool sits where the logged one sat under the meat's load, not off it by the servos'
+    # give as a replay aimed at the logged pose alone would.
     for stem in ("knife", "gripper"):
         logged = log.channels[stem]
         at_work = logged.time_s >= log.sensors[f"{stem}_tare_s"] + 0.2

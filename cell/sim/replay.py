@@ -32,9 +32,9 @@ PHASES = ("approach", "cut", "pull_off")
 #: (:data:`~cell.sim.logwriter.LOG_STREAM`), so that a replay of the cell's own log does not
 #: reproduce the log's noise draw for draw.
 REPLAY_STREAM = 3
-#: The share of a tool's pose error (:class:`ToolTracking`) taken into its target each control
-#: step: tuned on logs of the tuning seeds (0.3-1.0 all lower the cut's misfit; 0.6 the most
-#: without the gripper's overshoot at 1.0).
+#: The share of a tool's pose error (:class:`_ToolTracking`) taken into its target each control
+#: step, tuned on logs of the tuning seeds (docs/benchmarks.md): more overshoots the gripper's
+#: pull, less leaves the blade's flesh contacts short.
 TRACKING_GAIN = 0.6
 #: The sensor's own pose: no offset.
 _AT_SENSOR = (np.zeros(3), np.eye(3))
@@ -106,20 +106,14 @@ def _target(channel: Channel, time_s: float, offset: tuple[np.ndarray, np.ndarra
     return position + rotation @ offset[0], rotation @ offset[1]
 
 
-class ToolTracking:
+class _ToolTracking:
     """Where a replayed tool is aimed: the logged pose, its sensor's pose error against the
     log integrated from the tool's work on (world frame; a share :data:`TRACKING_GAIN` of
     the error a control step). The arm's servos are compliant, so a tool under the meat's
     load sits off its target; aimed at the logged pose (where the logged tool sat under its
-    own load) it would sit off that once more and press the meat less (10-25 % of the
-    blade's flesh contacts at their peaks, with the tool 0.1-0.2 mm off). Before its work a
+    own load) it would sit off that once more and press the meat less. Before its work a
     tool moves freely and fast: its error there is the servos' lag, which the control step's
-    lead takes, and integrating it would only jolt the tool.
-
-    Example:
-        >>> ToolTracking.__name__  # built by :func:`replay` for the knife and the gripper
-        'ToolTracking'
-    """
+    lead takes, and integrating it would only jolt the tool."""
 
     def __init__(self, episode: Episode, sensor: str, channel: Channel, work_s: float) -> None:
         self.site = int(episode.sim.model.sensor(sensor).objid[0])
@@ -189,8 +183,8 @@ def replay(log: SeparationLog, scenario: Scenario | None = None,
     plan = _replay_plan(episode.plan(), log, episode.control_dt_s)
     sampler = SensorSampler(episode.sim, REPLAY_STREAM)
     end_s = float(knife.time_s[-1])
-    tracking = (ToolTracking(episode, "knife/force", knife, plan.cut_window_s.start_s),
-                ToolTracking(episode, "gripper/force", gripper, plan.schedule.close_s))
+    tracking = (_ToolTracking(episode, "knife/force", knife, plan.cut_window_s.start_s),
+                _ToolTracking(episode, "gripper/force", gripper, plan.schedule.close_s))
     while episode.sim.time_s < end_s - 1e-9:
         t_next = episode.sim.time_s + episode.control_dt_s
         # The servos reach a target a control step late: aim where the log is a step on.
