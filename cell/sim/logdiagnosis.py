@@ -9,10 +9,11 @@ magnitude one way and the other (its linearised signature: the change of every c
 every sample), a greedy forward selection on those signatures (:mod:`cell.sim.logfit`: a
 sensor's offset is a constant on its channel, in closed form), Gauss-Newton steps on the
 causes selected, each confirmed by replaying the batch (Broyden's update keeps the
-signatures true to the replays), and one replay per log left out, in the world fitted on the
-others: unless those lower the held-out error by the gain asked, the world's causes are not
-named (a change that fits the logs it was fitted to but no log left out). Replays run side by side
-on every core, or on a Ray cluster (:mod:`cell.sim.logreplays`).
+signatures true to the replays), a line search along the fit (:func:`_stretch`), and one
+replay per log left out, in the world fitted on the others: unless those lower the held-out
+error by the gain asked, the world's causes are not named (a change that fits the logs it
+was fitted to but no log left out). Replays run side by side on every core, or on a Ray
+cluster (:mod:`cell.sim.logreplays`).
 """
 
 from __future__ import annotations
