@@ -134,10 +134,9 @@ class _ToolTracking:
                ) -> tuple[np.ndarray, np.ndarray]:
         """The IK site's target at ``time_s``: the logged pose (:func:`_target`) turned about
         the sensor and moved by the integrated error."""
-        position, rotation = _target(self.channel, time_s, offset)
-        sensor = _target(self.channel, time_s, _AT_SENSOR)[0]
-        turn = Rotation.from_rotvec(self.rotation_rad).as_matrix()
-        return sensor + self.position_m + turn @ (position - sensor), turn @ rotation
+        sensor, rotation = _target(self.channel, time_s, _AT_SENSOR)
+        turn = Rotation.from_rotvec(self.rotation_rad).as_matrix() @ rotation
+        return sensor + self.position_m + turn @ offset[0], turn @ offset[1]
 
 
 def _replay_plan(plan: EpisodePlan, log: SeparationLog, control_dt_s: float) -> EpisodePlan:
