@@ -36,8 +36,9 @@ BATCH = LogBatch(tuple(_log(n, 0.1 * n) for n in (60, 50, 40)), (Scenario(),) * 
 
 class LinearWorld:
     """Replays of :data:`BATCH` in a world where each cause adds its own pattern times its
-    magnitude (times :meth:`response` of it), and the logs were measured at
-    ``tearing_threshold`` :data:`TRUE_MAGNITUDE`."""
+    magnitude (times :meth:`response` of it), and the logs were measured at :attr:`truth`."""
+
+    truth = {"tearing_threshold": TRUE_MAGNITUDE}
 
     def __init__(self, batch: LogBatch, workers: int, cluster: object = None) -> None:
         rng = np.random.default_rng(0)
@@ -45,12 +46,16 @@ class LinearWorld:
         self.count, self.wall_s, self.cpu_s, self.in_process = 0, 0.0, 0.0, True
         measured = [logged_vector([log])[0] for log in batch.logs]
         self.patterns = {c: [rng.normal(size=m.size) for m in measured] for c in CAUSES}
-        self.base = [m - self.response(TRUE_MAGNITUDE) * p - 0.01 * rng.normal(size=m.size)
-                     for m, p in zip(measured, self.patterns["tearing_threshold"], strict=True)]
+        self.base = [m - self.effect(self.truth, i) - 0.01 * rng.normal(size=m.size)
+                     for i, m in enumerate(measured)]
 
     @staticmethod
     def response(magnitude: float) -> float:
         return magnitude
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        return sum((self.response(m) * self.patterns[c][log] for c, m in world.items()),
+                   np.zeros_like(self.patterns[CAUSES[0]][log]))
 
     def __enter__(self) -> LinearWorld:
         return self
@@ -60,9 +65,7 @@ class LinearWorld:
 
     def run(self, jobs: list[tuple[int, dict[str, float]]]) -> list[np.ndarray]:
         self.count += len(jobs)
-        return [self.base[i] + sum((self.response(m) * self.patterns[c][i]
-                                    for c, m in world.items()),
-                                   np.zeros_like(self.base[i])) for i, world in jobs]
+        return [self.base[i] + self.effect(world, i) for i, world in jobs]
 
     def batches(self, worlds: list[dict[str, float]]) -> list[np.ndarray]:
         return [np.concatenate(self.run([(i, w) for i in range(len(self.folders))]))
@@ -91,7 +94,7 @@ def test_a_cause_that_fits_but_predicts_no_log_left_out_is_dropped(
               world: list[str], offsets: dict[str, np.ndarray]) -> np.ndarray:
         return 2.0 * (measured - np.concatenate(replayer.base))
 
-    monkeypatch.setattr(logdiagnosis, "_heldout_replays", worse)
+    monkeypatch.setattr(logdiagnosis, "heldout_replays", worse)
     result = diagnose_logs(BATCH, PARAMS).to_json()
     assert result["causes"] == []
     dropped = result["extended"]["dropped"]
@@ -118,3 +121,34 @@ def test_a_cause_whose_response_flattens_is_fitted_past_its_linear_estimate(
     assert result["causes"] == ["tearing_threshold"]
     fitted = result["extended"]["params"]["tearing_threshold"]["magnitude"]
     assert fitted == pytest.approx(TRUE_MAGNITUDE, rel=0.1)
+
+
+class HidingWorld(LinearWorld):
+    """A world where the bindings tear otherwise only under stiffer muscles: the tearing
+    threshold's pattern scales with the stiffness' magnitude (none in the lab's world), and
+    the logs were measured with both changed."""
+
+    truth = {"tissue_stiffness": TRUE_MAGNITUDE, "tearing_threshold": TRUE_MAGNITUDE}
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        stiffness = world.get("tissue_stiffness", 0.0)
+        return (stiffness * self.patterns["tissue_stiffness"][log] + stiffness
+                * world.get("tearing_threshold", 0.0) * self.patterns["tearing_threshold"][log])
+
+
+def test_a_cause_that_shows_only_beside_another_is_named_at_a_second_look(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(logdiagnosis, "Replayer", HidingWorld)
+    result = diagnose_logs(BATCH, PARAMS).to_json()
+    assert result["causes"] == ["tissue_stiffness", "tearing_threshold"]
+    assert [step["round"] for step in result["steps"] if step["added"]] == [1, 2]
+    assert result["extended"]["second_look"]["kept"]
+    for cause in HidingWorld.truth:
+        fitted = result["extended"]["params"][cause]["magnitude"]
+        assert fitted == pytest.approx(TRUE_MAGNITUDE, rel=0.05)
+
+
+def test_a_single_cause_is_not_joined_by_another_at_the_second_look(linear_world: None) -> None:
+    result = diagnose_logs(BATCH, PARAMS).to_json()
+    assert result["causes"] == ["tearing_threshold"]
+    assert "second_look" not in result["extended"]

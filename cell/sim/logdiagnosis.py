@@ -9,11 +9,13 @@ magnitude one way and the other (its linearised signature: the change of every c
 every sample), a greedy forward selection on those signatures (:mod:`cell.sim.logfit`: a
 sensor's offset is a constant on its channel, in closed form), Gauss-Newton steps on the
 causes selected, each confirmed by replaying the batch (Broyden's update keeps the
-signatures true to the replays), a line search along the fit (:func:`_stretch`), and one
-replay per log left out, in the world fitted on the others: unless those lower the held-out
-error by the gain asked, the world's causes are not named (a change that fits the logs it
-was fitted to but no log left out). Replays run side by side on every core, or on a Ray
-cluster (:mod:`cell.sim.logreplays`).
+signatures true to the replays), a line search along the fit, and one replay per log left
+out, in the world fitted on the others: unless those lower the held-out error by the gain
+asked, the world's causes are not named (a change that fits the logs it was fitted to but no
+log left out). A confirmed fit gets a second look: the other causes screened again in the
+fitted world, where a cause the first hid may show, and kept on the same terms
+(:mod:`cell.sim.logsearch`). Replays run side by side on every core, or on a Ray cluster
+(:mod:`cell.sim.logreplays`).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from cell.sim.logcauses import CAUSES, SENSOR_OFFSET, applicable, magnitudes_jso
 from cell.sim.logfit import (
     FORCE_CHANNELS,
     Rows,
-    broyden,
+    Step,
     forward_selection,
     heldout,
     logged_vector,
@@ -39,14 +41,15 @@ from cell.sim.logfit import (
     solve,
 )
 from cell.sim.logreplays import Replayer, ReplayPool
-
-#: The largest magnitude a Gauss-Newton step may reach (a factor of about 4.5, or 86 deg):
-#: beyond it the cell is another cell, and its physics may not hold.
-MAX_MAGNITUDE = 1.5
-_OFFSET = SENSOR_OFFSET + ":"
-#: The line search's factor on the fitted magnitudes (:func:`_stretch`) and its most replays.
-STRETCH = 1.3
-STRETCH_REPLAYS = 3
+from cell.sim.logsearch import (
+    OFFSET,
+    Fit,
+    fixed,
+    gauss_newton,
+    heldout_replays,
+    replayed_fit,
+    second_look,
+)
 
 
 @dataclass(frozen=True)
@@ -145,16 +148,18 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     with Replayer(batch, min(workers, jobs), cluster) as replayer:
         base, blocks = _screen(replayer, measured, names)
         residual = measured - base
-        blocks.update({_OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})
-        fixed = frozenset(_OFFSET + ch for ch in FORCE_CHANNELS)
-        steps = forward_selection(residual, blocks, rows, params.min_heldout_gain, fixed)
+        blocks.update({OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})
+        steps = forward_selection(residual, blocks, rows, params.min_heldout_gain,
+                                  frozenset(OFFSET + ch for ch in FORCE_CHANNELS))
         chosen = [step.added for step in steps[1:]]
         world = [c for c in chosen if c in CAUSES]
-        offsets = {c: blocks[c] for c in chosen if c.startswith(_OFFSET)}
-        fit = _newton(replayer, measured, base, blocks, world, offsets, params)
-        without = heldout(residual, offsets, rows, _fixed(offsets))
-        left = (_heldout_replays(replayer, measured, rows, fit, world, offsets)
-                if world and fit["confirmed"] else without)
+        offsets = {c: blocks[c] for c in chosen if c.startswith(OFFSET)}
+        start = replayed_fit(measured, base, {}, offsets)
+        fit = _first_fit(replayer, measured, start, blocks, world, offsets, params)
+        without = heldout(residual, offsets, rows, fixed(offsets))
+        left = (heldout_replays(replayer, measured, rows, fit, world, offsets)
+                if fit["confirmed"] else without)
+        second: list[Step] = []
         if world and (not fit["confirmed"] or rmse_n(left)
                       > (1.0 - params.min_heldout_gain) * rmse_n(without)):
             # Only the offsets stand when the world's causes do not lower the error of the logs
@@ -163,27 +168,70 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             dropped = ({"causes": world, "heldout_rmse_N": rmse_n(left),
                         "without_N": rmse_n(without)} if fit["confirmed"] else None)
             world, left = [], without
-            fit = _newton(replayer, measured, base, blocks, world, offsets, params)
-            if dropped is not None:
-                fit["dropped"] = dropped
+            fit = {**start, "confirmed": False, **({"dropped": dropped} if dropped else {})}
+        elif world:
+            fit, left, second = _second_look(replayer, measured, rows, fit, world, left,
+                                             [c for c in names if c in blocks], offsets, params)
+            added = [step.added for step in second]
+            world, chosen = world + added, chosen + added
+    steps_json = [{"added": s.added, "information": s.information,
+                   "heldout_rmse_N": s.heldout_rmse_n, "round": round_}
+                  for round_, part in ((1, steps), (2, second)) for s in part]
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
     heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
-    offset_fit = {c.removeprefix(_OFFSET): _offset_n(offsets[c], rows, fit["offsets"][c])
+    offset_fit = {c.removeprefix(OFFSET): _offset_n(offsets[c], rows, fit["offsets"][c])
                   for c in offsets}
     extended = {"model": "the logs' scenarios with the causes' changes",
                 "params": {**magnitudes_json(fit["magnitudes"]),
                            **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
                 "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
-                **({"dropped": fit["dropped"]} if "dropped" in fit else {})}
+                **{key: fit[key] for key in ("dropped", "second_look") if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
         _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
         _evidence(residual, blocks, rows, chosen, left),
-        [{"added": s.added, "information": s.information, "heldout_rmse_N": s.heldout_rmse_n}
-         for s in steps], {"baseline": base, "extended": fit["simulated"],
+        steps_json, {"baseline": base, "extended": fit["simulated"],
                            "measured": measured},
         _timing(replayer, started, cpu_started))
+
+
+def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
+               blocks: dict[str, np.ndarray], world: list[str], offsets: dict[str, np.ndarray],
+               params: LogDiagnosisParams) -> Fit:
+    """Gauss-Newton from the lab's world (``start``) on the causes selected, from their
+    screening signatures, and whether its replays beat the lab's world by the gain asked."""
+    if not world:
+        return {**start, "confirmed": False}
+    jacobian = np.concatenate([blocks[c] for c in world], axis=1)
+    fit = gauss_newton(replayer, measured, offsets, start, world, jacobian, params.newton_steps)
+    return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
+            <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}
+
+
+def _second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
+                 world: list[str], left: np.ndarray, names: list[str],
+                 offsets: dict[str, np.ndarray], params: LogDiagnosisParams
+                 ) -> tuple[Fit, np.ndarray, list[Step]]:
+    """:func:`second_look` on a confirmed fit: the fit, the held-out residual and the steps
+    of the causes it adds, kept only where the replays of each log left out confirm them
+    too (else ``fit`` says what was tried)."""
+    selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
+                                             offsets, params.min_heldout_gain,
+                                             params.newton_steps)
+    if not selected:
+        return fit, left, []
+    confirmed = rmse_n(moved["left"]) <= (1.0 - params.min_heldout_gain) * rmse_n(fit["left"])
+    moved_left = (heldout_replays(replayer, measured, rows, moved, world + selected, offsets)
+                  if confirmed else None)
+    kept = moved_left is not None and (
+        rmse_n(moved_left) <= (1.0 - params.min_heldout_gain) * rmse_n(left))
+    tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
+             rmse_n(fit["left"]), "heldout_rmse_N": None if moved_left is None
+             else rmse_n(moved_left), "without_heldout_rmse_N": rmse_n(left), "kept": kept}
+    if not kept:
+        return {**fit, "second_look": tried}, left, []
+    return {**moved, "confirmed": True, "second_look": tried}, moved_left, selection[1:]
 
 
 def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str, float]:
@@ -217,94 +265,6 @@ def _screen(replayer: Replayer, measured: np.ndarray, names: list[str]
     return base, blocks
 
 
-def _newton(replayer: Replayer, measured: np.ndarray, base: np.ndarray,
-            blocks: dict[str, np.ndarray], world: list[str], offsets: dict[str, np.ndarray],
-            params: LogDiagnosisParams) -> dict[str, Any]:
-    """Gauss-Newton on the world causes' magnitudes, each step replayed; the best replayed
-    fit, its offsets (closed form) and whether it beats the lab's world by the gain asked."""
-    start_fit, start_left = solve(measured - base, offsets, None, _fixed(offsets))
-    best = {"magnitudes": {}, "simulated": base, "left": start_left,
-            "offsets": start_fit, "confirmed": False}
-    if not world:
-        return best
-    jacobian = np.concatenate([blocks[c] for c in world], axis=1)
-    magnitudes, simulated = np.zeros(len(world)), base
-    for _ in range(params.newton_steps + 1):
-        fitted, _ = solve(measured - simulated, {"world": jacobian, **offsets}, None,
-                          _fixed(offsets))
-        target = np.clip(magnitudes + fitted["world"], -MAX_MAGNITUDE, MAX_MAGNITUDE)
-        (replayed,) = replayer.batches([dict(zip(world, target.tolist(), strict=True))])
-        if replayed is None:
-            break
-        jacobian = broyden(jacobian, target - magnitudes, replayed - simulated)
-        magnitudes, simulated = target, replayed
-        fitted, left = solve(measured - simulated, offsets, None, _fixed(offsets))
-        if rmse_n(left) < rmse_n(best["left"]):
-            best = {"magnitudes": dict(zip(world, magnitudes.tolist(), strict=True)),
-                    "simulated": simulated, "left": left, "offsets": fitted,
-                    "jacobian": jacobian}
-    if best["magnitudes"]:
-        best = _stretch(replayer, measured, offsets, world, best)
-    best["confirmed"] = bool(best["magnitudes"]) and (
-        rmse_n(best["left"]) <= (1.0 - params.min_heldout_gain) * rmse_n(start_left))
-    return best
-
-
-def _stretch(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
-             world: list[str], best: dict[str, Any]) -> dict[str, Any]:
-    """A line search along the lab's world to the best fit: the fitted magnitudes scaled by
-    :data:`STRETCH` while that lowers the replayed error, or once by its inverse where the
-    first stretch does not. A cause's response flattens as it grows (a turned fibre, a
-    stiffer muscle), so signatures taken at the screening step and Gauss-Newton on them stop
-    short of a strong cause."""
-    direction = np.array([best["magnitudes"][c] for c in world])
-    scale, factor = 1.0, STRETCH
-    for _ in range(STRETCH_REPLAYS):
-        trial = np.clip(direction * scale * factor, -MAX_MAGNITUDE, MAX_MAGNITUDE)
-        (replayed,) = replayer.batches([dict(zip(world, trial.tolist(), strict=True))])
-        better = False
-        if replayed is not None:
-            fitted, left = solve(measured - replayed, offsets, None, _fixed(offsets))
-            if rmse_n(left) < rmse_n(best["left"]):
-                best = {**best, "magnitudes": dict(zip(world, trial.tolist(), strict=True)),
-                        "simulated": replayed, "left": left, "offsets": fitted}
-                scale, better = scale * factor, True
-        if not better:
-            if factor < 1.0 or scale != 1.0:
-                break
-            factor = 1.0 / STRETCH
-    return best
-
-
-def _heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows,
-                     fit: dict[str, Any], world: list[str], offsets: dict[str, np.ndarray]
-                     ) -> np.ndarray:
-    """Each log's residual in the world of ``world``'s causes fitted on the other logs (a
-    Gauss-Newton step from the batch's fit on their rows), replayed."""
-    residual = measured - fit["simulated"]
-    left = np.empty_like(measured)
-    jobs, fits = [], []
-    for i in range(len(replayer.folders)):
-        others = rows.log != i
-        fitted, _ = solve(residual, {"world": fit["jacobian"], **offsets}, others,
-                          _fixed(offsets))
-        moved = np.clip(np.array([fit["magnitudes"][c] for c in world]) + fitted["world"],
-                        -MAX_MAGNITUDE, MAX_MAGNITUDE)
-        jobs.append((i, dict(zip(world, moved.tolist(), strict=True))))
-        fits.append(fitted)
-    for i, (vector, fitted) in enumerate(zip(replayer.run(jobs), fits, strict=True)):
-        mine = rows.log == i
-        simulated = fit["simulated"][mine] if vector is None else vector
-        correction = sum((offsets[c] @ fitted[c] for c in offsets), np.zeros(measured.size))
-        left[mine] = measured[mine] - simulated - correction[mine]
-    return left
-
-
-def _fixed(blocks: dict[str, np.ndarray]) -> frozenset[str]:
-    """The offsets among ``blocks``: fitted at rest, taken whole."""
-    return frozenset(name for name in blocks if name.startswith(_OFFSET))
-
-
 def _offset_n(column: np.ndarray, rows: Rows, scale: np.ndarray) -> list[float]:
     """The offset (N, each component) that an offset's column times ``scale`` adds."""
     first = [int(np.flatnonzero((column[:, 0] != 0) & (rows.axis == k))[0])
@@ -318,13 +278,13 @@ def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
     out = []
     for name, columns in blocks.items():
         alone = {name: columns}
-        fitted, _ = solve(residual, alone, None, _fixed(alone))
+        fitted, _ = solve(residual, alone, None, fixed(alone))
         entry: dict[str, Any] = {"cause": name.split(":")[0],
                                  "heldout_rmse_N": rmse_n(heldout(residual, alone, rows,
-                                                                  _fixed(alone))),
+                                                                  fixed(alone))),
                                  "selected": name in chosen, "linearised": True}
-        if name.startswith(_OFFSET):
-            entry["params"] = {"channel": name.removeprefix(_OFFSET),
+        if name.startswith(OFFSET):
+            entry["params"] = {"channel": name.removeprefix(OFFSET),
                                "offset_N": _offset_n(columns, rows, fitted[name])}
         else:
             entry["params"] = magnitudes_json({name: float(fitted[name][0])})[name]
@@ -339,7 +299,7 @@ def _evidence(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
     out = {}
     for name in chosen:
         others = {c: blocks[c] for c in chosen if c != name}
-        without = heldout(residual, others, rows, _fixed(others))
+        without = heldout(residual, others, rows, fixed(others))
         logs = np.unique(rows.log)
         better = [rmse_n(left[rows.log == i]) < rmse_n(without[rows.log == i]) for i in logs]
         out[name] = {"heldout_rmse_N": rmse_n(left), "without_heldout_rmse_N": rmse_n(without),
