@@ -21,8 +21,6 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=200, help="at most (--minutes ends it)")
     parser.add_argument("--episodes", type=int, default=16, help="per round")
     parser.add_argument("--fit-batches", type=int, default=1000, help="Adam steps per round")
-    parser.add_argument("--average-rounds", type=int, default=20, help="the saved network: "
-                        "an exponential average over about this many rounds' (0: the last)")
     parser.add_argument("--seed", type=int, default=0, help="first training seed")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--env-kwargs", default="{}", help="JSON keyword arguments of the env")
@@ -37,7 +35,6 @@ def main() -> None:
     settings = DaggerSettings(env_kwargs=env_kwargs, seed=args.seed, rounds=args.rounds,
                               episodes=args.episodes, fit_batches=args.fit_batches,
                               workers=args.workers, minutes=args.minutes,
-                              average_rounds=args.average_rounds,
                               base="table-skimming-knife", learned=(1,))
     run = args.out / "run"
     run.mkdir(parents=True, exist_ok=True)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import pytest
@@ -38,7 +38,7 @@ class LinearWorld:
     """Replays of :data:`BATCH` in a world where each cause adds its own pattern times its
     magnitude (times :meth:`response` of it), and the logs were measured at :attr:`truth`."""
 
-    truth = {"tearing_threshold": TRUE_MAGNITUDE}
+    truth: ClassVar[dict[str, float]] = {"tearing_threshold": TRUE_MAGNITUDE}
 
     def __init__(self, batch: LogBatch, workers: int, cluster: object = None) -> None:
         rng = np.random.default_rng(0)
@@ -123,12 +123,32 @@ def test_a_cause_whose_response_flattens_is_fitted_past_its_linear_estimate(
     assert fitted == pytest.approx(TRUE_MAGNITUDE, rel=0.1)
 
 
+class TwoCauseFlatteningWorld(FlatteningWorld):
+    """:class:`FlatteningWorld` measured with a second cause, one within the screening step."""
+
+    truth: ClassVar[dict[str, float]] = {"tearing_threshold": TRUE_MAGNITUDE,
+                                         "tissue_stiffness": 0.3}
+
+
+def test_causes_that_stop_short_by_different_shares_are_each_fitted_past_their_estimate(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(logdiagnosis, "Replayer", TwoCauseFlatteningWorld)
+    # The secant stops 18 % short on the tearing threshold and not on the stiffness: stretched
+    # together, the stiffness would overshoot as much as the threshold gained.
+    result = diagnose_logs(BATCH, replace(PARAMS, newton_steps=0)).to_json()
+    assert sorted(result["causes"]) == sorted(TwoCauseFlatteningWorld.truth)
+    for cause, truth in TwoCauseFlatteningWorld.truth.items():
+        fitted = result["extended"]["params"][cause]["magnitude"]
+        assert fitted == pytest.approx(truth, rel=0.1)
+
+
 class HidingWorld(LinearWorld):
     """A world where the bindings tear otherwise only under stiffer muscles: the tearing
     threshold's pattern scales with the stiffness' magnitude (none in the lab's world), and
     the logs were measured with both changed."""
 
-    truth = {"tissue_stiffness": TRUE_MAGNITUDE, "tearing_threshold": TRUE_MAGNITUDE}
+    truth: ClassVar[dict[str, float]] = {"tissue_stiffness": TRUE_MAGNITUDE,
+                                         "tearing_threshold": TRUE_MAGNITUDE}
 
     def effect(self, world: dict[str, float], log: int) -> np.ndarray:
         stiffness = world.get("tissue_stiffness", 0.0)

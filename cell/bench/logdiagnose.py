@@ -157,6 +157,7 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
                                     "offset_channel": truth.offset_channel},
             "causes": list(data["causes"]), "correct": sorted(data["causes"]) == sorted(expected),
             "fitted": data["extended"]["params"],
+            "second_look": data["extended"].get("second_look"),
             "magnitude_error": {c: (None if math.isinf(e) else e) for c, e in errors.items()},
             "magnitude_within": bool(expected) and all(e <= MAGNITUDE_TOLERANCE
                                                        for e in errors.values()),

@@ -21,7 +21,8 @@ from cell.sim.logreplays import Replayer
 #: The largest magnitude a Gauss-Newton step may reach (a factor of about 4.5, or 86 deg):
 #: beyond it the cell is another cell, and its physics may not hold.
 MAX_MAGNITUDE = 1.5
-#: The line search's factor on the fitted magnitudes (:func:`stretch`) and its most replays.
+#: The line search's factor on the fitted magnitudes (:func:`stretch`) and its most replays
+#: (each search's).
 STRETCH = 1.3
 STRETCH_REPLAYS = 3
 OFFSET = SENSOR_OFFSET + ":"
@@ -67,15 +68,28 @@ def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
 
 def stretch(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
             world: list[str], best: Fit) -> Fit:
-    """A line search along the lab's world to the best fit: the fitted magnitudes scaled by
-    :data:`STRETCH` while that lowers the replayed error, or once by its inverse where the
-    first stretch does not. A cause's response flattens as it grows (a turned fibre, a
-    stiffer muscle), so signatures taken at the screening step and Gauss-Newton on them stop
-    short of a strong cause. The signatures follow each better point (Broyden)."""
-    direction = np.array([best["magnitudes"][c] for c in world])
+    """A line search along the lab's world to the best fit (:func:`_line_search` on every
+    magnitude at once), then, where the world has more than one cause, on each cause's
+    magnitude alone: a cause's response flattens as it grows (a turned fibre, a stiffer
+    muscle), so signatures taken at the screening step and Gauss-Newton on them stop short
+    of a strong cause, and causes beside one another stop short by different shares."""
+    best = _line_search(replayer, measured, offsets, world, best, np.ones(len(world), bool))
+    if len(world) > 1:
+        for alone in np.eye(len(world), dtype=bool):
+            best = _line_search(replayer, measured, offsets, world, best, alone)
+    return best
+
+
+def _line_search(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+                 world: list[str], best: Fit, scaled: np.ndarray) -> Fit:
+    """The magnitudes of ``best`` where ``scaled`` is true times :data:`STRETCH` while that
+    lowers the replayed error, or once by its inverse where the first stretch does not; the
+    signatures follow each better point (Broyden)."""
+    start = np.array([best["magnitudes"][c] for c in world])
     scale, factor = 1.0, STRETCH
     for _ in range(STRETCH_REPLAYS):
-        trial = np.clip(direction * scale * factor, -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        trial = np.clip(np.where(scaled, start * scale * factor, start),
+                        -MAX_MAGNITUDE, MAX_MAGNITUDE)
         (replayed,) = replayer.batches([dict(zip(world, trial.tolist(), strict=True))])
         better = False
         if replayed is not None:
