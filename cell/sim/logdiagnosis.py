@@ -37,7 +37,6 @@ from cell.sim.logfit import (
     heldout,
     logged_vector,
     rmse_n,
-    signature,
     solve,
 )
 from cell.sim.logreplays import Replayer, ReplayPool
@@ -48,7 +47,9 @@ from cell.sim.logsearch import (
     gauss_newton,
     heldout_replays,
     replayed_fit,
+    screening_worlds,
     second_look,
+    signatures,
 )
 
 
@@ -246,22 +247,14 @@ def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str,
 
 def _screen(replayer: Replayer, measured: np.ndarray, names: list[str]
             ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """The baseline's simulated vector and each cause's signature (:func:`signature`), from
+    """The baseline's simulated vector and each cause's signature (:func:`signatures`), from
     one batch replay in the lab's world and one each way of every cause's screening step."""
-    screens = [(c, side * CAUSES[c].step) for c in names for side in (1.0, -1.0)]
-    base, *screened = replayer.batches([{}] + [{c: m} for c, m in screens])
+    base, *screened = replayer.batches([{}, *screening_worlds(names, {})])
     if base is None:
         from cell.errors import DivergenceError
 
         raise DivergenceError(0.0, "a replay of the lab's own world blew up")
-    blocks: dict[str, np.ndarray] = {}
-    for k, c in enumerate(names):
-        sides = [(m, None if s is None else s - base)
-                 for (_, m), s in zip(screens[2 * k:2 * k + 2], screened[2 * k:2 * k + 2],
-                                      strict=True)]
-        column = signature(measured - base, sides)
-        if column is not None:
-            blocks[c] = column
+    blocks = signatures(measured - base, base, names, screened)
     return base, blocks
 
 

@@ -35,6 +35,31 @@ def fixed(blocks: dict[str, np.ndarray]) -> frozenset[str]:
     return frozenset(name for name in blocks if name.startswith(OFFSET))
 
 
+#: The sides of a screening: its step one way and the other.
+_SIDES = (1.0, -1.0)
+
+
+def screening_worlds(names: list[str], at: dict[str, float]) -> list[dict[str, float]]:
+    """The worlds that screen each of ``names`` (not in ``at``) beside the magnitudes ``at``:
+    its screening step one way, then the other."""
+    return [{**at, c: side * CAUSES[c].step} for c in names for side in _SIDES]
+
+
+def signatures(residual: np.ndarray, reference: np.ndarray, names: list[str],
+               replayed: list[np.ndarray | None]) -> dict[str, np.ndarray]:
+    """Each of ``names``' signature (:func:`signature` on ``residual``) from the replays of
+    its :func:`screening_worlds`, their changes taken against the ``reference`` replay; a
+    cause whose replays both blew up has none."""
+    blocks: dict[str, np.ndarray] = {}
+    for k, c in enumerate(names):
+        sides = [(side * CAUSES[c].step, None if vector is None else vector - reference)
+                 for side, vector in zip(_SIDES, replayed[2 * k:2 * k + 2], strict=True)]
+        column = signature(residual, sides)
+        if column is not None:
+            blocks[c] = column
+    return blocks
+
+
 def replayed_fit(measured: np.ndarray, simulated: np.ndarray, magnitudes: dict[str, float],
                  offsets: dict[str, np.ndarray]) -> Fit:
     """The fit of a replayed world: its sensors' offsets and what is left."""
@@ -54,13 +79,13 @@ def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
         fitted, _ = solve(measured - simulated, {"world": jacobian, **offsets}, None,
                           fixed(offsets))
         target = np.clip(magnitudes + fitted["world"], -MAX_MAGNITUDE, MAX_MAGNITUDE)
-        (replayed,) = replayer.batches([dict(zip(world, target.tolist(), strict=True))])
+        at = dict(zip(world, target.tolist(), strict=True))
+        (replayed,) = replayer.batches([at])
         if replayed is None:
             break
         jacobian = broyden(jacobian, target - magnitudes, replayed - simulated)
         magnitudes, simulated = target, replayed
-        trial = replayed_fit(measured, simulated, dict(zip(world, target.tolist(), strict=True)),
-                             offsets)
+        trial = replayed_fit(measured, simulated, at, offsets)
         if rmse_n(trial["left"]) < rmse_n(best["left"]):
             best = {**trial, "jacobian": jacobian}
     return stretch(replayer, measured, offsets, world, best) if best is not start else start
@@ -90,14 +115,14 @@ def _line_search(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
     for _ in range(STRETCH_REPLAYS):
         trial = np.clip(np.where(scaled, start * scale * factor, start),
                         -MAX_MAGNITUDE, MAX_MAGNITUDE)
-        (replayed,) = replayer.batches([dict(zip(world, trial.tolist(), strict=True))])
+        at = dict(zip(world, trial.tolist(), strict=True))
+        (replayed,) = replayer.batches([at])
         better = False
         if replayed is not None:
-            moved = replayed_fit(measured, replayed, dict(zip(world, trial.tolist(), strict=True)),
-                                 offsets)
+            moved = replayed_fit(measured, replayed, at, offsets)
             if rmse_n(moved["left"]) < rmse_n(best["left"]):
-                at = np.array([best["magnitudes"][c] for c in world])
-                moved["jacobian"] = broyden(best["jacobian"], trial - at,
+                previous = np.array([best["magnitudes"][c] for c in world])
+                moved["jacobian"] = broyden(best["jacobian"], trial - previous,
                                             replayed - best["simulated"])
                 best, scale, better = moved, scale * factor, True
         if not better:
@@ -118,21 +143,13 @@ def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     causes selected, the best replayed fit with them (``fit`` where none was selected or
     none beat it) and the selection's steps."""
     others = [c for c in names if c not in world]
-    screens = [(c, side * CAUSES[c].step) for c in others for side in (1.0, -1.0)]
-    replayed = replayer.batches([{**fit["magnitudes"], c: m} for c, m in screens])
+    replayed = replayer.batches(screening_worlds(others, fit["magnitudes"]))
+    blocks = signatures(fit["left"], fit["simulated"], others, replayed)
     basis = np.linalg.qr(fit["jacobian"])[0]
 
     def beside(vector: np.ndarray) -> np.ndarray:
         return vector - basis @ (basis.T @ vector)
 
-    blocks: dict[str, np.ndarray] = {}
-    for k, c in enumerate(others):
-        sides = [(m, None if s is None else s - fit["simulated"])
-                 for (_, m), s in zip(screens[2 * k:2 * k + 2], replayed[2 * k:2 * k + 2],
-                                      strict=True)]
-        column = signature(fit["left"], sides)
-        if column is not None:
-            blocks[c] = column
     selection = forward_selection(beside(fit["left"]),
                                   {c: beside(column) for c, column in blocks.items()},
                                   rows, min_heldout_gain)
