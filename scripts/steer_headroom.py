@@ -9,7 +9,8 @@ import argparse
 import json
 from pathlib import Path
 
-from cell.learning.headroom import baseline_table, tune_rule
+from cell.io import write_json
+from cell.learning.headroom import baseline_table, summary_lines, tune_rule
 
 
 def main() -> None:
@@ -34,15 +35,8 @@ def main() -> None:
     report["evaluation"] = baseline_table(rule, seeds, args.workers, env_kwargs,
                                           args.learned)
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(report, indent=1) + "\n")
-    for name, row in report["evaluation"]["table"].items():
-        tip = row["tip_mean_mm"]
-        print(f"{name}: tip {tip['mean']:.2f} mm [{tip['low']:.2f}, {tip['high']:.2f}], "
-              f"success {row['successes']}/{row['episodes']}, torn "
-              f"{row['torn_fraction']['mean']:.3f}")
-    for pair, difference in report["evaluation"]["paired"].items():
-        tip = difference["tip_mean_mm"]
-        print(f"{pair}: tip {tip['mean']:+.2f} mm [{tip['low']:+.2f}, {tip['high']:+.2f}]")
+    write_json(args.json, report)
+    print("\n".join(summary_lines(report["evaluation"])))
     print(f"wrote {args.json}")
 
 

@@ -13,4 +13,4 @@ source scripts/setup.sh
 out="${1:-out/steer}"
 mkdir -p "$out"
 python scripts/train_steer.py --out "$out" --minutes 40 --episodes 16 --workers 2 \
-  --eval-episodes 50 2>&1 | tee "$out/train.log"
+  --eval-episodes 100 2>&1 | tee "$out/train.log"

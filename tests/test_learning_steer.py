@@ -76,7 +76,7 @@ def test_the_headroom_summary_scores_the_tip_over_the_episodes_that_scored_it() 
 
     assert len(rule_settings()) == np.prod([len(values) for values in RULE_GRID.values()])
     rows = [{"success": ok, "tip_mean_mm": tip, "tip_max_mm": tip, "torn_fraction": 0.1,
-             "elapsed_s": 1.0} for ok, tip in ((True, 1.0), (True, 3.0), (False, float("nan")))]
+             "elapsed_s": 1.0} for ok, tip in ((True, 1.0), (True, 3.0), (False, None))]
     summary = _summary(rows)
     assert summary["tip_unscored"] == 1 and summary["tip_mean_mm"]["mean"] == 2.0
     assert summary["successes"] == 2 and summary["torn_fraction"]["mean"] == pytest.approx(0.1)

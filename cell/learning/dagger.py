@@ -45,6 +45,7 @@ from cell.learning.segments import Actor
 from envs.policies import DEMONSTRATORS, true_interface_policy
 
 if TYPE_CHECKING:
+    import torch
     from stable_baselines3.common.policies import ActorCriticPolicy
 
 Policy = Callable[[np.ndarray], np.ndarray]
@@ -54,6 +55,8 @@ CURVE_FILE = "learning_curve.csv"
 CURVE_COLUMNS = ("round", "played_by", "episodes", "env_steps", "wall_s", "tip_mean_mm",
                  "tip_scored", "success_rate", "torn_fraction", "mean_return", "action_mse")
 RUN_FILE = "dagger.json"
+#: The subfolder of a run that holds its averaged network (``average_rounds``).
+AVERAGE_FOLDER = "average"
 #: The least variance an observation entry is scaled by (its units squared): an entry that
 #: hardly moves in the expert's episodes would otherwise turn the learner's small departures
 #: into inputs at the clip.
@@ -74,7 +77,12 @@ class DaggerSettings:
     :data:`FIT_STAGES` of it) on batches of ``batch_size`` drawn from every round so far (a
     fit's cost stays the same as the data grows); the network's hidden widths ``net_arch``;
     ``workers`` processes play the episodes; no round starts that would, at the last round's
-    pace, end after ``minutes`` (None: no limit). ``init``, a policy folder of ``env_id``
+    pace, end after ``minutes`` (None: no limit). ``average_rounds`` > 0 also saves, in the
+    subfolder :data:`AVERAGE_FOLDER`, an exponential average of the networks that end each
+    round over about that many rounds (decay ``1 - 1/average_rounds``; the learner plays its
+    latest network): each round's fit ends at a low learning rate (:data:`FIT_STAGES`), and
+    averaging such ends (stochastic weight averaging, Izmailov et al. 2018) smooths out the
+    rounds' jitter. ``init``, a policy folder of ``env_id``
     (:mod:`cell.learning.policyfile`), starts the run from that network and its observation
     statistics: then the learner plays every round, the first too. ``base``, a demonstrator's
     name, makes the learned policy that demonstrator but for the action's ``learned``
@@ -100,6 +108,7 @@ class DaggerSettings:
     init: str = ""
     base: str = ""
     learned: tuple[int, ...] = ()
+    average_rounds: int = 0
 
     def __post_init__(self) -> None:
         if self.expert not in EXPERTS:
@@ -111,6 +120,9 @@ class DaggerSettings:
         if not self.fit_batches >= len(FIT_STAGES):
             raise LearningError(None, "fit_batches", f"must be >= {len(FIT_STAGES)} (one per "
                                 f"stage of the learning rate), got {self.fit_batches}")
+        if not self.average_rounds >= 0:
+            raise LearningError(None, "average_rounds", f"must be >= 0, got "
+                                f"{self.average_rounds}")
         if not self.learning_rate > 0:
             raise LearningError(None, "learning_rate", f"must be > 0, got {self.learning_rate}")
         if self.minutes is not None and not self.minutes > 0:
@@ -266,6 +278,7 @@ def train(settings: DaggerSettings, out: Path,
     policy, normalize = _start(settings, env)
     env.close()
     optimizer = torch.optim.Adam(policy.parameters(), lr=settings.learning_rate)
+    averaged = _averaged(policy, settings.average_rounds)
     generator = torch.Generator().manual_seed(settings.seed)
     rng = np.random.default_rng(settings.seed)
     kwargs_json = json.dumps(settings.env_kwargs, sort_keys=True)
@@ -294,15 +307,21 @@ def train(settings: DaggerSettings, out: Path,
                 losses = fit_actor(policy, optimizer, generator, settings.batch_size, 1,
                                    torch.as_tensor(inputs[drawn], dtype=torch.float32),
                                    torch.as_tensor(targets[drawn]))
+            if averaged is not None:
+                averaged.update_parameters(policy)
             curve.append(curve_row(round_index, "expert" if actor is None else "learner",
                                    episodes, len(seen),
                                    time.monotonic() - started, losses["action_mse"]))
             if report is not None:
                 report(curve[-1])
-            save_network(out, policy, normalization_json(normalize, len(seen)),
-                         settings.env_id, "DAgger", len(seen), round_index + 1,
-                         None if not settings.base else {"name": settings.base,
-                                                         "learned": list(settings.learned)})
+            saved = [(out, policy)] + ([] if averaged is None else
+                                       [(out / AVERAGE_FOLDER, averaged.module)])
+            for folder, network in saved:
+                folder.mkdir(exist_ok=True)
+                save_network(folder, network, normalization_json(normalize, len(seen)),
+                             settings.env_id, "DAgger", len(seen), round_index + 1,
+                             None if not settings.base else {"name": settings.base,
+                                                             "learned": list(settings.learned)})
             write_rows(out / CURVE_FILE, CURVE_COLUMNS, curve)
             pace_s = time.monotonic() - round_started
             if (settings.minutes is not None and round_index + 1 < settings.rounds
@@ -314,6 +333,17 @@ def train(settings: DaggerSettings, out: Path,
     write_json(out / RUN_FILE, record)
     _write_figure(out / "learning_curve.png", curve)
     return record
+
+
+def _averaged(policy: ActorCriticPolicy, rounds: int) -> torch.optim.swa_utils.AveragedModel | None:
+    """The exponential average of ``policy``'s weights over about ``rounds`` rounds (None
+    for 0)."""
+    if rounds == 0:
+        return None
+    from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
+
+    return AveragedModel(policy, multi_avg_fn=get_ema_multi_avg_fn(1.0 - 1.0 / rounds),
+                         use_buffers=True)
 
 
 def _write_figure(path: Path, curve: list[dict[str, Any]]) -> None:

@@ -25,6 +25,9 @@ from envs.policies import SteeringKnife, TableSkimmingKnife, true_interface_poli
 ENV_ID = "musclecell/Steer-v1"
 #: First seed of the episodes that tune the steering rule.
 RULE_TUNING_SEED_START = 300_000
+#: First seed of the episodes that choose among a training run's networks (tuning seeds
+#: that neither the rule's tuning nor the probes on the benchmarks page played).
+VALIDATION_SEED_START = 300_300
 #: The rule's settings tried by :func:`tune_rule`: every combination.
 RULE_GRID: dict[str, tuple[float, ...]] = {
     "load_sign": (1.0, -1.0),
@@ -76,9 +79,14 @@ def play(task: SteerEpisode) -> dict[str, Any]:
             "elapsed_s": float(info["elapsed_s"]), "path_error": info["path_error"]}
 
 
-def _mm(metres: float | None) -> float:
-    # A tip that never came across from the interface scores as far as the worst bound.
-    return 1e3 * metres if metres is not None else float("nan")
+def _mm(metres: float | None) -> float | None:
+    """Millimetres; None for an episode whose tip never came across from the interface."""
+    return None if metres is None else 1e3 * metres
+
+
+def _tips(rows: Sequence[Mapping[str, Any]], key: str = "tip_mean_mm") -> np.ndarray:
+    """The rows' tip distances (mm), NaN where unscored."""
+    return np.array([np.nan if row[key] is None else row[key] for row in rows], float)
 
 
 def play_all(tasks: Sequence[SteerEpisode], workers: int) -> list[dict[str, Any]]:
@@ -113,14 +121,35 @@ def tune_rule(episodes: int, workers: int, env_kwargs: Mapping[str, Any]
     scores = []
     for index, rule in enumerate(settings):
         mine = rows[episodes * (index + 1):episodes * (index + 2)]
-        scores.append({"rule": rule, "tip_mean_mm": float(np.nanmean(
-            [row["tip_mean_mm"] for row in mine])), "success_rate": float(np.mean(
+        scores.append({"rule": rule, "tip_mean_mm": float(np.nanmean(_tips(mine))),
+                       "success_rate": float(np.mean(
                 [row["success"] for row in mine]))})
     allowed = [score for score in scores if score["success_rate"] >= floor] or scores
     chosen = min(allowed, key=lambda score: score["tip_mean_mm"])
     return {"seeds": [seeds.start, seeds.stop - 1], "no_steering": {
-        "tip_mean_mm": float(np.nanmean([row["tip_mean_mm"] for row in plain])),
+        "tip_mean_mm": float(np.nanmean(_tips(plain))),
         "success_rate": float(floor)}, "scores": scores, "chosen": chosen["rule"]}
+
+
+def choose_learned(folders: Sequence[str], seeds: Sequence[int], workers: int,
+                   env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
+    """The learned policy among ``folders`` (one training run's networks) with the least mean
+    tip distance on ``seeds`` (validation seeds, :data:`VALIDATION_SEED_START` on), over the
+    seeds every one of them scored; a tie, or no such seed, goes to the first. Returns each
+    one's mean tip distance and success rate and the ``chosen`` folder."""
+    kwargs = tuple(sorted(env_kwargs.items()))
+    rows = play_all([SteerEpisode("learned", (), seed, kwargs, folder)
+                     for folder in folders for seed in seeds], workers)
+    tips = _tips(rows).reshape(len(folders), len(seeds))
+    successes = np.array([row["success"] for row in rows]).reshape(len(folders), len(seeds))
+    scored = np.isfinite(tips).all(axis=0)
+    scores = [{"folder": folder, "tip_mean_mm": float(tips[index, scored].mean())
+               if scored.any() else None,
+               "success_rate": float(successes[index].mean())}
+              for index, folder in enumerate(folders)]
+    chosen = min(scores, key=lambda score: score["tip_mean_mm"] or 0.0)
+    return {"seeds": [min(seeds), max(seeds)], "tip_scored_on": int(scored.sum()),
+            "scores": scores, "chosen": chosen["folder"]}
 
 
 def baseline_table(rule: Mapping[str, float], seeds: Sequence[int], workers: int,
@@ -141,12 +170,12 @@ def baseline_table(rule: Mapping[str, float], seeds: Sequence[int], workers: int
     pairs = {}
     compared = [("rule", "no-steering"), ("ceiling", "rule"), ("ceiling", "no-steering")]
     for better, worse in compared + ([("learned", "rule")] if learned else []):
-        scored = [(a["tip_mean_mm"], b["tip_mean_mm"])
-                  for a, b in zip(by_name[better], by_name[worse], strict=True)
-                  if np.isfinite(a["tip_mean_mm"]) and np.isfinite(b["tip_mean_mm"])]
+        mine, theirs = _tips(by_name[better]), _tips(by_name[worse])
+        scored = np.isfinite(mine) & np.isfinite(theirs)
         pairs[f"{better} - {worse}"] = {
-            "tip_mean_mm": paired_mean_difference(*map(list, zip(*scored, strict=True))),
-            "tip_scored_on": len(scored),
+            "tip_mean_mm": paired_mean_difference(list(mine[scored]), list(theirs[scored]))
+            if scored.any() else None,
+            "tip_scored_on": int(scored.sum()),
             "success": paired_success_difference(
                 [row["success"] for row in by_name[better]],
                 [row["success"] for row in by_name[worse]]),
@@ -161,12 +190,39 @@ def _summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """One policy's row; the tip's distances over the episodes that scored it (a protective
     stop at the entry ends an episode before the tip comes across from the interface)."""
     successes = sum(row["success"] for row in rows)
-    scored = [row for row in rows if np.isfinite(row["tip_mean_mm"])]
+    scored = [row for row in rows if row["tip_mean_mm"] is not None]
     return {"episodes": len(rows), "successes": successes,
             "success_rate": successes / len(rows), "success_interval": wilson(successes,
                                                                               len(rows)),
             "tip_unscored": len(rows) - len(scored),
-            **{key: mean_interval([row[key] for row in scored])
+            **{key: mean_interval([row[key] for row in scored]) if scored else None
                for key in ("tip_mean_mm", "tip_max_mm")},
             **{key: mean_interval([row[key] for row in rows])
                for key in ("torn_fraction", "elapsed_s")}}
+
+
+def summary_lines(evaluation: Mapping[str, Any]) -> list[str]:
+    """:func:`baseline_table`'s report in lines to print: each policy's tip distance, success
+    and torn fraction, then each paired difference's tip distance and success."""
+    lines = []
+    for name, row in evaluation["table"].items():
+        lines.append(f"{name}: tip {_interval(row['tip_mean_mm'], '.2f')} mm "
+                     f"({row['episodes'] - row['tip_unscored']} scored), success "
+                     f"{row['successes']}/{row['episodes']}, torn "
+                     f"{row['torn_fraction']['mean']:.3f}")
+    for pair, difference in evaluation["paired"].items():
+        success = difference["success"]
+        lines.append(f"{pair}: tip {_interval(difference['tip_mean_mm'], '+.2f')} mm on "
+                     f"{difference['tip_scored_on']} seeds, success "
+                     f"{success['difference']:+.2f} [{success['low']:+.2f}, "
+                     f"{success['high']:+.2f}]")
+    return lines
+
+
+def _interval(value: Mapping[str, float | None] | None, spec: str) -> str:
+    """A mean and its interval as text ("-" for what is not there)."""
+    if value is None:
+        return "-"
+    low, high = (("-" if value[key] is None else format(value[key], spec))
+                 for key in ("low", "high"))
+    return f"{format(value['mean'], spec)} [{low}, {high}]"
