@@ -1,6 +1,6 @@
 """Output folders that appear whole or not at all: a command fills its folder (a report, a
 log, a replay) in a temporary folder beside it, renamed into place once every file is in, as
-:class:`cell.io.AtomicFile` does for one file. A stopped or failed command leaves neither
+:class:`cell.outputs.AtomicFile` does for one file. A stopped or failed command leaves neither
 the folder nor the temporary one, and a folder that was there keeps what it had. Several
 outputs of one command (a report, a material, a JSON) can appear together the same way
 (:func:`write_together`).
@@ -15,19 +15,19 @@ import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from cell.io import AtomicFile
+from cell.outputs import AtomicFile
 
 
 class AtomicFolder(AtomicFile):
     """A folder that appears at ``path`` whole or not at all: its files are written into
     ``temporary`` (an empty folder beside it), which :meth:`commit` renames into place,
-    replacing a folder there whole, as :class:`~cell.io.AtomicFile` replaces a file;
+    replacing a folder there whole, as :class:`~cell.outputs.AtomicFile` replaces a file;
     :meth:`discard` drops it. A link at ``path`` is followed: it keeps pointing at the new
     folder.
 
     As a context manager it discards the temporary folder on leaving unless committed,
     whatever ends the block (an error, Ctrl-C, ``SystemExit``); the command line's
-    :func:`cell.io.discard_pending` removes what a stop in the middle of that left.
+    :func:`cell.outputs.discard_pending` removes what a stop in the middle of that left.
 
     Example:
         >>> import tempfile

@@ -1,20 +1,27 @@
-"""Outputs first: every path a command will write, checked before the command does any work,
-so that a path that cannot be written stops it at once, with nothing written.
-
-A command lists its outputs (each with the option that named it) and its inputs, and calls
-:func:`check_outputs`. The files themselves are written later through :mod:`cell.io`, to a
-temporary sibling renamed into place, so that a stopped command leaves no half of one; an
-output folder filled whole goes the same way (:mod:`cell.folders`).
+"""What a command writes, outputs first: every path checked before the command does any work
+(:func:`check_outputs`), so that a path that cannot be written stops it at once with nothing
+written; then each file written to a temporary sibling and renamed into place
+(:func:`write_atomic`; :func:`write_json` strictly, :func:`write_rows`, :class:`AtomicFile`
+for a writer that streams), so that a stopped command leaves no half of one. Files that
+belong together (a policy's weights and statistics, a report and its table) are written by
+:func:`write_together`, none renamed before every one is written; an output folder filled
+whole goes the same way (:mod:`cell.folders`). What a command reads: :mod:`cell.io`.
 """
 
 from __future__ import annotations
 
+import csv
+import io
+import json
+import math
 import os
-from collections.abc import Iterable
+import tempfile
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from cell.errors import OutputError
+from cell.errors import NotFiniteResultError, OutputError
 
 
 @dataclass(frozen=True)
@@ -92,6 +99,29 @@ def check_outputs(outputs: Iterable[Output | None], inputs: Iterable[str | Path 
                               "folder")
 
 
+def write_together(contents: Mapping[Path, str | bytes]) -> list[Path]:
+    """Write each of ``contents`` (path to text or bytes) as one change: every file to its
+    temporary sibling first, then the renames, so that an error or a stop while they are
+    written leaves every path as it was.
+
+    Example:
+        >>> import tempfile
+        >>> folder = Path(tempfile.mkdtemp())
+        >>> [path.name for path in write_together({folder / "a.json": "{}", folder / "a.md": ""})]
+        ['a.json', 'a.md']
+    """
+    targets = []
+    try:
+        for path, content in contents.items():
+            targets.append(AtomicFile(path))
+            targets[-1].write(content)
+        return [target.commit() for target in targets]
+    finally:
+        for target in targets:
+            if not target.committed:
+                target.discard()
+
+
 def _check_one(output: Output, inputs: list[Path]) -> None:
     path, option = output.path, output.option
     for source in inputs:
@@ -136,3 +166,191 @@ def _same(output: Path, source: Path) -> bool:
     if output.exists() and source.exists():
         return os.path.samefile(output, source)
     return output.resolve() == source.resolve()
+
+
+class AtomicFile:
+    """A file that appears at ``path`` whole or not at all: it is written at ``temporary`` (in
+    the same folder), then renamed into place by :meth:`commit`; :meth:`discard` drops it.
+
+    For writers that stream (a Rerun recording); :func:`write_atomic` for content in hand.
+    As a context manager it discards the temporary file on leaving unless committed, whatever
+    ends the block (an error, Ctrl-C, ``SystemExit``).
+
+    Example:
+        >>> import tempfile
+        >>> with AtomicFile(Path(tempfile.mkdtemp()) / "log.txt") as target:
+        ...     _ = target.temporary.write_text("done")
+        ...     target.commit().read_text()
+        'done'
+    """
+
+    _mode = 0o666  # what a plain open() gives a new file, less the umask
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        # The folders made for it, deepest first: a discarded file takes them back too.
+        self._made = [p for p in (self.path.parent, *self.path.parent.parents)
+                      if not p.exists()]
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.temporary = self._make_temporary()
+        self.committed = False
+        _PENDING.add(self)
+
+    def _make_temporary(self) -> Path:
+        fd, name = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp",
+                                    dir=self.path.parent)
+        os.close(fd)
+        return Path(name)
+
+    def __enter__(self) -> AtomicFile:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        if not self.committed:
+            self.discard()
+
+    def write(self, content: str | bytes) -> AtomicFile:
+        """Write ``content`` (text or bytes) to the temporary file; returns ``self``."""
+        if isinstance(content, bytes):
+            self.temporary.write_bytes(content)
+        else:
+            self.temporary.write_text(content)
+        return self
+
+    def commit(self) -> Path:
+        """Rename the temporary file to ``path`` (replacing what was there) and return it."""
+        # mkstemp makes the file private; give it the mode a plain open() would.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(self.temporary, self._mode & ~umask)
+        os.replace(self.temporary, self.path)
+        self.committed = True
+        self.discard()  # no longer pending (nothing of the committed file is removed)
+        return self.path
+
+    def discard(self) -> None:
+        """Remove the temporary file, and the folders made for it if they are empty again;
+        ``path`` keeps what it had."""
+        self.temporary.unlink(missing_ok=True)
+        _PENDING.discard(self)
+        for folder in self._made:
+            try:
+                folder.rmdir()
+            except OSError:  # not empty: something else was written there since
+                break
+
+
+#: This process's :class:`AtomicFile` objects (folders too) not yet committed or discarded.
+_PENDING: set[AtomicFile] = set()
+
+
+def discard_pending() -> None:
+    """Remove every temporary file an :class:`AtomicFile` of this process still holds: the
+    command line's last word, for a stop signal that came between two lines of a writer's
+    own cleanup.
+
+    Example:
+        >>> import tempfile
+        >>> target = AtomicFile(Path(tempfile.mkdtemp()) / "log.txt")
+        >>> discard_pending()
+        >>> target.temporary.exists()
+        False
+    """
+    for target in list(_PENDING):
+        target.discard()
+
+
+def write_atomic(path: str | Path, content: str | bytes) -> Path:
+    """Write ``content`` to ``path`` through a temporary file in the same folder and a rename
+    (several files as one: :func:`cell.outputs.write_together`).
+
+    Example:
+        >>> import tempfile
+        >>> write_atomic(Path(tempfile.mkdtemp()) / "summary.json", "{}").read_text()
+        '{}'
+    """
+    with AtomicFile(path) as target:
+        return target.write(content).commit()
+
+
+def write_rows(path: str | Path, columns: Sequence[str], rows: Sequence[Mapping[str, Any]]
+               ) -> Path:
+    """Write :func:`rows_text` of ``rows`` atomically."""
+    return write_atomic(path, rows_text(columns, rows))
+
+
+def rows_text(columns: Sequence[str], rows: Sequence[Mapping[str, Any]]) -> str:
+    """``rows`` as CSV with a header of ``columns`` (a missing cell is blank).
+
+    Example:
+        >>> rows_text(["a", "b"], [{"a": 1}]).splitlines()
+        ['a,b', '1,']
+    """
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=list(columns), lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return text.getvalue()
+
+
+def write_json(path: str | Path, payload: Any) -> Path:
+    """Write ``payload`` as indented, strict JSON (no ``NaN`` or ``Infinity``, which strict
+    readers refuse), atomically. A value that is not applicable is ``None`` (``null``).
+
+    Raises:
+        NotFiniteResultError: ``payload`` holds NaN or infinity (named by its key): the result
+            diverged; nothing is written.
+
+    Example:
+        >>> import tempfile
+        >>> write_json(Path(tempfile.mkdtemp()) / "r.json", {"rows": [{"gain": float("nan")}]})
+        Traceback (most recent call last):
+        cell.errors.NotFiniteResultError: ...r.json, rows[0].gain: nan is not a finite number;
+        nothing written
+    """
+    return write_atomic(path, json_text(payload, path))
+
+
+def json_text(payload: Any, path: str | Path) -> str:
+    """``payload`` as the text :func:`write_json` writes to ``path``: to check a result
+    before anything of a command is written.
+
+    Raises:
+        NotFiniteResultError: ``payload`` holds NaN or infinity (named by its key).
+    """
+    try:
+        return json.dumps(payload, indent=2, sort_keys=False, allow_nan=False) + "\n"
+    except ValueError:
+        found = first_non_finite(payload)
+        if found is None:  # another fault (a circular reference): the program's, not data
+            raise
+        raise NotFiniteResultError(path, found[0] or "(the whole value)", found[1]) from None
+
+
+def first_non_finite(payload: Any) -> tuple[str, str] | None:
+    """The dotted key and the text of the first NaN or infinity in a JSON-able ``payload``,
+    or None when it has none.
+
+    Example:
+        >>> first_non_finite({"fit": {"rmse_n": [0.1, float("inf")]}})
+        ('fit.rmse_n[1]', 'inf')
+    """
+    return next(_non_finite(payload, ""), None)
+
+
+def _non_finite(value: Any, key: str) -> Iterator[tuple[str, str]]:
+    if isinstance(value, float) and not math.isfinite(value):
+        yield key, repr(value)
+    elif isinstance(value, Mapping):
+        for name, item in value.items():
+            yield from _non_finite(item, f"{key}.{name}" if key else str(name))
+    elif isinstance(value, list | tuple):
+        for index, item in enumerate(value):
+            yield from _non_finite(item, f"{key}[{index}]")
+
+
+def figure_png(figure: Any, dpi: int = 110) -> bytes:
+    """A matplotlib figure drawn as PNG bytes, for :func:`write_atomic`."""
+    png = io.BytesIO()
+    figure.savefig(png, format="png", dpi=dpi)
+    return png.getvalue()

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from cell.io import write_atomic
+from cell.outputs import write_atomic
 from cell.tissue.geometry import MuscleShape, build_two_muscles
 
 CELL_SIZE_M = 0.035

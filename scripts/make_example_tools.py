@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from cell.io import write_atomic
+from cell.outputs import write_atomic
 
 HANDLE_RADIUS_M = 0.016
 HANDLE_LENGTH_M = 0.12

@@ -22,7 +22,7 @@ from pathlib import Path
 import gymnasium as gym
 
 import envs  # noqa: F401  (registers the ids)
-from cell.io import write_json
+from cell.outputs import write_json
 
 #: Most RSS growth, in percent, from the warm-up reset to the last, for a pass.
 MAX_GROWTH_PERCENT = 5.0

@@ -9,8 +9,8 @@ import argparse
 import json
 from pathlib import Path
 
-from cell.io import write_json
 from cell.learning.headroom import baseline_table, summary_lines, tune_rule
+from cell.outputs import write_json
 
 
 def main() -> None:

@@ -12,7 +12,6 @@ import argparse
 import json
 from pathlib import Path
 
-from cell.io import write_json
 from cell.learning.dagger import AVERAGE_FOLDER, DaggerSettings, train
 from cell.learning.headroom import (
     VALIDATION_SEED_START,
@@ -20,6 +19,7 @@ from cell.learning.headroom import (
     choose_learned,
     summary_lines,
 )
+from cell.outputs import write_json
 
 
 def main() -> None:

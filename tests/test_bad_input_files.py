@@ -1,6 +1,6 @@
-"""The safe reader and the strict writers of :mod:`cell.io`, case by case: every fault of a file
-is a named error with its path, JSON is written without NaN, and no temporary file outlives a
-write that was stopped.
+"""The safe reader of :mod:`cell.io` and the strict writers of :mod:`cell.outputs`, case by
+case: every fault of a file is a named error with its path, JSON is written without NaN, and
+no temporary file outlives a write that was stopped.
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from cell.errors import (
     UnreadableFileError,
     file_read_error,
 )
-from cell.io import AtomicFile, read_json, read_text, write_atomic, write_json
+from cell.io import read_json, read_text
+from cell.outputs import AtomicFile, write_atomic, write_json, write_together
 from cell.rheology.measured import Specimen
 from cell.sim.scenario import SimulationParams
 
@@ -108,6 +109,18 @@ def test_write_atomic_leaves_no_temporary_when_the_content_fails(tmp_path: Path)
     with pytest.raises(TypeError):
         write_atomic(tmp_path / "x.txt", 3)  # type: ignore[arg-type]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_files_written_together_change_none_when_one_cannot_be_written(tmp_path: Path) -> None:
+    (tmp_path / "report.json").write_text("before")
+    (tmp_path / "blocked").write_text("a file where a folder should be")
+    with pytest.raises(OSError):
+        write_together({tmp_path / "report.json": "after", tmp_path / "report.md": "after",
+                        tmp_path / "blocked" / "episodes.csv": "after"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blocked", "report.json"]
+    assert (tmp_path / "report.json").read_text() == "before"
+    written = write_together({tmp_path / "report.json": "after", tmp_path / "t.npz": b"\x00"})
+    assert [path.read_bytes() for path in written] == [b"after", b"\x00"]
 
 
 def test_plausible_ranges_let_real_values_through_and_refuse_absurd_ones() -> None:

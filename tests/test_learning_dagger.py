@@ -32,8 +32,8 @@ def test_bad_settings_are_named_errors() -> None:
 
 
 def test_the_frozen_statistics_are_written_as_evaluate_reads_them(tmp_path: Path) -> None:
-    from cell.io import write_json
     from cell.learning.policyfile import observation_normalizer, read_normalization
+    from cell.outputs import write_json
 
     observations = np.array([[0.0, 1.0, 5.0], [2.0, 1.0, 5.001]])
     normalize = normalizer_of(observations)

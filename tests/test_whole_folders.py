@@ -21,7 +21,7 @@ import pytest
 from cell.cli import main
 from cell.errors import Stopped
 from cell.folders import AtomicFolder, write_folder, write_together
-from cell.io import write_atomic
+from cell.outputs import write_atomic
 from tests.paths import EXAMPLE_SET, PROJECT_ROOT
 
 WRITTEN = "written before the stop\n"

@@ -110,7 +110,7 @@ def bench_command(args: argparse.Namespace) -> int:
 
 def _cell(args: argparse.Namespace, json_path: Path, scenario: Path) -> int:
     from cell.bench.cell import run_bench
-    from cell.io import write_json
+    from cell.outputs import write_json
 
     report = run_bench(scenario, quick=args.quick)
     write_json(json_path, report)
@@ -122,7 +122,7 @@ def _cell(args: argparse.Namespace, json_path: Path, scenario: Path) -> int:
 
 def _tissue(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
     from cell.bench.tissue import TissueBenchParams, markdown_report, run_tissue_bench
-    from cell.io import write_atomic, write_json
+    from cell.outputs import write_atomic, write_json
 
     params = TissueBenchParams.quick() if args.quick else TissueBenchParams()
     report = run_tissue_bench(params, progress=print)
@@ -140,7 +140,7 @@ def _tissue(args: argparse.Namespace, json_path: Path, scenario: Path | None) ->
 def _perception(args: argparse.Namespace, json_path: Path, scenario: Path) -> int:
     from cell.bench.perception import run_perception_bench
     from cell.bench.shapes import shape_lines
-    from cell.io import write_json
+    from cell.outputs import write_json
 
     report = run_perception_bench(scenario, quick=args.quick, shapes=args.shapes,
                                   shape_seed=args.shape_seed)
@@ -170,7 +170,7 @@ def _print_entries(entries: dict) -> None:
 
 def _env(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
     from cell.bench.env import run_env_bench
-    from cell.io import write_json
+    from cell.outputs import write_json
 
     report = run_env_bench(quick=args.quick)
     write_json(json_path, report)
@@ -181,7 +181,7 @@ def _env(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> in
 
 def _sweep(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
     from cell.bench.sweep import run_sweep_bench
-    from cell.io import write_json
+    from cell.outputs import write_json
 
     for name, value in (("--quick", args.quick), ("--seeds", args.seeds),
                         ("--markdown", args.markdown)):
@@ -221,7 +221,7 @@ def _diagnose_kind(args: argparse.Namespace) -> str:
 
 def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> int:
     from cell.bench.diagnose import bench_seeds, run_diagnose_bench
-    from cell.io import write_atomic, write_json
+    from cell.outputs import write_atomic, write_json
 
     kind = _diagnose_kind(args)
     count = args.seeds if args.seeds is not None else (3 if args.quick else 10)

@@ -36,7 +36,8 @@ import numpy as np
 
 from cell.bench.diagnose import check_request
 from cell.errors import MeasurementError
-from cell.io import read_text, write_atomic
+from cell.io import read_text
+from cell.outputs import write_atomic
 from cell.rheology import synthetic as generator
 from cell.rheology.suggesttests import CandidateTest
 

@@ -25,8 +25,8 @@ import sys
 from cell.bench.command import add_bench
 from cell.cli.signals import stop_signals_raise
 from cell.errors import DivergenceError, MusclecellError, Stopped
-from cell.io import discard_pending
 from cell.learning.command import add_learning
+from cell.outputs import discard_pending
 from cell.rheology.command import add_diagnose
 from cell.scale.command import add_batch, add_log_cluster, add_sweep
 from cell.sim.command import add_simulation

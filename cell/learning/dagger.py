@@ -36,12 +36,12 @@ import gymnasium as gym
 import numpy as np
 
 from cell.errors import LearningError
-from cell.io import figure_png, write_atomic, write_json, write_rows
 from cell.learning.baselines import BasePolicy
 from cell.learning.environments import make_env
 from cell.learning.hyper import check_training_seeds
 from cell.learning.policyfile import WEIGHTS_FILE, ObservationNormalizer, save_network
 from cell.learning.segments import Actor
+from cell.outputs import figure_png, write_atomic, write_json, write_rows
 from envs.policies import DEMONSTRATORS, true_interface_policy
 
 if TYPE_CHECKING:
@@ -317,7 +317,6 @@ def train(settings: DaggerSettings, out: Path,
             saved = [(out, policy)] + ([] if averaged is None else
                                        [(out / AVERAGE_FOLDER, averaged.module)])
             for folder, network in saved:
-                folder.mkdir(exist_ok=True)
                 save_network(folder, network, normalization_json(normalize, len(seen)),
                              settings.env_id, "DAgger", len(seen), round_index + 1,
                              None if not settings.base else {"name": settings.base,

@@ -30,7 +30,6 @@ import gymnasium as gym
 import numpy as np
 
 from cell.errors import LearningError
-from cell.io import write_atomic, write_json, write_rows
 from cell.learning.baselines import (
     BASELINES,
     LEARNED,
@@ -45,6 +44,7 @@ from cell.learning.environments import START_METHOD, make_env
 from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
 from cell.learning.paired import compare, comparison_markdown
 from cell.learning.table import SCORED_COLUMNS, markdown, summarize
+from cell.outputs import json_text, rows_text, write_together
 from envs.policies import demonstrators_for, episode_return
 
 #: Keys of the final step's info that each episode's row keeps.
@@ -305,7 +305,8 @@ def report_markdown(report: dict[str, Any]) -> str:
 
 def write_report(report: dict[str, Any], json_path: Path, markdown_path: Path,
                  csv_path: Path) -> None:
-    """Write the report as JSON, its table as Markdown and the episodes as CSV."""
-    write_json(json_path, report)
-    write_atomic(markdown_path, report_markdown(report))
-    write_rows(csv_path, EPISODE_COLUMNS, report["episodes"])
+    """Write the report as JSON, its table as Markdown and the episodes as CSV, as one change
+    (:func:`cell.outputs.write_together`)."""
+    write_together({json_path: json_text(report, json_path),
+                    markdown_path: report_markdown(report),
+                    csv_path: rows_text(EPISODE_COLUMNS, report["episodes"])})

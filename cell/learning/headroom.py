@@ -122,8 +122,7 @@ def tune_rule(episodes: int, workers: int, env_kwargs: Mapping[str, Any]
     for index, rule in enumerate(settings):
         mine = rows[episodes * (index + 1):episodes * (index + 2)]
         scores.append({"rule": rule, "tip_mean_mm": float(np.nanmean(_tips(mine))),
-                       "success_rate": float(np.mean(
-                [row["success"] for row in mine]))})
+                       "success_rate": float(np.mean([row["success"] for row in mine]))})
     allowed = [score for score in scores if score["success_rate"] >= floor] or scores
     chosen = min(allowed, key=lambda score: score["tip_mean_mm"])
     return {"seeds": [seeds.start, seeds.stop - 1], "no_steering": {

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.logger import KVWriter
 
-from cell.io import figure_png, write_atomic, write_rows
+from cell.outputs import figure_png, write_atomic, write_rows
 
 #: Columns of the episodes table: env steps of the run when the episode ended, its return and
 #: length (env steps), and the final step's outcome.

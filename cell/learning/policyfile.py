@@ -29,7 +29,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cell.errors import LearningError, PickledPolicyError
-from cell.io import read_json, write_atomic, write_json
+from cell.io import read_json
+from cell.outputs import json_text, write_atomic, write_together
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -218,9 +219,8 @@ def save_network(folder: Path, policy: ActorCriticPolicy, normalization: dict[st
     for space in _SPACES:
         box = getattr(policy, space)
         arrays[f"{space}.low"], arrays[f"{space}.high"] = box.low, box.high
-    write_atomic(folder / WEIGHTS_FILE, _npz_bytes(arrays))
     net_arch = policy.net_arch
-    write_json(folder / POLICY_FILE, {
+    record = {
         "format": FORMAT, "version": FORMAT_VERSION, "env_id": env_id, "algorithm": algorithm,
         "policy_kwargs": {
             "net_arch": dict(net_arch) if isinstance(net_arch, dict) else list(net_arch),
@@ -231,8 +231,12 @@ def save_network(folder: Path, policy: ActorCriticPolicy, normalization: dict[st
         "num_timesteps": num_timesteps, "n_updates": n_updates,
         **({} if base_policy is None else {"base_policy": base_policy}),
         "versions": {"stable_baselines3": stable_baselines3.__version__,
-                     "torch": torch.__version__}})
-    write_json(folder / NORMALIZATION_FILE, normalization)
+                     "torch": torch.__version__}}
+    # One change: a run stopped while it saves keeps weights and statistics that match.
+    write_together({folder / WEIGHTS_FILE: _npz_bytes(arrays),
+                    folder / POLICY_FILE: json_text(record, folder / POLICY_FILE),
+                    folder / NORMALIZATION_FILE: json_text(normalization,
+                                                           folder / NORMALIZATION_FILE)})
 
 
 def read_policy(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

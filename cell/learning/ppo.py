@@ -27,7 +27,7 @@ from stable_baselines3.common.logger import HumanOutputFormat, Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
 from cell.errors import LearningError
-from cell.io import read_json, write_json
+from cell.io import read_json
 from cell.learning.environments import make_training_envs
 from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, check_training_seeds
 from cell.learning.logs import EpisodeLog, ProgressCsv
@@ -41,6 +41,7 @@ from cell.learning.policyfile import (
     save_policy,
 )
 from cell.learning.segmentppo import SegmentPPO
+from cell.outputs import write_json
 
 STATE_FILE = "state.json"
 LEARN_FILE = "learn.json"

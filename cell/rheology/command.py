@@ -59,7 +59,7 @@ def diagnose_command(args: argparse.Namespace) -> int:
         from cell.extras import require
 
         require("matplotlib", "report", "the diagnosis report")
-    from cell.io import json_text
+    from cell.outputs import json_text
     from cell.rheology.cutdiagnosis import diagnose_set
     from cell.rheology.measured import load_measurement_set
     from cell.rheology.settings import DiagnosisParams

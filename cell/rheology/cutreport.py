@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cell.extras import require
-from cell.io import figure_png, write_atomic
+from cell.outputs import figure_png, write_atomic
 from cell.rheology.cutreduced import cutting_direction
 from cell.rheology.report import evidence_table, search_lines
 

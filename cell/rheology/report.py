@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cell.extras import require
-from cell.io import figure_png, write_atomic
+from cell.outputs import figure_png, write_together
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -49,8 +49,10 @@ _BASELINE, _EXTENDED = "tab:red", "tab:blue"
 
 def write_report(diagnosis: Diagnosis, folder: Path,
                  material_path: Path | None = None) -> list[Path]:
-    """Write ``forces.png``, ``residuals.png`` and ``report.md`` into ``folder`` (created if
-    missing), each atomically; ``material_path`` is where the extended material's TOML is.
+    """Write ``forces.png``, ``residuals.png``, a ``cause-CAUSE.png`` per cause named and
+    ``report.md`` into ``folder`` (created if missing), as one change
+    (:func:`cell.outputs.write_together`); ``material_path`` is where the extended material's
+    TOML is.
 
     Raises:
         MissingExtraError: matplotlib is not installed.
@@ -58,19 +60,20 @@ def write_report(diagnosis: Diagnosis, folder: Path,
     require("matplotlib", "report", "the diagnosis report")
     from matplotlib.figure import Figure  # a figure off pyplot: headless, nothing to close
 
-    folder = Path(folder)
-    forces = write_atomic(folder / "forces.png",
-                          figure_png(_draw_forces(Figure(layout="constrained"), diagnosis), _DPI))
-    residuals = write_atomic(folder / "residuals.png",
-                             figure_png(_draw_residuals(Figure(layout="constrained"), diagnosis),
-                                        _DPI))
     from cell.rheology.causeplots import draw_cause
 
-    causes = [write_atomic(folder / f"cause-{e.cause}.png",
-                           figure_png(draw_cause(Figure(layout="constrained"), diagnosis, e), _DPI))
-              for e in diagnosis.evidence]
-    markdown = _markdown(diagnosis, folder, material_path, forces.name, residuals.name)
-    return [forces, residuals, *causes, write_atomic(folder / "report.md", markdown)]
+    folder = Path(folder)
+    contents: dict[Path, str | bytes] = {
+        folder / "forces.png": figure_png(_draw_forces(Figure(layout="constrained"), diagnosis),
+                                          _DPI),
+        folder / "residuals.png": figure_png(
+            _draw_residuals(Figure(layout="constrained"), diagnosis), _DPI),
+        **{folder / f"cause-{e.cause}.png": figure_png(
+            draw_cause(Figure(layout="constrained"), diagnosis, e), _DPI)
+           for e in diagnosis.evidence}}
+    contents[folder / "report.md"] = _markdown(diagnosis, folder, material_path, "forces.png",
+                                               "residuals.png")
+    return write_together(contents)
 
 
 def _draw_forces(figure: Figure, diagnosis: Diagnosis) -> Figure:

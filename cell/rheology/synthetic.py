@@ -42,7 +42,7 @@ from typing import Any, Literal
 import numpy as np
 
 from cell.errors import MeasurementError
-from cell.io import write_atomic
+from cell.outputs import write_atomic
 from cell.rheology.causes import CAUSES
 from cell.rheology.testplan import TestPlan, true_force_n
 from cell.rheology.truth import check_effects, draw_magnitudes, truth_stress_pa

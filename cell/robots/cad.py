@@ -35,7 +35,8 @@ import trimesh
 from cell.collision import ROBOTS, Collision
 from cell.errors import MeshError, NotWatertightError
 from cell.extras import optional
-from cell.io import read_bytes, write_atomic
+from cell.io import read_bytes
+from cell.outputs import write_atomic
 
 #: coacd's concavity threshold (its ``threshold``, a fraction of the part's bounding box
 #: diagonal): 0.05 is its default, and keeps the example parts' hull volume within 10 %.

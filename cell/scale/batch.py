@@ -17,7 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from cell.errors import InputError, MaterialError
-from cell.io import first_non_finite, read_bytes, write_atomic, write_json
+from cell.io import read_bytes
+from cell.outputs import first_non_finite, write_atomic, write_json
 from cell.rheology.diagnosis import diagnose
 from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE, MeasurementSet, load_measurement_set
 from cell.rheology.settings import DiagnosisParams

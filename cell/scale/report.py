@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from cell.extras import require
-from cell.io import figure_png, write_atomic
+from cell.outputs import figure_png, write_atomic
 from cell.scale.runs import OUTCOMES
 from envs.settings import CUT_TASK
 

@@ -21,7 +21,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from cell.errors import SweepError
-from cell.io import read_json, write_atomic, write_json, write_rows
+from cell.io import read_json
+from cell.outputs import write_atomic, write_json, write_rows
 
 RUNS_FOLDER = "runs"
 

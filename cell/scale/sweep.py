@@ -17,10 +17,10 @@ from typing import Any
 
 from cell.errors import InputError, SweepError
 from cell.extras import require
-from cell.io import write_atomic
 from cell.learning.baselines import PolicySpec, policy_folder
 from cell.learning.environments import make_env
 from cell.learning.evaluate import EpisodeTask
+from cell.outputs import write_atomic
 from cell.scale.design import design
 from cell.scale.overrides import nested, override_scenario
 from cell.scale.pool import Workers

@@ -18,7 +18,7 @@ import numpy as np
 
 from cell.collision import FEET, TABLE_TOP, muscles
 from cell.errors import MaterialError, MeshError
-from cell.io import write_atomic
+from cell.outputs import write_atomic
 from cell.robots.arms import build_arm
 from cell.robots.cad import ConvexParts, add_part, decompose
 from cell.robots.names import ARMS, GRIPPER_BODY

@@ -83,7 +83,7 @@ def load(args: argparse.Namespace) -> Scenario:
 def run_command(args: argparse.Namespace) -> int:
     """``musclecell run``."""
     from cell.folders import write_folder
-    from cell.io import write_json
+    from cell.outputs import write_json
     from cell.sim.episode import Episode
     from cell.sim.logwriter import LoggedEpisode, write_log
 
@@ -112,7 +112,7 @@ def plan_command(args: argparse.Namespace) -> int:
     would go."""
     import numpy as np
 
-    from cell.io import write_json
+    from cell.outputs import write_json
     from cell.robots.camera import CameraRig
     from cell.robots.names import CAMERA, KNIFE_TIP
     from cell.sim.episode import Episode
@@ -159,7 +159,7 @@ def export_command(args: argparse.Namespace) -> int:
 
 def render_command(args: argparse.Namespace) -> int:
     """``musclecell render``: the cell as the episode starts it, arms at their ready poses."""
-    from cell.io import write_atomic
+    from cell.outputs import write_atomic
     from cell.sim.episode import Episode
     from cell.sim.picture import check_size, png_bytes, render_rgb
 

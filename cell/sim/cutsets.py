@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from cell.errors import MeasurementError
-from cell.io import write_atomic
+from cell.outputs import write_atomic
 from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA
 from cell.rheology.cuts import Blade, Block
 from cell.sim.cuttest import CutSimulation, simulate_cut

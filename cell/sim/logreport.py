@@ -13,7 +13,7 @@ import numpy as np
 
 from cell.config import read_toml
 from cell.extras import require
-from cell.io import figure_png, write_atomic, write_json
+from cell.outputs import figure_png, write_atomic, write_json
 from cell.sim.logcauses import SENSOR_OFFSET, changed_world
 from cell.sim.logfit import FORCE_CHANNELS, logged_vector
 from cell.sim.scenariotoml import resolved_tables, tables_toml

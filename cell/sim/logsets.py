@@ -50,7 +50,7 @@ import numpy as np
 
 from cell.config import read_toml
 from cell.errors import LogError
-from cell.io import write_atomic
+from cell.outputs import write_atomic
 from cell.sim.logcauses import SENSOR_OFFSET, applicable, changed_world, episode_adjustment
 from cell.sim.logwriter import LoggedEpisode, write_log
 from cell.sim.scenario import Scenario, load_scenario

@@ -15,7 +15,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from cell.io import write_atomic, write_rows
+from cell.outputs import write_atomic, write_rows
 from cell.perception.pipeline import PerceivedPlan
 from cell.sim.assembly import Scene
 from cell.sim.episode import Episode, EpisodePlan

@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from cell.io import AtomicFile
+from cell.outputs import AtomicFile
 from cell.perception.pipeline import PerceivedPlan
 from cell.robots.camera import CameraRig
 from cell.sim.assembly import Scene
@@ -45,7 +45,7 @@ def _entity(body_name: str) -> str:
 class EpisodeRecorder:
     """Writes one episode to a ``.rrd`` file; the file appears (atomically) at :meth:`close`.
 
-    The recording streams to a temporary file beside it (:class:`~cell.io.AtomicFile`), so that
+    The recording streams to a temporary file beside it (:class:`~cell.outputs.AtomicFile`), so that
     a long episode does not grow in memory and a failed one (:meth:`abort`) leaves no file.
 
     Args:

@@ -232,7 +232,7 @@ def compare(log: SeparationLog, simulated: dict[str, Channel]
 def write_replay(folder: str | Path, result: Replay) -> Path:
     """``replay.json`` (:meth:`Replay.summary`) and, per channel, ``<channel>.csv``: the
     logged and the simulated force (and torque) side by side at the logged times."""
-    from cell.io import write_json, write_rows
+    from cell.outputs import write_json, write_rows
 
     folder = Path(folder)
     for stem, logged in result.log.channels.items():
