@@ -80,3 +80,21 @@ def test_the_headroom_summary_scores_the_tip_over_the_episodes_that_scored_it() 
     summary = _summary(rows)
     assert summary["tip_unscored"] == 1 and summary["tip_mean_mm"]["mean"] == 2.0
     assert summary["successes"] == 2 and summary["torn_fraction"]["mean"] == pytest.approx(0.1)
+
+
+def test_the_paired_cycle_time_counts_only_the_seeds_both_policies_completed() -> None:
+    from cell.learning.headroom import report_of, summary_lines
+
+    def row(policy: str, seed: int, ok: bool, tip: float | None, time_s: float) -> dict:
+        return {"policy": policy, "seed": seed, "success": ok, "tip_mean_mm": tip,
+                "tip_max_mm": tip, "torn_fraction": 0.0, "elapsed_s": time_s}
+
+    # Seed 2: the rule's knife stops at the entry (0.4 s), which is no faster cycle.
+    rows = [row("rule", 1, True, 1.0, 6.0), row("rule", 2, False, None, 0.4),
+            row("rule", 3, True, 2.0, 5.0), row("learned", 1, True, 0.5, 6.1),
+            row("learned", 2, True, 0.7, 6.0), row("learned", 3, True, 1.0, 5.1)]
+    paired = report_of(rows, {})["paired"]["learned - rule"]
+    assert paired["cycle_time_on"] == 2 and paired["cycle_time_s"]["mean"] == pytest.approx(0.1)
+    assert paired["elapsed_s"]["mean"] == pytest.approx(1.9333, abs=1e-3)
+    assert paired["tip_scored_on"] == 2 and paired["tip_mean_mm"]["mean"] == pytest.approx(-0.75)
+    assert "cycle time +0.10" in summary_lines(report_of(rows, {}))[-1]

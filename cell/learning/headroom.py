@@ -154,35 +154,51 @@ def choose_learned(folders: Sequence[str], seeds: Sequence[int], workers: int,
 def baseline_table(rule: Mapping[str, float], seeds: Sequence[int], workers: int,
                    env_kwargs: Mapping[str, Any], learned: str = "") -> dict[str, Any]:
     """The three baselines (and the policy of the run folder ``learned``, if given) on
-    ``seeds``: per policy the mean tip distance (mm), its max, the torn fraction and the time
-    with 95 % t intervals, the success rate with its Wilson interval; the paired differences
-    of the tip distance, the success, the torn fraction and the time (rule less no
-    steering, ceiling less rule, ceiling less no steering, learned less rule); and every
-    episode."""
+    ``seeds``, as :func:`report_of` reports them."""
     kwargs = tuple(sorted(env_kwargs.items()))
     names = (*BASELINES, "learned") if learned else BASELINES
     tasks = [SteerEpisode(name, tuple(sorted(rule.items())) if name == "rule" else (), seed,
                           kwargs, learned) for name in names for seed in seeds]
-    rows = play_all(tasks, workers)
-    by_name = {name: [row for row in rows if row["policy"] == name] for name in names}
-    table = {name: _summary(mine) for name, mine in by_name.items()}
+    return report_of(play_all(tasks, workers), rule)
+
+
+def report_of(rows: Sequence[Mapping[str, Any]], rule: Mapping[str, float]) -> dict[str, Any]:
+    """The report of the episodes ``rows`` (as :func:`play` gives them, every policy on the
+    same seeds in the same order): per policy the mean tip distance (mm), its max, the torn
+    fraction, the time and the cycle time (s, over its successes) with 95 % t intervals, the
+    success rate with its Wilson interval; the paired differences of each (rule less no
+    steering, ceiling less rule, ceiling less no steering, learned less rule): the tip
+    distance on the seeds both scored, the cycle time on the seeds both succeeded on (a
+    failed episode ends at its stop, often in the entry: no cycle to time); and every
+    episode."""
+    by_name: dict[str, list[Mapping[str, Any]]] = {}
+    for row in rows:
+        by_name.setdefault(row["policy"], []).append(row)
     pairs = {}
-    compared = [("rule", "no-steering"), ("ceiling", "rule"), ("ceiling", "no-steering")]
-    for better, worse in compared + ([("learned", "rule")] if learned else []):
-        mine, theirs = _tips(by_name[better]), _tips(by_name[worse])
-        scored = np.isfinite(mine) & np.isfinite(theirs)
+    compared = [("rule", "no-steering"), ("ceiling", "rule"), ("ceiling", "no-steering"),
+                ("learned", "rule")]
+    for better, worse in (pair for pair in compared if set(pair) <= set(by_name)):
+        mine, theirs = by_name[better], by_name[worse]
+        tips, their_tips = _tips(mine), _tips(theirs)
+        scored = np.isfinite(tips) & np.isfinite(their_tips)
+        both = [(a["elapsed_s"], b["elapsed_s"]) for a, b in zip(mine, theirs, strict=True)
+                if a["success"] and b["success"]]
         pairs[f"{better} - {worse}"] = {
-            "tip_mean_mm": paired_mean_difference(list(mine[scored]), list(theirs[scored]))
+            "tip_mean_mm": paired_mean_difference(list(tips[scored]), list(their_tips[scored]))
             if scored.any() else None,
             "tip_scored_on": int(scored.sum()),
-            "success": paired_success_difference(
-                [row["success"] for row in by_name[better]],
-                [row["success"] for row in by_name[worse]]),
-            **{key: paired_mean_difference([row[key] for row in by_name[better]],
-                                           [row[key] for row in by_name[worse]])
-               for key in ("torn_fraction", "elapsed_s")}}
+            "success": paired_success_difference([row["success"] for row in mine],
+                                                 [row["success"] for row in theirs]),
+            **{key: paired_mean_difference([row[key] for row in mine],
+                                           [row[key] for row in theirs])
+               for key in ("torn_fraction", "elapsed_s")},
+            "cycle_time_s": paired_mean_difference(*map(list, zip(*both, strict=True)))
+            if both else None,
+            "cycle_time_on": len(both)}
+    seeds = [row["seed"] for row in rows]
     return {"env": ENV_ID, "seeds": [min(seeds), max(seeds)], "rule": dict(rule),
-            "table": table, "paired": pairs, "episodes": rows}
+            "table": {name: _summary(mine) for name, mine in by_name.items()},
+            "paired": pairs, "episodes": list(rows)}
 
 
 def _summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
@@ -197,12 +213,15 @@ def _summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
             **{key: mean_interval([row[key] for row in scored]) if scored else None
                for key in ("tip_mean_mm", "tip_max_mm")},
             **{key: mean_interval([row[key] for row in rows])
-               for key in ("torn_fraction", "elapsed_s")}}
+               for key in ("torn_fraction", "elapsed_s")},
+            "cycle_time_s": mean_interval([row["elapsed_s"] for row in rows if row["success"]])
+            if successes else None}
 
 
 def summary_lines(evaluation: Mapping[str, Any]) -> list[str]:
-    """:func:`baseline_table`'s report in lines to print: each policy's tip distance, success
-    and torn fraction, then each paired difference's tip distance and success."""
+    """:func:`report_of`'s report in lines to print: each policy's tip distance, success and
+    torn fraction, then each paired difference's tip distance, success, torn fraction and
+    cycle time."""
     lines = []
     for name, row in evaluation["table"].items():
         lines.append(f"{name}: tip {_interval(row['tip_mean_mm'], '.2f')} mm "
@@ -214,7 +233,10 @@ def summary_lines(evaluation: Mapping[str, Any]) -> list[str]:
         lines.append(f"{pair}: tip {_interval(difference['tip_mean_mm'], '+.2f')} mm on "
                      f"{difference['tip_scored_on']} seeds, success "
                      f"{success['difference']:+.2f} [{success['low']:+.2f}, "
-                     f"{success['high']:+.2f}]")
+                     f"{success['high']:+.2f}], torn "
+                     f"{_interval(difference['torn_fraction'], '+.3f')}, cycle time "
+                     f"{_interval(difference['cycle_time_s'], '+.2f')} s on "
+                     f"{difference['cycle_time_on']} seeds")
     return lines
 
 
