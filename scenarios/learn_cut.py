@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from cell.io import write_json
+from cell.outputs import write_json
 from envs import CutEnv
 from envs.policies import CrossEntropyParams, cross_entropy_search, episode_return
 
