@@ -114,7 +114,10 @@ def write_together(contents: Mapping[Path, str | bytes]) -> list[Path]:
     try:
         for path, content in contents.items():
             targets.append(AtomicFile(path))
-            targets[-1].write(content)
+            if isinstance(content, bytes):
+                targets[-1].temporary.write_bytes(content)
+            else:
+                targets[-1].temporary.write_text(content)
         return [target.commit() for target in targets]
     finally:
         for target in targets:
@@ -209,14 +212,6 @@ class AtomicFile:
         if not self.committed:
             self.discard()
 
-    def write(self, content: str | bytes) -> AtomicFile:
-        """Write ``content`` (text or bytes) to the temporary file; returns ``self``."""
-        if isinstance(content, bytes):
-            self.temporary.write_bytes(content)
-        else:
-            self.temporary.write_text(content)
-        return self
-
     def commit(self) -> Path:
         """Rename the temporary file to ``path`` (replacing what was there) and return it."""
         # mkstemp makes the file private; give it the mode a plain open() would.
@@ -262,15 +257,14 @@ def discard_pending() -> None:
 
 def write_atomic(path: str | Path, content: str | bytes) -> Path:
     """Write ``content`` to ``path`` through a temporary file in the same folder and a rename
-    (several files as one: :func:`cell.outputs.write_together`).
+    (one file of :func:`write_together`).
 
     Example:
         >>> import tempfile
         >>> write_atomic(Path(tempfile.mkdtemp()) / "summary.json", "{}").read_text()
         '{}'
     """
-    with AtomicFile(path) as target:
-        return target.write(content).commit()
+    return write_together({Path(path): content})[0]
 
 
 def write_rows(path: str | Path, columns: Sequence[str], rows: Sequence[Mapping[str, Any]]

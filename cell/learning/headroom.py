@@ -84,9 +84,10 @@ def _mm(metres: float | None) -> float | None:
     return None if metres is None else 1e3 * metres
 
 
-def _tips(rows: Sequence[Mapping[str, Any]], key: str = "tip_mean_mm") -> np.ndarray:
-    """The rows' tip distances (mm), NaN where unscored."""
-    return np.array([np.nan if row[key] is None else row[key] for row in rows], float)
+def _tips(rows: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """The rows' mean tip distances (mm), NaN where unscored."""
+    return np.array([np.nan if row["tip_mean_mm"] is None else row["tip_mean_mm"]
+                     for row in rows], float)
 
 
 def play_all(tasks: Sequence[SteerEpisode], workers: int) -> list[dict[str, Any]]:
