@@ -94,6 +94,7 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
         self._drives_pull = driven in ("both", "pull")
         dims = KNIFE_DIMS * self._drives_knife + PULL_DIMS * self._drives_pull
         self.action_space = gym.spaces.Box(-1.0, 1.0, (dims,), np.float32)
+        self.observation_names: tuple[str, ...] = OBSERVATION_NAMES
         self.observation_space = gym.spaces.Box(-OBSERVATION_BOUND, OBSERVATION_BOUND,
                                                 (len(OBSERVATION_NAMES),), np.float32)
         self.episode: Episode | None = None

@@ -29,7 +29,7 @@ import numpy as np
 
 from cell.errors import InputError
 from cell.extras import optional
-from envs.observation import OBSERVATION_BOUND, OBSERVATION_NAMES
+from envs.observation import OBSERVATION_BOUND
 from envs.registration import DEPRECATED_IDS, env_creator
 from envs.separation import MuscleSeparationEnv
 from envs.tasks import CutEnv, PullEnv
@@ -92,10 +92,10 @@ class SeparationEnvironment(dm_env.Environment):
         return dm_env.transition(reward, observation)
 
     def observation_spec(self) -> specs.BoundedArray:
-        """The Gymnasium env's observation box: float32, named entries in
-        :data:`envs.observation.OBSERVATION_NAMES` order."""
-        return specs.BoundedArray((len(OBSERVATION_NAMES),), np.float32, -OBSERVATION_BOUND,
-                                  OBSERVATION_BOUND, name="observation")
+        """The Gymnasium env's observation box: float32, named entries in the env's
+        ``observation_names`` order."""
+        return specs.BoundedArray(self.gym_env.observation_space.shape, np.float32,
+                                  -OBSERVATION_BOUND, OBSERVATION_BOUND, name="observation")
 
     def action_spec(self) -> specs.BoundedArray:
         """The Gymnasium env's action box: float32 in [-1, 1], scaled by the env's limits."""

@@ -55,7 +55,7 @@ class TableSkimmingKnife:
 
     #: The envs whose observation and action this policy is written for.
     fits: ClassVar[tuple[str, ...]] = ("musclecell/Cut-v2", "musclecell/Cut-v1",
-                                       "musclecell/Steer-v1")
+                                       "musclecell/Steer-v2", "musclecell/Steer-v1")
     height_m: float = 0.002
     limits: ActionLimits = field(default_factory=ActionLimits)
 
@@ -94,17 +94,17 @@ class HoldThenPullAway:
 
 @dataclass(frozen=True)
 class SteeringKnife:
-    """The project's steering rule (:mod:`controllers.steering`) as a feedback policy of
-    ``Steer-v1``'s observation, on :class:`TableSkimmingKnife`'s knife: the load across the
-    blade (the F/T sensor's y, times ``load_sign``), what lies beyond ``dead_band_n`` about
-    ``on_interface_load_n`` integrated at ``gain_m_per_n_s`` into the across offset (a load
-    towards the side that gives less counting ``weak_side_gain`` times), in the middle
-    ``middle_fraction`` of the cut only, within ``max_across_m``. The integral is the offset
-    the knife is commanded now (the observation's ``command_across_cm``), so the policy holds
-    no state of its own: a clone, a worker process or another env may call it on any
-    observation. The depth is the table's: the tip held ``height_m`` above it, whatever the
-    path's height error. The defaults are those :func:`cell.learning.headroom.tune_rule`
-    chose (the docs' benchmarks page says on how many tuning episodes).
+    """The project's steering rule (:mod:`controllers.steering`) as a feedback policy of ``Steer``'s
+    observation (its ``Cut-v2`` entries), on :class:`TableSkimmingKnife`'s knife: the load across
+    the blade (the F/T sensor's y, times ``load_sign``), what lies beyond ``dead_band_n`` about
+    ``on_interface_load_n`` integrated at ``gain_m_per_n_s`` into the across offset (a load towards
+    the side that gives less counting ``weak_side_gain`` times), in the middle ``middle_fraction``
+    of the cut only, within ``max_across_m``. The integral is the offset the knife is commanded now
+    (the observation's ``command_across_cm``), so the policy holds no state of its own: a clone, a
+    worker process or another env may call it on any observation. The depth is the table's: the tip
+    held ``height_m`` above it, whatever the path's height error. The defaults are those
+    :func:`cell.learning.headroom.tune_rule` chose (the docs' benchmarks page says on how many
+    tuning episodes).
 
     Example:
         >>> obs = np.zeros(len(OBSERVATION_NAMES), np.float32)
@@ -113,7 +113,7 @@ class SteeringKnife:
         True
     """
 
-    fits: ClassVar[tuple[str, ...]] = ("musclecell/Steer-v1",)
+    fits: ClassVar[tuple[str, ...]] = ("musclecell/Steer-v2", "musclecell/Steer-v1")
     gain_m_per_n_s: float = 0.003
     on_interface_load_n: float = 0.0
     dead_band_n: float = 0.1
@@ -258,7 +258,7 @@ def cross_entropy_search(env: gym.Env, params: CrossEntropyParams, seed: int,
 
 def true_interface_policy(env: gym.Env, height_m: float = 0.002
                           ) -> Callable[[np.ndarray], np.ndarray]:
-    """The ceiling of ``Steer-v1``: :class:`TableSkimmingKnife`'s knife with the across
+    """The ceiling of ``Steer``: :class:`TableSkimmingKnife`'s knife with the across
     offset that puts the tip on the true interface (a privileged baseline: it reads the
     env's truth, :meth:`envs.steer.SteerEnv.across_to_interface_m`).
 

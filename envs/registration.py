@@ -34,6 +34,7 @@ ENV_IDS = {
     "musclecell/MuscleSeparation-v1": "envs.separation:MuscleSeparationEnv",
     "musclecell/Cut-v1": "envs.tasks:CutEnv",
     "musclecell/Pull-v1": "envs.tasks:PullEnv",
+    "musclecell/Steer-v2": "envs.steer:make_steer_v2",
     "musclecell/Steer-v1": "envs.steer:SteerEnv",
 }
 #: The ids whose knife meets the measured cutting-force curve, as before the cutting model.

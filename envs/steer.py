@@ -1,4 +1,4 @@
-"""Steering the blade by feel when perception is wrong: ``musclecell/Steer-v1``.
+"""Steering the blade by feel when perception is wrong: ``musclecell/Steer-v2``.
 
 The knife's path is planned from a perceived interface that is off by errors of the size the
 cell's perception makes on unseen shapes (the benchmarks page: millimetres at depth from the
@@ -6,7 +6,9 @@ interface's lean, up to about a centimetre at the entry, where the guideline's w
 the meat's tapered end, under a millimetre mid-cut). The policy sees what ``Cut-v2``'s sees
 (the tip against the wrong path, the knife's force and torque, its progress, the path ahead)
 and corrects across and in depth; the score is the tip's mean distance to the true interface
-over the cut (:class:`cell.sim.cutscore.CutScore`).
+over the cut (:class:`cell.sim.cutscore.CutScore`). ``Steer-v2``'s observation adds the knife's
+force low-passed: one step's reading is noisy and jerks where the tissue tears, and where the
+blade runs shows in the load it holds.
 """
 
 from __future__ import annotations
@@ -15,11 +17,14 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from cell.config import require_non_negative, require_positive
+from cell.errors import InputError
 from cell.sim.cutscore import CutScore
 from cell.sim.episode import Episode
+from envs.observation import OBSERVATION_NAMES
 from envs.params import ActionLimits
 from envs.settings import parameters
 from envs.tasks import CutEnv
@@ -31,6 +36,8 @@ STEER_LIMITS = ActionLimits(knife_max_across_m=0.012)
 #: The stream of an episode's seed that draws its path error (the cell's own streams are
 #: 0 and 1).
 _PATH_ERROR_STREAM = 7
+#: The knife's force entries of the observation (10 N, the sensor's frame).
+_KNIFE_FORCE = slice(OBSERVATION_NAMES.index("knife_fx"), OBSERVATION_NAMES.index("knife_fz") + 1)
 
 
 @dataclass(frozen=True)
@@ -71,20 +78,45 @@ class PathError:
 
 @dataclass(frozen=True)
 class SteerParams:
-    """The task's settings: the perception's ``path_error`` and the reward's weight on the
+    """The task's settings: the perception's ``path_error``, the reward's weight on the
     tip's distance across from the true interface while the knife cuts, per cm per control
-    step (``off_interface_per_cm``).
+    step (``off_interface_per_cm``), and the time constants (s) of the first-order low-pass
+    filters of the knife's force whose outputs the observation adds (``load_filters_s``;
+    none in ``Steer-v1``, :data:`STEER_V2`'s in ``Steer-v2``).
 
     Example:
         >>> SteerParams().path_error.entry_across_m
         0.002
+        >>> STEER_V2.load_filters_s
+        (0.1, 0.5)
     """
 
     path_error: PathError = field(default_factory=PathError)
     off_interface_per_cm: float = 0.02
+    load_filters_s: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         require_non_negative(self, "off_interface_per_cm")
+        try:
+            taus = tuple(float(tau) for tau in self.load_filters_s)
+        except (TypeError, ValueError):
+            taus = ()
+        if not taus == tuple(self.load_filters_s) or not all(tau > 0.0 for tau in taus):
+            raise InputError(None, "steer.load_filters_s", f"need time constants > 0 s, got "
+                             f"{self.load_filters_s!r}")
+        object.__setattr__(self, "load_filters_s", taus)  # a JSON list reads as the tuple
+
+    @property
+    def load_names(self) -> tuple[str, ...]:
+        """The names of the observation's entries the filters add (per filter, the force's
+        x, y and z in 10 N, the sensor's frame)."""
+        return tuple(f"knife_f{axis}_lowpass_{tau:g}s" for tau in self.load_filters_s
+                     for axis in "xyz")
+
+
+#: ``Steer-v2``'s settings: ``Steer-v1``'s, and the knife's force low-passed over 0.1 s and
+#: 0.5 s in the observation.
+STEER_V2 = SteerParams(load_filters_s=(0.1, 0.5))
 
 
 @dataclass(frozen=True)
@@ -130,7 +162,7 @@ def skewed_perception(episode: Episode, error: Mapping[str, float], fade_m: floa
 
 class SteerEnv(CutEnv):
     """Steer the knife onto the interface by feel when the perceived path is wrong
-    (``musclecell/Steer-v1``).
+    (``musclecell/Steer-v2``).
 
     .. rubric:: Description
 
@@ -147,7 +179,11 @@ class SteerEnv(CutEnv):
 
     .. rubric:: Observation space
 
-    ``Cut-v2``'s 35 entries, measured against the wrong path.
+    ``Cut-v2``'s 35 entries, measured against the wrong path; ``Steer-v2`` adds six: the
+    knife's force (10 N, the sensor's frame) through first-order low-pass filters of time
+    constants 0.1 s and 0.5 s, each starting at the force read at the hand-over
+    (``knife_fx_lowpass_0.1s`` to ``knife_fz_lowpass_0.5s``; the env's
+    ``observation_names``).
 
     .. rubric:: Rewards
 
@@ -167,18 +203,23 @@ class SteerEnv(CutEnv):
 
     .. rubric:: Arguments
 
-    ``Cut-v2``'s, and ``steer`` (a :class:`SteerParams`, or a mapping of its fields).
+    ``Cut-v2``'s, and ``steer`` (a :class:`SteerParams`, or a mapping of its fields over
+    the version's: :data:`STEER_V2` for ``Steer-v2``).
 
     .. rubric:: Version history
 
+    - v2: the observation adds the knife's force low-passed over 0.1 s and 0.5 s; the
+      worlds, paths and rollouts are v1's.
     - v1: the first version.
 
     Example:
         >>> import gymnasium, envs
-        >>> env = gymnasium.make("musclecell/Steer-v1", time_limit_s=0.1)
+        >>> env = gymnasium.make("musclecell/Steer-v2", time_limit_s=0.1)
         >>> obs, info = env.reset(seed=0)
         >>> sorted(env.unwrapped.path_error)
         ['across_m', 'entry_across_m', 'entry_height_m', 'lean']
+        >>> obs.shape, env.unwrapped.observation_names[-1]
+        ((41,), 'knife_fz_lowpass_0.5s')
     """
 
     def __init__(self, steer: SteerParams | Mapping[str, Any] | None = None,
@@ -189,6 +230,11 @@ class SteerEnv(CutEnv):
         kwargs["limits"] = parameters(ActionLimits, kwargs.get("limits"), "limits",
                                       STEER_LIMITS)
         super().__init__(**kwargs)
+        self.observation_names = (*self.observation_names, *self.steer.load_names)
+        self.observation_space = gym.spaces.Box(
+            self.observation_space.low[0], self.observation_space.high[0],
+            (len(self.observation_names),), np.float32)
+        self._loads: np.ndarray | None = None
 
     def _planned_from(self, episode: Episode, perceived: Any) -> SkewedPerception:
         rng = np.random.default_rng([episode.scenario.seed, _PATH_ERROR_STREAM])
@@ -198,11 +244,27 @@ class SteerEnv(CutEnv):
         return self._perceived
 
     def _start(self, scenario: Any) -> None:
+        self._loads = None
         super()._start(scenario)
         episode = self.episode
         self._score = CutScore(episode.scene.aponeurosis, episode.scene.mesh,
                                episode.scenario.knife.blade_length_m,
                                episode.scenario.knife.blade_thickness_m)
+
+    def _observe(self) -> np.ndarray:
+        if self.diverged and self._obs is not None:
+            return self._obs  # as the base's: the last finite view, not a filter's step more
+        obs = super()._observe()
+        taus = np.asarray(self.steer.load_filters_s, float)
+        if not len(taus):
+            return obs
+        load = obs[_KNIFE_FORCE]
+        if self._loads is None:  # the hand-over's reading: no step before it to filter
+            self._loads = np.tile(load, (len(taus), 1))
+        else:
+            gain = (self._dt_s / (taus + self._dt_s))[:, None]  # backward Euler, stable
+            self._loads = self._loads + gain * (load - self._loads)
+        return np.concatenate([obs, self._loads.ravel()]).astype(np.float32)
 
     def across_to_interface_m(self) -> float:
         """How far across the path (its frame's y, m) the true interface lies from the
@@ -229,3 +291,16 @@ class SteerEnv(CutEnv):
                         tip_distance_max_m=distance["max"], path_error=dict(self.path_error))
         return obs, reward, terminated, truncated, info
 
+
+
+def make_steer_v2(**kwargs: Any) -> SteerEnv:
+    """``musclecell/Steer-v2``: a :class:`SteerEnv` whose ``steer`` settings are
+    :data:`STEER_V2` with the given mapping's fields.
+
+    Example:
+        >>> env = make_steer_v2(steer={"off_interface_per_cm": 0.0}, time_limit_s=0.1)
+        >>> env.steer.load_filters_s, env.steer.off_interface_per_cm
+        ((0.1, 0.5), 0.0)
+    """
+    kwargs["steer"] = parameters(SteerParams, kwargs.get("steer"), "steer", STEER_V2)
+    return SteerEnv(**kwargs)

@@ -1,4 +1,4 @@
-"""``Steer-v1``'s headroom before training (cell.learning.headroom): the steering rule tuned on
+"""``Steer-v2``'s headroom before training (cell.learning.headroom): the steering rule tuned on
 tuning seeds (300000 on; every setting of its grid on ``--tune-episodes`` each, no steering
 beside them), then no steering, the tuned rule and the ceiling on the evaluation seeds
 (100000 on), as JSON with 95 % intervals and paired differences. ``--rule`` skips the tuning.

@@ -1,4 +1,4 @@
-"""``Steer-v1``'s learned policy in one run (issue 36): DAgger from the expert that steers on
+"""``Steer-v2``'s learned policy in one run (issue 36): DAgger from the expert that steers on
 the true interface (cell.learning.dagger), the learner seeing only its own observation, on
 training seeds from ``--seed``; its learning curve in OUT/run; then the learned policy beside
 no steering, the steering rule and the ceiling on the evaluation seeds (100000 on), paired on
@@ -6,7 +6,7 @@ the same seeds (cell.learning.headroom), in OUT/headroom.json. With ``--average-
 run's last network and its average over the rounds (OUT/run/average) are played on
 ``--validation-episodes`` tuning seeds (300300 on) and the one nearer the interface is the
 learned policy evaluated. ``--minutes`` bounds the training (no round starts that would end
-after it); the evaluation of 100 seeds plays 400 episodes after it."""
+after it); the evaluation of 200 seeds plays 800 episodes after it."""
 
 import argparse
 import json
@@ -39,7 +39,7 @@ def main() -> None:
     parser.add_argument("--env-kwargs", default="{}", help="JSON keyword arguments of the env")
     parser.add_argument("--rule", default="{}", help="JSON settings of the rule (its "
                         "defaults: the tuned ones)")
-    parser.add_argument("--eval-episodes", type=int, default=100, help="0: no evaluation")
+    parser.add_argument("--eval-episodes", type=int, default=200, help="0: no evaluation")
     parser.add_argument("--eval-seed-start", type=int, default=100_000)
     args = parser.parse_args()
     env_kwargs = json.loads(args.env_kwargs)

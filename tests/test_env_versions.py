@@ -27,7 +27,6 @@ import pytest
 
 import envs
 from cell.errors import InputError, RandomizationError
-from envs.observation import OBSERVATION_NAMES
 from envs.randomization import load_randomization
 
 PINNED = Path(__file__).with_name("env_fingerprints.json")
@@ -46,7 +45,7 @@ def fingerprint(env_id: str) -> dict[str, Any]:
     inner = env.unwrapped
     space = env.action_space
     meaning = {
-        "observation_names": list(OBSERVATION_NAMES),
+        "observation_names": list(inner.observation_names),
         "action_space": {"shape": list(space.shape), "low": space.low.tolist(),
                          "high": space.high.tolist()},
         "limits": asdict(inner.limits),

@@ -1,4 +1,4 @@
-"""Learning Steer-v1 from the expert that steers on the true interface (DAgger): its settings
+"""Learning Steer-v2 from the expert that steers on the true interface (DAgger): its settings
 as named errors, a run's files and learning curve, a policy `evaluate` loads like PPO's, a run
 started from a fixed policy that scores better afterwards; and the evaluation's tip-distance
 column."""
@@ -16,7 +16,7 @@ from cell.learning.paired import compare, comparison_markdown
 from cell.learning.table import markdown, summarize
 from envs.policies import TableSkimmingKnife
 
-ENV_ID = "musclecell/Steer-v1"
+ENV_ID = "musclecell/Steer-v2"
 #: 10-step episodes on a short, coarse muscle pair.
 ENV_KWARGS = {"time_limit_s": 0.2, "cell_size_m": 0.08, "options": {"tissue": {"length_m": 0.3}}}
 
@@ -92,7 +92,7 @@ def test_a_run_writes_a_policy_that_evaluate_loads_and_its_learning_curve(
     assert saved["algorithm"] == "DAgger"
     assert saved["base_policy"] == {"name": "table-skimming-knife", "learned": [1]}
     policy = load_learned(str(tmp_path))
-    obs = np.linspace(-1.0, 1.0, 35).astype(np.float32)
+    obs = np.linspace(-1.0, 1.0, policy.network.observation_space.shape[0]).astype(np.float32)
     knife = TableSkimmingKnife()(obs)
     # The network steers; the knife's speed, depth and yaw are the servo's.
     assert policy.env_id == ENV_ID and policy(obs)[[0, 2, 3]] == pytest.approx(knife[[0, 2, 3]])

@@ -1,6 +1,7 @@
-"""The Steer-v1 task: its knife path planned off the true interface by the drawn perception
+"""The Steer task: its knife path planned off the true interface by the drawn perception
 error, the tip scored against the true interface at the episode's end, its settings checked,
-and its baselines (no steering, the steering rule, the ceiling on the true interface)."""
+its baselines (no steering, the steering rule, the ceiling on the true interface), and
+Steer-v2's low-passed knife force."""
 
 import numpy as np
 import pytest
@@ -8,7 +9,7 @@ import pytest
 import envs
 from cell.errors import InputError
 from envs.policies import SteeringKnife, TableSkimmingKnife, true_interface_policy
-from envs.steer import PathError, SteerEnv
+from envs.steer import PathError, SteerEnv, make_steer_v2
 
 #: 10-step episodes on a short, coarse muscle pair.
 ENV_KWARGS = {"time_limit_s": 0.2, "cell_size_m": 0.08, "options": {"tissue": {"length_m": 0.3}}}
@@ -40,6 +41,31 @@ def test_bad_settings_are_named_errors() -> None:
     with pytest.raises(InputError, match="fade_m"):
         PathError(fade_m=0.0)
     assert SteerEnv(steer={"path_error": {"lean": 0.0}}, **ENV_KWARGS).steer.path_error.lean == 0.0
+    with pytest.raises(InputError, match=r"steer\.load_filters_s"):
+        SteerEnv(steer={"load_filters_s": [0.1, 0.0]}, **ENV_KWARGS)
+
+
+def test_v2_adds_the_knife_force_low_passed_to_v1_s_observation_and_plays_v1_s_rollout() -> None:
+    old, new = SteerEnv(**ENV_KWARGS), make_steer_v2(**ENV_KWARGS)
+    assert new.observation_names[:35] == old.observation_names == envs.OBSERVATION_NAMES
+    assert new.observation_names[35:] == tuple(
+        f"knife_f{axis}_lowpass_{tau}s" for tau in ("0.1", "0.5") for axis in "xyz")
+    force = slice(envs.OBSERVATION_NAMES.index("knife_fx"),
+                  envs.OBSERVATION_NAMES.index("knife_fz") + 1)
+    (old_obs, _), (new_obs, _) = old.reset(seed=5), new.reset(seed=5)
+    assert new.observation_space.contains(new_obs) and new_obs.shape == (41,)
+    np.testing.assert_array_equal(new_obs[35:38], new_obs[force])  # starts at the reading
+    action = np.array([1.0, 0.2, 0.0, 0.0], np.float32)
+    for _ in range(5):
+        before = new_obs
+        (old_obs, old_reward, *_), (new_obs, new_reward, *_) = old.step(action), new.step(action)
+        np.testing.assert_array_equal(new_obs[:35], old_obs)
+        assert new_reward == old_reward
+        for start, tau_s in ((35, 0.1), (38, 0.5)):  # a step towards the reading, not past it
+            gain = 0.02 / (tau_s + 0.02)
+            np.testing.assert_allclose(new_obs[start:start + 3], before[start:start + 3]
+                                       + gain * (new_obs[force] - before[start:start + 3]),
+                                       atol=1e-6)
 
 
 def test_the_rule_integrates_the_load_across_into_the_commanded_offset() -> None:

@@ -1,7 +1,7 @@
 """Learning from a privileged expert: DAgger (Ross, Gordon and Bagnell 2011) on the learner's
 own observation.
 
-Why: on ``Steer-v1`` the expert that steers on the true interface
+Why: on ``Steer-v2`` the expert that steers on the true interface
 (:func:`envs.policies.true_interface_policy`, the task's ceiling) knows what no observation
 shows, and PPO held near a hand-written rule adds nothing measurable (the docs' learning
 page). The learner sees only its observation (the knife's force and torque, its progress,
@@ -93,7 +93,7 @@ class DaggerSettings:
         range(4, 8)
     """
 
-    env_id: str = "musclecell/Steer-v1"
+    env_id: str = "musclecell/Steer-v2"
     env_kwargs: dict[str, Any] = field(default_factory=dict)
     expert: str = "true-interface"
     seed: int = 0

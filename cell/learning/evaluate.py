@@ -139,7 +139,7 @@ def _env(env_id: str, env_kwargs_json: str) -> gym.Env:
 def run_episode(task: EpisodeTask) -> dict[str, Any]:
     """Play one episode; its row: policy, seed, return, :data:`INFO_COLUMNS` from the final
     step's info, the tip's mean distance to the true interface (``tip_distance_mm``, None
-    when unscored) where the env gives it (``Steer-v1``), wall time (s)."""
+    when unscored) where the env gives it (``Steer-v2``), wall time (s)."""
     started = time.perf_counter()
     env = _env(task.env_id, task.env_kwargs_json)
     total, info = episode_return(env, make_policy(task.policy, env, task.seed), task.seed)

@@ -1,4 +1,4 @@
-"""What ``Steer-v1`` leaves to gain before any training: its baselines on the same seeds (no
+"""What ``Steer-v2`` leaves to gain before any training: its baselines on the same seeds (no
 steering, the steering rule tuned on tuning seeds, and the ceiling that steers on the true
 interface), each episode's tip-to-interface distance and outcome, the table with 95 %
 intervals and the paired differences.
@@ -13,16 +13,20 @@ import itertools
 import multiprocessing
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from cell.errors import LearningError
 from cell.learning.environments import START_METHOD, make_env
 from cell.learning.paired import paired_mean_difference, paired_success_difference
 from cell.learning.table import mean_interval, wilson
 from envs.policies import SteeringKnife, TableSkimmingKnife, true_interface_policy
 
-ENV_ID = "musclecell/Steer-v1"
+#: The env the baselines play (``Steer-v1``'s worlds and rollouts; a learned policy plays the
+#: version it was trained on).
+ENV_ID = "musclecell/Steer-v2"
 #: First seed of the episodes that tune the steering rule.
 RULE_TUNING_SEED_START = 300_000
 #: First seed of the episodes that choose among a training run's networks (tuning seeds
@@ -53,14 +57,24 @@ class SteerEpisode:
 
 
 def play(task: SteerEpisode) -> dict[str, Any]:
-    """One episode of ``task``: its outcome and the tip's distance to the interface."""
-    env = make_env(ENV_ID, dict(task.env_kwargs))
-    if task.policy == "ceiling":
-        policy = true_interface_policy(env)
-    elif task.policy == "learned":
+    """One episode of ``task``: its outcome and the tip's distance to the interface.
+
+    Raises:
+        LearningError: a learned policy of an env that is not a version of ``Steer``.
+    """
+    learned = None
+    if task.policy == "learned":
         from cell.learning.baselines import load_learned
 
-        policy = load_learned(task.learned)
+        learned = load_learned(task.learned)
+        if learned.env_id not in SteeringKnife.fits:
+            raise LearningError(Path(task.learned), "env_id", f"the policy is of "
+                                f"{learned.env_id}, not of {' or '.join(SteeringKnife.fits)}")
+    env = make_env(ENV_ID if learned is None else learned.env_id, dict(task.env_kwargs))
+    if task.policy == "ceiling":
+        policy = true_interface_policy(env)
+    elif learned is not None:
+        policy = learned
     elif task.policy == "rule":
         policy = SteeringKnife(**dict(task.rule))
     else:

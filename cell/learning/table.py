@@ -15,7 +15,7 @@ from scipy import stats
 MEAN_COLUMNS = {"released_fraction": "released", "torn_fraction": "torn",
                 "knife_force_peak_n": "peak knife force (N)",
                 "flesh_damage_s": "flesh damage (s)", "elapsed_s": "time (s)"}
-#: Columns an env's final info may add (``Steer-v1``'s tip distance), averaged per policy
+#: Columns an env's final info may add (``Steer-v2``'s tip distance), averaged per policy
 #: over the episodes that scored them (None: unscored), with their headers.
 SCORED_COLUMNS = {"tip_distance_mm": "tip to interface (mm)"}
 CONFIDENCE = 0.95
