@@ -97,14 +97,13 @@ class SteerParams:
 
     def __post_init__(self) -> None:
         require_non_negative(self, "off_interface_per_cm")
-        try:
-            taus = tuple(float(tau) for tau in self.load_filters_s)
-        except (TypeError, ValueError):
-            taus = ()
-        if not taus == tuple(self.load_filters_s) or not all(tau > 0.0 for tau in taus):
-            raise InputError(None, "steer.load_filters_s", f"need time constants > 0 s, got "
-                             f"{self.load_filters_s!r}")
-        object.__setattr__(self, "load_filters_s", taus)  # a JSON list reads as the tuple
+        taus = self.load_filters_s
+        if not (isinstance(taus, (tuple, list)) and all(
+                isinstance(tau, (int, float)) and not isinstance(tau, bool)
+                and 0.0 < tau < np.inf for tau in taus)):
+            raise InputError(None, "steer.load_filters_s", f"need a list of time constants, "
+                             f"each > 0 s and finite, got {taus!r}")
+        object.__setattr__(self, "load_filters_s", tuple(map(float, taus)))  # a JSON list too
 
     @property
     def load_names(self) -> tuple[str, ...]:

@@ -142,3 +142,19 @@ def test_the_evaluation_shows_the_tip_distance_over_the_episodes_that_scored_it(
     assert comparison["tip_distance_mm"]["mean"] == pytest.approx(-0.4)
     assert comparison["tip_distance_mm"]["scored_on"] == 2
     assert "on the 2 seeds both scored" in comparison_markdown(comparison)
+
+
+def test_the_headroom_refuses_a_learned_policy_of_another_env(tmp_path: Path) -> None:
+    from cell.learning.dagger import _network
+    from cell.learning.environments import make_env
+    from cell.learning.headroom import SteerEpisode, play
+    from cell.learning.policyfile import save_network
+
+    env = make_env("musclecell/Cut-v2", ENV_KWARGS)
+    observations = np.zeros((2, env.observation_space.shape[0]))
+    save_network(tmp_path, _network(DaggerSettings(net_arch=(4,)), env),
+                 normalization_json(normalizer_of(observations), 2), "musclecell/Cut-v2",
+                 "DAgger", 2, 1)
+    with pytest.raises(LearningError, match="policy is of musclecell/Cut-v2, not of "
+                       "musclecell/Steer-v2 or musclecell/Steer-v1"):
+        play(SteerEpisode("learned", (), 0, learned=str(tmp_path)))
