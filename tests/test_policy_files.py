@@ -111,6 +111,27 @@ def test_a_resume_restores_weights_optimizer_statistics_and_counters(tmp_path: P
             np.testing.assert_array_equal(loaded["state"][index][key].numpy(), value.numpy())
 
 
+def test_a_save_that_cannot_write_the_optimizer_leaves_the_last_save_whole(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from cell.learning.policyfile import save_policy
+
+    model, normalize = _model_and_statistics()
+    save_policy(tmp_path, model, normalize, "Pendulum-v1")
+    before = {path.name: path.read_bytes() for path in tmp_path.iterdir()}
+    model.learn(16)
+    write_bytes = Path.write_bytes
+
+    def disk_full_at_the_optimizer(path: Path, data: bytes) -> int:
+        if "optimizer" in path.name:
+            raise OSError(28, "No space left on device")
+        return write_bytes(path, data)
+
+    monkeypatch.setattr(Path, "write_bytes", disk_full_at_the_optimizer)
+    with pytest.raises(OSError, match="No space left"):
+        save_policy(tmp_path, model, normalize, "Pendulum-v1")
+    assert {path.name: path.read_bytes() for path in tmp_path.iterdir()} == before
+
+
 def _pickled_run(run: Path, marker: Path) -> Path:
     """An earlier release's run folder whose statistics and policy archive are malicious
     pickles (the archive as Stable-Baselines3 writes it: serialized entries in ``data``, torch

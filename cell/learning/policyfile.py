@@ -30,7 +30,7 @@ import numpy as np
 
 from cell.errors import LearningError, PickledPolicyError
 from cell.io import read_json
-from cell.outputs import json_text, write_atomic, write_together
+from cell.outputs import json_text, write_together
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -190,24 +190,26 @@ def save_policy(folder: Path, model: PPO, normalize: VecNormalize, env_id: str) 
     import torch
 
     policy = model.policy
-    save_network(folder, policy, normalization_record(normalize), env_id, "PPO",
-                 int(model.num_timesteps), int(model._n_updates))
     optimizer = policy.optimizer.state_dict()
     state = {f"state.{index}.{key}": torch.as_tensor(value).cpu().numpy()
              for index, entries in optimizer["state"].items() for key, value in entries.items()}
     groups = json.dumps(optimizer["param_groups"], default=list)
-    write_atomic(folder / OPTIMIZER_FILE, _npz_bytes({**state, "param_groups": np.array(groups)}))
+    save_network(folder, policy, normalization_record(normalize), env_id, "PPO",
+                 int(model.num_timesteps), int(model._n_updates),
+                 also={OPTIMIZER_FILE: _npz_bytes({**state, "param_groups": np.array(groups)})})
 
 
 def save_network(folder: Path, policy: ActorCriticPolicy, normalization: dict[str, Any],
                  env_id: str, algorithm: str, num_timesteps: int, n_updates: int,
-                 base_policy: dict[str, Any] | None = None) -> None:
+                 base_policy: dict[str, Any] | None = None,
+                 also: dict[str, bytes] | None = None) -> None:
     """Write ``policy``'s network, trained by ``algorithm``, and the observation statistics
     ``normalization`` (a :func:`normalization_record`) in ``folder``: what :func:`read_policy` and
     :func:`read_normalization` load (a policy trained without PPO, such as
     :mod:`cell.learning.dagger`'s, has no optimizer state to resume). ``base_policy``
     (``{"name": DEMONSTRATOR, "learned": [indices]}``): the policy acts as that
-    demonstrator but for the action's ``learned`` entries, which the network gives."""
+    demonstrator but for the action's ``learned`` entries, which the network gives. ``also``:
+    more files of the folder by name (PPO's optimizer state), written in the same change."""
     import stable_baselines3
     import torch
 
@@ -232,11 +234,13 @@ def save_network(folder: Path, policy: ActorCriticPolicy, normalization: dict[st
         **({} if base_policy is None else {"base_policy": base_policy}),
         "versions": {"stable_baselines3": stable_baselines3.__version__,
                      "torch": torch.__version__}}
-    # One change: a run stopped while it saves keeps weights and statistics that match.
+    # One change: a run stopped while it saves keeps weights, statistics and optimizer that
+    # match.
     write_together({folder / WEIGHTS_FILE: _npz_bytes(arrays),
                     folder / POLICY_FILE: json_text(record, folder / POLICY_FILE),
                     folder / NORMALIZATION_FILE: json_text(normalization,
-                                                           folder / NORMALIZATION_FILE)})
+                                                           folder / NORMALIZATION_FILE),
+                    **{folder / name: content for name, content in (also or {}).items()}})
 
 
 def read_policy(folder: Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
