@@ -68,6 +68,12 @@ def test_v2_adds_the_knife_force_low_passed_to_v1_s_observation_and_plays_v1_s_r
                                        atol=1e-6)
 
 
+def test_check_env_passes_on_v2() -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    check_env(make_steer_v2(**ENV_KWARGS), skip_render_check=True)
+
+
 def test_the_rule_integrates_the_load_across_into_the_commanded_offset() -> None:
     names = envs.OBSERVATION_NAMES
     obs = np.zeros(len(names), np.float32)
