@@ -59,9 +59,10 @@ class MuscleSeparationEnv(SeparationCore):
     .. rubric:: Observation space
 
     ``Box(-100, 100, (35,), float32)``, named by :data:`envs.observation.OBSERVATION_NAMES`
-    and read by :class:`envs.observation.Sensing`; entries are scaled to order one (lengths
-    in cm), clipped to the bounds, non-finite readings 0. The path frame is the planned tip
-    pose at the knife's place on its path: x along the edge, y across, z down the blade.
+    (the env's ``observation_names``) and read by :class:`envs.observation.Sensing`; entries
+    are scaled to order one (lengths in cm), clipped to the bounds, non-finite readings 0. The
+    path frame is the planned tip pose at the knife's place on its path: x along the edge, y
+    across, z down the blade.
 
     =====  ===========================  =======  ========================================
     Index  Names                        Unit     Meaning
