@@ -281,6 +281,10 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
     def _observe(self) -> np.ndarray:
         if self.diverged and self._obs is not None:
             return self._obs  # the state is no longer data: keep the last finite view
+        return self._observation()
+
+    def _observation(self) -> np.ndarray:
+        """The observation of the cell now (a task that sees more extends it)."""
         return observe(self._reading, self._knife, self._pull,
                        min(1.0, self.elapsed_s / self._limit_s))
 

@@ -233,6 +233,7 @@ class SteerEnv(CutEnv):
         self.observation_space = gym.spaces.Box(
             self.observation_space.low[0], self.observation_space.high[0],
             (len(self.observation_names),), np.float32)
+        self._load_taus_s = np.asarray(self.steer.load_filters_s, float)[:, None]
         self._loads: np.ndarray | None = None
 
     def _planned_from(self, episode: Episode, perceived: Any) -> SkewedPerception:
@@ -250,18 +251,15 @@ class SteerEnv(CutEnv):
                                episode.scenario.knife.blade_length_m,
                                episode.scenario.knife.blade_thickness_m)
 
-    def _observe(self) -> np.ndarray:
-        if self.diverged and self._obs is not None:
-            return self._obs  # as the base's: the last finite view, not a filter's step more
-        obs = super()._observe()
-        taus = np.asarray(self.steer.load_filters_s, float)
-        if not len(taus):
+    def _observation(self) -> np.ndarray:
+        obs = super()._observation()
+        if not self._load_taus_s.size:
             return obs
         load = obs[_KNIFE_FORCE]
         if self._loads is None:  # the hand-over's reading: no step before it to filter
-            self._loads = np.tile(load, (len(taus), 1))
+            self._loads = np.tile(load, (self._load_taus_s.size, 1))
         else:
-            gain = (self._dt_s / (taus + self._dt_s))[:, None]  # backward Euler, stable
+            gain = self._dt_s / (self._load_taus_s + self._dt_s)  # backward Euler, stable
             self._loads = self._loads + gain * (load - self._loads)
         return np.concatenate([obs, self._loads.ravel()]).astype(np.float32)
 
@@ -289,7 +287,6 @@ class SteerEnv(CutEnv):
             info.update(tip_distance_mean_m=distance["mean"],
                         tip_distance_max_m=distance["max"], path_error=dict(self.path_error))
         return obs, reward, terminated, truncated, info
-
 
 
 def make_steer_v2(**kwargs: Any) -> SteerEnv:
