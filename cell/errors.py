@@ -327,6 +327,32 @@ class NotFiniteResultError(DivergenceError):
         return type(self), (self.path, self.key, self.value)
 
 
+class FailedRowsError(MusclecellError):
+    """A sweep or a batch ran to its end, its table and summary written whole, with rows
+    whose status is ``failed``: the command exits with its own code (4) so that a script
+    sees it.
+
+    Attributes:
+        folder: the results folder, whose rows and summary say why each one failed.
+        failed: how many rows failed, of ``rows``.
+        what: what a row is (``runs``, ``sets``).
+
+    Example:
+        >>> raise FailedRowsError("out/diagnoses", 1, 3, "sets")
+        Traceback (most recent call last):
+        cell.errors.FailedRowsError: out/diagnoses: 1 of 3 sets failed; their rows in the
+        table and summary.md say why
+    """
+
+    def __init__(self, folder: str | Path, failed: int, rows: int, what: str) -> None:
+        self.folder, self.failed, self.rows, self.what = str(folder), failed, rows, what
+        super().__init__(f"{folder}: {failed} of {rows} {what} failed; their rows in the "
+                         "table and summary.md say why")
+
+    def __reduce__(self) -> tuple:
+        return type(self), (self.folder, self.failed, self.rows, self.what)
+
+
 class Stopped(KeyboardInterrupt):
     """The process was asked to stop by a signal (SIGTERM; SIGINT stays a plain
     :class:`KeyboardInterrupt`). Raised from the signal handler the command line installs, so

@@ -11,6 +11,7 @@ code  meaning
 0     done
 2     bad input, or an output that cannot be written (nothing written)
 3     the simulation diverged (nothing written)
+4     a sweep or batch finished with failed rows (its table and summary written whole)
 130   stopped by Ctrl-C (SIGINT); temporary files removed
 143   stopped by SIGTERM (129: SIGHUP); temporary files removed
 ====  ==========================================================================
@@ -24,7 +25,7 @@ import sys
 
 from cell.bench.command import add_bench
 from cell.cli.signals import stop_signals_raise
-from cell.errors import DivergenceError, MusclecellError, Stopped
+from cell.errors import DivergenceError, FailedRowsError, MusclecellError, Stopped
 from cell.learning.command import add_learning
 from cell.outputs import discard_pending
 from cell.rheology.command import add_diagnose
@@ -33,7 +34,7 @@ from cell.sim.command import add_simulation
 from cell.sim.logcommand import add_log_diagnosis
 
 #: Exit codes (module docstring).
-EXIT_INPUT, EXIT_DIVERGED, EXIT_INTERRUPTED = 2, 3, 130
+EXIT_INPUT, EXIT_DIVERGED, EXIT_FAILED_ROWS, EXIT_INTERRUPTED = 2, 3, 4, 130
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -42,7 +43,8 @@ def build_parser() -> argparse.ArgumentParser:
                                      description=__doc__.split("\n\n")[0].replace("``", ""),
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog="exit codes: 0 done, 2 bad input or output (nothing "
-                                     "written), 3 diverged, 130/143 stopped by SIGINT/SIGTERM")
+                                     "written), 3 diverged, 4 a sweep or batch finished with "
+                                     "failed rows, 130/143 stopped by SIGINT/SIGTERM")
     commands = parser.add_subparsers(dest="command", required=True)
     add_simulation(commands)
     add_log_cluster(add_log_diagnosis(commands))
@@ -75,6 +77,9 @@ def main(argv: list[str] | None = None) -> int:
     except DivergenceError as exc:
         print(f"musclecell: {exc}", file=sys.stderr)
         return EXIT_DIVERGED
+    except FailedRowsError as exc:
+        print(f"musclecell: {exc}", file=sys.stderr)
+        return EXIT_FAILED_ROWS
     except MusclecellError as exc:
         print(f"musclecell: {exc}", file=sys.stderr)
         return EXIT_INPUT

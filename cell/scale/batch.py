@@ -1,7 +1,9 @@
 """``musclecell diagnose --batch``: every measurement set in a folder diagnosed, one Ray task
 per set, into one table of causes and gains; a re-run skips the sets already diagnosed.
 
-The results folder gets ``diagnoses.parquet`` and ``diagnoses.csv`` (one row per set),
+Each set is diagnosed as ``musclecell diagnose`` diagnoses it, through the same entry point
+(:func:`cell.rheology.cutdiagnosis.diagnose_set`): uniaxial tests, cut tests or both. The
+results folder gets ``diagnoses.parquet`` and ``diagnoses.csv`` (one row per set),
 ``summary.md``, and per set ``sets/<set>.json`` (what ``musclecell diagnose --json`` writes)
 and ``sets/<set>-material.toml`` (the extended material); a set that cannot be read or
 diagnosed is a row with its error, and the others go on.
@@ -19,7 +21,8 @@ from typing import Any
 from cell.errors import InputError, MaterialError
 from cell.io import read_bytes
 from cell.outputs import first_non_finite, write_atomic, write_json
-from cell.rheology.diagnosis import diagnose
+from cell.rheology.cutdiagnosis import SetDiagnosis, diagnose_set
+from cell.rheology.diagnosis import SearchOutcome
 from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE, MeasurementSet, load_measurement_set
 from cell.rheology.settings import DiagnosisParams
 from cell.scale.failure import describe_failure
@@ -29,6 +32,14 @@ from cell.scale.store import ResultsFolder
 from cell.tissue.materialfile import material_to_toml
 
 TABLE = "diagnoses"
+#: The prefix of the columns of each kind of test's part of a diagnosis, in a row.
+PARTS = {"uniaxial": "", "cut": "cut_"}
+#: A part's columns (after the prefix): gain, noise (N), held-out RMSEs (N), extended model.
+FIGURES = ("gain", "noise_n", "baseline_heldout_rmse_n", "extended_model",
+           "extended_heldout_rmse_n")
+#: The version of a set's record, hashed into its fingerprint: a folder of a batch before
+#: version 2 (no ``tests`` column, no cut tests diagnosed) has every set diagnosed again.
+RECORD_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -44,9 +55,10 @@ class SetTask:
 
 @dataclass(frozen=True)
 class SetOutcome:
-    """A diagnosed set: its ``row`` (set, specimen, status, error, causes, gain, noise and
-    held-out RMSEs in N, wall time in s), the diagnosis's JSON and the extended material's
-    TOML (None and empty when it failed) and a failure's traceback."""
+    """A diagnosed set: its ``row`` (set, specimen, status, error, the kinds of test it holds,
+    each kind's gain, noise and held-out RMSEs in N (:data:`PARTS`, :data:`FIGURES`), the
+    causes, wall time in s), the diagnosis's JSON and the extended material's TOML (None and
+    empty when it failed) and a failure's traceback."""
 
     row: dict[str, Any]
     diagnosis: dict[str, Any] | None = None
@@ -86,8 +98,10 @@ def set_folders(parent: str | Path) -> list[Path]:
     return folders
 
 
-def diagnose_set(task: SetTask) -> SetOutcome:
-    """Diagnose one set; never raises for the set's own faults (they are its status)."""
+def diagnose_task(task: SetTask) -> SetOutcome:
+    """Diagnose one set, whatever tests it holds, as ``musclecell diagnose`` does
+    (:func:`~cell.rheology.cutdiagnosis.diagnose_set`); never raises for the set's own faults
+    (they are its status)."""
     started = time.perf_counter()
     row: dict[str, Any] = {"set": task.name}
     if task.measurements is None:
@@ -95,17 +109,13 @@ def diagnose_set(task: SetTask) -> SetOutcome:
     specimen = task.measurements.specimen  # None in a set of cut tests alone
     row["specimen"] = "" if specimen is None else specimen.name
     try:
-        result = diagnose(task.measurements, task.params)
+        result = diagnose_set(task.measurements, task.params)
     except Exception as exc:  # one broken set is recorded as such, never stops the batch
         error, trace = describe_failure(exc)
         return SetOutcome({**row, "status": "failed", "error": error,
                            "wall_s": time.perf_counter() - started}, traceback=trace)
-    row |= {"status": "ok", "error": "", "causes": " ".join(result.causes),
-            "gain": result.gain, "noise_n": result.noise_n,
-            "baseline_heldout_rmse_n": result.baseline.heldout_rmse_n,
-            "extended_model": result.extended.model.name,
-            "extended_heldout_rmse_n": result.extended.heldout_rmse_n,
-            "wall_s": time.perf_counter() - started}
+    row |= {"status": "ok", "error": "", **_part_columns(result),
+            "causes": " ".join(result.causes), "wall_s": time.perf_counter() - started}
     diagnosis = result.to_json()
     # A fit that diverged or found no plausible material is the set's failure, not the
     # batch's: it must not reach the strict writers.
@@ -116,7 +126,7 @@ def diagnose_set(task: SetTask) -> SetOutcome:
         return SetOutcome({**failed, "error": "the diagnosis diverged: {} is {}".format(
             *diverged)})
     try:
-        toml = material_to_toml(result.extended.material, result.material_comment())
+        toml = material_to_toml(result.material(), result.material_comment())
     except MaterialError as exc:
         return SetOutcome({**failed, "error": f"the fitted material: {exc}"})
     return SetOutcome(row, diagnosis, toml)
@@ -148,7 +158,7 @@ def diagnose_batch(parent: str | Path, out: str | Path, workers: Workers,
             write_atomic(sets / f"{name}-material.toml", outcome.material_toml)
         return {"row": outcome.row, "traceback": outcome.traceback}
 
-    played = play_missing(diagnose_set, tasks, [task.name for task in tasks], prints, results,
+    played = play_missing(diagnose_task, tasks, [task.name for task in tasks], prints, results,
                           workers, keep=keep, progress=progress, desc="diagnose")
     files = [*results.write_table(TABLE, played.rows),
              write_atomic(results.folder / "summary.md", summary_markdown(played.rows))]
@@ -157,21 +167,42 @@ def diagnose_batch(parent: str | Path, out: str | Path, workers: Workers,
 
 
 def summary_markdown(rows: list[dict[str, Any]]) -> str:
-    """How many sets were diagnosed, how often each cause was found, each set's line."""
+    """How many sets were diagnosed, how often each cause was found, each set's line (the
+    gain and held-out RMSEs of each kind of test it holds, uniaxial first)."""
     done = [row for row in rows if row["status"] == "ok"]
     causes = Counter(cause for row in done for cause in row["causes"].split())
     lines = ["# Diagnoses", "", f"{len(rows)} sets: {len(done)} diagnosed, "
              f"{len(rows) - len(done)} failed.", "", "| cause | sets |", "|---|---|"]
     lines += [f"| {cause} | {count} |" for cause, count in causes.most_common()]
-    lines += ["", "| set | causes | gain | held-out RMSE (N) | error |", "|---|---|---|---|---|"]
+    lines += ["", "| set | tests | causes | gain | held-out RMSE (N) | error |",
+              "|---|---|---|---|---|---|"]
     for row in rows:
-        if row["status"] == "ok":
-            lines.append(f"| {row['set']} | {row['causes'] or 'none'} | {row['gain']:.3f} | "
-                         f"{row['baseline_heldout_rmse_n']:.3g} -> "
-                         f"{row['extended_heldout_rmse_n']:.3g} | |")
-        else:
-            lines.append(f"| {row['set']} | | | | {row['error']} |")
+        if row["status"] != "ok":
+            lines.append(f"| {row['set']} | | | | | {row['error']} |")
+            continue
+        prefixes = [PARTS[kind] for kind in row["tests"].split()]
+        gains = ", ".join(f"{row[f'{p}gain']:.3f}" for p in prefixes)
+        rmses = ", ".join(f"{row[f'{p}baseline_heldout_rmse_n']:.3g} -> "
+                          f"{row[f'{p}extended_heldout_rmse_n']:.3g}" for p in prefixes)
+        lines.append(f"| {row['set']} | {row['tests'].replace(' ', ', ')} | "
+                     f"{row['causes'] or 'none'} | {gains} | {rmses} | |")
     return "\n".join(lines) + "\n"
+
+
+def _part_columns(result: SetDiagnosis) -> dict[str, Any]:
+    """The kinds of test the set holds (``tests``: ``uniaxial``, ``cut`` or both) and each
+    part's :data:`FIGURES`, prefixed by :data:`PARTS` (empty for a kind the set lacks)."""
+    parts: dict[str, SearchOutcome | None] = {"uniaxial": result.uniaxial, "cut": result.cut}
+    columns: dict[str, Any] = {
+        "tests": " ".join(kind for kind, part in parts.items() if part is not None)}
+    for kind, part in parts.items():
+        figures = {} if part is None else {
+            "gain": part.gain, "noise_n": part.noise_n,
+            "baseline_heldout_rmse_n": part.baseline.heldout_rmse_n,
+            "extended_model": part.extended.model.name,
+            "extended_heldout_rmse_n": part.extended.heldout_rmse_n}
+        columns |= {f"{PARTS[kind]}{name}": figures.get(name) for name in FIGURES}
+    return columns
 
 
 def _read(folder: Path, params: DiagnosisParams) -> SetTask:
@@ -192,9 +223,10 @@ def _holds_a_set(folder: Path) -> bool:
 
 
 def _fingerprint(folder: Path, params: DiagnosisParams) -> str:
-    """The set's files and the diagnosis settings, hashed; a file that cannot be read is
-    hashed as its error (the set is then a failed row, re-tried when that changes)."""
-    digest = hashlib.sha256(repr(params).encode())
+    """The set's files, the diagnosis settings and :data:`RECORD_VERSION`, hashed; a file
+    that cannot be read is hashed as its error (the set is then a failed row, re-tried when
+    that changes)."""
+    digest = hashlib.sha256(f"{RECORD_VERSION} {params!r}".encode())
     for name in (SPECIMEN_FILE, TESTS_FILE):
         try:
             digest.update(read_bytes(folder / name, "toml" if name == SPECIMEN_FILE else "csv"))

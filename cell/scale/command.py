@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from cell.errors import InputError
+from cell.errors import FailedRowsError, InputError
 from cell.outputs import Output, check_outputs
 
 if TYPE_CHECKING:
@@ -111,7 +111,8 @@ def workers(args: argparse.Namespace) -> Workers:
 
 
 def sweep_command(args: argparse.Namespace) -> int:
-    """``musclecell sweep``."""
+    """``musclecell sweep``; a run that failed fails the command once all are written
+    (:func:`no_failed_rows`)."""
     from cell.scale.sweep import run_sweep
 
     pool = workers(args)
@@ -123,11 +124,12 @@ def sweep_command(args: argparse.Namespace) -> int:
           f"finished in {args.out}): {statuses.count('ok')} finished, "
           f"{statuses.count('diverged')} diverged, {statuses.count('failed')} failed; "
           f"{outcome.wall_s:.1f} s; wrote {', '.join(p.name for p in outcome.files)}")
-    return 0
+    return no_failed_rows(outcome.rows, args.out, "runs")
 
 
 def diagnose_batch_command(args: argparse.Namespace) -> int:
-    """``musclecell diagnose --batch``."""
+    """``musclecell diagnose --batch``; a set that failed fails the command once all are
+    written (:func:`no_failed_rows`)."""
     from cell.scale.batch import diagnose_batch
 
     extra = [name for name, value in (("set_dir", args.set_dir), ("--json", args.json),
@@ -145,4 +147,17 @@ def diagnose_batch_command(args: argparse.Namespace) -> int:
     print(f"{len(outcome.rows)} sets ({outcome.played} diagnosed now, {outcome.skipped} found "
           f"done in {args.out}): {done} diagnosed, {len(outcome.rows) - done} failed; "
           f"{outcome.wall_s:.1f} s; wrote {', '.join(p.name for p in outcome.files)}")
+    return no_failed_rows(outcome.rows, args.out, "sets")
+
+
+def no_failed_rows(rows: list[dict[str, Any]], out: Path, what: str) -> int:
+    """0, the exit code of a sweep or batch (``what``: its rows' name) written to ``out``
+    whose rows all ran; a diverged run is a result of the physics swept, not a failure.
+
+    Raises:
+        FailedRowsError: a row whose status is ``failed`` (exit 4; the folder is whole).
+    """
+    failed = sum(row["status"] == "failed" for row in rows)
+    if failed:
+        raise FailedRowsError(out, failed, len(rows), what)
     return 0
