@@ -185,6 +185,35 @@ class LogBatchError(LogError):
     tools, sensors or material, fewer than two logs, or one log given twice."""
 
 
+class RobotLogError(InputError):
+    """A robot's log (a folder of ``rostopic echo -p`` dumps, a ROS 1 or ROS 2 bag, an MCAP
+    file) that cannot be imported as its mapping file says: ``field`` names the topic.
+
+    Example:
+        >>> raise RobotLogError("trial.bag", "/ft/wrench", "no field wrench.force.x")
+        Traceback (most recent call last):
+        cell.errors.RobotLogError: trial.bag, /ft/wrench: no field wrench.force.x
+    """
+
+
+class MissingTopicError(RobotLogError):
+    """A topic the mapping names that the log does not hold; the message lists those it does."""
+
+
+class FrameError(RobotLogError):
+    """A topic whose messages name another frame (``header.frame_id``) than the mapping gives
+    it, or a wrench in a frame of its own without the rotation into the cut's frame."""
+
+
+class NoContactError(RobotLogError):
+    """A log in which the blade never meets the block: the force never rises past the
+    mapping's contact threshold, or the edge never reaches the given top face."""
+
+
+class MappingError(InputError):
+    """A mapping file of ``musclecell import`` with a missing, unknown or bad key."""
+
+
 class DiagnosisError(InputError):
     """Diagnosis settings out of range, or a cause the catalogue does not have."""
 

@@ -32,7 +32,7 @@ if [ ! -f "$stamp" ]; then
     echo "setup: installing torch (CPU)"
     .venv/bin/python -m pip install -q "torch==2.13.0"
   fi
-  .venv/bin/python -m pip install -q -e '.[test,learn,scale,dm,mesh,cad,docs]'
+  .venv/bin/python -m pip install -q -e '.[test,learn,scale,dm,mesh,cad,docs,ros]'
   rm -f .venv/.musclecell-*
   touch "$stamp"
 fi

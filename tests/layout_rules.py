@@ -22,6 +22,7 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.rheology": (*BASE, "cell.tissue.curves", "cell.tissue.material",
                       "cell.tissue.materialfile", "cell.tissue.cutmodel", "cell.tissue.springlaw",
                       "cell.tissue.packedlaw", "cell.tissue.lattice", "cell.tissue.tetmesh"),
+    "cell.robotlog": (*BASE, "cell.rheology.cuts", "cell.rheology.measured"),
     "controllers": (*BASE, "cell.robots", "cell.tissue", "cell.perception"),
     # The cut tests' types and the cut causes' names (MuJoCo-free), which the full simulation
     # of a cut and its generator of hidden-effect sets read.
@@ -35,6 +36,7 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.bench": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "cell.rheology",
                    "controllers", "cell.sim", "envs", "cell.learning", "cell.scale"),
     "cell.cli": (*BASE, "cell.robots", "cell.tissue", "cell.perception", "cell.rheology",
+                 "cell.robotlog",
                  "controllers", "cell.sim", "envs", "cell.learning", "cell.scale",
                  "cell.bench"),
 }

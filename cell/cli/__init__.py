@@ -1,5 +1,5 @@
 """The ``musclecell`` command line: run episodes, export and render the scene, plan the cut,
-diagnose measurements, benchmark, sweep, train and evaluate policies.
+diagnose measurements, import robot logs, benchmark, sweep, train and evaluate policies.
 
 Each sub-package supplies its own commands (its ``command`` module); this package builds the
 top parser from them and runs the chosen one, turning named errors and stop signals into exit
@@ -29,6 +29,7 @@ from cell.errors import DivergenceError, FailedRowsError, MusclecellError, Stopp
 from cell.learning.command import add_learning
 from cell.outputs import discard_pending
 from cell.rheology.command import add_diagnose
+from cell.robotlog.command import add_import
 from cell.scale.command import add_batch, add_log_cluster, add_sweep
 from cell.sim.command import add_simulation
 from cell.sim.logcommand import add_log_diagnosis
@@ -49,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_simulation(commands)
     add_log_cluster(add_log_diagnosis(commands))
     add_batch(add_diagnose(commands))
+    add_import(commands)
     add_bench(commands)
     add_learning(commands)
     add_sweep(commands)

@@ -240,6 +240,25 @@ class CutTest:
         return (self.edge_m - self.edge_m[0]) @ np.asarray(blade.edge_direction)
 
 
+def cut_rows_csv(tests: Sequence[CutTest]) -> str:
+    """The ``tests.csv`` of a set of cut tests (torques left out), as the reader reads it:
+    time to the microsecond, positions to 10 nm, forces to 0.1 mN.
+
+    Example:
+        >>> t = np.array([0.0, 0.5])
+        >>> print(cut_rows_csv([CutTest("c", t, np.ones((2, 3)), np.zeros((2, 3)))]), end="")
+        test_id,mode,time_s,edge_x_m,edge_y_m,edge_z_m,force_x_N,force_y_N,force_z_N
+        c,cut,0.000000,1.00000000,1.00000000,1.00000000,0.0000,0.0000,0.0000
+        c,cut,0.500000,1.00000000,1.00000000,1.00000000,0.0000,0.0000,0.0000
+    """
+    rows = [",".join(("test_id", "mode", "time_s", *EDGE_COLUMNS, *FORCE_COLUMNS))]
+    for test in tests:
+        rows += [f"{test.test_id},{CUT_MODE},{t:.6f},{e[0]:.8f},{e[1]:.8f},{e[2]:.8f},"
+                 f"{f[0]:.4f},{f[1]:.4f},{f[2]:.4f}"
+                 for t, e, f in zip(test.time_s, test.edge_m, test.force_n, strict=True)]
+    return "\n".join(rows) + "\n"
+
+
 def read_cut_tables(path: Path, raw: Mapping[str, Any]) -> tuple[Block | None, Blade | None]:
     """The ``[block]`` and ``[blade]`` tables of ``specimen.toml`` (``raw``, read from
     ``path``), None for one that is absent.

@@ -53,7 +53,7 @@ import numpy as np
 from cell.errors import MeasurementError
 from cell.outputs import write_atomic
 from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA
-from cell.rheology.cuts import Blade, Block
+from cell.rheology.cuts import Blade, Block, CutTest, cut_rows_csv
 from cell.sim.cuttest import CutSimulation, simulate_cut
 from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.material import MassSpringMaterial, default_meat
@@ -75,9 +75,6 @@ START_HEIGHT_M = 0.002
 EXAMPLE_SEED = 2026
 EXAMPLE_CAUSES = ("slicing", "blade_force_offset")
 _SAWING_TESTS = 4
-_HEADER = "test_id,mode,time_s,edge_x_m,edge_y_m,edge_z_m,force_x_N,force_y_N,force_z_N"
-
-
 @dataclass(frozen=True)
 class CutTruth:
     """The answer key of one hidden-effect cut set (never written into the set).
@@ -227,18 +224,16 @@ def write_hidden_cut_set(folder: Path, seed: int, causes: Sequence[str] = (),
         wall += run.wall_s
     peak = max(float(np.abs(force).max()) for *_, force in runs)
     noise = rng.uniform(0.001, 0.004) * peak
-    rows = [_HEADER]
+    tests = []
     for plan, time_s, edge, force in runs:
         measured = force + offset + rng.normal(0.0, noise, force.shape)
         seen = edge + rng.normal(0.0, POSITION_NOISE_M, edge.shape)
         seen[0] = edge[0]
-        rows += [f"{plan.test_id},cut,{t:.6f},{e[0]:.8f},{e[1]:.8f},{e[2]:.8f},"
-                 f"{f[0]:.4f},{f[1]:.4f},{f[2]:.4f}"
-                 for t, e, f in zip(time_s, seen, measured, strict=True)]
+        tests.append(CutTest(plan.test_id, time_s, seen, measured))
     folder = Path(folder)
     write_atomic(folder / "specimen.toml", _specimen_toml(seed, block, blade, plans,
                                                           cell_size_m))
-    write_atomic(folder / "tests.csv", "\n".join(rows) + "\n")
+    write_atomic(folder / "tests.csv", cut_rows_csv(tests))
     return CutTruth(hidden, seed, cutting, tuple(float(v) for v in offset), float(noise),
                     cell_size_m, wall)
 
