@@ -1,5 +1,5 @@
 """Gymnasium envs of the muscle separation cell, registered on import under ``musclecell/``;
-the four current ones (:data:`CURRENT_IDS`):
+the four current ones (:data:`envs.registration.CURRENT_IDS`):
 
 - ``musclecell/MuscleSeparation-v2``: the policy drives the knife and the pull
   (:class:`envs.separation.MuscleSeparationEnv`),
