@@ -59,7 +59,8 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
                  time_limit_s: float | None = None, driven: Driven = "both",
                  render_mode: str | None = None, randomize: bool = True,
                  randomization: str | Path | Randomization | None = None,
-                 task: TaskParams | Mapping[str, Any] | None = None) -> None:
+                 task: TaskParams | Mapping[str, Any] | None = None,
+                 timeout_terminates: bool = False) -> None:
         if driven not in ("both", "knife", "pull"):
             raise InputError(None, "driven", f"must be both, knife or pull, got {driven!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
@@ -67,6 +68,9 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
                              f"{render_mode!r}")
         if time_limit_s is not None and not time_limit_s > 0:
             raise InputError(None, "time_limit_s", f"must be > 0, got {time_limit_s}")
+        if not isinstance(timeout_terminates, bool):
+            raise InputError(None, "timeout_terminates", f"expected true or false, got "
+                             f"{timeout_terminates!r}")
         if scenario is None:
             scenario = task_scenario()
         if cell_size_m is not None:
@@ -88,6 +92,7 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
         self.reward_params = parameters(RewardParams, reward, "reward")
         self.task = parameters(TaskParams, task, "task")
         self.time_limit_s = time_limit_s
+        self.timeout_terminates = timeout_terminates
         self.driven = driven
         self.render_mode = render_mode
         self._drives_knife = driven in ("both", "knife")
@@ -198,8 +203,10 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
                       or self.torn_fraction > self.task.max_torn_fraction)
         truncated = not terminated and self.elapsed_s >= self._limit_s - 1e-9
         if truncated and self.task.cycle_time_fails:
-            self.timed_out, terminated, truncated = True, True, False
+            self.timed_out = True
             terms["timeout"] = -self.reward_params.timeout
+            # The same reward either way: only the episode's end is flagged otherwise.
+            terminated, truncated = self.timeout_terminates, not self.timeout_terminates
         return self._obs, float(sum(terms.values())), terminated, truncated, self._info(terms)
 
     def _checked(self, action: Any) -> np.ndarray:
@@ -299,7 +306,8 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
             "reward_terms": terms,
             "world": copy.deepcopy(self.world),  # the caller keeps each step's info
             "redraws": list(self.redraws),
-            "success": self.success,
+            "is_success": self.success,
+            "success": self.success,  # deprecated alias of is_success, for one release
             "protective_stop": self.protective_stop,
             "timed_out": self.timed_out,
             "knife_force_peak_n": self.knife_force_peak_n,

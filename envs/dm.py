@@ -5,8 +5,8 @@ fields MuJoCo 4 removed, see the README), so each task here is the Gymnasium env
 :mod:`envs.separation` behind the ``dm_env`` API that dm-control's environments implement:
 the same cell, observations, actions, rewards and episode ends, with specs. A step after the
 last of an episode starts the next (``dm_env``'s contract); termination (success, failure,
-protective stop, divergence, the cell's cycle time) has discount 0, a time limit outside the
-task (``task={"cycle_time_fails": False}``) is a truncation with discount 1.
+protective stop, divergence) has discount 0, the time limit is a truncation with discount 1
+(with ``timeout_terminates=True``, a termination with discount 0, as before this release).
 The seed given at construction seeds the first reset; later episodes draw their worlds from
 the env's own generator, as the Gymnasium env's unseeded resets do, so a seed fixes the
 whole sequence. ``info`` holds the Gymnasium info of the last reset or step.
@@ -30,25 +30,17 @@ import numpy as np
 from cell.errors import InputError
 from cell.extras import optional
 from envs.observation import OBSERVATION_BOUND
-from envs.registration import DEPRECATED_IDS, env_creator
+from envs.registration import DEPRECATED_IDS, ENV_IDS, env_creator
 from envs.separation import MuscleSeparationEnv
-from envs.tasks import CutEnv, PullEnv
 
 dm_env = optional("dm_env", "dm", "envs.dm (the DeepMind environment API)")
 specs = dm_env.specs
 #: The Gymnasium ids' namespace, which the task names here leave out.
 NAMESPACE = "musclecell"
 
-#: The tasks by their Gymnasium ids (without the ``musclecell/`` namespace); a ``-v1`` task's
-#: knife meets the measured force curve (:mod:`envs.registration`).
-TASKS: dict[str, type[MuscleSeparationEnv]] = {
-    "MuscleSeparation-v2": MuscleSeparationEnv,
-    "Cut-v2": CutEnv,
-    "Pull-v2": PullEnv,
-    "MuscleSeparation-v1": MuscleSeparationEnv,
-    "Cut-v1": CutEnv,
-    "Pull-v1": PullEnv,
-}
+#: The tasks: the Gymnasium ids of :data:`envs.registration.ENV_IDS` (each version, ``Steer``
+#: among them) without the ``musclecell/`` namespace.
+TASKS = tuple(env_id.removeprefix(f"{NAMESPACE}/") for env_id in ENV_IDS)
 
 
 class SeparationEnvironment(dm_env.Environment):
@@ -60,6 +52,7 @@ class SeparationEnvironment(dm_env.Environment):
         seed: seeds the first reset (None: fresh entropy).
 
     Example:
+        >>> from envs.tasks import PullEnv
         >>> env = SeparationEnvironment(PullEnv(cell_size_m=0.05, time_limit_s=0.1), seed=1)
         >>> env.reset().first(), env.step(np.zeros(3, np.float32)).mid()
         (True, True)
@@ -108,7 +101,7 @@ class SeparationEnvironment(dm_env.Environment):
 
 
 def make(name: str, /, seed: int | None = None, **kwargs: Any) -> SeparationEnvironment:
-    """The ``dm_env`` environment of the task ``name`` (a key of :data:`TASKS`, or its ``-v0``
+    """The ``dm_env`` environment of the task ``name`` (one of :data:`TASKS`, or a deprecated
     name of the previous release, which warns); ``kwargs`` go to the Gymnasium env as
     ``gymnasium.make``'s do (``task=`` among them).
 

@@ -27,7 +27,7 @@ Keys (every one optional; SI units):
 - ``cut_speed_m_s``: the planned (and scripted) knife's speed; ``cut_table_clearance_m``: the
   planned cut's clearance above the table (:class:`~controllers.knife.CutPlan`), which a
   planner sets from the interface's depth it believes, so it differs from carcass to carcass.
-- ``knife_pace``: the speed a scripted knife (``Pull-v1``'s) cuts at, as a fraction of its
+- ``knife_pace``: the speed a scripted knife (``Pull``'s) cuts at, as a fraction of its
   plan's, in (0, 1]: a knife that the meat slows, so the plan's clock runs ahead of it (the
   env reads it; the scenario keeps the plan's speed).
 

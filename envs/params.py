@@ -119,10 +119,12 @@ class TaskParams:
     stop (the knife's force/torque sensor reads more than ``knife_stop_force_n`` or the
     gripper's more than ``pull_stop_force_n``, as a real cell's force limits stop the arms:
     a blade driven into the table reads far more than a cut does) or when the
-    simulation diverges. At the time limit it fails too (``cycle_time_fails``: the cell's
-    cycle time is part of the task, and the observation carries the time, so a policy cannot
-    wait out a cut it has not finished), or, with ``cycle_time_fails=False``, is truncated
-    (Gymnasium's time limit outside the task).
+    simulation diverges. An episode unfinished at the time limit is truncated there; with
+    ``cycle_time_fails`` it has failed too (``timed_out``, the reward's ``timeout`` cost: the
+    cell's cycle time is part of the task, and the observation carries the time, so a policy
+    cannot wait out a cut it has not finished), with ``cycle_time_fails=False`` it has not
+    (Gymnasium's time limit outside the task). The env's ``timeout_terminates`` flags the
+    failed cycle time as a termination instead.
 
     Example:
         >>> TaskParams(max_torn_fraction=0.25).separated_fraction

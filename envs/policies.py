@@ -40,7 +40,7 @@ def scripted_policy(env: gym.Env) -> Callable[[np.ndarray], np.ndarray]:
 
 @dataclass(frozen=True)
 class TableSkimmingKnife:
-    """A hand-written feedback policy of ``Cut-v1``'s observation: the knife at full speed
+    """A hand-written feedback policy of ``Cut``'s observation: the knife at full speed
     along its path, its tip ``height_m`` above the table (the lowest bindings hold until the
     tip is within the aponeurosis' knife margin of it, and a blade pressed on the table trips
     the protective stop): the depth wanted below the path is the path's height over the table
@@ -68,7 +68,7 @@ class TableSkimmingKnife:
 
 @dataclass(frozen=True)
 class HoldThenPullAway:
-    """A hand-written feedback policy of ``Pull-v1``'s observation: the shank held where it
+    """A hand-written feedback policy of ``Pull``'s observation: the shank held where it
     was grasped while the knife cuts (its path progress below 1), since a pull ahead of the
     knife tears what the blade has not reached, then taken away by the action ``away`` (cubed
     times 0.2 m per axis: (0, 0.8, 0.8) is 10 cm across and 10 cm up).
@@ -156,9 +156,9 @@ def demonstrators_for(env_id: str) -> list[str]:
     the id that replaces it), in the dict's order.
 
     Example:
-        >>> demonstrators_for("musclecell/Pull-v1")
+        >>> demonstrators_for("musclecell/Pull-v2")
         ['hold-then-pull-away']
-        >>> demonstrators_for("musclecell/MuscleSeparation-v1")
+        >>> demonstrators_for("musclecell/MuscleSeparation-v2")
         []
     """
     current = DEPRECATED_IDS.get(env_id, env_id)

@@ -1,6 +1,8 @@
 """The envs' Gymnasium ids, registered on ``import envs``.
 
-``-v2`` is the current version: the knife meets the material's cutting model in the seam (the
+:data:`CURRENT_IDS` are the four envs of this release; the older versions stay registered
+for runs and policies made on them (the version history of each env's manual). ``-v2`` is the
+current version: the knife meets the material's cutting model in the seam (the
 scenario's ``aponeurosis.knife_force = "cutting"``). The ``-v1`` ids make the same envs with
 the knife's force from the measured curve (``knife_force = "curve"``), as ``-v1`` did, so
 their seeded rollouts stay what they were; the ``-v0`` ids of the release before stay one
@@ -37,6 +39,15 @@ ENV_IDS = {
     "musclecell/Steer-v2": "envs.steer:make_steer_v2",
     "musclecell/Steer-v1": "envs.steer:SteerEnv",
 }
+#: The current version of each env: what to train and evaluate on.
+CURRENT_IDS = ("musclecell/MuscleSeparation-v2", "musclecell/Cut-v2", "musclecell/Pull-v2",
+               "musclecell/Steer-v2")
+#: Gymnasium's step bound of every id (``env.spec.max_episode_steps``, its ``TimeLimit``):
+#: 50 s of 20 ms control steps, above every default time limit of the default randomisation
+#: (``tests/test_envs.py`` checks the longest: ``Pull``'s slowest scripted knife on the
+#: longest meat), so the env's own time limit ends an episode first; a ``time_limit_s``
+#: beyond it needs ``gymnasium.make(..., max_episode_steps=...)`` as well.
+MAX_EPISODE_STEPS = 2500
 #: The ids whose knife meets the measured cutting-force curve, as before the cutting model.
 CURVE_IDS = frozenset({"musclecell/MuscleSeparation-v1", "musclecell/Cut-v1",
                        "musclecell/Pull-v1"})
@@ -96,8 +107,9 @@ def register_envs() -> None:
     for env_id, entry_point in ENV_IDS.items():
         if env_id not in registry:
             register(id=env_id, entry_point=env_creator(env_id) if env_id in CURVE_IDS
-                     else entry_point, disable_env_checker=False)
+                     else entry_point, disable_env_checker=False,
+                     max_episode_steps=MAX_EPISODE_STEPS)
     for old_id, new_id in DEPRECATED_IDS.items():
         if old_id not in registry:
             register(id=old_id, entry_point=partial(make_deprecated, old_id, new_id),
-                     disable_env_checker=False)
+                     disable_env_checker=False, max_episode_steps=MAX_EPISODE_STEPS)

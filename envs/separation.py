@@ -119,17 +119,22 @@ class MuscleSeparationEnv(SeparationCore):
     .. rubric:: Episode end
 
     Termination (``task``, :class:`~envs.params.TaskParams`): success
-    (``info["success"]``: the task's fraction released with no more than its fraction torn,
-    the shank its clearing distance away); more torn than the task allows; a protective stop
-    (a tool's force sensor over its stop, ``info["protective_stop"]``); a diverged
-    simulation (``info["diverged"]``; the last finite observation is returned); the time
-    limit with ``task.cycle_time_fails`` (the default: ``info["timed_out"]``, the cell's
-    cycle time is part of the task). Truncation: the time limit with
-    ``cycle_time_fails=False``. The time limit is ``time_limit_s`` of simulated time after
-    the hand-over (default: the plan's remaining length, a slow scripted knife's cut
-    stretched by its ``knife_pace``, plus ``envs.settings.TIME_MARGIN_S``). The final info
-    holds the episode's ``knife_force_peak_n``, ``pull_force_peak_n``, ``flesh_damage_s``
-    (time the blade touched muscle with no binding under it) and ``elapsed_s``.
+    (``info["is_success"]``: the task's fraction released with no more than its fraction
+    torn, the shank its clearing distance away; ``info["success"]`` is its deprecated alias,
+    for one release); more torn than the task allows; a protective stop (a tool's force
+    sensor over its stop, ``info["protective_stop"]``); a diverged simulation
+    (``info["diverged"]``; the last finite observation is returned). Truncation: the time
+    limit, ``time_limit_s`` of simulated time after the hand-over (default: the plan's
+    remaining length, a slow scripted knife's cut stretched by its ``knife_pace``, plus
+    ``envs.settings.TIME_MARGIN_S``). With ``task.cycle_time_fails`` (the default) the
+    unfinished episode has failed the cell's cycle time there: ``info["timed_out"]`` and the
+    ``timeout`` cost; ``timeout_terminates=True`` flags that step as a termination instead
+    (the behaviour before this release, which the published evaluations and trainings used;
+    rewards and observations are the same either way). Gymnasium's ``TimeLimit`` bounds an
+    episode at :data:`envs.registration.MAX_EPISODE_STEPS` steps, beyond every default time
+    limit. The final info holds the episode's ``knife_force_peak_n``, ``pull_force_peak_n``,
+    ``flesh_damage_s`` (time the blade touched muscle with no binding under it) and
+    ``elapsed_s``.
 
     .. rubric:: Arguments
 
@@ -138,8 +143,10 @@ class MuscleSeparationEnv(SeparationCore):
     Args:
         scenario: the base cell and plan (default :func:`envs.settings.task_scenario`: the
             envs' own cut and pull at ``COARSE_CELL_SIZE_M``).
-        cell_size_m: tissue resolution, m (0.05 to train, 0.025 to evaluate); None keeps
-            the scenario's.
+        cell_size_m: tissue resolution, m; None keeps the scenario's (the default cell's
+            is :data:`envs.settings.COARSE_CELL_SIZE_M`, 0.05, on which the envs train and
+            the published evaluations ran; 0.025, the scripted episode's, is finer and
+            slower).
         perception: plan from the camera (paper Sec. 5) instead of the generator's known
             interface.
         options: variations applied at every reset (:mod:`envs.options`); a reset's own
@@ -152,6 +159,8 @@ class MuscleSeparationEnv(SeparationCore):
         limits, reward, task: action scaling, reward weights, success and stops: objects,
             or mappings of their fields over the defaults (as JSON keyword arguments give).
         time_limit_s: episode length after the hand-over, s of simulated time.
+        timeout_terminates: the time limit under ``task.cycle_time_fails`` ends the episode
+            as a termination (True, as before this release) or a truncation (False).
         driven: ``"both"``, ``"knife"`` or ``"pull"``.
         render_mode: None or ``"rgb_array"`` (the camera arm's view beside an overview).
 
@@ -160,6 +169,9 @@ class MuscleSeparationEnv(SeparationCore):
 
     .. rubric:: Version history
 
+    - v2, this release: ``info["is_success"]`` (``success`` stays one release); the time
+      limit is a truncation (``timeout_terminates=True``: a termination, as before), with
+      ``max_episode_steps`` registered; observations and rewards unchanged.
     - v2: the knife meets the material's cutting model in the seam (the scenario's
       ``aponeurosis.knife_force = "cutting"``: the seam's toughness on the length of edge in
       uncut seam, the faces' friction, slicing and rate from the material's ``[cutting]``

@@ -23,10 +23,11 @@ from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
 from envs.params import ActionLimits, RewardParams, TaskParams
 
-#: Training resolution of the tissue (m); the cell's own default, 0.025 m, is for evaluation.
+#: The envs' resolution of the tissue (m), to train and evaluate on; the scripted episode's
+#: 0.025 m is finer and slower.
 COARSE_CELL_SIZE_M = 0.05
 #: The cut every env plans (the scripted knife's, and the path a policy's knife moves along):
-#: 15 mm above the table, so that in ``Cut-v1`` the policy must take the knife down to the
+#: 15 mm above the table, so that in ``Cut`` the policy must take the knife down to the
 #: lowest bindings, which hold until the tip is within about 3 mm of the table.
 ENV_CUT = CutPlan(enabled=True, speed_m_s=0.03, depth_m=None, table_clearance_m=0.015,
                   approach_height_m=0.06, lead_in_m=0.04, lead_out_m=0.04, cut_fraction=1.0,
@@ -36,15 +37,15 @@ ENV_CUT = CutPlan(enabled=True, speed_m_s=0.03, depth_m=None, table_clearance_m=
 ENV_PULL = PullPlan(enabled=True, tilt_deg=40.0, grasp_x_fraction=0.5, grasp_inset_m=0.035,
                     grasp_depth_m=0.03, grasp_radius_m=0.03, direction=(0.0, 1.0, 0.6),
                     tension_m=0.006, distance_m=0.16, speed_m_s=0.04, start_delay_s=1.0)
-#: ``Cut-v1``'s task: the knife must do the separating, so at most a quarter may tear (the
+#: ``Cut``'s task: the knife must do the separating, so at most a quarter may tear (the
 #: planned cut's clearance above the table leaves the lowest bindings to the pull's tearing);
 #: the scripted pull takes the shank away, so the knife's task ends when the bindings are
 #: released.
 CUT_TASK = TaskParams(max_torn_fraction=0.25, clear_distance_m=0.0)
-#: ``Pull-v1``'s task: the scripted knife cuts down to the table, so what tears beyond its own
+#: ``Pull``'s task: the scripted knife cuts down to the table, so what tears beyond its own
 #: few is the pull's doing: at most a quarter, and the shank taken 5 cm away.
 PULL_TASK = TaskParams(max_torn_fraction=0.25, clear_distance_m=0.05)
-#: ``Pull-v1``'s planned cut runs this far above the table (m), under the reset's options.
+#: ``Pull``'s planned cut runs this far above the table (m), under the reset's options.
 PULL_KNIFE_CLEARANCE_M = 0.002
 #: Simulated time past the scripted plan's end the default time limit allows, s.
 TIME_MARGIN_S = 2.0

@@ -1,9 +1,9 @@
-"""Learn the knife on ``musclecell/Cut-v1`` with no deep-learning dependency: cross-entropy
+"""Learn the knife on ``musclecell/Cut-v2`` with no deep-learning dependency: cross-entropy
 search over a linear policy. Prints the population's mean return per iteration.
 
     python scenarios/learn_cut.py --iterations 8 --population 8 --json out/learn_cut.json
 
-With PPO instead (the ``learn`` extra): ``musclecell learn Cut-v1 --steps 50000 --out
+With PPO instead (the ``learn`` extra): ``musclecell learn Cut-v2 --steps 50000 --out
 out/cut`` (docs/learning.md).
 """
 

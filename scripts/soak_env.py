@@ -1,4 +1,4 @@
-"""Soak test of ``musclecell/Cut-v1``: does one process's memory stay flat over many episodes?
+"""Soak test of ``musclecell/Cut-v2``: does one process's memory stay flat over many episodes?
 
 Each iteration resets the coarse env with seed ``i`` (a freshly built cell in a drawn world)
 and takes a few random steps; the resident set size (RSS, from ``/proc/self/statm``) is read
@@ -37,8 +37,8 @@ def rss_mib() -> float:
 
 
 def soak(resets: int, steps_per_reset: int, warmup: int) -> dict[str, object]:
-    """Reset and step the coarse Cut-v1 ``resets`` times; returns the report."""
-    env = gym.make("musclecell/Cut-v1")
+    """Reset and step the coarse Cut-v2 ``resets`` times; returns the report."""
+    env = gym.make("musclecell/Cut-v2")
     env.action_space.seed(0)
     rss = []
     start = time.perf_counter()
@@ -56,7 +56,7 @@ def soak(resets: int, steps_per_reset: int, warmup: int) -> dict[str, object]:
     env.close()
     at_warmup, at_end = rss[warmup - 1], rss[-1]
     growth = 100.0 * (at_end - at_warmup) / at_warmup
-    return {"env": "musclecell/Cut-v1", "resets": resets, "steps_per_reset": steps_per_reset,
+    return {"env": "musclecell/Cut-v2", "resets": resets, "steps_per_reset": steps_per_reset,
             "warmup_resets": warmup, "rss_at_warmup_mib": at_warmup, "rss_at_end_mib": at_end,
             "growth_percent": growth, "max_growth_percent": MAX_GROWTH_PERCENT,
             "pass": growth < MAX_GROWTH_PERCENT, "wall_time_s": wall_s,

@@ -21,7 +21,7 @@ class CutEnvironmentConforms(test_utils.EnvironmentTestMixin, absltest.TestCase)
     """dm_env's contract: specs, FIRST / MID / LAST, a reset after the last step."""
 
     def make_object_under_test(self) -> dm_env.Environment:
-        return make("Cut-v1", seed=11, **QUICK)
+        return make("Cut-v2", seed=11, **QUICK)
 
     def make_action_sequence(self):
         # The fifth step ends an episode, the sixth starts the next.
@@ -30,8 +30,8 @@ class CutEnvironmentConforms(test_utils.EnvironmentTestMixin, absltest.TestCase)
 
 
 def test_the_dm_env_steps_as_the_gymnasium_env_for_the_same_seed_and_actions() -> None:
-    # The time limit as a truncation (not the cell's cycle time), whose discount is 1.
-    kwargs = {"cell_size_m": 0.05, "time_limit_s": 0.2, "task": {"cycle_time_fails": False}}
+    # The time limit is a truncation, whose discount is 1.
+    kwargs = {"cell_size_m": 0.05, "time_limit_s": 0.2}
     gym_env = CutEnv(**kwargs)
     dm = make("Cut-v2", seed=12, **kwargs)
     actions = np.random.default_rng(13).uniform(-1.0, 1.0, (10, 4)).astype(np.float32)
@@ -61,11 +61,19 @@ def test_the_dm_env_steps_as_the_gymnasium_env_for_the_same_seed_and_actions() -
 
 
 def test_specs_match_the_gymnasium_spaces() -> None:
-    env = make("MuscleSeparation-v1", cell_size_m=0.05)
+    env = make("MuscleSeparation-v2", cell_size_m=0.05)
     box = env.gym_env.observation_space
     assert env.action_spec().shape == (7,)
     assert env.observation_spec().shape == box.shape
     np.testing.assert_array_equal(env.observation_spec().maximum, box.high)
+
+
+def test_steer_is_a_task_with_its_own_observation() -> None:
+    env = make("Steer-v2", seed=0, **QUICK)
+    assert env.observation_spec().shape == (41,)
+    assert env.reset().observation.shape == (41,)
+    step = env.step(np.zeros(4, np.float32))
+    assert step.mid() and step.observation.shape == (41,)
 
 
 def test_an_unknown_task_is_named() -> None:

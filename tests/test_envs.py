@@ -18,10 +18,8 @@ from envs.observation import Reading
 from envs.policies import HoldThenPullAway, TableSkimmingKnife
 from envs.reward import reward_terms
 
-IDS = ("musclecell/MuscleSeparation-v1", "musclecell/Cut-v1", "musclecell/Pull-v1")
 
-
-# Cut-v1's check: tests/test_randomization.py (with its drawn worlds).
+# Cut's check: tests/test_randomization.py (with its drawn worlds).
 @pytest.mark.parametrize("env_class", [MuscleSeparationEnv, PullEnv])
 def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
     env = env_class(time_limit_s=1.0)
@@ -30,8 +28,8 @@ def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
 
 
 def test_make_after_import_and_render() -> None:
-    assert all(env_id in gym.registry for env_id in IDS)
-    env = gym.make("musclecell/Cut-v1", render_mode="rgb_array", time_limit_s=0.5)
+    assert all(env_id in gym.registry for env_id in envs.CURRENT_IDS)
+    env = gym.make("musclecell/Cut-v2", render_mode="rgb_array", time_limit_s=0.5)
     env.reset(seed=1)
     frame = env.render()
     assert frame.shape == (240, 640, 3) and frame.dtype == np.uint8 and frame.any()
@@ -141,10 +139,9 @@ def test_bad_option_values_are_refused_with_the_key() -> None:
 
 
 def test_a_pull_must_take_the_shank_clear() -> None:
-    # Pull-v1's knife cuts down to the table: the bindings it releases are not the task.
-    terminated, _, still = _run(PullEnv(randomize=False), lambda _obs: np.zeros(
-        3, np.float32))
-    assert terminated and still["timed_out"] and not still["success"]
+    # Pull's knife cuts down to the table: the bindings it releases are not the task.
+    _, truncated, still = _run(PullEnv(randomize=False), lambda _obs: np.zeros(3, np.float32))
+    assert truncated and still["timed_out"] and not still["is_success"]
     assert still["released_fraction"] >= envs.PULL_TASK.separated_fraction
 
 
@@ -157,16 +154,40 @@ def test_divergence_ends_the_episode_with_a_finite_observation() -> None:
     assert np.isfinite(obs).all() and np.isfinite(reward)
 
 
-def test_an_unfinished_cut_fails_at_the_cycle_time_unless_the_limit_is_a_truncation() -> None:
+def test_an_unfinished_cut_is_truncated_at_the_time_limit_and_fails_the_cycle_time() -> None:
     still = np.zeros(4, np.float32)
-    for fails in (True, False):
-        env = CutEnv(time_limit_s=0.1, task={"cycle_time_fails": fails})
+    ends, rewards = {}, {}
+    for fails, terminates in ((True, False), (True, True), (False, False)):
+        env = CutEnv(time_limit_s=0.1, task={"cycle_time_fails": fails},
+                     timeout_terminates=terminates)
         env.reset(seed=0)
-        for _ in range(5):
-            _, _, terminated, truncated, info = env.step(still)
-        assert (terminated, truncated, info["timed_out"]) == (fails, not fails, fails)
-        assert not info["success"]
-        assert ("timeout" in info["reward_terms"]) == fails
+        steps = [env.step(still) for _ in range(5)]  # 0.1 s of 20 ms control steps
+        _, _, terminated, truncated, info = steps[-1]
+        ends[fails, terminates] = (terminated, truncated, info["timed_out"],
+                                   "timeout" in info["reward_terms"])
+        rewards[fails, terminates] = [reward for _, reward, *_ in steps]
+        assert not info["is_success"] and not info["success"]
+    assert ends[True, False] == (False, True, True, True)  # the default
+    assert ends[True, True] == (True, False, True, True)  # as before: the same reward
+    assert rewards[True, True] == rewards[True, False]
+    assert ends[False, False] == (False, True, False, False)
+
+
+def test_gymnasium_bounds_an_episode_beyond_the_longest_default_time_limit() -> None:
+    env = gym.make("musclecell/Pull-v2")
+    assert env.spec.max_episode_steps == envs.registration.MAX_EPISODE_STEPS
+    # The longest default limit: the slowest scripted knife on the longest, slowest-cut meat.
+    bounds = dict((key, dist.bounds) for key, dist in env.unwrapped.randomization.entries)
+    env.reset(seed=0, options={"randomize": False, "knife_pace": bounds["knife_pace"][0],
+                               "cut_speed_m_s": bounds["cut_speed_m_s"][0],
+                               "tissue": {"length_m": bounds["tissue.length_m"][1]}})
+    inner = env.unwrapped
+    assert inner._limit_s / inner._dt_s < envs.registration.MAX_EPISODE_STEPS
+
+
+def test_a_time_limit_flag_that_is_not_a_flag_is_refused() -> None:
+    with pytest.raises(InputError, match="timeout_terminates: expected true or false"):
+        CutEnv(timeout_terminates="yes")
 
 
 def _run(env: MuscleSeparationEnv, policy: str | Callable[[np.ndarray], np.ndarray]

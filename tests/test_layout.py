@@ -92,4 +92,4 @@ def test_the_distribution_lists_every_package() -> None:
     on_disk = {".".join(p.parent.relative_to(PROJECT_ROOT).parts)
                for top in ("cell", "controllers", "envs")
                for p in (PROJECT_ROOT / top).rglob("__init__.py")}
-    assert on_disk | {"cell.assets"} == listed
+    assert on_disk | {"cell.assets", "cell.scenarios"} == listed

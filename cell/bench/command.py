@@ -14,10 +14,11 @@ from typing import Any
 
 from cell.errors import InputError
 from cell.outputs import Output, check_outputs
+from cell.sim.examples import SCENARIOS
 
 #: The scenario of the cell and perception suites when ``--scenario`` is not given: the
-#: project's default scenario, found next to the package wherever the command runs from.
-DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "default.toml"
+#: package's default scenario (``scenarios/default.toml`` of a checkout).
+DEFAULT_SCENARIO = SCENARIOS / "default.toml"
 #: Where each suite writes its JSON when ``--json`` is not given.
 DEFAULT_JSON = {"cell": "out/bench.json", "tissue": "out/bench_tissue.json",
                 "perception": "out/bench_perception.json", "env": "out/bench_env.json",
@@ -35,7 +36,7 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
                        "diagnosis on unseen hidden-effect measurement sets")
     bench.add_argument("--scenario", type=Path,
                        help="scenario of the cell and perception suites (default: the "
-                       "project's scenarios/default.toml)")
+                       "package's default scenario, `musclecell scenarios copy default`)")
     bench.add_argument("--json", type=Path,
                        help="JSON out (default out/bench.json, tissue: out/bench_tissue.json, "
                        "perception: out/bench_perception.json, env: out/bench_env.json, "

@@ -40,6 +40,7 @@ from cell.bench.diagnose import (
     fraction,
     time_summary,
 )
+from cell.sim.examples import SCENARIOS
 
 if TYPE_CHECKING:
     from cell.sim.logreplays import ReplayPool
@@ -58,7 +59,7 @@ TUNING_SEEDS = range(78_000, 79_000)
 #: Batches with no hidden cause after each pass through the table.
 NONES_PER_CYCLE = 3
 #: The base scenario of every batch.
-BASE_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "quick.toml"
+BASE_SCENARIO = SCENARIOS / "quick.toml"
 #: Where the ``--quick`` form ends every episode, s (the cut is half done, the pull under way).
 QUICK_END_S = 8.0
 TARGET_CORRECT: dict[str, float] = {"single": 0.8, "pairs": 0.6}

@@ -19,8 +19,9 @@ from typing import Any
 
 from cell.scale.pool import RunPool, Workers
 from cell.scale.sweep import SweepOutcome, run_sweep
+from cell.sim.examples import SCENARIOS
 
-EXAMPLE_SWEEP = Path("scenarios/sweeps/binding_strength.toml")
+EXAMPLE_SWEEP = SCENARIOS / "sweeps" / "binding_strength.toml"
 #: Issue 15's targets: two workers at least this much faster than one; Ray's own cost per
 #: run below this, s.
 TARGET_SPEEDUP = 1.7

@@ -32,6 +32,7 @@ from cell.rheology.command import add_diagnose
 from cell.robotlog.command import add_import
 from cell.scale.command import add_batch, add_log_cluster, add_sweep
 from cell.sim.command import add_simulation
+from cell.sim.examples import add_scenarios
 from cell.sim.logcommand import add_log_diagnosis
 
 #: Exit codes (module docstring).
@@ -48,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "failed rows, 130/143 stopped by SIGINT/SIGTERM")
     commands = parser.add_subparsers(dest="command", required=True)
     add_simulation(commands)
+    add_scenarios(commands)
     add_log_cluster(add_log_diagnosis(commands))
     add_batch(add_diagnose(commands))
     add_import(commands)

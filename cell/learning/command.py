@@ -20,7 +20,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
 
     learn = commands.add_parser(
         "learn", help="train a PPO policy on an env (needs the learn extra)")
-    learn.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v1 (or Cut-v1)")
+    learn.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v2 (or Cut-v2)")
     learn.add_argument("--algo", choices=("ppo",), default="ppo", help="algorithm (ppo)")
     learn.add_argument("--steps", type=int, required=True,
                        help="env steps of the whole run, those before a --resume included")

@@ -190,7 +190,7 @@ def play_episode(task: DaggerEpisode) -> dict[str, Any]:
     tip = info.get("tip_distance_mean_m")
     return {"seed": task.seed, "observations": np.array(observations, np.float32),
             "labels": np.array(labels, np.float32), "return": total,
-            "success": bool(info["success"]), "torn_fraction": float(info["torn_fraction"]),
+            "success": bool(info["is_success"]), "torn_fraction": float(info["torn_fraction"]),
             "tip_mean_mm": None if tip is None else 1e3 * float(tip)}
 
 

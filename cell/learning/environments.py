@@ -15,7 +15,7 @@ from cell.learning.segments import SegmentWorker
 if TYPE_CHECKING:
     from stable_baselines3.common.vec_env import VecEnv
 
-#: Namespace of the project's envs: ``Cut-v1`` stands for ``musclecell/Cut-v1``.
+#: Namespace of the project's envs: ``Cut-v2`` stands for ``musclecell/Cut-v2``.
 NAMESPACE = "musclecell"
 #: Start method of the training env processes: a fresh interpreter, not a fork of one that
 #: has MuJoCo, numba's threads or torch's open.
@@ -27,8 +27,8 @@ def resolve_env_id(name: str) -> str:
     namespace).
 
     Example:
-        >>> resolve_env_id("Cut-v1")
-        'musclecell/Cut-v1'
+        >>> resolve_env_id("Cut-v2")
+        'musclecell/Cut-v2'
     """
     envs.register_envs()
     for candidate in (name, f"{NAMESPACE}/{name}"):
@@ -43,7 +43,7 @@ def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
     :class:`LearningError`.
 
     Example:
-        >>> make_env("musclecell/Cut-v1", {"time_limit_s": 0.4}).action_space.shape
+        >>> make_env("musclecell/Cut-v2", {"time_limit_s": 0.4}).action_space.shape
         (4,)
     """
     envs.register_envs()  # in a fresh env process too

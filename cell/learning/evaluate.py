@@ -47,7 +47,8 @@ from cell.learning.table import SCORED_COLUMNS, markdown, summarize
 from cell.outputs import json_text, rows_text, write_together
 from envs.policies import demonstrators_for, episode_return
 
-#: Keys of the final step's info that each episode's row keeps.
+#: Keys of the final step's info that each episode's row keeps, by column (``success`` is
+#: the info's ``is_success``).
 INFO_COLUMNS = ("success", "released_fraction", "torn_fraction", "knife_force_peak_n",
                 "flesh_damage_s", "elapsed_s", "diverged", "protective_stop")
 #: Columns of the episodes CSV (a scored column blank for an env without it, or an
@@ -145,7 +146,7 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
     total, info = episode_return(env, make_policy(task.policy, env, task.seed), task.seed)
     row = {"policy": task.policy.name, "seed": task.seed, "return": total}
     for key in INFO_COLUMNS:
-        value = info[key]
+        value = info["is_success" if key == "success" else key]
         row[key] = bool(value) if isinstance(value, bool | np.bool_) else float(value)
     if "tip_distance_mean_m" in info:
         tip = info["tip_distance_mean_m"]

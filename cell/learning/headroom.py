@@ -24,8 +24,8 @@ from cell.learning.paired import paired_mean_difference, paired_success_differen
 from cell.learning.table import mean_interval, wilson
 from envs.policies import SteeringKnife, TableSkimmingKnife, true_interface_policy
 
-#: The env the baselines play (``Steer-v1``'s worlds and rollouts; a learned policy plays the
-#: version it was trained on).
+#: The env the baselines play (every ``Steer`` version's worlds and rollouts are the same; a
+#: learned policy plays the version it was trained on).
 ENV_ID = "musclecell/Steer-v2"
 #: First seed of the episodes that tune the steering rule.
 RULE_TUNING_SEED_START = 300_000
@@ -87,7 +87,7 @@ def play(task: SteerEpisode) -> dict[str, Any]:
     env.close()
     return {"policy": task.policy, "rule": dict(task.rule), "seed": task.seed,
             "tip_mean_mm": _mm(info["tip_distance_mean_m"]),
-            "tip_max_mm": _mm(info["tip_distance_max_m"]), "success": bool(info["success"]),
+            "tip_max_mm": _mm(info["tip_distance_max_m"]), "success": bool(info["is_success"]),
             "torn_fraction": float(info["torn_fraction"]),
             "released_fraction": float(info["released_fraction"]),
             "elapsed_s": float(info["elapsed_s"]), "path_error": info["path_error"]}

@@ -146,7 +146,7 @@ class LearnSettings:
     """What a training run trains on and for how long.
 
     Attributes:
-        env_id: a registered Gymnasium id (``musclecell/Cut-v1``).
+        env_id: a registered Gymnasium id (``musclecell/Cut-v2``).
         env_kwargs: keyword arguments of ``gymnasium.make`` (JSON values).
         seed: env ``i`` of ``envs`` is reset with seed ``seed + i`` first, then draws its
             next worlds from its own generator; PPO's networks and sampling use ``seed`` too.
@@ -159,7 +159,7 @@ class LearnSettings:
             ``minutes``.
 
     Example:
-        >>> LearnSettings("musclecell/Cut-v1", {}, seed=0, envs=2, steps=1000).seed
+        >>> LearnSettings("musclecell/Cut-v2", {}, seed=0, envs=2, steps=1000).seed
         0
     """
 

@@ -64,7 +64,7 @@ class EpisodeLog:
         """Log the episode that ended with ``info`` (the final step's, with ``VecMonitor``'s
         ``episode`` entry) at ``steps`` env steps of the run."""
         self.rows.append({"steps": steps, "return": info["episode"]["r"],
-                          "length": info["episode"]["l"], "success": int(info["success"]),
+                          "length": info["episode"]["l"], "success": int(info["is_success"]),
                           "released_fraction": info["released_fraction"],
                           "torn_fraction": info["torn_fraction"]})
 

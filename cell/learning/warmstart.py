@@ -78,7 +78,7 @@ def play(normalize: VecNormalize, warm: WarmStart, gamma: float, actor: Actor | 
             running[i].append((observations[i], labels[i], float(rewards[i])))
             if dones[i]:
                 finished.append(running[i])
-                succeeded.append(bool(infos[i].get("success", False)))
+                succeeded.append(bool(infos[i].get("is_success", False)))
                 running[i] = []
     finished = finished[:warm.episodes]
     returns = [_discounted(normalize.normalize_reward(np.array([r for *_, r in episode])),

@@ -82,7 +82,7 @@ class PolicyTarget:
     ``name`` and, for a learned one, its ``folder`` (relative to the sweep file).
 
     Example:
-        >>> PolicyTarget("musclecell/Cut-v1", "learned")
+        >>> PolicyTarget("musclecell/Cut-v2", "learned")
         Traceback (most recent call last):
         cell.errors.InputError: folder: a learned policy needs its folder
     """
