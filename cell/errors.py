@@ -186,8 +186,7 @@ class LogBatchError(LogError):
 
 
 class RobotLogError(InputError):
-    """A robot's log (a folder of ``rostopic echo -p`` dumps, a ROS 1 or ROS 2 bag, an MCAP
-    file) that cannot be imported as its mapping file says: ``field`` names the topic.
+    """A robot's log that cannot be imported as its mapping says; ``field`` names the topic.
 
     Example:
         >>> raise RobotLogError("trial.bag", "/ft/wrench", "no field wrench.force.x")
@@ -197,17 +196,15 @@ class RobotLogError(InputError):
 
 
 class MissingTopicError(RobotLogError):
-    """A topic the mapping names that the log does not hold; the message lists those it does."""
+    """A topic the mapping names that the log lacks (the message lists those it has)."""
 
 
 class FrameError(RobotLogError):
-    """A topic whose messages name another frame (``header.frame_id``) than the mapping gives
-    it, or a wrench in a frame of its own without the rotation into the cut's frame."""
+    """A topic in another frame than the mapping gives it, or a wrench without its rotation."""
 
 
 class NoContactError(RobotLogError):
-    """A log in which the blade never meets the block: the force never rises past the
-    mapping's contact threshold, or the edge never reaches the given top face."""
+    """A log in which the blade never meets the block."""
 
 
 class MappingError(InputError):
@@ -357,26 +354,19 @@ class NotFiniteResultError(DivergenceError):
 
 
 class FailedRowsError(MusclecellError):
-    """A sweep or a batch ran to its end, its table and summary written whole, with rows
-    whose status is ``failed``: the command exits with its own code (4) so that a script
-    sees it.
-
-    Attributes:
-        folder: the results folder, whose rows and summary say why each one failed.
-        failed: how many rows failed, of ``rows``.
-        what: what a row is (``runs``, ``sets``).
+    """A sweep or a batch ran to its end, its table and summary written whole, with
+    ``failed`` of its ``rows`` (``what``: ``runs``, ``sets``) failed; the command exits 4.
 
     Example:
         >>> raise FailedRowsError("out/diagnoses", 1, 3, "sets")
         Traceback (most recent call last):
-        cell.errors.FailedRowsError: out/diagnoses: 1 of 3 sets failed; their rows in the
-        table and summary.md say why
+        cell.errors.FailedRowsError: out/diagnoses: 1 of 3 sets failed; their rows ... say why
     """
 
     def __init__(self, folder: str | Path, failed: int, rows: int, what: str) -> None:
         self.folder, self.failed, self.rows, self.what = str(folder), failed, rows, what
-        super().__init__(f"{folder}: {failed} of {rows} {what} failed; their rows in the "
-                         "table and summary.md say why")
+        super().__init__(f"{folder}: {failed} of {rows} {what} failed; their rows in the table "
+                         "and summary.md say why")
 
     def __reduce__(self) -> tuple:
         return type(self), (self.folder, self.failed, self.rows, self.what)
