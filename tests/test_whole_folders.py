@@ -81,7 +81,7 @@ def _diagnose(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> li
     monkeypatch.setattr("cell.tissue.materialfile.material_to_toml",
                         lambda material, comment: "# material\n")
     monkeypatch.setattr("cell.rheology.cutreport.write_set_report", writer)
-    return ["diagnose", str(EXAMPLE_SET), "--json", "d.json", "--report", "out"]
+    return ["diagnose", str(EXAMPLE_SET), "--out", "d.json", "--report", "out"]
 
 
 def _diagnose_logs(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list[str]:
@@ -171,14 +171,14 @@ def test_a_finished_folder_replaces_the_one_there_whole(
 
 
 @pytest.mark.parametrize(("argv", "named"), [
-    (["diagnose", str(EXAMPLE_SET), "--json", "d.json", "--report", "."],
+    (["diagnose", str(EXAMPLE_SET), "--out", "d.json", "--report", "."],
      "the working folder"),
-    (["diagnose", str(EXAMPLE_SET), "--json", "out/d.json", "--report", "out"],
-     "the output of --json"),
-    (["diagnose", "sets/one", "--json", "d.json", "--report", "sets"], "the input"),
+    (["diagnose", str(EXAMPLE_SET), "--out", "out/d.json", "--report", "out"],
+     "the output of --out"),
+    (["diagnose", "sets/one", "--out", "d.json", "--report", "sets"], "the input"),
     (["run", "logs/s.toml", "--log", "logs", "--quiet"], "the input"),
-    (["run", "s.toml", "--log", "out", "--summary", "out/s.json", "--quiet"],
-     "the output of --summary"),
+    (["run", "s.toml", "--log", "out", "--out", "out/s.json", "--quiet"],
+     "the output of --out"),
     (["replay", "logs/a", "--out", "logs"], "the input"),
     (["diagnose-logs", "a", "b", "--out", "..", "--no-plots"], "the working folder"),
 ])

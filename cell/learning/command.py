@@ -11,12 +11,13 @@ import os
 from pathlib import Path
 
 from cell.errors import LearningError
+from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
 
 
 def add_learning(commands: argparse._SubParsersAction) -> None:
     """The ``learn`` and ``evaluate`` subcommands."""
-    from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
+    from cell.learning.hyper import CONSTANT_LEVELS, EVAL_SEED_START, TUNING_SEED_START
 
     learn = commands.add_parser(
         "learn", help="train a PPO policy on an env (needs the learn extra)")
@@ -24,7 +25,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
     learn.add_argument("--algo", choices=("ppo",), default="ppo", help="algorithm (ppo)")
     learn.add_argument("--steps", type=int, required=True,
                        help="env steps of the whole run, those before a --resume included")
-    learn.add_argument("--out", type=Path, required=True, help="folder of the run")
+    add_out(learn, "folder of the run", required=True, folder=True)
     learn.add_argument("--seed", type=int, default=0,
                        help=f"env i starts at seed SEED + i (training seeds < "
                        f"{EVAL_SEED_START}); default 0")
@@ -60,11 +61,12 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
     evaluation.add_argument("--episodes", type=int, default=50, help="per policy (default 50)")
     evaluation.add_argument("--seed-start", type=int, default=EVAL_SEED_START,
                             help=f"first evaluation seed (default {EVAL_SEED_START})")
-    evaluation.add_argument("--out", type=Path,
-                            help="folder of evaluation.json, evaluation.md and episodes.csv "
-                            "(default: POLICY's folder/evaluation; needed without POLICY)")
-    evaluation.add_argument("--json", type=Path, help="the report JSON here instead")
-    evaluation.add_argument("--markdown", type=Path, help="the Markdown table here instead")
+    add_out(evaluation, "folder of evaluation.json, evaluation.md and episodes.csv (default: "
+            "POLICY's folder/evaluation; needed without POLICY)", folder=True)
+    evaluation.add_argument("--json", type=Path,
+                            help="the report JSON here instead of in --out's folder")
+    evaluation.add_argument("--markdown", type=Path,
+                            help="the Markdown table here instead of in --out's folder")
     evaluation.add_argument("--workers", type=int, help="processes (default: one per core)")
     evaluation.add_argument("--env-kwargs", help="JSON keyword arguments of the env")
     evaluation.add_argument("--constant-search-seeds", type=int, default=10,
@@ -72,7 +74,10 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
                             f"{TUNING_SEED_START} on (default 10)")
     evaluation.add_argument("--constant-actions",
                             help="JSON list of the constant actions to choose from (default: "
-                            "zero and each axis alone at +-0.5 and +-1)")
+                            "zero and each axis alone at plus and minus "
+                            f"{', '.join(f'{v:g}' for v in CONSTANT_LEVELS)}; then the best "
+                            "of them with a second axis at those levels)")
+    add_quiet(evaluation)
     evaluation.set_defaults(handler=evaluate_command)
 
     convert = commands.add_parser(
@@ -153,8 +158,12 @@ def evaluate_command(args: argparse.Namespace) -> int:
     check_outputs([Output(json_path, "--json" if args.json else "--out"),
                    Output(markdown_path, "--markdown" if args.markdown else "--out"),
                    Output(csv_path, "--out")], [] if args.policy is None else [args.policy])
-    report = evaluate(folder, resolve_env_id(args.env),
-                      parse_json_object(args.env_kwargs, "--env-kwargs"), settings)
+    from cell.progress import progress_bar
+
+    with progress_bar("episode", quiet=args.quiet, desc="evaluate") as bar:
+        report = evaluate(folder, resolve_env_id(args.env),
+                          parse_json_object(args.env_kwargs, "--env-kwargs"), settings,
+                          bar.update)
     write_report(report, json_path, markdown_path, csv_path)
     print(report_markdown(report), end="")
     print(f"wrote {json_path}, {markdown_path} and {csv_path}")
