@@ -77,7 +77,7 @@ class FakeSetDiagnosis:
 
 def _diagnose(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list[str]:
     monkeypatch.setattr("cell.rheology.cutdiagnosis.diagnose_set",
-                        lambda measurements, params: FakeSetDiagnosis())
+                        lambda measurements, params, on_fit: FakeSetDiagnosis())
     monkeypatch.setattr("cell.tissue.materialfile.material_to_toml",
                         lambda material, comment: "# material\n")
     monkeypatch.setattr("cell.rheology.cutreport.write_set_report", writer)
@@ -102,7 +102,7 @@ def _replay(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list
     monkeypatch.setattr("cell.sim.logbatch.read_log_batch",
                         lambda paths: SimpleNamespace(logs=logs))
     monkeypatch.setattr("cell.sim.replay.replay",
-                        lambda log: SimpleNamespace(summary=lambda: summary))
+                        lambda log, progress: SimpleNamespace(summary=lambda: summary))
     monkeypatch.setattr("cell.sim.replay.write_replay", writer)
     return ["replay", "log-a", "log-b", "--out", "out"]
 
