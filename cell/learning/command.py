@@ -8,11 +8,16 @@ from __future__ import annotations
 
 import argparse
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from cell.errors import LearningError
 from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
+
+if TYPE_CHECKING:
+    from cell.learning.ppo import LearnResult
 
 
 def add_learning(commands: argparse._SubParsersAction) -> None:
@@ -47,6 +52,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
     learn.add_argument("--warm-start-anchor", type=int, default=0, metavar="EPOCHS",
                        help="after each PPO update, passes of the cloning loss over its "
                        "rollout, holding PPO near the demonstrator (default 0: none)")
+    add_quiet(learn)
     learn.set_defaults(handler=learn_command)
 
     evaluation = commands.add_parser(
@@ -103,31 +109,40 @@ def learn_command(args: argparse.Namespace) -> int:
     """``musclecell learn``: a new run in ``--out``, or ``--resume`` of the run there."""
     check_outputs([Output(args.out, "--out", folder=True)])
     _require_learn_extra()
-    from cell.learning import ppo
     from cell.learning.environments import resolve_env_id
-    from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, parse_json_object
+    from cell.progress import progress_bar
 
     env_id = resolve_env_id(args.env)
     envs = args.envs if args.envs is not None else os.cpu_count() or 1
+    with progress_bar("step", quiet=args.quiet, total=None if args.resume else args.steps,
+                      desc="learn") as bar:
+        result = _train(args, env_id, envs, bar.update)
+    print(f"trained {result.steps} env steps in {result.wall_s:.1f} s (stopped by "
+          f"{result.stopped_by}); wrote {result.out}")
+    return 0
+
+
+def _train(args: argparse.Namespace, env_id: str, envs: int,
+           on_steps: Callable[[int], object]) -> LearnResult:
+    """A new run, or ``--resume`` of the one in ``--out``: its options checked, trained."""
+    from cell.learning import ppo
+    from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, parse_json_object
+
     if args.resume:
         if args.env_kwargs is not None or args.hyper is not None or args.warm_start:
             raise LearningError(None, "--resume", "continues the run as it was set: drop "
                                 "--env-kwargs, --hyper and --warm-start")
-        result = ppo.resume(args.out, env_id, args.steps, envs, args.minutes,
-                            args.checkpoint_every)
-    else:
-        if args.warm_start_anchor and not args.warm_start:
-            raise LearningError(None, "--warm-start-anchor", "needs --warm-start")
-        warm = (WarmStart(args.warm_start, episodes=args.warm_start_episodes,
-                          anchor_epochs=args.warm_start_anchor) if args.warm_start else None)
-        settings = LearnSettings(env_id, parse_json_object(args.env_kwargs, "--env-kwargs"),
-                                 args.seed, envs, args.steps, args.minutes,
-                                 args.checkpoint_every, warm)
-        hyper = PPOHyper().with_overrides(parse_json_object(args.hyper, "--hyper"))
-        result = ppo.learn(settings, hyper, args.out)
-    print(f"trained {result.steps} env steps in {result.wall_s:.1f} s (stopped by "
-          f"{result.stopped_by}); wrote {result.out}")
-    return 0
+        return ppo.resume(args.out, env_id, args.steps, envs, args.minutes,
+                          args.checkpoint_every, on_steps)
+    if args.warm_start_anchor and not args.warm_start:
+        raise LearningError(None, "--warm-start-anchor", "needs --warm-start")
+    warm = (WarmStart(args.warm_start, episodes=args.warm_start_episodes,
+                      anchor_epochs=args.warm_start_anchor) if args.warm_start else None)
+    settings = LearnSettings(env_id, parse_json_object(args.env_kwargs, "--env-kwargs"),
+                             args.seed, envs, args.steps, args.minutes,
+                             args.checkpoint_every, warm)
+    hyper = PPOHyper().with_overrides(parse_json_object(args.hyper, "--hyper"))
+    return ppo.learn(settings, hyper, args.out, on_steps)
 
 
 def evaluate_command(args: argparse.Namespace) -> int:
