@@ -45,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      description=__doc__.split("\n\n")[0].replace("``", ""),
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog="exit codes: 0 done, 1 an unnamed error (a bug; "
-                                     "traceback), 2 bad input or output (nothing written), "
+                                     "traceback), 2 bad input or output (nothing written),\n"
                                      "3 diverged, 130/143/129 stopped by SIGINT/SIGTERM/SIGHUP "
                                      "(docs/cli.md)")
     parser.add_argument("--version", action="version", version=f"musclecell {_version()}")
