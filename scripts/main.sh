@@ -4,5 +4,5 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/setup.sh
-musclecell run scenarios/default.toml --rerun out/default.rrd --summary out/default-summary.json "$@"
+musclecell run scenarios/default.toml --rerun out/default.rrd --out out/default-summary.json "$@"
 rerun rrd verify out/default.rrd

@@ -5,4 +5,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/setup.sh
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
-musclecell render scenarios/default.toml --png docs/images/cell.png --width 1280 --height 720 "$@"
+musclecell render scenarios/default.toml --out docs/images/cell.png --width 1280 --height 720 "$@"

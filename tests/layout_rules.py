@@ -15,7 +15,7 @@ from pathlib import Path
 #: The project's packages that the rules know, bottom layer first.
 BASE = ("cell.errors", "cell.io", "cell.folders", "cell.outputs", "cell.config",
         "cell.collision", "cell.polyline", "cell.memory", "cell.assets", "cell.scenarios",
-        "cell.extras")
+        "cell.extras", "cell.options", "cell.progress")
 ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.robots": BASE,
     "cell.tissue": BASE,

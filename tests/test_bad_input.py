@@ -36,20 +36,21 @@ def cwd(tmp_path: Path) -> Path:
 
 def test_a_binary_scenario(cwd: Path) -> None:
     (cwd / "junk.toml").write_bytes(SCENARIO_THEN_JUNK)
-    refused(cwd, "plan", "junk.toml", "--json", "out/plan.json",
+    refused(cwd, "plan", "junk.toml", "--out", "out/plan.json",
             words=("junk.toml", "not UTF-8 text"))
 
 
 def test_a_folder_as_scenario(cwd: Path) -> None:
     (cwd / "scenario.toml").mkdir()
-    refused(cwd, "run", "scenario.toml", "--summary", "out/summary.json",
+    refused(cwd, "run", "scenario.toml", "--out", "out/summary.json",
             words=("scenario.toml", "a folder, not a file"))
 
 
 def test_a_binary_material_file(cwd: Path) -> None:
     (cwd / "meat.toml").write_bytes(JUNK)
     (cwd / "s.toml").write_text('[material]\nfile = "meat.toml"\n')
-    refused(cwd, "export-mjcf", "s.toml", "out/scene.xml", words=("meat.toml", "not UTF-8"))
+    refused(cwd, "export-mjcf", "s.toml", "--out", "out/scene.xml",
+            words=("meat.toml", "not UTF-8"))
 
 
 def test_a_binary_sweep_file(cwd: Path) -> None:
@@ -60,18 +61,18 @@ def test_a_binary_sweep_file(cwd: Path) -> None:
 
 def test_a_binary_specimen_file(cwd: Path) -> None:
     (cwd / "set" / "specimen.toml").write_bytes(JUNK)
-    refused(cwd, "diagnose", "set", "--json", "out/d.json", words=("specimen.toml", "not UTF-8"))
+    refused(cwd, "diagnose", "set", "--out", "out/d.json", words=("specimen.toml", "not UTF-8"))
 
 
 def test_a_folder_as_tests_file(cwd: Path) -> None:
     (cwd / "set" / "tests.csv").unlink()
     (cwd / "set" / "tests.csv").mkdir()
-    refused(cwd, "diagnose", "set", "--json", "out/d.json", words=("tests.csv", "a folder"))
+    refused(cwd, "diagnose", "set", "--out", "out/d.json", words=("tests.csv", "a folder"))
 
 
 def test_a_file_as_set_folder(cwd: Path) -> None:
     (cwd / "notaset").write_text("hello\n")
-    refused(cwd, "diagnose", "notaset", "--json", "out/d.json", words=("notaset", "not a folder"))
+    refused(cwd, "diagnose", "notaset", "--out", "out/d.json", words=("notaset", "not a folder"))
 
 
 # -- issue 32, item 3: absurd numbers -------------------------------------------------------
@@ -84,7 +85,7 @@ def test_forces_of_1e308_are_refused_naming_file_and_column(cwd: Path) -> None:
     for row in rows:
         row[force] = "1e308"
     (cwd / "set" / "tests.csv").write_text("\n".join(",".join(r) for r in [header, *rows]))
-    refused(cwd, "diagnose", "set", "--json", "out/d.json",
+    refused(cwd, "diagnose", "set", "--out", "out/d.json",
             words=("tests.csv", "column force_N", "not plausible"))
 
 
@@ -96,7 +97,7 @@ def test_a_set_of_zero_forces_is_refused_before_a_fit_makes_a_material_of_1e_5_p
     for row in rows:
         row[force] = "0.0"
     (cwd / "set" / "tests.csv").write_text("\n".join([lines[0], *(",".join(r) for r in rows)]))
-    refused(cwd, "diagnose", "set", "--json", "out/d.json",
+    refused(cwd, "diagnose", "set", "--out", "out/d.json",
             words=("tests.csv", "column force_N", "measured nothing"))
 
 
@@ -104,14 +105,14 @@ def test_a_material_of_1e_5_pa_is_refused_naming_the_key(cwd: Path) -> None:
     (cwd / "s.toml").write_text('[material]\nmodel = "mass_spring"\n'
                                 "[material.longitudinal]\nmodulus_pa = 1e-5\n"
                                 "[material.transverse]\nmodulus_pa = 6e3\n")
-    refused(cwd, "export-mjcf", "s.toml", "out/scene.xml",
+    refused(cwd, "export-mjcf", "s.toml", "--out", "out/scene.xml",
             words=("s.toml", "material.longitudinal.modulus_pa", "not plausible"))
 
 
 def test_a_specimen_beyond_the_cell_is_refused(cwd: Path) -> None:
     (cwd / "set" / "specimen.toml").write_text(
         '[specimen]\nname = "slab"\nsize_m = [0.01, 0.01, 1e6]\n')
-    refused(cwd, "diagnose", "set", "--json", "out/d.json",
+    refused(cwd, "diagnose", "set", "--out", "out/d.json",
             words=("specimen.toml", "specimen.size_m", "not plausible"))
 
 
@@ -119,7 +120,7 @@ def test_a_specimen_beyond_the_cell_is_refused(cwd: Path) -> None:
 
 def test_a_specimen_without_size_names_the_key(cwd: Path) -> None:
     (cwd / "set" / "specimen.toml").write_text('[specimen]\nname = "cube"\n')
-    message = refused(cwd, "diagnose", "set", "--json", "out/d.json",
+    message = refused(cwd, "diagnose", "set", "--out", "out/d.json",
                       words=("specimen.toml", "specimen.size_m", "missing key"))
     assert "__init__" not in message
 
@@ -129,14 +130,14 @@ def test_a_tiny_shape_names_the_key_that_makes_it_too_small(cwd: Path) -> None:
                                 "shank_width_m = 0.011\nround_height_m = 0.01\n"
                                 "shank_height_m = 0.009\nvalley_depth_m = 0.0015\n"
                                 "edge_radius_m = 0.005\ncell_size_m = 0.0025\n")
-    message = refused(cwd, "plan", "s.toml", "--json", "out/plan.json",
+    message = refused(cwd, "plan", "s.toml", "--out", "out/plan.json",
                       words=("s.toml", "tissue.round_width_m", "not plausible"))
     assert "marker" not in message
 
 
 def test_a_huge_cell_size_names_the_cell_size(cwd: Path) -> None:
     (cwd / "s.toml").write_text("[tissue]\ncell_size_m = 0.5\n")
-    message = refused(cwd, "plan", "s.toml", "--json", "out/plan.json",
+    message = refused(cwd, "plan", "s.toml", "--out", "out/plan.json",
                       words=("s.toml", "tissue.cell_size_m", "coarser"))
     assert "concave" not in message
 
@@ -210,5 +211,5 @@ def test_a_set_of_one_test_names_its_test(cwd: Path) -> None:
     rows = (cwd / "set" / "tests.csv").read_text().splitlines()
     kept = [rows[0], *(row for row in rows[1:] if row.startswith("t00,"))]
     (cwd / "set" / "tests.csv").write_text("\n".join(kept) + "\n")
-    refused(cwd, "diagnose", "set", "--json", "out/d.json",
+    refused(cwd, "diagnose", "set", "--out", "out/d.json",
             words=("tests.csv", "test_id", "t00", "at least two"))

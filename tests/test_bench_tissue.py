@@ -35,7 +35,7 @@ def _numbers(node: Any, path: str = "") -> Iterator[tuple[str, float]]:
 def quick_report(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, Any], str]:
     out = tmp_path_factory.mktemp("bench")
     json_path, markdown_path = out / "tissue.json", out / "tissue.md"
-    code = main(["bench", "tissue", "--quick", "--json", str(json_path),
+    code = main(["bench", "tissue", "--quick", "--out", str(json_path),
                  "--markdown", str(markdown_path)])
     assert code == 0
     return json.loads(json_path.read_text()), Path(markdown_path).read_text()

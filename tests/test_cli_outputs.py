@@ -66,24 +66,24 @@ def refused(argv: list[str], place: Path, capsys: pytest.CaptureFixture, *named:
 
 @pytest.mark.parametrize(("argv", "named"), [
     (["run", "short.toml", "--rerun", "taken", "--quiet"], ["taken", "--rerun", "folder"]),
-    (["run", "short.toml", "--rerun", "ok.rrd", "--summary", "plain.txt/x.json", "--quiet"],
-     ["plain.txt", "--summary", "not a folder"]),
-    (["run", "short.toml", "--summary", "short.toml", "--quiet"], ["short.toml", "--summary"]),
-    (["plan", "short.toml", "--json", "taken"], ["taken", "--json"]),
-    (["export-mjcf", "short.toml", "taken"], ["taken", "output"]),
-    (["export-mjcf", "short.toml", "short.toml"], ["short.toml", "output", "input"]),
-    (["export-mjcf", "short.toml", "./short.toml"], ["short.toml", "input"]),
-    (["render", "short.toml", "--png", "taken"], ["taken", "--png"]),
-    (["render", "short.toml", "--png", "a.png", "--width", "0"], ["--width"]),
-    (["diagnose", str(EXAMPLE_SET), "--json", "taken"], ["taken", "--json"]),
-    (["diagnose", str(EXAMPLE_SET), "--json", "d.json", "--report", "plain.txt"],
+    (["run", "short.toml", "--rerun", "ok.rrd", "--out", "plain.txt/x.json", "--quiet"],
+     ["plain.txt", "--out", "not a folder"]),
+    (["run", "short.toml", "--out", "short.toml", "--quiet"], ["short.toml", "--out"]),
+    (["plan", "short.toml", "--out", "taken"], ["taken", "--out"]),
+    (["export-mjcf", "short.toml", "--out", "taken"], ["taken", "--out"]),
+    (["export-mjcf", "short.toml", "-o", "short.toml"], ["short.toml", "--out", "input"]),
+    (["export-mjcf", "short.toml", "./short.toml"], ["short.toml", "OUTPUT", "input"]),
+    (["render", "short.toml", "--out", "taken"], ["taken", "--out"]),
+    (["render", "short.toml", "--out", "a.png", "--width", "0"], ["--width"]),
+    (["diagnose", str(EXAMPLE_SET), "--out", "taken"], ["taken", "--out"]),
+    (["diagnose", str(EXAMPLE_SET), "--out", "d.json", "--report", "plain.txt"],
      ["plain.txt", "--report", "is a file"]),
-    (["diagnose", str(EXAMPLE_SET), "--json", "d.json", "--material", "d.json"],
+    (["diagnose", str(EXAMPLE_SET), "--out", "d.json", "--material", "d.json"],
      ["d.json", "--material"]),
-    (["diagnose", str(EXAMPLE_SET), "--json", str(EXAMPLE_SET / "tests.csv")],
-     ["tests.csv", "--json", "input"]),
+    (["diagnose", str(EXAMPLE_SET), "--out", str(EXAMPLE_SET / "tests.csv")],
+     ["tests.csv", "--out", "input"]),
     (["learn", "Cut-v3", "--steps", "10", "--out", "plain.txt"], ["plain.txt", "--out"]),
-    (["bench", "--json", "taken"], ["taken", "--json"]),
+    (["bench", "--out", "taken"], ["taken", "--out"]),
     (["bench", "perception", "--shapes", "-2"], ["--shapes", ">= 0"]),
     (["bench", "tissue", "--quick", "--markdown", "taken"], ["taken", "--markdown"]),
     (["sweep", str(PROJECT_ROOT / "scenarios" / "sweeps" / "binding_strength.toml"),
@@ -111,7 +111,7 @@ def test_bench_finds_its_default_scenario_from_any_folder(place: Path,
                                                           capsys: pytest.CaptureFixture) -> None:
     assert BENCH_SCENARIO.samefile(DEFAULT_SCENARIO)
     # Refused on its output, after the scenario was found: no work done.
-    message = refused(["bench", "perception", "--json", "taken"], place, capsys, "--json")
+    message = refused(["bench", "perception", "--out", "taken"], place, capsys, "--out")
     assert "--scenario" not in message
 
 
@@ -147,7 +147,7 @@ def test_a_read_only_folder_is_refused(tmp_path: Path) -> None:
 
 
 def test_render_writes_a_picture_of_the_asked_size(place: Path) -> None:
-    assert main(["render", str(DEFAULT_SCENARIO), "--png", "cell.png", "--width", "160",
+    assert main(["render", str(DEFAULT_SCENARIO), "--out", "cell.png", "--width", "160",
                  "--height", "90"]) == 0
     png = (place / "cell.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
@@ -167,7 +167,7 @@ def test_a_diverged_run_exits_3_and_writes_no_mujoco_log(place: Path,
                                                          capsys: pytest.CaptureFixture) -> None:
     (place / "diverging.toml").write_text(DIVERGING)
     before = listing(place)
-    assert main(["run", "diverging.toml", "--rerun", "new/d.rrd", "--summary", "new/s.json",
+    assert main(["run", "diverging.toml", "--rerun", "new/d.rrd", "--out", "new/s.json",
                  "--quiet"]) == 3
     message = capsys.readouterr().err
     assert "diverged" in message and "Traceback" not in message
@@ -203,7 +203,7 @@ def test_a_stopped_recording_leaves_no_temporary_file(place: Path, number: int, 
                                                       recorded_bytes: int) -> None:
     """Stopped as the recording starts, and in the middle of the episode."""
     (place / "long.toml").write_text(SHORT.replace("end_s = 1.5", "end_s = 8.0"))
-    process = _musclecell(["run", "long.toml", "--rerun", "out/long.rrd", "--summary",
+    process = _musclecell(["run", "long.toml", "--rerun", "out/long.rrd", "--out",
                            "out/s.json", "--quiet"], place)
 
     def recording() -> bool:

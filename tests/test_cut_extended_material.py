@@ -26,7 +26,7 @@ def test_the_default_episode_cuts_with_the_material_a_mixed_diagnosis_writes(
     mixed_set(tmp_path / "set", cut_set(truth, paths=paths),
               effect=("strain_stiffening", "anisotropy"))
     out = tmp_path / "out"
-    assert main(["diagnose", str(tmp_path / "set"), "--json", str(out / "d.json"),
+    assert main(["diagnose", str(tmp_path / "set"), "--out", str(out / "d.json"),
                  "--workers", "2"]) == 0
     causes = json.loads((out / "d.json").read_text())["causes"]
     assert {"strain_stiffening", "anisotropy", "slicing", "blade_friction"} <= set(causes)

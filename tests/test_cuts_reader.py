@@ -268,7 +268,7 @@ def test_diagnose_refuses_a_bad_cut_set_and_writes_nothing(
     (tmp_path / "out").mkdir()
     monkeypatch.chdir(tmp_path)
     before = snapshot(tmp_path)
-    assert main(["diagnose", "set", "--json", "out/d.json"]) == 2
+    assert main(["diagnose", "set", "--out", "out/d.json"]) == 2
     message = capsys.readouterr().err
     assert "Traceback" not in message
     for word in named:
@@ -283,6 +283,6 @@ def test_diagnose_diagnoses_a_good_cut_set(
     # [cutting] table.
     _cut_set(tmp_path / "set")
     monkeypatch.chdir(tmp_path)
-    assert main(["diagnose", "set", "--json", "d.json"]) == 0
+    assert main(["diagnose", "set", "--out", "d.json"]) == 0
     assert "cut" in json.loads((tmp_path / "d.json").read_text())
     assert "[cutting]" in (tmp_path / "d-material.toml").read_text()

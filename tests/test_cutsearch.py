@@ -194,7 +194,7 @@ def test_the_command_diagnoses_a_cut_set_with_its_report(tmp_path: Path) -> None
     truth, offset = HIDDEN["blade_friction"]
     _write_cut_set(tmp_path / "cuts", cut_set(truth, offset, paths=[_press(0.01), _saw(0.006)]))
     out = tmp_path / "out"
-    assert main(["diagnose", str(tmp_path / "cuts"), "--json", str(out / "d.json"),
+    assert main(["diagnose", str(tmp_path / "cuts"), "--out", str(out / "d.json"),
                  "--report", str(out / "report"), "--workers", "1"]) == 0
     assert {p.name for p in (out / "report").iterdir()} == {"cut-forces.png", "cut-report.md"}
     assert "| blade_friction |" in (out / "report" / "cut-report.md").read_text()

@@ -31,7 +31,7 @@ def diagnosed(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
     folder = tmp_path_factory.mktemp("viscoelastic")
     write_hidden_effect_set(folder / "set", 7, "viscoelasticity")
     out = folder / "out" / "diagnosis.json"
-    assert main(["diagnose", str(folder / "set"), "--json", str(out)]) == 0
+    assert main(["diagnose", str(folder / "set"), "--out", str(out)]) == 0
     return json.loads(out.read_text()), out.with_name("diagnosis-material.toml")
 
 
@@ -102,7 +102,7 @@ def test_a_bad_set_writes_nothing(tmp_path: Path) -> None:
     (folder / "tests.csv").write_text("\n".join(lines) + "\n")
     out = tmp_path / "diagnosis.json"
     out.write_text("before")
-    assert main(["diagnose", str(folder), "--json", str(out)]) == 2
+    assert main(["diagnose", str(folder), "--out", str(out)]) == 2
     assert out.read_text() == "before"
     assert not out.with_name("diagnosis-material.toml").exists()
 
@@ -118,7 +118,7 @@ def test_a_set_the_model_cannot_run_names_the_test_and_writes_nothing(
     with (folder / "tests.csv").open("a") as csv:
         csv.write(crushed)
     out = tmp_path / "diagnosis.json"
-    assert main(["diagnose", str(folder), "--json", str(out), "--workers", "1"]) == 2
+    assert main(["diagnose", str(folder), "--out", str(out), "--workers", "1"]) == 2
     error = capsys.readouterr().err
     assert "'flat'" in error and "does not converge" in error and "baseline" in error
     assert not out.exists() and not out.with_name("diagnosis-material.toml").exists()

@@ -158,7 +158,7 @@ def test_cli_run_writes_a_recording_rerun_verifies(tmp_path: Path) -> None:
         "[recording]\nrate_hz = 10.0\ncamera_rate_hz = 2.0\n")
     rrd = tmp_path / "short.rrd"
     summary = tmp_path / "summary.json"
-    code = main(["run", str(scenario_file), "--rerun", str(rrd), "--summary", str(summary),
+    code = main(["run", str(scenario_file), "--rerun", str(rrd), "--out", str(summary),
                  "--quiet"])
     assert code == 0
     assert json.loads(summary.read_text())["result"]["scenario"] == "short"

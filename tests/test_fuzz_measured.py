@@ -127,7 +127,7 @@ def _check_cli_set(files: tuple[str, str]) -> None:
         cwd = Path(folder)
         written(cwd, {"set/specimen.toml": files[0], "out/kept.txt": "before\n",
                       "set/tests.csv": files[1] + "\na,tension,0,0,0,1e308\n"})
-        message = refused(cwd, "diagnose", "set", "--json", "out/d.json", words=("set/",))
+        message = refused(cwd, "diagnose", "set", "--out", "out/d.json", words=("set/",))
         assert "specimen.toml" in message or "tests.csv" in message, message
 
 

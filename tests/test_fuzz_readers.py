@@ -226,7 +226,7 @@ def _check_cli_scenario(case: tuple[dict[str, Any], bytes]) -> None:
         content = (toml_document({**document, "stray": {"x": 1}}).encode() if not junk
                    else b"[scenario]\n" + junk)
         written(cwd, {"s.toml": content, "out/kept.txt": "before\n"})
-        refused(cwd, "plan", "s.toml", "--json", "out/plan.json", words=("s.toml",))
+        refused(cwd, "plan", "s.toml", "--out", "out/plan.json", words=("s.toml",))
 
 
 test_cli_scenarios, test_cli_scenarios_slow = fuzz_tests(

@@ -105,7 +105,7 @@ def test_bad_requests_are_refused_before_any_batch() -> None:
 def test_the_command_refuses_bad_flags(tmp_path: Path, flags: list[str], named: str,
                                        capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "bench.json"
-    assert main(["bench", "diagnose", *flags, "--json", str(out)]) == 2
+    assert main(["bench", "diagnose", *flags, "--out", str(out)]) == 2
     assert named in capsys.readouterr().err
     assert not out.exists()
     assert main(["bench", "env", "--logs"]) == 2

@@ -44,8 +44,7 @@ def test_a_bad_address_is_refused_before_any_work(tmp_path: Path, argv: list[str
                                                  named: list[str],
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "out"
-    flag = "--json" if argv[0] == "bench" else "--out"
-    assert main([*argv, flag, str(out)]) == 2
+    assert main([*argv, "--out", str(out)]) == 2
     message = capsys.readouterr().err
     assert all(part in message for part in named), message
     assert not out.exists()
@@ -61,7 +60,7 @@ def test_without_ray_the_address_says_how_to_install_it(tmp_path: Path,
     message = capsys.readouterr().err
     assert "--address" in message and "pip install -e '.[scale]'" in message
     assert "drop --address" in message
-    assert main(["bench", "diagnose", "--logs", "--address", "auto", "--json",
+    assert main(["bench", "diagnose", "--logs", "--address", "auto", "--out",
                  str(out)]) == 2
     assert "pip install -e '.[scale]'" in capsys.readouterr().err
     assert not out.exists()

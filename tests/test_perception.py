@@ -185,7 +185,7 @@ def test_parameters_out_of_range_are_refused(field: str, value: object) -> None:
 
 def test_plan_command_writes_the_plan(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     out = tmp_path / "plan.json"
-    assert main(["plan", str(DEFAULT_SCENARIO), "--json", str(out), "--seed", "1"]) == 0
+    assert main(["plan", str(DEFAULT_SCENARIO), "--out", str(out), "--seed", "1"]) == 0
     plan = json.loads(out.read_text())
     assert plan["seed"] == 1
     distance = plan["guideline"]["distance_to_true_top_line_xy_m"]
@@ -214,7 +214,7 @@ def test_plan_command_on_bad_input_exits_2_and_writes_nothing(
     bad.write_text("[cut]\nspeed_m_s = -1.0\n")
     out = tmp_path / "out" / "plan.json"
     arguments = [a.format(bad=bad) for a in arguments]
-    assert main(["plan", *arguments, "--json", str(out)]) == 2
+    assert main(["plan", *arguments, "--out", str(out)]) == 2
     assert not out.parent.exists()
     assert "musclecell:" in capsys.readouterr().err
 
@@ -222,7 +222,7 @@ def test_plan_command_on_bad_input_exits_2_and_writes_nothing(
 @pytest.mark.slow
 def test_perception_bench_runs_quick(tmp_path: Path) -> None:
     out = tmp_path / "bench.json"
-    assert main(["bench", "perception", "--quick", "--json", str(out)]) == 0
+    assert main(["bench", "perception", "--quick", "--out", str(out)]) == 0
     entries = json.loads(out.read_text())["entries"]
     assert entries["guideline_mean_distance_m"]["pass"]
     assert entries["fit_recovery_vertex_error_m"]["pass"]

@@ -142,7 +142,7 @@ def test_a_bad_scan_exits_2_and_writes_nothing(tmp_path: Path) -> None:
     (tmp_path / "s.toml").write_text(f'[tissue]\nsurface_mesh = ["{paths[0].name}", '
                                      f'"{paths[1].name}"]\n')
     summary, rrd = tmp_path / "summary.json", tmp_path / "x.rrd"
-    code = main(["run", str(tmp_path / "s.toml"), "--summary", str(summary), "--rerun",
+    code = main(["run", str(tmp_path / "s.toml"), "--out", str(summary), "--rerun",
                  str(rrd), "--quiet"])
     assert code == 2
     assert sorted(p.name for p in tmp_path.iterdir()) == ["round.ply", "s.toml", "shank.ply"]

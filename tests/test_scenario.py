@@ -163,7 +163,7 @@ def test_cli_refuses_bad_scenario_and_writes_nothing(
     bad = _write(tmp_path, text)
     out = tmp_path / "out" / "summary.json"
     rrd = tmp_path / "out" / "episode.rrd"
-    code = main(["run", str(bad), "--summary", str(out), "--rerun", str(rrd), "--quiet"])
+    code = main(["run", str(bad), "--out", str(out), "--rerun", str(rrd), "--quiet"])
     assert code == 2
     assert not out.exists()
     assert not rrd.exists()
@@ -178,7 +178,7 @@ def test_cli_leaves_existing_summary_byte_identical(tmp_path: Path) -> None:
     rrd = tmp_path / "episode.rrd"
     previous = b'{"result": {"released_fraction": 1.0}}\n'
     out.write_bytes(previous)
-    code = main(["run", str(bad), "--summary", str(out), "--rerun", str(rrd), "--quiet"])
+    code = main(["run", str(bad), "--out", str(out), "--rerun", str(rrd), "--quiet"])
     assert code == 2
     assert out.read_bytes() == previous
     assert not rrd.exists()

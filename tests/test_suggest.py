@@ -131,7 +131,7 @@ def test_suggest_on_cut_tests_alone_is_refused(tmp_path: Path, monkeypatch: pyte
                                                capsys: pytest.CaptureFixture) -> None:
     monkeypatch.chdir(tmp_path)
     cut_set = EXAMPLE_SET.parent / "beef_cut_example"
-    assert main(["diagnose", str(cut_set), "--json", "d.json", "--suggest"]) == 2
+    assert main(["diagnose", str(cut_set), "--out", "d.json", "--suggest"]) == 2
     message = capsys.readouterr().err
     assert "tests.csv" in message and "--suggest" in message
     assert not any(tmp_path.iterdir())

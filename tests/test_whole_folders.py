@@ -77,11 +77,11 @@ class FakeSetDiagnosis:
 
 def _diagnose(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list[str]:
     monkeypatch.setattr("cell.rheology.cutdiagnosis.diagnose_set",
-                        lambda measurements, params: FakeSetDiagnosis())
+                        lambda measurements, params, on_fit: FakeSetDiagnosis())
     monkeypatch.setattr("cell.tissue.materialfile.material_to_toml",
                         lambda material, comment: "# material\n")
     monkeypatch.setattr("cell.rheology.cutreport.write_set_report", writer)
-    return ["diagnose", str(EXAMPLE_SET), "--json", "d.json", "--report", "out"]
+    return ["diagnose", str(EXAMPLE_SET), "--out", "d.json", "--report", "out"]
 
 
 def _diagnose_logs(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list[str]:
@@ -102,7 +102,7 @@ def _replay(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list
     monkeypatch.setattr("cell.sim.logbatch.read_log_batch",
                         lambda paths: SimpleNamespace(logs=logs))
     monkeypatch.setattr("cell.sim.replay.replay",
-                        lambda log: SimpleNamespace(summary=lambda: summary))
+                        lambda log, progress: SimpleNamespace(summary=lambda: summary))
     monkeypatch.setattr("cell.sim.replay.write_replay", writer)
     return ["replay", "log-a", "log-b", "--out", "out"]
 
@@ -171,14 +171,14 @@ def test_a_finished_folder_replaces_the_one_there_whole(
 
 
 @pytest.mark.parametrize(("argv", "named"), [
-    (["diagnose", str(EXAMPLE_SET), "--json", "d.json", "--report", "."],
+    (["diagnose", str(EXAMPLE_SET), "--out", "d.json", "--report", "."],
      "the working folder"),
-    (["diagnose", str(EXAMPLE_SET), "--json", "out/d.json", "--report", "out"],
-     "the output of --json"),
-    (["diagnose", "sets/one", "--json", "d.json", "--report", "sets"], "the input"),
+    (["diagnose", str(EXAMPLE_SET), "--out", "out/d.json", "--report", "out"],
+     "the output of --out"),
+    (["diagnose", "sets/one", "--out", "d.json", "--report", "sets"], "the input"),
     (["run", "logs/s.toml", "--log", "logs", "--quiet"], "the input"),
-    (["run", "s.toml", "--log", "out", "--summary", "out/s.json", "--quiet"],
-     "the output of --summary"),
+    (["run", "s.toml", "--log", "out", "--out", "out/s.json", "--quiet"],
+     "the output of --out"),
     (["replay", "logs/a", "--out", "logs"], "the input"),
     (["diagnose-logs", "a", "b", "--out", "..", "--no-plots"], "the working folder"),
 ])

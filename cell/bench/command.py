@@ -8,18 +8,20 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from cell.errors import InputError
+from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
 from cell.sim.examples import SCENARIOS
 
 #: The scenario of the cell and perception suites when ``--scenario`` is not given: the
 #: package's default scenario (``scenarios/default.toml`` of a checkout).
 DEFAULT_SCENARIO = SCENARIOS / "default.toml"
-#: Where each suite writes its JSON when ``--json`` is not given.
+#: Where each suite writes its JSON when ``--out`` is not given.
 DEFAULT_JSON = {"cell": "out/bench.json", "tissue": "out/bench_tissue.json",
                 "perception": "out/bench_perception.json", "env": "out/bench_env.json",
                 "diagnose": "out/bench_diagnose.json", "sweep": "out/bench_sweep.json"}
@@ -28,19 +30,21 @@ DEFAULT_JSON = {"cell": "out/bench.json", "tissue": "out/bench_tissue.json",
 def add_bench(commands: argparse._SubParsersAction) -> None:
     """The ``bench`` subcommand."""
     bench = commands.add_parser(
-        "bench", help="benchmark the cell, the tissue models or the perception")
+        "bench", help="benchmark a suite: the cell, the tissue models, the perception, the "
+        "envs, the diagnosis or the sweeps")
     bench.add_argument("suite", nargs="?", choices=tuple(DEFAULT_JSON), default="cell",
                        help="cell: the whole cell (default); tissue: every tissue model on "
                        "the two muscles, with peers; perception: curvature, guideline and fit, "
                        "with peers; env: Gymnasium env steps per second; diagnose: the "
-                       "diagnosis on unseen hidden-effect measurement sets")
+                       "diagnosis on unseen hidden-effect measurement sets; sweep: what Ray "
+                       "costs per run, two workers against one")
     bench.add_argument("--scenario", type=Path,
                        help="scenario of the cell and perception suites (default: the "
                        "package's default scenario, `musclecell scenarios copy default`)")
-    bench.add_argument("--json", type=Path,
-                       help="JSON out (default out/bench.json, tissue: out/bench_tissue.json, "
-                       "perception: out/bench_perception.json, env: out/bench_env.json, "
-                       "diagnose: out/bench_diagnose.json, sweep: out/bench_sweep.json)")
+    add_out(bench, "write the report JSON here (default out/bench.json, tissue: "
+            "out/bench_tissue.json, perception: out/bench_perception.json, env: "
+            "out/bench_env.json, diagnose: out/bench_diagnose.json, sweep: "
+            "out/bench_sweep.json)", old=("--json",))
     bench.add_argument("--markdown", type=Path,
                        help="tissue suite: Markdown tables out; diagnose: the confusion table")
     bench.add_argument("--seeds", type=int,
@@ -72,11 +76,16 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--address",
                        help="diagnose suite with --logs: replay on this Ray cluster: auto, "
                        "HEAD_HOST:PORT or ray://HOST:PORT (needs the scale extra)")
+    bench.add_argument("--learn", action="store_true",
+                       help="env suite: also learn --envs 2 over --envs 1, two PPO runs "
+                       "(needs the learn extra; minutes, eight with the full suite)")
     bench.add_argument("--shapes", type=int, default=0, help="perception: + N shape episodes")
-    bench.add_argument("--shape-seed", type=int, default=5000)
+    bench.add_argument("--shape-seed", type=int, default=5000,
+                       help="perception with --shapes: the first shape's seed (default 5000)")
     bench.add_argument("--quick", action="store_true",
                        help="fewer repetitions and a short episode; tissue: the smallest "
                        "mesh only (for smoke tests)")
+    add_quiet(bench)
     bench.set_defaults(handler=bench_command)
 
 
@@ -93,20 +102,29 @@ def bench_command(args: argparse.Namespace) -> int:
         if args.markdown is not None:
             raise InputError(None, "--markdown",
                              "only `musclecell bench tissue` and `bench diagnose` write Markdown")
+    if args.learn and suite != "env":
+        raise InputError(None, "--learn", "only `musclecell bench env` takes --learn")
     if args.address is not None and not (suite == "diagnose" and args.logs):
         raise InputError(None, "--address",
                          "only `musclecell bench diagnose --logs` takes --address")
     if args.shapes < 0:
         raise InputError(None, "--shapes", f"must be >= 0, got {args.shapes}")
-    json_path = args.json or Path(DEFAULT_JSON[suite])
+    json_path = args.out or Path(DEFAULT_JSON[suite])
     scenario = args.scenario
     if suite in ("cell", "perception"):
         scenario = args.scenario or DEFAULT_SCENARIO
         if not scenario.is_file():
             raise InputError(scenario, "--scenario", "no such scenario file")
-    check_outputs([Output(json_path, "--json"),
+    check_outputs([Output(json_path, "--out"),
                    args.markdown and Output(args.markdown, "--markdown")], [scenario])
     return _SUITES[suite](args, json_path, scenario)
+
+
+def _progress(args: argparse.Namespace) -> Callable[[str], None]:
+    """Where a suite's progress lines go: standard error, or nowhere with ``--quiet``."""
+    if args.quiet:
+        return lambda line: None
+    return lambda line: print(line, file=sys.stderr, flush=True)
 
 
 def _cell(args: argparse.Namespace, json_path: Path, scenario: Path) -> int:
@@ -126,7 +144,7 @@ def _tissue(args: argparse.Namespace, json_path: Path, scenario: Path | None) ->
     from cell.outputs import write_atomic, write_json
 
     params = TissueBenchParams.quick() if args.quick else TissueBenchParams()
-    report = run_tissue_bench(params, progress=print)
+    report = run_tissue_bench(params, progress=_progress(args))
     write_json(json_path, report)
     print(f"wrote {json_path}")
     if args.markdown is not None:
@@ -173,7 +191,11 @@ def _env(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> in
     from cell.bench.env import run_env_bench
     from cell.outputs import write_json
 
-    report = run_env_bench(quick=args.quick)
+    if args.learn:
+        from cell.extras import require
+
+        require("stable_baselines3", "learn", "bench env --learn")
+    report = run_env_bench(quick=args.quick, learn=args.learn)
     write_json(json_path, report)
     _print_entries(report["entries"])
     print(f"wrote {json_path}")
@@ -188,7 +210,7 @@ def _sweep(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> 
                         ("--markdown", args.markdown)):
         if value:
             raise InputError(None, name, "`musclecell bench sweep` runs the whole example "
-                             "sweep and takes only --json")
+                             "sweep and takes only --out")
     report = run_sweep_bench()
     write_json(json_path, report)
     _print_entries(report["entries"])
@@ -233,22 +255,22 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
         from cell.bench import suggestbench
 
         report = suggestbench.run_suggest_bench(suggestbench.bench_seeds(count),
-                                                workers=workers, progress=print)
+                                                workers=workers, progress=_progress(args))
     elif args.spread:
         from cell.bench import spread
 
         report = spread.run_spread_bench(spread.bench_seeds(count), workers=workers,
-                                         progress=print)
+                                         progress=_progress(args))
     elif args.logs:
         report = _log_bench(args, kind, count, workers)
     elif args.cut:
         from cell.bench import cutdiagnose
 
         report = cutdiagnose.run_cut_diagnose_bench(cutdiagnose.bench_seeds(count, kind),
-                                                    kind, progress=print)
+                                                    kind, progress=_progress(args))
     else:
         report = run_diagnose_bench(bench_seeds(count, kind, args.including),
-                                    workers=workers, progress=print, kind=kind,
+                                    workers=workers, progress=_progress(args), kind=kind,
                                     including=args.including)
     write_json(json_path, report)
     print(report["markdown"], end="")
@@ -279,7 +301,7 @@ def _log_bench(args: argparse.Namespace, kind: str, count: int, workers: int
               else logdiagnose.LogBenchParams(workers=asked))
     with cluster or nullcontext() as pool:
         return logdiagnose.run_log_diagnose_bench(logdiagnose.bench_seeds(count, kind), kind,
-                                                  params, progress=print, cluster=pool)
+                                                  params, progress=_progress(args), cluster=pool)
 
 
 _SUITES: dict[str, Callable[[argparse.Namespace, Path, Path | None], int]] = {

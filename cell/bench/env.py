@@ -3,7 +3,8 @@ vectorised (synchronously, in one process), at the coarse and the default tissue
 one env per core each alone in its own process (``processes``: parallel runs, evaluation
 workers) and one env per core in an asynchronous vector env (``async``: lock-step, as
 training's ``--envs``), each with its ``scaling``, its rate over the single env's: near the
-core count when the processes scale; and, with the learn extra, ``learn_scaling_2_over_1``:
+core count when the processes scale; and, asked for (``--learn``, the learn extra),
+``learn_scaling_2_over_1``:
 ``musclecell learn`` with two envs over one, its training loop whole (resets, the policy, PPO's
 updates).
 
@@ -19,7 +20,6 @@ not at every step and every reset. The figures are on the docs' benchmarks page.
 
 from __future__ import annotations
 
-import importlib.util
 import multiprocessing
 import os
 import time
@@ -149,9 +149,9 @@ def bench_learn_scaling(steps_per_env: int, n_steps: int) -> dict[str, Any]:
             "load_1min": [load_before, os.getloadavg()[0]], "cores": os.cpu_count()}
 
 
-def run_env_bench(quick: bool = False) -> dict[str, Any]:
-    """Every entry (``learn_scaling_2_over_1`` with the learn extra only); returns the
-    JSON-ready report."""
+def run_env_bench(quick: bool = False, learn: bool = False) -> dict[str, Any]:
+    """Every entry (``learn_scaling_2_over_1`` with ``learn`` only: it trains, and needs the
+    learn extra); returns the JSON-ready report."""
     steps = 30 if quick else 200
     coarse, default = 0.05, MuscleShape().cell_size_m
     entries = {
@@ -167,7 +167,7 @@ def run_env_bench(quick: bool = False) -> dict[str, Any]:
         entries[name]["scaling"] = entries[name]["value"] / entries["single_coarse"]["value"]
     entries["single_coarse"]["target"] = TARGET_STEPS_PER_S
     entries["single_coarse"]["pass"] = entries["single_coarse"]["value"] >= TARGET_STEPS_PER_S
-    if importlib.util.find_spec("stable_baselines3") is not None:
+    if learn:
         entries["learn_scaling_2_over_1"] = (bench_learn_scaling(128, 64) if quick
                                              else bench_learn_scaling(*LEARN_SCALING_STEPS))
     return {"env": "musclecell/Cut-v2", "entries": entries}

@@ -9,7 +9,9 @@ codes:
 code  meaning
 ====  ==========================================================================
 0     done
-2     bad input, or an output that cannot be written (nothing written)
+1     an error the command does not name (a bug): Python's traceback on stderr
+2     bad input, or an output that cannot be written (nothing written); a malformed
+      command line
 3     the simulation diverged (nothing written)
 4     a sweep or batch finished with failed rows (its table and summary written whole)
 130   stopped by Ctrl-C (SIGINT); temporary files removed
@@ -22,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from importlib.metadata import PackageNotFoundError, version
 
 from cell.bench.command import add_bench
 from cell.cli.signals import stop_signals_raise
@@ -44,9 +47,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="musclecell",
                                      description=__doc__.split("\n\n")[0].replace("``", ""),
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     epilog="exit codes: 0 done, 2 bad input or output (nothing "
-                                     "written), 3 diverged, 4 a sweep or batch finished with "
-                                     "failed rows, 130/143 stopped by SIGINT/SIGTERM")
+                                     epilog="exit codes: 0 done, 1 an unnamed error (a bug; "
+                                     "traceback), 2 bad input or output (nothing written),\n"
+                                     "3 diverged, 4 a sweep or batch finished with failed rows, "
+                                     "130/143/129 stopped by SIGINT/SIGTERM/SIGHUP (docs/cli.md)")
+    parser.add_argument("--version", action="version", version=f"musclecell {_version()}")
     commands = parser.add_subparsers(dest="command", required=True)
     add_simulation(commands)
     add_scenarios(commands)
@@ -57,6 +62,14 @@ def build_parser() -> argparse.ArgumentParser:
     add_learning(commands)
     add_sweep(commands)
     return parser
+
+
+def _version() -> str:
+    """The installed package's version (a source tree that is not installed has none)."""
+    try:
+        return version("musclecell")
+    except PackageNotFoundError:
+        return "(not installed)"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 from cell.errors import LearningError
+from cell.learning.hyper import CONSTANT_LEVELS
 from cell.learning.policyfile import (
     PICKLED_FILES,
     POLICY_FILE,
@@ -32,8 +33,6 @@ from envs.policies import DEMONSTRATORS, scripted_policy
 #: that fit the env follow them, then the learned policy.
 BASELINES = ("random", "best-constant", "scripted")
 LEARNED = "learned"
-#: Levels of the constant grid along each action axis (the zero action is in it too).
-CONSTANT_LEVELS = (0.25, 0.5, 1.0)
 
 Policy = Callable[[np.ndarray], np.ndarray]
 

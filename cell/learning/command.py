@@ -8,15 +8,21 @@ from __future__ import annotations
 
 import argparse
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from cell.errors import LearningError
+from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
+
+if TYPE_CHECKING:
+    from cell.learning.ppo import LearnResult
 
 
 def add_learning(commands: argparse._SubParsersAction) -> None:
     """The ``learn`` and ``evaluate`` subcommands."""
-    from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
+    from cell.learning.hyper import CONSTANT_LEVELS, EVAL_SEED_START, TUNING_SEED_START
 
     learn = commands.add_parser(
         "learn", help="train a PPO policy on an env (needs the learn extra)")
@@ -24,7 +30,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
     learn.add_argument("--algo", choices=("ppo",), default="ppo", help="algorithm (ppo)")
     learn.add_argument("--steps", type=int, required=True,
                        help="env steps of the whole run, those before a --resume included")
-    learn.add_argument("--out", type=Path, required=True, help="folder of the run")
+    add_out(learn, "folder of the run", required=True, folder=True)
     learn.add_argument("--seed", type=int, default=0,
                        help=f"env i starts at seed SEED + i (training seeds < "
                        f"{EVAL_SEED_START}); default 0")
@@ -46,6 +52,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
     learn.add_argument("--warm-start-anchor", type=int, default=0, metavar="EPOCHS",
                        help="after each PPO update, passes of the cloning loss over its "
                        "rollout, holding PPO near the demonstrator (default 0: none)")
+    add_quiet(learn)
     learn.set_defaults(handler=learn_command)
 
     evaluation = commands.add_parser(
@@ -60,11 +67,12 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
     evaluation.add_argument("--episodes", type=int, default=50, help="per policy (default 50)")
     evaluation.add_argument("--seed-start", type=int, default=EVAL_SEED_START,
                             help=f"first evaluation seed (default {EVAL_SEED_START})")
-    evaluation.add_argument("--out", type=Path,
-                            help="folder of evaluation.json, evaluation.md and episodes.csv "
-                            "(default: POLICY's folder/evaluation; needed without POLICY)")
-    evaluation.add_argument("--json", type=Path, help="the report JSON here instead")
-    evaluation.add_argument("--markdown", type=Path, help="the Markdown table here instead")
+    add_out(evaluation, "folder of evaluation.json, evaluation.md and episodes.csv (default: "
+            "POLICY's folder/evaluation; needed without POLICY)", folder=True)
+    evaluation.add_argument("--json", type=Path,
+                            help="the report JSON here instead of in --out's folder")
+    evaluation.add_argument("--markdown", type=Path,
+                            help="the Markdown table here instead of in --out's folder")
     evaluation.add_argument("--workers", type=int, help="processes (default: one per core)")
     evaluation.add_argument("--env-kwargs", help="JSON keyword arguments of the env")
     evaluation.add_argument("--constant-search-seeds", type=int, default=10,
@@ -72,7 +80,10 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
                             f"{TUNING_SEED_START} on (default 10)")
     evaluation.add_argument("--constant-actions",
                             help="JSON list of the constant actions to choose from (default: "
-                            "zero and each axis alone at +-0.5 and +-1)")
+                            "zero and each axis alone at plus and minus "
+                            f"{', '.join(f'{v:g}' for v in CONSTANT_LEVELS)}; then the best "
+                            "of them with a second axis at those levels)")
+    add_quiet(evaluation)
     evaluation.set_defaults(handler=evaluate_command)
 
     convert = commands.add_parser(
@@ -98,31 +109,40 @@ def learn_command(args: argparse.Namespace) -> int:
     """``musclecell learn``: a new run in ``--out``, or ``--resume`` of the run there."""
     check_outputs([Output(args.out, "--out", folder=True)])
     _require_learn_extra()
-    from cell.learning import ppo
     from cell.learning.environments import resolve_env_id
-    from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, parse_json_object
+    from cell.progress import progress_bar
 
     env_id = resolve_env_id(args.env)
     envs = args.envs if args.envs is not None else os.cpu_count() or 1
+    with progress_bar("step", quiet=args.quiet, total=None if args.resume else args.steps,
+                      desc="learn") as bar:
+        result = _train(args, env_id, envs, bar.update)
+    print(f"trained {result.steps} env steps in {result.wall_s:.1f} s (stopped by "
+          f"{result.stopped_by}); wrote {result.out}")
+    return 0
+
+
+def _train(args: argparse.Namespace, env_id: str, envs: int,
+           on_steps: Callable[[int], object]) -> LearnResult:
+    """A new run, or ``--resume`` of the one in ``--out``: its options checked, trained."""
+    from cell.learning import ppo
+    from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, parse_json_object
+
     if args.resume:
         if args.env_kwargs is not None or args.hyper is not None or args.warm_start:
             raise LearningError(None, "--resume", "continues the run as it was set: drop "
                                 "--env-kwargs, --hyper and --warm-start")
-        result = ppo.resume(args.out, env_id, args.steps, envs, args.minutes,
-                            args.checkpoint_every)
-    else:
-        if args.warm_start_anchor and not args.warm_start:
-            raise LearningError(None, "--warm-start-anchor", "needs --warm-start")
-        warm = (WarmStart(args.warm_start, episodes=args.warm_start_episodes,
-                          anchor_epochs=args.warm_start_anchor) if args.warm_start else None)
-        settings = LearnSettings(env_id, parse_json_object(args.env_kwargs, "--env-kwargs"),
-                                 args.seed, envs, args.steps, args.minutes,
-                                 args.checkpoint_every, warm)
-        hyper = PPOHyper().with_overrides(parse_json_object(args.hyper, "--hyper"))
-        result = ppo.learn(settings, hyper, args.out)
-    print(f"trained {result.steps} env steps in {result.wall_s:.1f} s (stopped by "
-          f"{result.stopped_by}); wrote {result.out}")
-    return 0
+        return ppo.resume(args.out, env_id, args.steps, envs, args.minutes,
+                          args.checkpoint_every, on_steps)
+    if args.warm_start_anchor and not args.warm_start:
+        raise LearningError(None, "--warm-start-anchor", "needs --warm-start")
+    warm = (WarmStart(args.warm_start, episodes=args.warm_start_episodes,
+                      anchor_epochs=args.warm_start_anchor) if args.warm_start else None)
+    settings = LearnSettings(env_id, parse_json_object(args.env_kwargs, "--env-kwargs"),
+                             args.seed, envs, args.steps, args.minutes,
+                             args.checkpoint_every, warm)
+    hyper = PPOHyper().with_overrides(parse_json_object(args.hyper, "--hyper"))
+    return ppo.learn(settings, hyper, args.out, on_steps)
 
 
 def evaluate_command(args: argparse.Namespace) -> int:
@@ -153,8 +173,12 @@ def evaluate_command(args: argparse.Namespace) -> int:
     check_outputs([Output(json_path, "--json" if args.json else "--out"),
                    Output(markdown_path, "--markdown" if args.markdown else "--out"),
                    Output(csv_path, "--out")], [] if args.policy is None else [args.policy])
-    report = evaluate(folder, resolve_env_id(args.env),
-                      parse_json_object(args.env_kwargs, "--env-kwargs"), settings)
+    from cell.progress import progress_bar
+
+    with progress_bar("episode", quiet=args.quiet, desc="evaluate") as bar:
+        report = evaluate(folder, resolve_env_id(args.env),
+                          parse_json_object(args.env_kwargs, "--env-kwargs"), settings,
+                          bar.update)
     write_report(report, json_path, markdown_path, csv_path)
     print(report_markdown(report), end="")
     print(f"wrote {json_path}, {markdown_path} and {csv_path}")

@@ -18,7 +18,7 @@ import json
 import multiprocessing
 import os
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -162,23 +162,34 @@ def _one_thread() -> None:
 
 
 @contextmanager
-def episode_runner(workers: int, play: Callable[[Any], dict[str, Any]] = run_episode
+def episode_runner(workers: int, play: Callable[[Any], dict[str, Any]] = run_episode,
+                   on_episode: Callable[[int], object] | None = None
                    ) -> Iterator[Callable[[list[Any]], list[dict[str, Any]]]]:
     """A function that plays a list of tasks with ``play`` (by default :func:`run_episode`)
     and returns their rows in the tasks' order, on ``workers`` processes (started once, for
-    every list) or in this process for one.
+    every list) or in this process for one; ``on_episode`` is called with 1 as each row
+    comes (progress).
 
     Example:
         >>> with episode_runner(1) as run:
         ...     run([])
         []
     """
+
+    def counted(rows: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+        done = []
+        for row in rows:
+            done.append(row)
+            if on_episode is not None:
+                on_episode(1)
+        return done
+
     if workers == 1:
-        yield lambda tasks: [play(task) for task in tasks]
+        yield lambda tasks: counted(map(play, tasks))
         return
     context = multiprocessing.get_context(START_METHOD)
     with ProcessPoolExecutor(workers, mp_context=context, initializer=_one_thread) as pool:
-        yield lambda tasks: list(pool.map(play, tasks))
+        yield lambda tasks: counted(pool.map(play, tasks))
 
 
 def _check_policy(folder: Path, env: gym.Env) -> None:
@@ -213,7 +224,8 @@ def _best_demonstrator(names: list[str], policies: dict[str, dict[str, Any]]) ->
 
 
 def evaluate(policy_path: str | Path | None, env_id: str, env_kwargs: dict[str, Any],
-             settings: EvaluationSettings) -> dict[str, Any]:
+             settings: EvaluationSettings,
+             on_episode: Callable[[int], object] | None = None) -> dict[str, Any]:
     """Tune the best constant action (see :class:`EvaluationSettings`), then play the
     :data:`~cell.learning.baselines.BASELINES`, the demonstrators that fit ``env_id``
     (:func:`envs.policies.demonstrators_for`) and the learned policy at ``policy_path``
@@ -221,7 +233,8 @@ def evaluate(policy_path: str | Path | None, env_id: str, env_kwargs: dict[str, 
     (:func:`~cell.learning.table.summarize` per policy), the tuning, every episode's row
     (ordered by policy, then seed) and, with a learned policy and a demonstrator, their
     paired comparison (:func:`~cell.learning.paired.compare`, learned less the best
-    demonstrator; None otherwise).
+    demonstrator; None otherwise). ``on_episode`` is called with 1 after each episode
+    (progress).
 
     Raises:
         LearningError: no policy at ``policy_path``, a policy of another env, a constant
@@ -255,7 +268,7 @@ def evaluate(policy_path: str | Path | None, env_id: str, env_kwargs: dict[str, 
               for name in names if name != "best-constant" for seed in settings.seeds]
     # The first round and the policies that need no tuning share one pool, then the second
     # round, then the chosen constant.
-    with episode_runner(settings.workers) as run:
+    with episode_runner(settings.workers, on_episode=on_episode) as run:
         rows = run(first + others)
         tuned = scored(first, rows[:len(first)])
         if settings.constant_actions is None:

@@ -14,6 +14,8 @@ from cell.errors import LearningError
 EVAL_SEED_START = 100_000
 #: First seed of the episodes that tune the best constant action (never evaluated on).
 TUNING_SEED_START = 200_000
+#: Levels of the best constant's grid along each action axis (the zero action is in it too).
+CONSTANT_LEVELS = (0.25, 0.5, 1.0)
 
 
 @dataclass(frozen=True)

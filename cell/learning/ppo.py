@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -76,17 +77,21 @@ def latest_checkpoint(out: Path) -> Path | None:
 
 class _Progress(BaseCallback):
     """Logs each ended episode, checkpoints every ``settings.checkpoint_every`` steps (at the
-    end of a rollout) and stops training at the wall-clock deadline."""
+    end of a rollout), tells the run's ``on_steps`` the env steps taken and stops training at
+    the wall-clock deadline."""
 
     def __init__(self, run: _Run) -> None:
         super().__init__()
         self.run = run
-        self.last_checkpoint = run.steps_before
+        self.last_checkpoint = self.shown = run.steps_before
 
     def _on_step(self) -> bool:
         for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
             if done:
                 self.run.episodes.add(self.num_timesteps, info)
+        if self.run.on_steps is not None:
+            self.run.on_steps(self.num_timesteps - self.shown)
+            self.shown = self.num_timesteps
         return time.monotonic() < self.run.deadline
 
     def _on_rollout_end(self) -> None:
@@ -101,6 +106,8 @@ class _Run:
     def __init__(self, out: Path, settings: LearnSettings, hyper: PPOHyper,
                  previous: dict[str, Any] | None) -> None:
         self.out, self.settings, self.hyper = out, settings, hyper
+        #: Called with the env steps taken since its last call (progress), or None.
+        self.on_steps: Callable[[int], object] | None = None
         self.first_seed = settings.seed if previous is None else previous["next_seed"]
         check_training_seeds(self.first_seed, settings.envs)
         self.steps_before = 0 if previous is None else previous["steps"]
@@ -135,8 +142,10 @@ class _Run:
         return folder
 
 
-def learn(settings: LearnSettings, hyper: PPOHyper, out: Path) -> LearnResult:
-    """Train a new policy in ``out`` (which must hold no run yet).
+def learn(settings: LearnSettings, hyper: PPOHyper, out: Path,
+          on_steps: Callable[[int], object] | None = None) -> LearnResult:
+    """Train a new policy in ``out`` (which must hold no run yet); ``on_steps`` is called
+    with the env steps taken as training goes (progress).
 
     Raises:
         LearningError: ``out`` already holds a run.
@@ -145,14 +154,17 @@ def learn(settings: LearnSettings, hyper: PPOHyper, out: Path) -> LearnResult:
             (out / name).exists() for name in (WEIGHTS_FILE, *PICKLED_FILES)):
         raise LearningError(out, None, "already holds a training run: --resume it or choose "
                             "another --out")
-    return _train(_Run(out, settings, hyper, None), None)
+    run = _Run(out, settings, hyper, None)
+    run.on_steps = on_steps
+    return _train(run, None)
 
 
 def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None,
-           checkpoint_every: int) -> LearnResult:
+           checkpoint_every: int, on_steps: Callable[[int], object] | None = None
+           ) -> LearnResult:
     """Continue the run in ``out`` from its latest checkpoint up to ``steps`` env steps in
     all, with its own env kwargs, seed and hyper-parameters; ``envs`` new envs start at the
-    training seeds after those already used.
+    training seeds after those already used; ``on_steps`` as for :func:`learn`.
 
     Raises:
         LearningError: no checkpoint in ``out``, or ``env_id`` is not the run's env.
@@ -167,7 +179,9 @@ def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None,
     settings = LearnSettings(env_id, state["env_kwargs"], state["seed"], envs, steps,
                              minutes, checkpoint_every)
     hyper = PPOHyper().with_overrides(state["hyper"])
-    return _train(_Run(out, settings, hyper, state), folder)
+    run = _Run(out, settings, hyper, state)
+    run.on_steps = on_steps
+    return _train(run, folder)
 
 
 def _train(run: _Run, checkpoint: Path | None) -> LearnResult:

@@ -19,6 +19,7 @@ Usage::
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -100,9 +101,10 @@ class SetDiagnosis:
         return top
 
 
-def diagnose_set(measurements: MeasurementSet,
-                 params: DiagnosisParams | None = None) -> SetDiagnosis:
-    """Diagnose every test of ``measurements``, each kind on its own (module docstring).
+def diagnose_set(measurements: MeasurementSet, params: DiagnosisParams | None = None,
+                 on_fit: Callable[[int], object] | None = None) -> SetDiagnosis:
+    """Diagnose every test of ``measurements``, each kind on its own (module docstring);
+    ``on_fit`` is called with 1 after each fit (progress).
 
     Raises:
         DiagnosisError: a set with no test, or a uniaxial diagnosis that cannot run
@@ -111,9 +113,9 @@ def diagnose_set(measurements: MeasurementSet,
     params = DiagnosisParams() if params is None else params
     if not measurements.tests and not measurements.cut_tests:
         raise DiagnosisError(measurements.folder, None, "the set holds no test")
-    uniaxial = diagnose(measurements, params) if measurements.tests else None
+    uniaxial = diagnose(measurements, params, on_fit) if measurements.tests else None
     cut = None
     if measurements.cut_tests:
         cut = diagnose_cuts(measurements.block, measurements.blade, measurements.cut_tests,
-                            params)
+                            params, on_fit=on_fit)
     return SetDiagnosis(measurements, uniaxial, cut)

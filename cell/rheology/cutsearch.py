@@ -21,6 +21,7 @@ Usage::
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -71,6 +72,8 @@ class CutSearch:
         self.problem, self.params, self.root = problem, params, root
         self.catalogue: tuple[str, ...] = CUT_CAUSES
         self.fits: dict[frozenset[str], CutFit] = {}
+        #: Called with 1 after each fit (a progress bar's ``update``), or None.
+        self.on_fit: Callable[[int], object] | None = None
 
     def run(self, jobs: list[tuple[CutFit | None, str | None]]) -> list[CutFit]:
         """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root model),
@@ -88,6 +91,8 @@ class CutSearch:
                 result = fit_best(self.problem, model, base, self.params.max_evaluations)
                 if key not in self.fits or result.rmse_n < self.fits[key].rmse_n:
                     self.fits[key] = result
+                if self.on_fit is not None:
+                    self.on_fit(1)
             results.append(self.fits[key])
         return results
 
@@ -136,9 +141,11 @@ def _evidence(search: CutSearch, final: CutFit, order: list[str]) -> tuple[Evide
 
 def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
                   params: DiagnosisParams | None = None,
-                  face_pressure_pa: float = FACE_PRESSURE_PA) -> CutDiagnosis:
+                  face_pressure_pa: float = FACE_PRESSURE_PA,
+                  on_fit: Callable[[int], object] | None = None) -> CutDiagnosis:
     """Diagnose a set's cut tests (module docstring); ``face_pressure_pa`` is the pressure a
-    fitted face shear stress is divided by (the material's, where it has a cutting model).
+    fitted face shear stress is divided by (the material's, where it has a cutting model);
+    ``on_fit`` is called with 1 after each fit (progress).
 
     Example:
         >>> from cell.rheology.cutreduced import simulate_cut
@@ -162,6 +169,7 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
                         face_pressure_pa=face_pressure_pa)
     noise = force_noise_n([channel for test in tests for channel in test.force_n.T])
     search = CutSearch(problem, params, root)
+    search.on_fit = on_fit
     baseline = search.run([(None, None)])[0]
     candidates = search.run([(baseline, c) for c in CUT_CAUSES])
     current, steps, order = forward(search, baseline, candidates, noise)

@@ -51,7 +51,7 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from multiprocessing import get_context
@@ -166,7 +166,7 @@ class Diagnosis(SearchOutcome):
         intervals: the extended model's held-out predictions with their 90 % intervals
             (:mod:`cell.rheology.intervals`).
 
-    ``to_json()`` is the JSON that ``musclecell diagnose --json`` writes.
+    ``to_json()`` is the JSON that ``musclecell diagnose --out`` writes.
     """
 
     measurements: MeasurementSet
@@ -287,8 +287,10 @@ def cause_of(name: str) -> str:
     return "plasticity"
 
 
-def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None) -> Diagnosis:
-    """Diagnose ``measurements`` (module docstring).
+def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None,
+             on_fit: Callable[[int], object] | None = None) -> Diagnosis:
+    """Diagnose ``measurements`` (module docstring); ``on_fit`` is called with 1 after each
+    fit (progress).
 
     Raises:
         DiagnosisError: a set of one test (nothing to hold it out against), or the baseline
@@ -314,6 +316,7 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     groups = repeat_groups(tests, measurements.specimen)
     try:
         search = RepeatSearch(problem, params, root, pool, groups)
+        search.on_fit = on_fit
         baseline = search.run([(None, None)])[0]
         _require_runs(baseline)
         floor = _judged_noise(search.plain(baseline), tests, noise, groups)

@@ -93,6 +93,8 @@ class Search:
         #: The causes a step may add: the cut tests' search (:mod:`cell.rheology.cutsearch`)
         #: walks the same steps over its own catalogue.
         self.catalogue: tuple[str, ...] = CAUSES
+        #: Called with 1 after each fit (a progress bar's ``update``), or None.
+        self.on_fit: Callable[[int], object] | None = None
 
     def run(self, jobs: list[tuple[ModelFit | None, str | None]]) -> list[ModelFit]:
         """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root
@@ -133,6 +135,8 @@ class Search:
                                strict=True):
             if key not in self.fits or result.rmse_n < self.fits[key].rmse_n:
                 self.fits[key] = result
+            if self.on_fit is not None:
+                self.on_fit(1)
         return [self.fits[k] for k in keys]
 
 

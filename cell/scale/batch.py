@@ -4,7 +4,7 @@ per set, into one table of causes and gains; a re-run skips the sets already dia
 Each set is diagnosed as ``musclecell diagnose`` diagnoses it, through the same entry point
 (:func:`cell.rheology.cutdiagnosis.diagnose_set`): uniaxial tests, cut tests or both. The
 results folder gets ``diagnoses.parquet`` and ``diagnoses.csv`` (one row per set),
-``summary.md``, and per set ``sets/<set>.json`` (what ``musclecell diagnose --json`` writes)
+``summary.md``, and per set ``sets/<set>.json`` (what ``musclecell diagnose --out`` writes)
 and ``sets/<set>-material.toml`` (the extended material); a set that cannot be read or
 diagnosed is a row with its error, and the others go on.
 """

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from cell.errors import FailedRowsError, InputError
+from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
 
 if TYPE_CHECKING:
@@ -26,27 +27,25 @@ def add_sweep(commands: argparse._SubParsersAction) -> None:
     sweep = commands.add_parser(
         "sweep", help="run every episode of a sweep file, one Ray task each (needs the scale "
         "extra unless --workers 1)")
-    sweep.add_argument("sweep", type=Path, help="sweep TOML file (see README, Sweeps and batches)")
-    sweep.add_argument("--out", type=Path, required=True,
-                       help="results folder; runs already in it are skipped")
+    sweep.add_argument("sweep", type=Path,
+                       help="sweep TOML file (its keys: docs/sweeps.md, A sweep file)")
+    add_out(sweep, "results folder; runs already in it are skipped", required=True,
+            folder=True)
     add_workers(sweep)
     sweep.add_argument("--retry-failed", action="store_true",
                        help="play again the runs in --out that failed or diverged")
-    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(sweep)
     sweep.set_defaults(handler=sweep_command)
 
 
 def add_batch(diagnosis: argparse.ArgumentParser) -> None:
-    """``--batch``, ``--out``, ``--quiet``, ``--address`` and ``--workers`` on the
-    ``diagnose`` parser: with ``--batch`` the command diagnoses many sets, else the one-set
-    handler it had runs."""
+    """``--batch``, ``--address`` and ``--workers`` on the ``diagnose`` parser (its ``--out``
+    is then the results folder): with ``--batch`` the command diagnoses many sets, else the
+    one-set handler it had runs."""
     one_set = diagnosis.get_default("handler")
     diagnosis.add_argument("--batch", type=Path,
                            help="diagnose every set in this folder, one Ray task each, into "
                            "one table in --out (needs the scale extra unless --workers 1)")
-    diagnosis.add_argument("--out", type=Path,
-                           help="--batch: results folder; sets already in it are skipped")
-    diagnosis.add_argument("--quiet", action="store_true", help="--batch: no progress bar")
     add_workers(diagnosis, "; one set: processes fitting candidates side by side (default: "
                 "every core)")
 
@@ -132,12 +131,12 @@ def diagnose_batch_command(args: argparse.Namespace) -> int:
     written (:func:`no_failed_rows`)."""
     from cell.scale.batch import diagnose_batch
 
-    extra = [name for name, value in (("set_dir", args.set_dir), ("--json", args.json),
+    extra = [name for name, value in (("set_dir", args.set_dir),
                                       ("--material", args.material),
                                       ("--report", args.report),
                                       ("--suggest", args.suggest or None)) if value is not None]
-    if extra or args.out is None:
-        raise InputError(None, extra[0] if extra else "--out",
+    if extra:
+        raise InputError(None, extra[0],
                          "diagnose --batch PARENT takes --out DIR (and --address, --workers), "
                          "and writes each set's JSON and material there")
     pool = workers(args)

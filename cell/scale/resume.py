@@ -9,8 +9,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from tqdm import tqdm
-
+from cell.progress import progress_bar
 from cell.scale.pool import RunPool, Workers
 from cell.scale.store import ResultsFolder
 
@@ -52,8 +51,8 @@ def play_missing(function: Callable[[T], R], tasks: Sequence[T], names: Sequence
     started = time.perf_counter()
     # Nothing to play: no Ray to start.
     with (RunPool(workers if todo else Workers(1)) as pool,
-          tqdm(total=len(tasks), initial=len(rows), disable=not progress, unit="run",
-               desc=desc) as bar):
+          progress_bar("run", quiet=not progress, total=len(tasks), initial=len(rows),
+                       desc=desc) as bar):
         for position, result, error in pool.play(function, [tasks[k] for k in todo],
                                                  [names[k] for k in todo]):
             k = todo[position]

@@ -12,7 +12,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from cell.errors import ScenarioError
+from cell.errors import InputError, ScenarioError
+from cell.options import add_out, add_quiet, moved_positional
 from cell.outputs import Output, check_outputs
 
 if TYPE_CHECKING:
@@ -24,17 +25,17 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     run = commands.add_parser("run", help="run a scripted cutting episode")
     run.add_argument("scenario", type=Path, help="scenario TOML file")
     run.add_argument("--rerun", type=Path, help="write a Rerun recording (.rrd) here")
-    run.add_argument("--summary", type=Path, help="write the summary JSON here")
+    add_out(run, "write the summary JSON here", old=("--summary",))
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--log", type=Path, help="write the episode's separation log (sensors "
                      "over time, docs/logs.md) into this folder")
-    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(run)
     run.set_defaults(handler=run_command)
 
     plan = commands.add_parser(
         "plan", help="perceive the cut and plan the knife at the ready poses (no physics)")
     plan.add_argument("scenario", type=Path, help="scenario TOML file")
-    plan.add_argument("--json", type=Path, required=True, help="write the plan's figures here")
+    add_out(plan, "write the plan's figures (JSON) here", required=True, old=("--json",))
     plan.add_argument("--seed", type=int, help="override the scenario's seed (sensor noise)")
     plan.set_defaults(handler=plan_command)
 
@@ -44,21 +45,26 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     replay.add_argument("logs", type=Path, nargs="+", metavar="LOG",
                         help="the log's folder (log.toml, knife.csv, ...); several: one batch "
                         "of meat, which must share tools, sensors and material")
-    replay.add_argument("--out", type=Path, help="write replay.json and the channels side "
-                        "by side (<channel>.csv) into this folder (several logs: a folder "
-                        "each in it, by the log folder's name)")
+    add_out(replay, "write replay.json and the channels side by side (<channel>.csv) into "
+            "this folder (several logs: a folder each in it, by the log folder's name)",
+            folder=True)
+    add_quiet(replay)
     replay.set_defaults(handler=replay_command)
 
-    export = commands.add_parser("export-mjcf", help="write the scene as MJCF")
-    export.add_argument("scenario", type=Path)
-    export.add_argument("output", type=Path)
+    export = commands.add_parser("export-mjcf", help="write the scene as MJCF",
+                                 usage="%(prog)s [-h] scenario -o FILE")
+    export.add_argument("scenario", type=Path, help="scenario TOML file")
+    export.add_argument("output", type=Path, nargs="?", metavar="OUTPUT",
+                        help="deprecated: the old place of --out")
+    add_out(export, "write the MJCF here (required; the deprecated positional OUTPUT in "
+            "its place is accepted, with a warning)")
     export.set_defaults(handler=export_command)
 
     render = commands.add_parser(
         "render", help="draw the scenario's cell at its start (arms at their ready poses) "
         "as a PNG picture")
     render.add_argument("scenario", type=Path, help="scenario TOML file")
-    render.add_argument("--png", type=Path, required=True, help="write the picture here")
+    add_out(render, "write the PNG picture here", required=True, old=("--png",))
     render.add_argument("--width", type=int, default=1280, help="px (default 1280)")
     render.add_argument("--height", type=int, default=720, help="px (default 720)")
     render.add_argument("--camera", help="a camera of the model (e.g. camera/camera: what the "
@@ -88,15 +94,15 @@ def run_command(args: argparse.Namespace) -> int:
     from cell.sim.logwriter import LoggedEpisode, write_log
 
     check_outputs([args.rerun and Output(args.rerun, "--rerun"),
-                   args.summary and Output(args.summary, "--summary"),
+                   args.out and Output(args.out, "--out"),
                    args.log and Output(args.log, "--log", folder=True, whole=True,
                                        marks=("log.toml",))],
                   [args.scenario])
     scenario = load(args)
     episode = LoggedEpisode(scenario) if args.log else Episode(scenario)
     summary = episode.run(rerun_path=args.rerun, progress=not args.quiet)
-    if args.summary:
-        write_json(args.summary, summary)
+    if args.out:
+        write_json(args.out, summary)
     if isinstance(episode, LoggedEpisode):
         write_folder(args.log, lambda folder: write_log(folder, episode, args.scenario))
     result = summary["result"]
@@ -118,7 +124,7 @@ def plan_command(args: argparse.Namespace) -> int:
     from cell.sim.episode import Episode
     from controllers.knife import plan_cut
 
-    check_outputs([Output(args.json, "--json")], [args.scenario])
+    check_outputs([Output(args.out, "--out")], [args.scenario])
     scenario = load(args)
     episode = Episode(scenario)
     truth = episode.scene.mesh
@@ -135,7 +141,7 @@ def plan_command(args: argparse.Namespace) -> int:
                "knife": {"cut_window_s": list(window_s), "tip_points": len(tip_path),
                          "tip_offset_from_true_interface_m": {"mean": float(offset.mean()),
                                                               "max": float(offset.max())}}}
-    write_json(args.json, summary)
+    write_json(args.out, summary)
     distance = plan.guideline_distance_m
     depth = plan.cut_depth_m
     print(f"guideline {plan.guideline.length_m:.3f} m, {len(plan.guideline.nodes)} nodes, "
@@ -143,7 +149,7 @@ def plan_command(args: argparse.Namespace) -> int:
           f"true top line; fit rms {plan.fit.rms_m * 1e3:.2f} mm; cut depth "
           f"{depth.min() * 1e3:.0f}-{depth.max() * 1e3:.0f} mm; knife tip "
           f"{offset.mean() * 1e3:.1f} mm mean from the true interface; perception "
-          f"{plan.timings_s['total']:.2f} s; wrote {args.json}")
+          f"{plan.timings_s['total']:.2f} s; wrote {args.out}")
     return 0
 
 
@@ -151,8 +157,11 @@ def export_command(args: argparse.Namespace) -> int:
     """``musclecell export-mjcf``."""
     from cell.sim.assembly import build_scene, export_mjcf
 
-    check_outputs([Output(args.output, "output")], [args.scenario])
-    path = export_mjcf(build_scene(load(args)), args.output)
+    out = moved_positional(args.output, args.out, "OUTPUT")
+    if out is None:
+        raise InputError(None, "--out", "missing: export-mjcf SCENARIO --out FILE.xml")
+    check_outputs([Output(out, "--out" if args.output is None else "OUTPUT")], [args.scenario])
+    path = export_mjcf(build_scene(load(args)), out)
     print(f"wrote {path}")
     return 0
 
@@ -164,12 +173,12 @@ def render_command(args: argparse.Namespace) -> int:
     from cell.sim.picture import check_size, png_bytes, render_rgb
 
     check_size(args.width, args.height)
-    check_outputs([Output(args.png, "--png")], [args.scenario])
+    check_outputs([Output(args.out, "--out")], [args.scenario])
     episode = Episode(load(args))
     rgb = render_rgb(episode.sim.model, episode.sim.data, args.width, args.height,
                      args.camera)
-    write_atomic(args.png, png_bytes(rgb))
-    print(f"wrote {args.png} ({args.width} x {args.height} px)")
+    write_atomic(args.out, png_bytes(rgb))
+    print(f"wrote {args.out} ({args.width} x {args.height} px)")
     return 0
 
 
@@ -191,7 +200,7 @@ def replay_command(args: argparse.Namespace) -> int:
         names = [f"{k + 1}-{name}" for k, name in enumerate(names)]
     results = []
     for log in logs:
-        results.append(replay(log))
+        results.append(replay(log, progress=not args.quiet))
         _print_replay(results[-1].summary())
     if args.out:
         # One folder for all the logs, written whole once every replay is done.

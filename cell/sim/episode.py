@@ -13,10 +13,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from cell.perception.interface import SeenInterface
 from cell.perception.pipeline import PerceivedPlan, generic_model, perceive
+from cell.progress import progress_bar
 from cell.robots.camera import CameraRig
 from cell.robots.names import ARMS, CAMERA, GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
 from cell.sim.assembly import (
@@ -221,7 +221,8 @@ class Episode:
                          scenario.knife.blade_thickness_m)
         wall_start = time.perf_counter()
         try:
-            for k in tqdm(range(steps), disable=not progress, unit="ctrl", desc=scenario.name):
+            for k in progress_bar("ctrl", quiet=not progress, iterable=range(steps),
+                                  desc=scenario.name):
                 t_next = (k + 1) * self.control_dt_s
                 knife_target = plan.knife.sample(t_next) if scenario.cut.enabled else None
                 if knife_target is not None and relooks is not None:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from cell.errors import LogError
+from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
 
 if TYPE_CHECKING:
@@ -27,9 +28,8 @@ def add_log_diagnosis(commands: argparse._SubParsersAction) -> argparse.Argument
     parser.add_argument("logs", type=Path, nargs="+", metavar="LOG",
                         help="the logs' folders (at least two; they share tools, sensors "
                         "and material)")
-    parser.add_argument("--out", type=Path, required=True,
-                        help="write diagnosis.json, extended-material.toml, "
-                        "extended-scenario.toml and report.md (with plots) into this folder")
+    add_out(parser, "write diagnosis.json, extended-material.toml, extended-scenario.toml "
+            "and report.md (with plots) into this folder", required=True, folder=True)
     parser.add_argument("--workers", type=int, help="replays side by side (default: one "
                         "per core; with --address, the whole cluster)")
     parser.add_argument("--causes", nargs="+", metavar="CAUSE",
@@ -37,6 +37,7 @@ def add_log_diagnosis(commands: argparse._SubParsersAction) -> argparse.Argument
                         "applies)")
     parser.add_argument("--no-plots", action="store_true",
                         help="no channels-<log>.png (they need the report extra)")
+    add_quiet(parser)
     parser.set_defaults(handler=diagnose_logs_command)
     return parser
 
@@ -65,8 +66,11 @@ def diagnose_logs_command(args: argparse.Namespace,
     batch = read_log_batch(args.logs)
     params = LogDiagnosisParams(workers=args.workers,
                                 causes=tuple(args.causes) if args.causes else None)
-    with cluster or nullcontext() as pool:
-        diagnosis = diagnose_logs(batch, params, pool)
+    from cell.progress import progress_bar
+
+    with (cluster or nullcontext() as pool,
+          progress_bar("replay", quiet=args.quiet, desc="diagnose-logs") as bar):
+        diagnosis = diagnose_logs(batch, params, pool, bar.update)
     write_folder(args.out, lambda folder: write_log_diagnosis(folder, batch, diagnosis,
                                                               plots=not args.no_plots))
     data = diagnosis.to_json()

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -130,10 +131,12 @@ class LogDiagnosis:
 
 
 def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
-                  cluster: ReplayPool | None = None) -> LogDiagnosis:
+                  cluster: ReplayPool | None = None,
+                  on_replay: Callable[[int], object] | None = None) -> LogDiagnosis:
     """Diagnose ``batch`` (module docstring), its replays on ``params.workers`` processes
     here, or on ``cluster`` (an entered :class:`cell.scale.pool.RunPool` on a Ray cluster,
-    whose ``Workers`` then say how many run at a time).
+    whose ``Workers`` then say how many run at a time); ``on_replay`` is called with 1 after
+    each replay (progress).
 
     Raises:
         DivergenceError: the lab's own world blew up in a replay.
@@ -147,6 +150,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     started, cpu_started = time.perf_counter(), time.process_time()
     jobs = len(batch.logs) * (2 * len(names) + 1)
     with Replayer(batch, min(workers, jobs), cluster) as replayer:
+        replayer.on_replay = on_replay
         base, blocks = _screen(replayer, measured, names)
         residual = measured - base
         blocks.update({OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})

@@ -93,6 +93,8 @@ class Replayer:
         self.batch = batch
         self.folders = [str(log.folder) for log in batch.logs]
         self.count, self.wall_s, self.cpu_s = 0, 0.0, 0.0
+        #: Called with 1 after each replay (a progress bar's ``update``), or None.
+        self.on_replay: Callable[[int], object] | None = None
         self._cluster = cluster
         self._shipped: Any = None
         self._pool = (ProcessPoolExecutor(workers, mp_context=get_context("spawn"),
@@ -118,9 +120,17 @@ class Replayer:
             return self._on_cluster(self._cluster, jobs)
         tasks = [(self.folders[i], tuple(sorted(m.items()))) for i, m in jobs]
         started = time.perf_counter()
-        results = (list(self._pool.map(_replay_task, tasks)) if self._pool is not None
-                   else [_replay_task(task) for task in tasks])
+        mapped = (self._pool.map(_replay_task, tasks) if self._pool is not None
+                  else map(_replay_task, tasks))
+        results = []
+        for result in mapped:
+            results.append(result)
+            self._replayed()
         return self._counted(results, started)
+
+    def _replayed(self) -> None:
+        if self.on_replay is not None:
+            self.on_replay(1)
 
     def _on_cluster(self, cluster: ReplayPool, jobs: Sequence[tuple[int, dict[str, float]]]
                     ) -> list[np.ndarray | None]:
@@ -137,6 +147,7 @@ class Replayer:
             if error:
                 raise PoolError(None, "--address", f"{names[position]} gave no result: {error}")
             results[position] = result
+            self._replayed()
         return self._counted(results, started)
 
     def _counted(self, results: list[tuple[np.ndarray | None, float]], started: float

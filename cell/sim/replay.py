@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from cell.progress import progress_bar
 from cell.robots.names import GRASP_SITE, KNIFE_TIP
 from cell.sim.episode import TARE_LEAD_S, Episode, EpisodePlan
 from cell.sim.logbatch import log_scenario
@@ -160,9 +161,10 @@ def _replay_plan(plan: EpisodePlan, log: SeparationLog, control_dt_s: float) -> 
 
 
 def replay(log: SeparationLog, scenario: Scenario | None = None,
-           adjust: Callable[[Episode], None] | None = None) -> Replay:
+           adjust: Callable[[Episode], None] | None = None, progress: bool = False) -> Replay:
     """Replay ``log`` (:mod:`cell.sim.replay`) in its scenario, or in ``scenario`` (a changed
-    world: the batch diagnosis), ``adjust`` applied to the episode before it starts.
+    world: the batch diagnosis), ``adjust`` applied to the episode before it starts; with
+    ``progress``, a bar of the log's seconds on stderr.
 
     Raises:
         ScenarioError: the log's scenario file is bad.
@@ -184,15 +186,18 @@ def replay(log: SeparationLog, scenario: Scenario | None = None,
     end_s = float(knife.time_s[-1])
     tracking = (_ToolTracking(episode, "knife/force", knife, plan.cut_window_s.start_s),
                 _ToolTracking(episode, "gripper/force", gripper, plan.schedule.close_s))
-    while episode.sim.time_s < end_s - 1e-9:
-        t_next = episode.sim.time_s + episode.control_dt_s
-        # The servos reach a target a control step late: aim where the log is a step on.
-        lead_s = t_next + episode.control_dt_s
-        episode.control_step(plan, tracking[0].target(lead_s, offsets[0]),
-                             tracking[1].target(lead_s, offsets[1]))
-        for tool in tracking:
-            tool.update(episode.sim.time_s)
-        sampler.sample(bool(episode.sim.grasped.size))
+    with progress_bar("s", quiet=not progress, total=round(end_s, 3),
+                      desc=log.folder.name) as bar:
+        while episode.sim.time_s < end_s - 1e-9:
+            t_next = episode.sim.time_s + episode.control_dt_s
+            # The servos reach a target a control step late: aim where the log is a step on.
+            lead_s = t_next + episode.control_dt_s
+            episode.control_step(plan, tracking[0].target(lead_s, offsets[0]),
+                                 tracking[1].target(lead_s, offsets[1]))
+            for tool in tracking:
+                tool.update(episode.sim.time_s)
+            sampler.sample(bool(episode.sim.grasped.size))
+            bar.update(episode.control_dt_s)
     simulated = sampler.channels()
     counts = episode.scene.aponeurosis.released_counts()
     released = {"bindings": len(episode.scene.aponeurosis),
