@@ -119,7 +119,8 @@ def add_scenarios(commands: argparse._SubParsersAction) -> None:
     parser = commands.add_parser(
         "scenarios", help="list the example scenarios, sweeps, script and measured sets the "
         "package ships; `copy NAME [DEST]` copies one out")
-    actions = parser.add_subparsers(dest="action")
+    actions = parser.add_subparsers(dest="action", help="copy: copy an example out (none: "
+                                    "list them)")
     copy = actions.add_parser("copy", help="copy an example out (a measured set: its folder)")
     copy.add_argument("name", metavar="NAME", help="the example's name, as the list gives it")
     copy.add_argument("destination", metavar="DEST", nargs="?", default=".",
