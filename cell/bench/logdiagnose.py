@@ -5,7 +5,7 @@ hidden-effect log batches it has never seen.
 Each batch is drawn by the project's generator (:func:`~cell.sim.logsets.write_hidden_log_batch`:
 three separations of drawn meat shapes on ``scenarios/quick.toml``, one or two hidden changes of
 the world, sensor noise) with a seed the tests never use, read back as one batch and diagnosed.
-Two kinds (:data:`KINDS`): ``single`` cycles through the log cause table of the shared spec
+Two kinds (:data:`KINDS`): ``single`` cycles through the log cause table of docs/logs.md
 (:data:`LOG_TABLE`) and none; ``pairs`` through every pair of it. The ``--quick`` form
 (:meth:`LogBenchParams.quick`) cuts every episode short, for iteration only: its figures are no
 acceptance figures.
@@ -47,8 +47,8 @@ if TYPE_CHECKING:
 
 Kind = Literal["single", "pairs"]
 KINDS: tuple[Kind, ...] = ("single", "pairs")
-#: The log cause table of the shared spec (cell logs, section 2); the generator's
-#: ``blade_friction`` is a cutting cause (section 1), benched by ``--cut``.
+#: The log cause table (docs/logs.md); the generator's ``blade_friction`` is a cause of the
+#: cut cause table (docs/measured-data.md), benched by ``--cut``.
 LOG_TABLE = ("binding_strength", "binding_gradient", "tearing_threshold", "tissue_stiffness",
              "fibre_direction", "sensor_offset")
 PAIRS = tuple(itertools.combinations(LOG_TABLE, 2))

@@ -1,7 +1,7 @@
 """The catalogue of causes of cut tests: each one a change to the cutting model (or the blade's
 sensor), with the parameters a fit varies.
 
-A :class:`CutCandidate` is the cut baseline (a constant toughness G, the spec's plain cut) plus
+A :class:`CutCandidate` is the cut baseline (a constant toughness G, the plain cut) plus
 some causes. The force on the blade is linear in G (per layer, with ``layered_toughness``), in
 the faces' shear stress ``mu p`` and in the sensor's offset, so a fit solves for those in
 closed form (:func:`linear_columns` gives the columns) and searches only the *shape*

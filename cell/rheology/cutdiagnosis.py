@@ -5,7 +5,7 @@ model), so each part is diagnosed on its own tests (:func:`cell.rheology.diagnos
 :func:`cell.rheology.cutsearch.diagnose_cuts`) and the results are joined: the causes of both
 catalogues, one extended material (the fitted springs with the fitted cutting model as its
 ``[cutting]`` table; for a set of cut tests alone, the default beef's springs), and the JSON
-of the spec's contract.
+of the diagnosis contract (docs/measured-data.md).
 
 The JSON: for a set with uniaxial tests, the uniaxial diagnosis's own (unchanged for a set
 without cut tests) with ``causes`` joined and the cut tests' diagnosis under ``cut``; for a set

@@ -127,7 +127,7 @@ class SearchOutcome:
         return 1.0 - self.extended.heldout_rmse_n / self.baseline.heldout_rmse_n
 
     def to_json(self) -> dict[str, Any]:
-        """The diagnosis contract of ``spec/measured-data.md``, plus the noise, the
+        """The diagnosis contract (docs/measured-data.md), plus the noise, the
         information criteria and the search's steps."""
         return {
             "baseline": self.baseline.to_json(),
@@ -197,7 +197,7 @@ class Diagnosis(SearchOutcome):
         return comment
 
     def to_json(self) -> dict[str, Any]:
-        """The diagnosis contract of ``spec/measured-data.md``, plus the noise, the
+        """The diagnosis contract (docs/measured-data.md), plus the noise, the
         information criteria, the search's steps, the evidence of each cause, the specimen
         spread and the held-out predictions with their intervals."""
         intervals = {} if self.intervals is None else {"intervals": self.intervals.to_json()}

@@ -1,6 +1,6 @@
-"""The causes a batch of separation logs can show (the shared spec's cell logs, section 2,
-and the cutting causes of section 1 that map onto the cell's knife), each a change of the
-world the replay applies with one magnitude.
+"""The causes a batch of separation logs can show (the log cause table of docs/logs.md,
+and the causes of the cut cause table, docs/measured-data.md, that map onto the cell's
+knife), each a change of the world the replay applies with one magnitude.
 
 A magnitude of 0 is the world as the lab believes it. Factors are carried as their natural
 logarithm (a magnitude ``m`` means a factor ``exp(m)``), so that a change and its inverse are
@@ -44,7 +44,7 @@ class LogCause:
     """One cause of the catalogue.
 
     Attributes:
-        name: its name in the spec's tables.
+        name: its name in the cause tables (docs/logs.md, docs/measured-data.md).
         step: the magnitude of its screening replay (log factor, or rad).
         kind: ``"factor"`` (the magnitude is a log factor) or ``"angle"`` (rad).
 

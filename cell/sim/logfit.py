@@ -55,7 +55,7 @@ class Rows:
     def resting_offset(self, residual: np.ndarray, channel: str) -> np.ndarray:
         """A constant offset of ``channel`` as one column: the mean residual of each of its
         components at rest (:attr:`resting`; all samples where none are), where a sensor's
-        offset shows alone ("also at rest": the spec) and the replay follows the log
+        offset shows alone ("also at rest": the log cause table) and the replay follows the log
         closest: a misfit of the cell while it cuts and pulls, or a replay's tare taken in a
         state a little off the log's, is not taken for one."""
         columns = self.offset_columns(channel)

@@ -1,4 +1,4 @@
-"""Separation logs on disk (docs/logs.md; the shared spec's cell logs, section 2): a folder
+"""Separation logs on disk (docs/logs.md; the format: docs/log-format.md): a folder
 with ``log.toml``, ``knife.csv``, ``gripper.csv`` and ``fixture.csv``, read through the
 guarded reader (:mod:`cell.io`) with a named error for every fault, and written as text.
 

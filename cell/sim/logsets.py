@@ -7,7 +7,7 @@ logs (``log-1``, ...), each with the scenario the lab believes (the base scenari
 log's meat shape, naming ``../material.toml``). Each log's meat shape is drawn about the
 base's (length, round's width and height, the interface's bow); its episode has a seed of
 its own, so its sensors' noise differs. The world the cell runs differs from the belief by
-the hidden causes of the log cause table (the shared spec's cell logs, section 2), with drawn
+the hidden causes of the log cause table (docs/logs.md), with drawn
 magnitudes, the same for every log of the batch:
 
 =====================  ===========================================================================
