@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from cell.determined import finite_or_none, shown
 from cell.errors import InputError, MaterialError
 from cell.io import read_bytes
 from cell.outputs import first_non_finite, write_atomic, write_json
@@ -100,15 +101,17 @@ def diagnose_set(task: SetTask) -> SetOutcome:
         error, trace = describe_failure(exc)
         return SetOutcome({**row, "status": "failed", "error": error,
                            "wall_s": time.perf_counter() - started}, traceback=trace)
+    # A score the fits do not determine is a blank cell (its reason in the set's JSON).
     row |= {"status": "ok", "error": "", "causes": " ".join(result.causes),
-            "gain": result.gain, "noise_n": result.noise_n,
-            "baseline_heldout_rmse_n": result.baseline.heldout_rmse_n,
+            "gain": finite_or_none(result.gain), "noise_n": result.noise_n,
+            "baseline_heldout_rmse_n": finite_or_none(result.baseline.heldout_rmse_n),
             "extended_model": result.extended.model.name,
-            "extended_heldout_rmse_n": result.extended.heldout_rmse_n,
+            "extended_heldout_rmse_n": finite_or_none(result.extended.heldout_rmse_n),
             "wall_s": time.perf_counter() - started}
     diagnosis = result.to_json()
-    # A fit that diverged or found no plausible material is the set's failure, not the
-    # batch's: it must not reach the strict writers.
+    # The diagnosis gives every number it computes finite or null with its reason
+    # (cell.determined); what else is not finite, or a fit that found no plausible material,
+    # is the set's failure, not the batch's: it must not reach the strict writers.
     failed = {"set": task.name, "specimen": row["specimen"], "status": "failed",
               "wall_s": row["wall_s"]}
     diverged = first_non_finite({"row": row, "diagnosis": diagnosis})
@@ -166,9 +169,10 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
     lines += ["", "| set | causes | gain | held-out RMSE (N) | error |", "|---|---|---|---|---|"]
     for row in rows:
         if row["status"] == "ok":
-            lines.append(f"| {row['set']} | {row['causes'] or 'none'} | {row['gain']:.3f} | "
-                         f"{row['baseline_heldout_rmse_n']:.3g} -> "
-                         f"{row['extended_heldout_rmse_n']:.3g} | |")
+            lines.append(f"| {row['set']} | {row['causes'] or 'none'} | "
+                         f"{shown(row['gain'], '.3f')} | "
+                         f"{shown(row['baseline_heldout_rmse_n'], '.3g')} -> "
+                         f"{shown(row['extended_heldout_rmse_n'], '.3g')} | |")
         else:
             lines.append(f"| {row['set']} | | | | {row['error']} |")
     return "\n".join(lines) + "\n"
