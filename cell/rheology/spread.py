@@ -32,7 +32,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2
 
-from cell.determined import NOT_IDENTIFIABLE, determined
+from cell.determined import NOT_IDENTIFIABLE, determined, determined_each
 from cell.rheology.measured import MechanicalTest
 
 #: Level of the test against no spread.
@@ -85,7 +85,7 @@ class SpecimenSpread:
                 **determined("likelihood_ratio", self.likelihood_ratio),
                 "critical": self.critical,
                 "repeat_groups": [list(g) for g in self.groups],
-                "log_modulus_factors": self.log_factors}
+                "log_modulus_factors": determined_each(self.log_factors)}
 
 
 def _critical() -> float:
