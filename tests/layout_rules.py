@@ -13,9 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 #: The project's packages that the rules know, bottom layer first.
-BASE = ("cell.errors", "cell.io", "cell.folders", "cell.outputs", "cell.config",
-        "cell.collision", "cell.polyline", "cell.memory", "cell.assets", "cell.scenarios",
-        "cell.extras", "cell.options", "cell.progress")
+BASE = ("cell.errors", "cell.io", "cell.folders", "cell.outputs", "cell.determined",
+        "cell.config", "cell.collision", "cell.polyline", "cell.memory", "cell.assets",
+        "cell.scenarios", "cell.extras", "cell.options", "cell.progress")
 ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.robots": BASE,
     "cell.tissue": BASE,

@@ -23,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
+from cell.determined import shown
 from cell.errors import DiagnosisError
 from cell.rheology.causes import UNEXPLAINED
 from cell.rheology.cutsearch import CutDiagnosis, diagnose_cuts
@@ -70,8 +71,8 @@ class SetDiagnosis:
                 f"Cutting model fitted to the {len(extended.heldout_force_n)} cut tests of "
                 f"{self.measurements.folder.name}: {extended.model.name}; causes: "
                 f"{', '.join(self.cut.causes) or 'none'}; held-out RMSE "
-                f"{extended.heldout_rmse_n:.4g} N (baseline "
-                f"{self.cut.baseline.heldout_rmse_n:.4g} N).")
+                f"{shown(extended.heldout_rmse_n, '.4g')} N (baseline "
+                f"{shown(self.cut.baseline.heldout_rmse_n, '.4g')} N).")
             if extended.model.has_offset:
                 lines.append("The blade's sensor read "
                              f"{[round(float(v), 4) for v in extended.offset_n]} N in air: a "
@@ -86,8 +87,9 @@ class SetDiagnosis:
         for kind, part in (("uniaxial", self.uniaxial), ("cut", self.cut)):
             if part is not None:
                 lines.append(f"{kind}: causes {', '.join(part.causes) or 'none'}; held-out "
-                             f"RMSE {part.baseline.heldout_rmse_n:.4g} N -> "
-                             f"{part.extended.heldout_rmse_n:.4g} N (gain {part.gain:.3f}, "
+                             f"RMSE {shown(part.baseline.heldout_rmse_n, '.4g')} N -> "
+                             f"{shown(part.extended.heldout_rmse_n, '.4g')} N (gain "
+                             f"{shown(part.gain, '.3f')}, "
                              f"noise {part.noise_n:.3g} N)")
         return "\n".join(lines)
 

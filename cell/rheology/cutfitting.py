@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
+from cell.determined import estimates_json
 from cell.rheology.cutcauses import CutCandidate, flat, linear_columns
 from cell.rheology.cutreduced import CutKinematics
 from cell.rheology.cuts import Blade, Block, CutTest
@@ -138,8 +139,7 @@ class CutFit(HeldOutScores):
     def to_json(self) -> dict[str, Any]:
         """The contract's entry, plus ``fitted``: each fitted parameter with its 95 %
         interval (:attr:`fitted`)."""
-        return {**super().to_json(), "fitted": {
-            n: {"value": v, "ci95": [lo, hi]} for n, (v, lo, hi) in self.fitted.items()}}
+        return {**super().to_json(), "fitted": estimates_json(self.fitted)}
 
     @property
     def params(self) -> dict[str, float]:

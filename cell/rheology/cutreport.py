@@ -23,7 +23,7 @@ import numpy as np
 from cell.extras import require
 from cell.outputs import figure_png, write_atomic
 from cell.rheology.cutreduced import cutting_direction
-from cell.rheology.report import evidence_table, search_lines
+from cell.rheology.report import evidence_table, gain_line, search_lines
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -101,13 +101,11 @@ def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
               forces: str) -> str:
     """``cut-report.md``: causes, gain, candidates, steps, parameters, links."""
     cut = diagnosis.cut
-    base, extended = cut.baseline, cut.extended
     causes = (f"Causes, most important first: {', '.join(cut.causes)}." if cut.causes
               else "No cause found: the constant toughness explains the cuts.")
     lines = [f"# Diagnosis of the cut tests of {diagnosis.measurements.folder.name}", "",
              causes, "",
-             f"Gain {cut.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
-             f"{extended.heldout_rmse_n:.4g} N (extended); noise {cut.noise_n:.3g} N.", "",
+             gain_line(cut), "",
              *(evidence_table(cut.evidence) if cut.evidence else []),
              *search_lines(cut, folder, material_path),
              f"![Measured and held-out cut forces]({forces})", ""]

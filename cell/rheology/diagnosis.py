@@ -59,6 +59,7 @@ from typing import Any
 
 import numpy as np
 
+from cell.determined import NOT_PREDICTED, determined, determined_each, estimates_json, shown
 from cell.errors import DiagnosisError
 from cell.rheology.acceptance import improved_fraction
 from cell.rheology.causes import (
@@ -91,8 +92,8 @@ class Evidence:
             ``nonlinear_viscoelasticity``: with ``viscoelasticity`` in its place).
         improved_fraction: fraction of the tests whose held-out error the cause lowers.
         params: the cause's shape parameters: value and 95 % interval (NaN where the data
-            do not bound it), in the units of their names (``log_`` ones: natural log, except
-            ``log_relaxation_time``: log10 s).
+            do not bound it: ``null`` in the JSON, with ``ci95_reason``), in the units of
+            their names (``log_`` ones: natural log, except ``log_relaxation_time``: log10 s).
         without: the fit without the cause (for plots).
         with_fit: the fit with it, where that is not the extended model (for plots: for
             ``specimen_variability``, each test at its specimen's factor within its group of
@@ -109,11 +110,12 @@ class Evidence:
 
     def to_json(self) -> dict[str, Any]:
         """The evidence as the JSON's ``evidence`` entry."""
-        return {"cause": self.cause, "heldout_rmse_with_N": self.heldout_rmse_with_n,
-                "heldout_rmse_without_N": self.heldout_rmse_without_n,
+        return {"cause": self.cause,
+                **determined("heldout_rmse_with_N", self.heldout_rmse_with_n, NOT_PREDICTED),
+                **determined("heldout_rmse_without_N", self.heldout_rmse_without_n,
+                             NOT_PREDICTED),
                 "improved_fraction": self.improved_fraction,
-                "params": {n: {"value": v, "ci95": [lo, hi]}
-                           for n, (v, lo, hi) in self.params.items()}}
+                "params": estimates_json(self.params)}
 
 
 class SearchOutcome:
@@ -133,16 +135,16 @@ class SearchOutcome:
             "baseline": self.baseline.to_json(),
             "causes": list(self.causes),
             "candidates": [
-                {"cause": fit.model.causes[0], "params": fit.params,
-                 "heldout_rmse_N": fit.heldout_rmse_n, "bic": fit.bic,
+                {"cause": fit.model.causes[0], "params": determined_each(fit.params),
+                 **fit.scores_json(),
                  "selected": fit.model.causes[0] in self.causes}
                 for fit in self.candidates
             ],
             "extended": self.extended.to_json(),
-            "gain": self.gain,
+            **determined("gain", self.gain, NOT_PREDICTED),
             "noise_N": self.noise_n,
-            "steps": [{"causes": list(fit.model.causes), "heldout_rmse_N": fit.heldout_rmse_n,
-                       "bic": fit.bic} for fit in self.steps],
+            "steps": [{"causes": list(fit.model.causes), **fit.scores_json()}
+                      for fit in self.steps],
         }
 
 
@@ -189,8 +191,8 @@ class Diagnosis(SearchOutcome):
         comment = (f"Extended material fitted by `musclecell diagnose` to "
                    f"{self.measurements.folder.name} ({self.measurements.specimen.name}).\n"
                    f"Model: {extended.model.name}; causes: {', '.join(self.causes) or 'none'}; "
-                   f"held-out RMSE {extended.heldout_rmse_n:.4g} N (baseline "
-                   f"{self.baseline.heldout_rmse_n:.4g} N).")
+                   f"held-out RMSE {shown(extended.heldout_rmse_n, '.4g')} N (baseline "
+                   f"{shown(self.baseline.heldout_rmse_n, '.4g')} N).")
         if extended.model.has_offset:
             comment += (f"\nThe load cell read {extended.offset_n:.4g} N at rest: a rig effect, "
                         "not part of this material.")

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
+from cell.determined import NOT_PREDICTED, determined, determined_each
 from cell.errors import DivergenceError, MaterialError
 from cell.rheology.causes import CandidateMaterial
 from cell.rheology.measured import MechanicalTest, Specimen
@@ -153,8 +154,14 @@ class HeldOutScores:
 
     def to_json(self) -> dict[str, Any]:
         """The contract's ``baseline`` / ``extended`` entry (plus ``bic``)."""
-        return {"model": self.model.name, "params": self.params,
-                "heldout_rmse_N": self.heldout_rmse_n, "bic": self.bic}
+        return {"model": self.model.name, "params": determined_each(self.params),
+                **self.scores_json()}
+
+    def scores_json(self) -> dict[str, Any]:
+        """The held-out RMSE and the BIC, each ``null`` with its reason where the fit does not
+        determine it (:mod:`cell.determined`)."""
+        return {**determined("heldout_rmse_N", self.heldout_rmse_n, NOT_PREDICTED),
+                **determined("bic", self.bic, NOT_PREDICTED)}
 
 
 @dataclass(frozen=True, eq=False)

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from cell.determined import NOT_PREDICTED, determined, determined_each
 from cell.rheology.fitting import REFERENCE_PA, ModelFit, Problem
 
 #: Share of held-out samples an interval is to cover.
@@ -78,12 +79,15 @@ class PredictionIntervals:
         return float(np.array(self.coverage) @ sizes / sizes.sum())
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON's ``intervals`` entry."""
+        """The JSON's ``intervals`` entry (a number the fit does not determine ``null``,
+        with its reason: :mod:`cell.determined`)."""
         return {"level": LEVEL, "coverage": self.overall_coverage,
-                "parts_rms_N": self.parts_n,
-                "tests": [{"test_id": t, "coverage": c, "discrepancy": d,
-                           "prediction_N": p.tolist(), "lower_N": lo.tolist(),
-                           "upper_N": hi.tolist()}
+                "parts_rms_N": determined_each(self.parts_n, NOT_PREDICTED),
+                "tests": [{"test_id": t, "coverage": c,
+                           **determined("discrepancy", d, NOT_PREDICTED),
+                           **determined("prediction_N", p, NOT_PREDICTED),
+                           **determined("lower_N", lo, NOT_PREDICTED),
+                           **determined("upper_N", hi, NOT_PREDICTED)}
                           for t, c, d, p, lo, hi in zip(
                               self.test_ids, self.coverage, self.discrepancy, self.center_n,
                               self.lower_n, self.upper_n, strict=True)]}

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from cell.determined import NOT_DETERMINED, NOT_IDENTIFIABLE, is_determined, shown
 from cell.extras import require
 from cell.outputs import figure_png, write_together
 
@@ -184,11 +185,19 @@ def evidence_table(evidence: tuple[Evidence, ...]) -> list[str]:
     lines = ["## Evidence", "", "| cause | held-out RMSE with (N) | without (N) | tests improved "
              "| parameters (95 % interval) |", "|---|---|---|---|---|"]
     for e in evidence:
-        values = "; ".join(f"{n} {v:.3g} [{lo:.3g}, {hi:.3g}]"
+        values = "; ".join(f"{n} {shown(v, '.3g')} {_interval_text(lo, hi)}"
                            for n, (v, lo, hi) in e.params.items()) or "-"
-        lines.append(f"| {e.cause} | {e.heldout_rmse_with_n:.4g} | "
-                     f"{e.heldout_rmse_without_n:.4g} | {e.improved_fraction:.0%} | {values} |")
+        lines.append(f"| {e.cause} | {shown(e.heldout_rmse_with_n, '.4g')} | "
+                     f"{shown(e.heldout_rmse_without_n, '.4g')} | {e.improved_fraction:.0%} | "
+                     f"{values} |")
     return [*lines, ""]
+
+
+def _interval_text(low: float, high: float) -> str:
+    """An interval as ``[low, high]``, or said to be not determined (:mod:`cell.determined`)."""
+    if is_determined([low, high]):
+        return f"[{low:.3g}, {high:.3g}]"
+    return f"[interval {NOT_DETERMINED}: {NOT_IDENTIFIABLE}]"
 
 
 def _evidence_lines(diagnosis: Diagnosis) -> list[str]:
@@ -206,21 +215,22 @@ def _interval_lines(diagnosis: Diagnosis) -> list[str]:
     spread, intervals = diagnosis.specimen, diagnosis.intervals
     lines = ["## Specimens and predictions with intervals", ""]
     if spread.groups:
-        low, high = spread.ci95
         lines += [f"{len(spread.groups)} groups of tests under equal conditions; the spread "
-                  f"between their specimens (sd of the log modulus factor) {spread.sd:.3g} "
-                  f"[{low:.3g}, {high:.3g}], likelihood ratio {spread.likelihood_ratio:.3g} "
+                  f"between their specimens (sd of the log modulus factor) "
+                  f"{shown(spread.sd, '.3g')} {_interval_text(*spread.ci95)}, likelihood ratio "
+                  f"{shown(spread.likelihood_ratio, '.3g')} "
                   f"against none (named above {spread.critical:.3g}).", ""]
     else:
         lines += ["No tests under equal conditions: the spread between specimens is not "
                   "measured, and the intervals hold it in the model's discrepancy.", ""]
     if intervals is None:
         return lines
-    parts = ", ".join(f"{name} {value:.3g} N" for name, value in intervals.parts_n.items())
+    parts = ", ".join(f"{name} {shown(value, '.3g')} N"
+                      for name, value in intervals.parts_n.items())
     lines += [f"The 90 % intervals of the held-out predictions cover "
               f"{intervals.overall_coverage:.1%} of the held-out samples (RMS parts: {parts}).",
               "", "| test | coverage | discrepancy (relative) |", "|---|---|---|"]
-    lines += [f"| {t} | {c:.0%} | {d:.3g} |" for t, c, d in
+    lines += [f"| {t} | {c:.0%} | {shown(d, '.3g')} |" for t, c, d in
               zip(intervals.test_ids, intervals.coverage, intervals.discrepancy, strict=True)]
     return [*lines, ""]
 
@@ -228,19 +238,25 @@ def _interval_lines(diagnosis: Diagnosis) -> list[str]:
 def _markdown(diagnosis: Diagnosis, folder: Path, material_path: Path | None, forces: str,
               residuals: str) -> str:
     """``report.md``: causes, gain, errors, candidates, steps, parameters, links."""
-    base, extended = diagnosis.baseline, diagnosis.extended
     causes = (f"Causes, most important first: {', '.join(diagnosis.causes)}."
               if diagnosis.causes else "No cause found: the baseline explains the data.")
     lines = [
         f"# Diagnosis of {diagnosis.measurements.specimen.name}", "", causes, "",
-        f"Gain {diagnosis.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
-        f"{extended.heldout_rmse_n:.4g} N (extended); noise {diagnosis.noise_n:.3g} N.", "",
+        gain_line(diagnosis), "",
         *_evidence_lines(diagnosis), *_interval_lines(diagnosis),
         *search_lines(diagnosis, folder, material_path),
         f"![Measured and held-out forces]({forces})", "",
         f"![Held-out residuals]({residuals})", "",
     ]
     return "\n".join(lines)
+
+
+def gain_line(diagnosis: Diagnosis | CutDiagnosis) -> str:
+    """The gain and the held-out errors it comes from (the cut report's too)."""
+    return (f"Gain {shown(diagnosis.gain, '.3f')}: held-out RMSE "
+            f"{shown(diagnosis.baseline.heldout_rmse_n, '.4g')} N (baseline) → "
+            f"{shown(diagnosis.extended.heldout_rmse_n, '.4g')} N (extended); noise "
+            f"{diagnosis.noise_n:.3g} N.")
 
 
 def search_lines(diagnosis: Diagnosis | CutDiagnosis, folder: Path,
@@ -253,16 +269,18 @@ def search_lines(diagnosis: Diagnosis | CutDiagnosis, folder: Path,
     for fit in (diagnosis.baseline, *diagnosis.candidates):
         cause = ", ".join(fit.model.causes) or "none (baseline)"
         selected = "yes" if set(fit.model.causes) & set(diagnosis.causes) else ""
-        lines.append(f"| {cause} | {fit.heldout_rmse_n:.4g} | {fit.bic:.1f} | {selected} |")
+        lines.append(f"| {cause} | {shown(fit.heldout_rmse_n, '.4g')} | {shown(fit.bic, '.1f')} "
+                     f"| {selected} |")
     lines += ["", "## Steps", ""]
-    lines += [f"{k}. {' + '.join(fit.model.causes)}: held-out RMSE {fit.heldout_rmse_n:.4g} N, "
-              f"BIC {fit.bic:.1f}" for k, fit in enumerate(diagnosis.steps, start=1)]
+    lines += [f"{k}. {' + '.join(fit.model.causes)}: held-out RMSE "
+              f"{shown(fit.heldout_rmse_n, '.4g')} N, BIC {shown(fit.bic, '.1f')}"
+              for k, fit in enumerate(diagnosis.steps, start=1)]
     if not diagnosis.steps:
         lines.append("No cause was accepted.")
     extended = diagnosis.extended
     lines += ["", f"## Extended model: {extended.model.name}", "", "| parameter | value |",
               "|---|---|"]
-    lines += [f"| {name} | {value:.4g} |" for name, value in extended.params.items()]
+    lines += [f"| {name} | {shown(value, '.4g')} |" for name, value in extended.params.items()]
     lines.append("")
     if material_path is not None:
         link = Path(os.path.relpath(Path(material_path).absolute(), folder.absolute()))

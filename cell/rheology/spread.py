@@ -32,6 +32,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2
 
+from cell.determined import NOT_IDENTIFIABLE, determined, determined_each
 from cell.rheology.measured import MechanicalTest
 
 #: Level of the test against no spread.
@@ -51,7 +52,8 @@ class SpecimenSpread:
     Attributes:
         named: whether ``specimen_variability`` is named.
         sd: fitted standard deviation of the log modulus factor (0 without repeats).
-        ci95: its 95 % profile-likelihood interval (NaN without repeats; ``null`` in JSON).
+        ci95: its 95 % profile-likelihood interval (NaN without repeats or where the
+            repeats do not bound it: ``null`` in JSON, with ``ci95_reason``).
         likelihood_ratio: twice the log-likelihood gain over no spread.
         critical: the ratio that names it.
         groups: test ids of each group of repeats (two or more tests).
@@ -77,11 +79,13 @@ class SpecimenSpread:
 
     def to_json(self) -> dict[str, Any]:
         """The JSON's ``specimen_variability`` entry."""
-        ci95 = list(self.ci95) if all(map(math.isfinite, self.ci95)) else None
-        return {"named": self.named, "log_modulus_sd": self.sd, "ci95": ci95,
-                "likelihood_ratio": self.likelihood_ratio, "critical": self.critical,
+        unbounded = NOT_IDENTIFIABLE if self.groups else "no tests repeat a condition"
+        return {"named": self.named, **determined("log_modulus_sd", self.sd),
+                **determined("ci95", list(self.ci95), unbounded),
+                **determined("likelihood_ratio", self.likelihood_ratio),
+                "critical": self.critical,
                 "repeat_groups": [list(g) for g in self.groups],
-                "log_modulus_factors": self.log_factors}
+                "log_modulus_factors": determined_each(self.log_factors)}
 
 
 def _critical() -> float:

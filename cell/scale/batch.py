@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from cell.determined import finite_or_none, shown
 from cell.errors import InputError, MaterialError
 from cell.io import read_bytes
 from cell.outputs import first_non_finite, write_atomic, write_json
@@ -114,11 +115,13 @@ def diagnose_task(task: SetTask) -> SetOutcome:
         error, trace = describe_failure(exc)
         return SetOutcome({**row, "status": "failed", "error": error,
                            "wall_s": time.perf_counter() - started}, traceback=trace)
+    # A score the fits do not determine is a blank cell (its reason in the set's JSON).
     row |= {"status": "ok", "error": "", **_part_columns(result),
             "causes": " ".join(result.causes), "wall_s": time.perf_counter() - started}
     diagnosis = result.to_json()
-    # A fit that diverged or found no plausible material is the set's failure, not the
-    # batch's: it must not reach the strict writers.
+    # The diagnosis gives every number it computes finite or null with its reason
+    # (cell.determined); what else is not finite, or a fit that found no plausible material,
+    # is the set's failure, not the batch's: it must not reach the strict writers.
     failed = {"set": task.name, "specimen": row["specimen"], "status": "failed",
               "wall_s": row["wall_s"]}
     diverged = first_non_finite({"row": row, "diagnosis": diagnosis})
@@ -181,9 +184,10 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
             lines.append(f"| {row['set']} | | | | | {row['error']} |")
             continue
         prefixes = [PARTS[kind] for kind in row["tests"].split()]
-        gains = ", ".join(f"{row[f'{p}gain']:.3f}" for p in prefixes)
-        rmses = ", ".join(f"{row[f'{p}baseline_heldout_rmse_n']:.3g} -> "
-                          f"{row[f'{p}extended_heldout_rmse_n']:.3g}" for p in prefixes)
+        gains = ", ".join(shown(row[f"{p}gain"], ".3f") for p in prefixes)
+        rmses = ", ".join(f"{shown(row[f'{p}baseline_heldout_rmse_n'], '.3g')} -> "
+                          f"{shown(row[f'{p}extended_heldout_rmse_n'], '.3g')}"
+                          for p in prefixes)
         lines.append(f"| {row['set']} | {row['tests'].replace(' ', ', ')} | "
                      f"{row['causes'] or 'none'} | {gains} | {rmses} | |")
     return "\n".join(lines) + "\n"
@@ -197,10 +201,10 @@ def _part_columns(result: SetDiagnosis) -> dict[str, Any]:
         "tests": " ".join(kind for kind, part in parts.items() if part is not None)}
     for kind, part in parts.items():
         figures = {} if part is None else {
-            "gain": part.gain, "noise_n": part.noise_n,
-            "baseline_heldout_rmse_n": part.baseline.heldout_rmse_n,
+            "gain": finite_or_none(part.gain), "noise_n": part.noise_n,
+            "baseline_heldout_rmse_n": finite_or_none(part.baseline.heldout_rmse_n),
             "extended_model": part.extended.model.name,
-            "extended_heldout_rmse_n": part.extended.heldout_rmse_n}
+            "extended_heldout_rmse_n": finite_or_none(part.extended.heldout_rmse_n)}
         columns |= {f"{PARTS[kind]}{name}": figures.get(name) for name in FIGURES}
     return columns
 

@@ -23,12 +23,14 @@ form (:mod:`cell.sim.logfit`), without a replay.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from cell.determined import NOT_IN_LOGS, determined
 from cell.errors import LogError
 from cell.sim.scenario import Scenario
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
@@ -58,10 +60,15 @@ class LogCause:
     kind: str = "factor"
 
     def value(self, magnitude: float) -> float:
-        """What a user reads: the factor ``exp(m)``, or the angle in rad."""
-        return math.exp(magnitude) if self.kind == "factor" else magnitude
+        """What a user reads: the factor ``exp(m)`` (infinite past a float's range), or the
+        angle in rad."""
+        if self.kind != "factor":
+            return magnitude
+        return math.exp(magnitude) if magnitude < _LARGEST_LOG else math.inf
 
 
+#: The natural log of the largest float: ``math.exp`` of more raises.
+_LARGEST_LOG = math.log(sys.float_info.max)
 #: The world causes, in the order the diagnosis screens them.
 CAUSES = {cause.name: cause for cause in (
     LogCause("binding_strength", 0.4), LogCause("binding_gradient", 0.6),
@@ -176,12 +183,13 @@ class GradedSeam:
 
 def magnitudes_json(magnitudes: dict[str, float]) -> dict[str, dict[str, float]]:
     """Each cause's magnitude as a user reads it: ``factor`` (or ``angle_deg``) beside the
-    fitted ``magnitude``."""
+    fitted ``magnitude``; one the logs do not determine ``null`` with its reason
+    (:mod:`cell.determined`)."""
     out = {}
     for name, m in magnitudes.items():
         cause = CAUSES[name]
-        shown = ({"factor": cause.value(m)} if cause.kind == "factor"
-                 else {"angle_deg": math.degrees(m)})
-        out[name] = {"magnitude": m, **shown}
+        shown = (determined("factor", cause.value(m), NOT_IN_LOGS) if cause.kind == "factor"
+                 else determined("angle_deg", math.degrees(m), NOT_IN_LOGS))
+        out[name] = {**determined("magnitude", m, NOT_IN_LOGS), **shown}
     return out
 

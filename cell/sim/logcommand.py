@@ -47,6 +47,7 @@ def diagnose_logs_command(args: argparse.Namespace,
     """Read the batch (a bad log stops it: nothing written), diagnose it, write it; the
     replays on this machine's processes, or on ``cluster`` (a pool entered only once the
     options and the logs are checked)."""
+    from cell.determined import shown
     from cell.extras import require
     from cell.folders import write_folder
     from cell.sim.logbatch import read_log_batch
@@ -75,8 +76,9 @@ def diagnose_logs_command(args: argparse.Namespace,
                                                               plots=not args.no_plots))
     data = diagnosis.to_json()
     print(f"causes: {', '.join(data['causes']) or 'none'}; held-out force RMSE "
-          f"{data['baseline']['heldout_rmse_N']:.3f} N -> "
-          f"{data['extended']['heldout_rmse_N']:.3f} N (gain {data['gain']:.2f}); "
+          f"{shown(data['baseline']['heldout_rmse_N'], '.3f')} N -> "
+          f"{shown(data['extended']['heldout_rmse_N'], '.3f')} N "
+          f"(gain {shown(data['gain'], '.2f')}); "
           f"{data['timing']['replays']} replays in {data['timing']['total_s']:.0f} s; "
           f"wrote {args.out}")
     return 0

@@ -20,6 +20,7 @@ fitted world, where a cause the first hid may show, and kept on the same terms
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Callable
@@ -28,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from cell.determined import NOT_PREDICTED, determined, determined_each
 from cell.sim.logbatch import LogBatch
 from cell.sim.logcauses import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
 from cell.sim.logfit import (
@@ -118,16 +120,31 @@ class LogDiagnosis:
         return 1.0 - self.heldout_rmse_n["extended"] / base if base > 0 else 0.0
 
     def to_json(self) -> dict[str, Any]:
-        """The contract (docs/diagnosis.md) with the logs' evidence."""
+        """The contract (docs/diagnosis.md) with the logs' evidence; a score the replays do
+        not determine ``null`` with its reason (:mod:`cell.determined`)."""
         return {"logs": self.logs,
                 "baseline": {"model": "the logs' scenarios as the lab believes them",
-                             "params": {}, "rmse_N": self.baseline_rmse_n,
-                             "heldout_rmse_N": self.heldout_rmse_n["baseline"]},
-                "causes": self.causes, "candidates": self.candidates,
-                "extended": {**self.extended,
-                             "heldout_rmse_N": self.heldout_rmse_n["extended"]},
-                "evidence": self.evidence, "steps": self.steps, "gain": self.gain,
-                "timing": self.timing}
+                             "params": {}, **determined("rmse_N", self.baseline_rmse_n),
+                             **_score("heldout_rmse_N", self.heldout_rmse_n["baseline"])},
+                "causes": self.causes,
+                "candidates": [_scored(c) for c in self.candidates],
+                "extended": _scored({**self.extended,
+                                     "heldout_rmse_N": self.heldout_rmse_n["extended"]}),
+                "evidence": {name: determined_each(e, NOT_PREDICTED)
+                             for name, e in self.evidence.items()},
+                "steps": [_scored(s) for s in self.steps],
+                **_score("gain", self.gain), "timing": self.timing}
+
+
+def _score(name: str, value: float) -> dict[str, Any]:
+    """A score of the replays, ``null`` where a replay's residual did not stay finite."""
+    return determined(name, value, NOT_PREDICTED)
+
+
+def _scored(entry: dict[str, Any]) -> dict[str, Any]:
+    """``entry`` with its scores (RMSE, information criterion) through :func:`_score`."""
+    return {**entry, **{key: item for name in ("rmse_N", "heldout_rmse_N", "information")
+                        if name in entry for key, item in _score(name, entry[name]).items()}}
 
 
 def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
@@ -232,8 +249,10 @@ def _second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     kept = moved_left is not None and (
         rmse_n(moved_left) <= (1.0 - params.min_heldout_gain) * rmse_n(left))
     tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
-             rmse_n(fit["left"]), "heldout_rmse_N": None if moved_left is None
-             else rmse_n(moved_left), "without_heldout_rmse_N": rmse_n(left), "kept": kept}
+             rmse_n(fit["left"]), **determined(
+                 "heldout_rmse_N", math.nan if moved_left is None else rmse_n(moved_left),
+                 "not replayed: the logs fitted do not confirm the causes"),
+             "without_heldout_rmse_N": rmse_n(left), "kept": kept}
     if not kept:
         return {**fit, "second_look": tried}, left, []
     return {**moved, "confirmed": True, "second_look": tried}, moved_left, selection[1:]

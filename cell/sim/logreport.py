@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cell.config import read_toml
+from cell.determined import NOT_DETERMINED, shown
 from cell.extras import require
 from cell.outputs import figure_png, write_atomic, write_json
 from cell.sim.logcauses import SENSOR_OFFSET, changed_world
@@ -38,7 +39,8 @@ def write_extended(folder: Path, batch: LogBatch, diagnosis: LogDiagnosis) -> li
     with the causes' changes), into ``folder``."""
     belief = batch.scenarios[0]
     magnitudes = {name: value["magnitude"]
-                  for name, value in diagnosis.extended["params"].items() if "magnitude" in value}
+                  for name, value in diagnosis.extended["params"].items()
+                  if value.get("magnitude") is not None}
     world = changed_world(belief, magnitudes)
     raw = resolved_tables(read_toml(batch.logs[0].scenario), belief)
     raw["aponeurosis"] = {**raw.get("aponeurosis", {}),
@@ -116,20 +118,22 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path]) -> str:
     lines = ["# Diagnosis of a batch of separation logs", "",
              f"Logs: {', '.join(data['logs'])}.", "", f"Causes, most important first: {causes}.",
              "", f"Held-out force RMSE (leave one log out): baseline "
-             f"{data['baseline']['heldout_rmse_N']:.3f} N, extended "
-             f"{data['extended']['heldout_rmse_N']:.3f} N, gain {data['gain']:.2f}.", "",
+             f"{shown(data['baseline']['heldout_rmse_N'], '.3f')} N, extended "
+             f"{shown(data['extended']['heldout_rmse_N'], '.3f')} N, gain "
+             f"{shown(data['gain'], '.2f')}.", "",
              "| cause | magnitude | held-out RMSE alone (linearised), N | selected |",
              "| --- | --- | --- | --- |"]
     for c in data["candidates"]:
-        shown = ", ".join(f"{k} {_short(v)}" for k, v in c["params"].items())
-        lines.append(f"| {c['cause']} | {shown} | {c['heldout_rmse_N']:.3f} | "
+        lines.append(f"| {c['cause']} | {_short(c['params'])} | "
+                     f"{shown(c['heldout_rmse_N'], '.3f')} | "
                      f"{'yes' if c['selected'] else ''} |")
     lines += ["", "Extended world: " + ", ".join(
         f"{k} ({_short(v)})" for k, v in data["extended"]["params"].items()) + "." if
         data["extended"]["params"] else "Extended world: the lab's.", ""]
     for name, e in data["evidence"].items():
-        lines.append(f"- {name}: held-out {e['heldout_rmse_N']:.3f} N with it, "
-                     f"{e['without_heldout_rmse_N']:.3f} N without (linearised); improves "
+        lines.append(f"- {name}: held-out {shown(e['heldout_rmse_N'], '.3f')} N with it, "
+                     f"{shown(e['without_heldout_rmse_N'], '.3f')} N without (linearised); "
+                     "improves "
                      f"{e['logs_improved_share']:.0%} of the logs")
     t = data["timing"]
     lines += ["", f"{t['replays']} replays, {t['replay_wall_s']:.0f} s; the fits "
@@ -139,8 +143,13 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path]) -> str:
 
 
 def _short(value: Any) -> str:
+    """A value of the JSON in a line: dicts and lists spelt out, a ``null`` number as not
+    determined (its ``_reason`` left to the JSON)."""
+    if value is None:
+        return NOT_DETERMINED
     if isinstance(value, dict):
-        return ", ".join(f"{k} {_short(v)}" for k, v in value.items())
+        return ", ".join(f"{k} {_short(v)}" for k, v in value.items()
+                         if not k.endswith("_reason"))
     if isinstance(value, list):
         return "[" + ", ".join(_short(v) for v in value) + "]"
     return f"{value:.3g}" if isinstance(value, float) else str(value)
