@@ -10,11 +10,9 @@ import numpy as np
 import pytest
 
 from cell.outputs import first_non_finite
-from cell.rheology.cutreduced import simulate_cut
-from cell.rheology.cuts import Blade, Block, CutTest
 from cell.rheology.cutsearch import diagnose_cuts
 from cell.rheology.residuals import MIN_TESTS, rank_trend, strongest
-from cell.tissue.cutmodel import CuttingParams
+from tests.cutsets import sawing_set
 
 
 def test_a_residual_that_grows_with_a_quantity_correlates_fully_and_clearly():
@@ -47,28 +45,8 @@ def test_too_few_tests_give_the_correlation_and_an_undetermined_interval():
     assert entry["ci95"] is None and "fewer than" in entry["ci95_reason"]
 
 
-def _sawing_set(stiffness_n_m: float) -> tuple[Block, Blade, tuple[CutTest, ...]]:
-    """Sawing cuts by the reduced model, plus a force along the edge that pulls the blade
-    back to where the stroke began (stiffness_n_m times the stroke): nothing the catalogue
-    has."""
-    block = Block((0.06, 0.2, 0.03))
-    blade = Blade(0.2, 0.0015, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))
-    tests = []
-    for k, (speed, period) in enumerate(((0.004, 2.0), (0.006, 1.6), (0.005, 2.4),
-                                         (0.003, 1.8))):
-        t = np.linspace(0.0, 5.0, 300)
-        edge = np.column_stack([0.03 + 0 * t, 0.1 + 0.015 * np.sin(2 * np.pi * t / period),
-                                0.032 - speed * t])
-        force = simulate_cut(CutTest("c", t, edge, edge), block, blade,
-                             CuttingParams(800.0)).total_n
-        force[:, 1] -= stiffness_n_m * (edge[:, 1] - edge[0, 1])
-        noisy = force + np.random.default_rng(k).normal(0.0, 0.02, force.shape)
-        tests.append(CutTest(f"c{k}", t, edge, noisy))
-    return block, blade, tuple(tests)
-
-
 def test_a_force_no_cause_has_is_left_unexplained_and_pointed_at():
-    result = diagnose_cuts(*_sawing_set(stiffness_n_m=300.0))
+    result = diagnose_cuts(*sawing_set(stiffness_n_m=300.0))
     assert result.causes[-1] == "unexplained"
     top = strongest(result.residual_trends)
     assert (top.quantity, top.component) == ("stroke_m", "along the edge")
@@ -79,7 +57,7 @@ def test_a_force_no_cause_has_is_left_unexplained_and_pointed_at():
 
 
 def test_a_set_the_causes_explain_has_no_trend_to_report():
-    result = diagnose_cuts(*_sawing_set(stiffness_n_m=0.0))
+    result = diagnose_cuts(*sawing_set(stiffness_n_m=0.0))
     assert "unexplained" not in result.causes
     assert result.residual_trends == ()
     assert result.to_json()["residual_trends"] == []
