@@ -58,6 +58,10 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--including", metavar="CAUSE",
                        help="diagnose suite, with --pairs or --triples: only those that hold "
                        "this cause (e.g. force_offset), on seeds of their own")
+    bench.add_argument("--lab-protocol", action="store_true",
+                       help="diagnose suite: sets as another generator draws them (slow "
+                       "tension, relaxation and cyclic tests, noise 0.3-1.2 %% of the peak, "
+                       "offsets 6-12 %%), on seeds of their own")
     bench.add_argument("--suggest", action="store_true",
                        help="diagnose suite: sets missing the tests that would show their "
                        "effect; the suggested next test against a random one")
@@ -95,10 +99,10 @@ def bench_command(args: argparse.Namespace) -> int:
     suite = args.suite
     if suite not in ("tissue", "diagnose", "sweep"):
         for flag in ("seeds", "pairs", "subtle", "spread", "triples", "including", "suggest",
-                     "logs"):
+                     "logs", "lab_protocol"):
             if getattr(args, flag) not in (None, False):
-                raise InputError(None, f"--{flag}",
-                                 f"only `musclecell bench diagnose` takes --{flag}")
+                option = f"--{flag.replace('_', '-')}"
+                raise InputError(None, option, f"only `musclecell bench diagnose` takes {option}")
         if args.markdown is not None:
             raise InputError(None, "--markdown",
                              "only `musclecell bench tissue` and `bench diagnose` write Markdown")
@@ -228,6 +232,8 @@ def _diagnose_kind(args: argparse.Namespace) -> str:
         raise InputError(None, f"--{kinds[1]}", f"give one of --{' --'.join(kinds)}, not both")
     if args.cut and args.logs:
         raise InputError(None, "--logs", "give one of --cut --logs, not both")
+    if args.lab_protocol and (args.cut or args.logs or args.suggest or args.spread):
+        raise InputError(None, "--lab-protocol", "goes with the uniaxial sets alone")
     if (args.cut or args.logs) and kinds not in ([], ["pairs"]):
         what = "cut sets" if args.cut else "log batches"
         raise InputError(None, f"--{kinds[0]}", f"the {what} have single and --pairs kinds")
@@ -269,9 +275,10 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
         report = cutdiagnose.run_cut_diagnose_bench(cutdiagnose.bench_seeds(count, kind),
                                                     kind, progress=_progress(args))
     else:
-        report = run_diagnose_bench(bench_seeds(count, kind, args.including),
+        protocol = "lab" if args.lab_protocol else "hidden"
+        report = run_diagnose_bench(bench_seeds(count, kind, args.including, protocol),
                                     workers=workers, progress=_progress(args), kind=kind,
-                                    including=args.including)
+                                    including=args.including, protocol=protocol)
     write_json(json_path, report)
     print(report["markdown"], end="")
     for name, entry in report["entries"].items():

@@ -12,7 +12,10 @@ unseen. Three kinds of sets (:data:`KINDS`):
   viscoelasticities).
 
 ``including`` keeps the pairs or triples that hold one cause (``--including force_offset``:
-the load cell's offset beside each other effect), on seeds of their own.
+the load cell's offset beside each other effect), on seeds of their own. ``protocol="lab"``
+(``--lab-protocol``) draws the sets as another generator would: slow tension, relaxation and
+cyclic tests, less noise and larger offsets (:func:`generator.write_hidden_effect_set`), on
+seeds of their own.
 
 Every set is written to a temporary folder, read back, and diagnosed; the wall time of
 :func:`diagnose` is measured per set. A set is correct when the catalogue causes it names
@@ -58,6 +61,9 @@ TARGET_RELAXATION_GAIN = 0.7
 #: seeds below 10 000, the tuning seeds from 90 000 to 99 999.
 FIRST_SEED: dict[str, int] = {"single": 10_000, "subtle": 20_000, "pairs": 30_000,
                               "triples": 130_000, "including": 33_000}
+#: Added to a kind's first seed for the sets of the lab protocol.
+LAB_SEEDS = 13_000
+Protocol = Literal["hidden", "lab"]
 
 
 def _combinations(size: int) -> tuple[tuple[str, ...], ...]:
@@ -70,11 +76,13 @@ PAIRS = _combinations(2)
 TRIPLES = _combinations(3)
 
 
-def bench_seeds(count: int, kind: Kind = "single", including: str | None = None) -> list[int]:
-    """The seeds of ``count`` bench sets of ``kind`` (with ``including``: their own)."""
+def bench_seeds(count: int, kind: Kind = "single", including: str | None = None,
+                protocol: Protocol = "hidden") -> list[int]:
+    """The seeds of ``count`` bench sets of ``kind`` (with ``including``, or of the lab
+    protocol: their own)."""
     first = FIRST_SEED[kind] if including is None else FIRST_SEED["including"] + (
         100_000 if kind == "triples" else 0)
-    return [first + i for i in range(count)]
+    return [first + (LAB_SEEDS if protocol == "lab" else 0) + i for i in range(count)]
 
 
 def hidden(seed: int, kind: Kind, including: str | None = None) -> tuple[str, ...]:
@@ -190,7 +198,8 @@ def _relaxation_entry(scratch: Path, seed: int, params: Any) -> dict[str, Any]:
 
 def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
                        progress: Callable[[str], None] | None = None,
-                       kind: Kind = "single", including: str | None = None) -> dict[str, Any]:
+                       kind: Kind = "single", including: str | None = None,
+                       protocol: Protocol = "hidden") -> dict[str, Any]:
     """Diagnose one hidden-effect set of ``kind`` per seed; times, correctness, confusion,
     targets (and the relaxation-only set, for the ``single`` kind).
 
@@ -201,6 +210,7 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
         kind: ``single``, ``subtle`` (half as strong), ``pairs`` or ``triples`` (module
             docstring).
         including: with pairs or triples, only those that hold this cause.
+        protocol: the generator's own protocol, or ``lab`` (module docstring).
 
     Raises:
         MeasurementError: no seed, an unknown kind, or a bad ``including``
@@ -219,7 +229,8 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
             folder = Path(scratch) / f"set-{seed}"
             expected = hidden(seed, kind, including)
             truth = generator.write_hidden_effect_set(folder, seed, expected,
-                                                      0.5 if kind == "subtle" else 1.0)
+                                                      0.5 if kind == "subtle" else 1.0,
+                                                      protocol=protocol)
             result, seconds, data = _diagnose_one(folder, params)
             named = [c for c in result.causes if c in CAUSES]
             truth_label, named_label = _label(expected), _label(result.causes)
@@ -242,7 +253,7 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
                 progress(f"relaxation set: named {_label(relaxation['causes'])}, gain "
                          f"{relaxation['gain']:.2f}, {relaxation['seconds']:.1f} s")
     report = _summary(sets, confusion, relaxation, kind, params.workers, seeds)
-    return {**report, "including": including}
+    return {**report, "including": including, "protocol": protocol}
 
 
 def _summary(sets: list[dict[str, Any]], confusion: dict[str, dict[str, int]],

@@ -17,6 +17,11 @@ from cell.rheology.fitting import ModelFit
 from cell.rheology.measured import MechanicalTest
 from cell.rheology.settings import DiagnosisParams
 
+#: The causes that are a sensor's offset, of the uniaxial and the cut catalogue.
+OFFSETS = ("force_offset", "blade_force_offset")
+#: Fewer samples at rest than this in a whole set: an offset is judged on the whole tests.
+MIN_REST_SAMPLES = 3
+
 
 def improved_fraction(fit: ModelFit, previous: ModelFit,
                       tests: tuple[MechanicalTest, ...]) -> float:
@@ -56,10 +61,49 @@ def _heldout_rmse_n(fit: ModelFit, tests: tuple[MechanicalTest, ...],
     return float(np.sqrt(np.mean(errors**2)))
 
 
+def _at_rest(richer: ModelFit, poorer: ModelFit,
+             tests: tuple[MechanicalTest, ...]) -> list[np.ndarray] | None:
+    """Per test, the samples at rest (``rest_samples``: a specimen at the machine's zero, a
+    blade in the air) when all that ``richer`` adds is a sensor's offset and the set has at
+    least :data:`MIN_REST_SAMPLES` of them; None otherwise. There every model predicts no
+    force, so the offset shows alone: over the whole tests, a material model that misses the
+    tissue (a plastic set unlike the springs') leaves an error beside which the offset may
+    look small, and the offset would be left unnamed however plain it is at rest."""
+    added = set(richer.model.causes) - set(poorer.model.causes)
+    if not added or not added <= set(OFFSETS):
+        return None
+    rest = [test.rest_samples for test in tests]
+    return rest if sum(len(r) for r in rest) >= MIN_REST_SAMPLES else None
+
+
+def _accepts_at_rest(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
+                     tests: tuple[MechanicalTest, ...], rest: list[np.ndarray],
+                     params: DiagnosisParams) -> bool:
+    """:func:`accepts`'s rule on the samples at rest (:func:`_at_rest`) alone."""
+    judged = [i for i, samples in enumerate(rest) if len(samples)]
+
+    def errors(fit: ModelFit) -> list[np.ndarray]:
+        return [fit.heldout_force_n[i][rest[i]] - tests[i].force_N[rest[i]] for i in judged]
+
+    rich_errors, poor_errors = errors(richer), errors(poorer)
+    rich, poor = (float(np.sqrt(np.mean(np.concatenate(e) ** 2)))
+                  for e in (rich_errors, poor_errors))
+    ratio = params.max_rmse_ratio if first else params.later_rmse_ratio
+    improved = np.mean([np.mean(r**2) < np.mean(p**2)
+                        for r, p in zip(rich_errors, poor_errors, strict=True)])
+    return (poor**2 - rich**2 > params.min_variance_drop * noise**2 and richer.bic < poorer.bic
+            and rich <= ratio * poor
+            and (first or improved >= params.min_improved_fraction))
+
+
 def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
             tests: tuple[MechanicalTest, ...], params: DiagnosisParams) -> bool:
     """Whether ``richer`` (``poorer`` plus one cause) earns its cause (module docstring, 2),
-    on the tests :func:`_judged` picks."""
+    on the tests :func:`_judged` picks; a sensor's offset on the samples at rest
+    (:func:`_at_rest`)."""
+    rest = _at_rest(richer, poorer, tests)
+    if rest is not None:
+        return _accepts_at_rest(richer, poorer, first, noise, tests, rest, params)
     judged = _judged(richer, poorer, tests)
     rich, poor = (_heldout_rmse_n(f, tests, judged) for f in (richer, poorer))
     ratio = params.max_rmse_ratio if first else params.later_rmse_ratio

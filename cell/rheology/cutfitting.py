@@ -44,11 +44,22 @@ class CutSeries:
         test_id: the test's name.
         mode: ``"cut"``.
         force_N: the measured force, channel after channel, N.
+        rest_samples: indices into ``force_N`` of the samples with the edge above the top
+            face, where no cutting model puts a force on the blade (every channel).
     """
 
     test_id: str
     mode: str
     force_N: np.ndarray
+    rest_samples: np.ndarray
+
+    @classmethod
+    def of(cls, test: CutTest, block: Block) -> CutSeries:
+        """The series of ``test`` cut in ``block``."""
+        above = np.flatnonzero(test.depth_m(block) < 0.0)
+        samples = len(test.time_s)
+        return cls(test.test_id, "cut", flat(test.force_n),
+                   np.concatenate([above + k * samples for k in range(3)]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,8 +90,7 @@ class CutProblem:
         kinematics = tuple(CutKinematics.of(t, block, blade) for t in tests)
         rows = [np.unique(np.searchsorted(t.time_s, np.linspace(
             t.time_s[0], t.time_s[-1], samples)).clip(0, len(t.time_s) - 1)) for t in tests]
-        return cls(block, blade, tuple(CutSeries(t.test_id, "cut", flat(t.force_n))
-                                       for t in tests), kinematics,
+        return cls(block, blade, tuple(CutSeries.of(t, block) for t in tests), kinematics,
                    tuple(k.rows(r) for k, r in zip(kinematics, rows, strict=True)),
                    tuple(flat(t.force_n[r]) for t, r in zip(tests, rows, strict=True)))
 

@@ -6,6 +6,9 @@ when the set has uniaxial tests, and for its cut tests:
 - ``cut-forces.png``: per cut test, the force that resists the edge's sinking against the
   depth, measured and held-out predictions of the baseline and the extended cutting model;
   for a sawing cut, a second panel with the force along the edge against the stroke;
+- ``cut-residuals.png``, where ``unexplained`` stands: the extended model's held-out residual
+  against the depth, the stroke, the stroke's speed and the time, and in ``cut-report.md``
+  the quantity it follows most (:mod:`cell.rheology.residuals`);
 - ``cut-report.md``: the causes, the gain, the evidence of each cause (held-out RMSE with and
   without it, the tests it improves, its parameters with 95 % intervals), the candidates, the
   steps and the extended cutting model's parameters, with a link to the figure.
@@ -24,6 +27,7 @@ from cell.extras import require
 from cell.outputs import figure_png, write_atomic
 from cell.rheology.cutreduced import cutting_direction
 from cell.rheology.report import evidence_table, gain_line, search_lines
+from cell.rheology.residuals import ResidualTrend, cut_quantities, strongest
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -56,8 +60,12 @@ def write_set_report(diagnosis: SetDiagnosis, folder: Path,
         forces = write_atomic(folder / "cut-forces.png",
                               figure_png(_draw_cuts(Figure(layout="constrained"), diagnosis),
                                          _DPI))
-        written += [forces, write_atomic(folder / "cut-report.md",
-                                         _markdown(diagnosis, folder, material_path, forces.name))]
+        written.append(forces)
+        if diagnosis.cut.residual_trends:
+            written.append(write_atomic(folder / "cut-residuals.png", figure_png(
+                _draw_residuals(Figure(layout="constrained"), diagnosis), _DPI)))
+        written.append(write_atomic(folder / "cut-report.md",
+                                    _markdown(diagnosis, folder, material_path, forces.name)))
     return written
 
 
@@ -97,6 +105,31 @@ def _draw_cuts(figure: Figure, diagnosis: SetDiagnosis) -> Figure:
     return figure
 
 
+def _draw_residuals(figure: Figure, diagnosis: SetDiagnosis) -> Figure:
+    """The extended model's held-out residual of the force against the cut and along the
+    edge, against each quantity the tests vary (:func:`cell.rheology.residuals.cut_quantities`),
+    every test's samples together."""
+    data, fit = diagnosis.measurements, diagnosis.cut.extended
+    directions = (("against the cut", -cutting_direction(data.blade)),
+                  ("along the edge", np.asarray(data.blade.edge_direction)))
+    quantities = [cut_quantities(test, data.block, data.blade) for test in data.cut_tests]
+    residuals = [test.force_n - _series(pred)
+                 for test, pred in zip(data.cut_tests, fit.heldout_force_n, strict=True)]
+    names = list(quantities[0])
+    figure.set_size_inches(3.0 * len(names), 5.6)
+    axes = figure.subplots(len(directions), len(names), squeeze=False)
+    for row, (component, direction) in enumerate(directions):
+        for column, name in enumerate(names):
+            for quantity, residual in zip(quantities, residuals, strict=True):
+                axes[row, column].plot(quantity[name], residual @ direction, ".",
+                                       markersize=1.5, alpha=0.5)
+            axes[row, column].set_xlabel(name)
+            axes[row, column].set_ylabel(f"residual {component} (N)")
+    figure.suptitle("Held-out residual of the extended model (measured less predicted), "
+                    "one colour a test")
+    return figure
+
+
 def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
               forces: str) -> str:
     """``cut-report.md``: causes, gain, candidates, steps, parameters, links."""
@@ -107,6 +140,28 @@ def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
              causes, "",
              gain_line(cut), "",
              *(evidence_table(cut.evidence) if cut.evidence else []),
+             *_trend_lines(cut.residual_trends),
+             *(["![The residual against what the tests vary](cut-residuals.png)", ""]
+               if cut.residual_trends else []),
              *search_lines(cut, folder, material_path),
              f"![Measured and held-out cut forces]({forces})", ""]
     return "\n".join(lines)
+
+
+def _trend_lines(trends: tuple[ResidualTrend, ...]) -> list[str]:
+    """Where ``unexplained`` stands: what the held-out residual follows, the strongest first
+    (:mod:`cell.rheology.residuals`)."""
+    if not trends:
+        return []
+    top = strongest(trends)
+    lead = (f"The residual follows **{top.quantity}** most (the force {top.component}: rank "
+            f"correlation {top.rank_correlation:+.2f} [{top.ci95[0]:+.2f}, "
+            f"{top.ci95[1]:+.2f}])." if top is not None else
+            "No quantity of the tests clearly orders the residual.")
+    lines = ["## Where the model is still wrong", "", lead, "",
+             "| quantity | force | rank correlation | 95 % interval (resampled tests) |",
+             "|---|---|---|---|"]
+    lines += [f"| {t.quantity} | {t.component} | {t.rank_correlation:+.2f} | "
+              + (f"[{t.ci95[0]:+.2f}, {t.ci95[1]:+.2f}]" if t.ci95 else "not determined")
+              + " |" for t in trends]
+    return [*lines, ""]

@@ -33,7 +33,8 @@ from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA, CutCandidate, 
 from cell.rheology.cutfitting import CutFit, CutProblem, best_layer_depth, fit_cut, refine
 from cell.rheology.cuts import Blade, Block, CutTest
 from cell.rheology.diagnosis import Evidence, SearchOutcome, force_noise_n
-from cell.rheology.search import forward, second_start, unexplained
+from cell.rheology.residuals import ResidualTrend, cut_residual_trends
+from cell.rheology.search import Swap, forward, second_start, unexplained
 from cell.rheology.settings import DiagnosisParams
 
 
@@ -74,6 +75,7 @@ class CutSearch:
         self.fits: dict[frozenset[str], CutFit] = {}
         #: Called with 1 after each fit (a progress bar's ``update``), or None.
         self.on_fit: Callable[[int], object] | None = None
+        self.swaps: list[Swap] = []
 
     def run(self, jobs: list[tuple[CutFit | None, str | None]]) -> list[CutFit]:
         """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root model),
@@ -112,11 +114,15 @@ class CutDiagnosis(SearchOutcome):
     causes: tuple[str, ...]
     evidence: tuple[Evidence, ...] = ()
     params: DiagnosisParams = field(default_factory=DiagnosisParams)
+    swaps: tuple[Swap, ...] = ()
+    residual_trends: tuple[ResidualTrend, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """The contract's JSON, plus the evidence of each cause (as the uniaxial
-        diagnosis's)."""
-        return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence]}
+        diagnosis's) and, where ``unexplained`` stands, the residual's trends (the strongest
+        first, :mod:`cell.rheology.residuals`)."""
+        return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence],
+                "residual_trends": [t.to_json() for t in self.residual_trends]}
 
 
 def _evidence(search: CutSearch, final: CutFit, order: list[str]) -> tuple[Evidence, ...]:
@@ -176,8 +182,10 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
     if unexplained(current, noise, params, problem.tests):
         current, steps, order = second_start(search, baseline, candidates, noise,
                                              (current, steps, order))
-    causes = tuple(order)
+    causes, trends = tuple(order), ()
     if unexplained(current, noise, params, problem.tests):
         causes += (UNEXPLAINED,)
+        trends = cut_residual_trends(tests, block, blade, current.heldout_force_n)
     return CutDiagnosis(noise, baseline, tuple(candidates), tuple(steps), current, causes,
-                        _evidence(search, current, list(order)), params)
+                        _evidence(search, current, list(order)), params, tuple(search.swaps),
+                        trends)

@@ -74,7 +74,7 @@ from cell.rheology.intervals import PredictionIntervals, prediction_intervals
 from cell.rheology.measured import MeasurementSet, MechanicalTest
 from cell.rheology.repeats import repeat_groups
 from cell.rheology.repeatsearch import RepeatSearch, at_own_factors
-from cell.rheology.search import Search, forward, second_start, unexplained
+from cell.rheology.search import Search, Swap, forward, second_start, unexplained
 from cell.rheology.settings import DiagnosisParams
 from cell.rheology.spread import SpecimenSpread, specimen_spread
 
@@ -145,6 +145,7 @@ class SearchOutcome:
             "noise_N": self.noise_n,
             "steps": [{"causes": list(fit.model.causes), **fit.scores_json()}
                       for fit in self.steps],
+            "second_look": [swap.to_json() for swap in self.swaps],
         }
 
 
@@ -167,6 +168,7 @@ class Diagnosis(SearchOutcome):
             (:mod:`cell.rheology.spread`).
         intervals: the extended model's held-out predictions with their 90 % intervals
             (:mod:`cell.rheology.intervals`).
+        swaps: what the search's second look tried (:func:`cell.rheology.search.forward`).
 
     ``to_json()`` is the JSON that ``musclecell diagnose --out`` writes.
     """
@@ -183,6 +185,7 @@ class Diagnosis(SearchOutcome):
     explored: tuple[ModelFit, ...] = ()
     specimen: SpecimenSpread = field(default_factory=SpecimenSpread.absent)
     intervals: PredictionIntervals | None = None
+    swaps: tuple[Swap, ...] = ()
 
     def material_comment(self) -> str:
         """The comment lines on top of the extended material's file: where it comes from,
@@ -353,7 +356,8 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
         causes += (UNEXPLAINED,)
     intervals = prediction_intervals(problem, current, noise, spread.sd if spread.named else 0.0)
     return Diagnosis(measurements, noise, baseline, tuple(candidates), tuple(steps), current,
-                     causes, evidence, params, tuple(search.fits.values()), spread, intervals)
+                     causes, evidence, params, tuple(search.fits.values()), spread, intervals,
+                     tuple(search.swaps))
 
 
 def _judged_noise(baseline: ModelFit, tests: tuple[MechanicalTest, ...], noise: float,

@@ -109,6 +109,9 @@ class Specimen:
         """Initial cross-section across the load axis, m^2."""
         return self.size_m[0] * self.size_m[1]
 
+#: A sample counts as at the machine's zero within this fraction of its test's displacement
+#: range (the displacement sensor's noise is far below it, a test's first step far above).
+REST_FRACTION = 0.01
 
 @dataclass(frozen=True, eq=False)
 class MechanicalTest:
@@ -149,6 +152,17 @@ class MechanicalTest:
     def duration_s(self) -> float:
         """Time from the first to the last sample, s."""
         return float(self.time_s[-1] - self.time_s[0])
+
+    @property
+    def rest_samples(self) -> np.ndarray:
+        """Indices of the test's leading samples at the machine's zero, before the top face
+        moves (within :data:`REST_FRACTION` of the test's displacement range), where no
+        material model carries a force; empty when the test does not start at zero."""
+        span = float(np.ptp(self.displacement_m))
+        moved = np.abs(self.displacement_m - self.displacement_m[0]) > REST_FRACTION * span
+        if span == 0.0 or abs(self.displacement_m[0]) > REST_FRACTION * span:
+            return np.arange(0)
+        return np.arange(int(np.argmax(moved)) if moved.any() else len(moved))
 
     def strain(self, specimen: Specimen) -> np.ndarray:
         """Nominal strain at the samples: displacement over the specimen's initial height."""

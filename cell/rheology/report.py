@@ -277,6 +277,7 @@ def search_lines(diagnosis: Diagnosis | CutDiagnosis, folder: Path,
               for k, fit in enumerate(diagnosis.steps, start=1)]
     if not diagnosis.steps:
         lines.append("No cause was accepted.")
+    lines += _second_look_lines(diagnosis)
     extended = diagnosis.extended
     lines += ["", f"## Extended model: {extended.model.name}", "", "| parameter | value |",
               "|---|---|"]
@@ -285,4 +286,18 @@ def search_lines(diagnosis: Diagnosis | CutDiagnosis, folder: Path,
     if material_path is not None:
         link = Path(os.path.relpath(Path(material_path).absolute(), folder.absolute()))
         lines += [f"Material TOML: [{material_path}]({link.as_posix()})", ""]
+    return lines
+
+
+def _second_look_lines(diagnosis: Diagnosis | CutDiagnosis) -> list[str]:
+    """What the second look tried where the search stopped with more than noise left: each
+    selected cause swapped for each other cause, and which swap was kept."""
+    if not diagnosis.swaps:
+        return []
+    lines = ["", "### Second look", "",
+             "The search stopped with more than noise left, so each selected cause was "
+             "swapped for each other cause of the catalogue:", "",
+             "| removed | added | held-out RMSE (N) | kept |", "|---|---|---|---|"]
+    lines += [f"| {swap.removed} | {swap.added} | {shown(swap.fit.heldout_rmse_n, '.4g')} | "
+              f"{'yes' if swap.kept else ''} |" for swap in diagnosis.swaps]
     return lines

@@ -14,10 +14,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from concurrent.futures import Executor
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
+from cell.determined import NOT_PREDICTED, determined
 from cell.rheology.acceptance import accepts, structure
 from cell.rheology.causes import CAUSES, EXCLUSIVE, RELAXING, CandidateMaterial
 from cell.rheology.fitting import ModelFit, Problem, fit
@@ -95,6 +97,8 @@ class Search:
         self.catalogue: tuple[str, ...] = CAUSES
         #: Called with 1 after each fit (a progress bar's ``update``), or None.
         self.on_fit: Callable[[int], object] | None = None
+        #: What the second look (:func:`forward`) tried, in order.
+        self.swaps: list[Swap] = []
 
     def run(self, jobs: list[tuple[ModelFit | None, str | None]]) -> list[ModelFit]:
         """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root
@@ -186,29 +190,85 @@ def _weaker(search: Search, current: ModelFit, noise: float,
 _Path = tuple[ModelFit, list[ModelFit], list[str]]
 
 
+@dataclass(frozen=True)
+class Swap:
+    """One model the second look tried: the selected cause ``removed``, ``added`` in its
+    place, the fit, and whether it was kept."""
+
+    removed: str
+    added: str
+    fit: Any
+    kept: bool
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON's ``second_look`` entry."""
+        return {"removed": self.removed, "added": self.added,
+                **determined("heldout_rmse_N", self.fit.heldout_rmse_n, NOT_PREDICTED),
+                "kept": self.kept}
+
+
 def forward(search: Search, start: ModelFit, trials: list[ModelFit], noise: float,
              order: list[str] | None = None) -> _Path:
     """The stepwise search (module docstring, 2 and 3) from ``start`` over ``trials``
     (``start`` plus each cause): the final fit, the fit after each step, the causes in the
-    order they came."""
+    order they came. Where it stops with more than noise left (:func:`unexplained`), it
+    takes a second look (:func:`_swapped`) and goes on from a swap that earns its place."""
     params, tests = search.params, search.problem.tests
     current, steps, order = start, [], list(order or [])
     visited = {frozenset(start.model.causes)}
-    while trials:
-        best = min(trials, key=lambda f: f.heldout_rmse_n)
-        if not accepts(best, current, not order, noise, tests, params):
-            best = _look_ahead(search, current, trials, not order, noise)
-            if best is None:
+    while True:
+        while trials:
+            best = min(trials, key=lambda f: f.heldout_rmse_n)
+            if not accepts(best, current, not order, noise, tests, params):
+                best = _look_ahead(search, current, trials, not order, noise)
+                if best is None:
+                    break
+            order, current = _reordered(order, current, best), best
+            while (weaker := _weaker(search, current, noise, tests)) is not None:
+                order, current = _reordered(order, current, weaker), weaker
+            if frozenset(current.model.causes) in visited:
                 break
-        order, current = _reordered(order, current, best), best
-        while (weaker := _weaker(search, current, noise, tests)) is not None:
-            order, current = _reordered(order, current, weaker), weaker
-        if frozenset(current.model.causes) in visited:
-            break
+            visited.add(frozenset(current.model.causes))
+            steps.append(current)
+            trials = _additions(search, current, order)
+        swapped = _swapped(search, current, noise, visited)
+        if swapped is None:
+            return current, steps, order
+        order, current = _reordered(order, current, swapped), swapped
         visited.add(frozenset(current.model.causes))
         steps.append(current)
         trials = _additions(search, current, order)
-    return current, steps, order
+
+
+def _swapped(search: Search, current: ModelFit, noise: float,
+             visited: set[frozenset[str]]) -> ModelFit | None:
+    """The second look, where ``current`` leaves more than noise: each selected cause
+    swapped for each catalogue cause the model lacks (every remaining cause beside the
+    selected ones was tried as a step already). A cause can stand in for another well enough
+    to win a step (a plasticity's set for a load cell's offset), and the other then adds too
+    little beside it. The swap with the least held-out error is kept when it explains more
+    than ``current`` and its new cause passes :func:`accepts` against the model without it;
+    every swap tried is recorded in ``search.swaps`` (once: a second start that ends where
+    the first did looks again at the same swaps, already fitted)."""
+    params, tests = search.params, search.problem.tests
+    causes = tuple(current.model.causes)
+    if not causes or not unexplained(current, noise, params, tests):
+        return None
+    without = search.run([(current, c) for c in causes])
+    jobs = [(fit, removed, added) for fit, removed in zip(without, causes, strict=True)
+            for added in search.catalogue if added not in causes
+            and not {added, removed} >= set(EXCLUSIVE)
+            and frozenset((*fit.model.causes, added)) not in visited]
+    swaps = search.run([(fit, added) for fit, _, added in jobs])
+    passing = [swap for swap, (fit, _, _) in zip(swaps, jobs, strict=True)
+               if swap.heldout_rmse_n < current.heldout_rmse_n and swap.bic < current.bic
+               and accepts(swap, fit, len(causes) == 1, noise, tests, params)]
+    best = min(passing, key=lambda f: f.heldout_rmse_n, default=None)
+    tried = {(s.removed, s.added, frozenset(s.fit.model.causes)) for s in search.swaps}
+    search.swaps += [Swap(removed, added, swap, swap is best)
+                     for swap, (_, removed, added) in zip(swaps, jobs, strict=True)
+                     if (removed, added, frozenset(swap.model.causes)) not in tried]
+    return best
 
 
 def _reordered(order: list[str], previous: ModelFit, following: ModelFit) -> list[str]:

@@ -44,7 +44,7 @@ import numpy as np
 from cell.errors import MeasurementError
 from cell.outputs import write_atomic
 from cell.rheology.causes import CAUSES
-from cell.rheology.testplan import TestPlan, true_force_n
+from cell.rheology.testplan import TestPlan, lab_protocol, true_force_n
 from cell.rheology.truth import check_effects, draw_magnitudes, truth_stress_pa
 
 EFFECTS: tuple[str | None, ...] = (*CAUSES, None)
@@ -278,14 +278,17 @@ def _pick(rng: np.random.Generator, effect: Effects) -> tuple[str, ...]:
 
 
 def write_hidden_effect_set(folder: Path, seed: int, effect: Effects = "random",
-                            strength: float = 1.0, repeats: Repeats | None = None
-                            ) -> HiddenEffect:
+                            strength: float = 1.0, repeats: Repeats | None = None,
+                            protocol: Literal["hidden", "lab"] = "hidden") -> HiddenEffect:
     """Draw a set from ``seed`` with ``effect`` hidden in it, write it in ``folder``, return it.
 
     ``effect`` is a cause, several (a tuple: a combination), None, or ``"random"`` (one of
     :data:`EFFECTS`); ``strength`` in (0, 1] scales every effect towards none
     (:func:`cell.rheology.truth.draw_magnitudes`); ``repeats`` repeats tests of the protocol,
-    each repeat another specimen (:class:`Repeats`). Everything comes from
+    each repeat another specimen (:class:`Repeats`). ``protocol`` ``"lab"`` draws another
+    generator's sets: :func:`~cell.rheology.testplan.lab_protocol`'s tests, force noise 0.3 to
+    1.2 % of the peak and a load cell's offset (when hidden) of 6 to 12 % of it, drawn from a
+    stream of their own. Everything else comes from
     ``np.random.default_rng(seed)`` (the specimens' factors from their own stream); the draws
     other than the effects' own parameters do not depend on the effects, nor on the spread.
     Writes ``specimen.toml`` and ``tests.csv`` (creating ``folder``).
@@ -301,8 +304,12 @@ def write_hidden_effect_set(folder: Path, seed: int, effect: Effects = "random",
     edge = rng.uniform(0.008, 0.012)
     size = np.round(edge * (1.0 + ASPECT_SPREAD * rng.uniform(-1.0, 1.0, 3)), 5)
     area, height = float(size[0] * size[1]), float(size[2])
-    tests = _protocol(rng)
+    tests = _protocol(rng) if protocol == "hidden" else lab_protocol(rng)
     magnitudes = draw_magnitudes(rng, effects, strength)
+    lab = np.random.default_rng([seed, 2])
+    if protocol == "lab" and "offset_fraction" in magnitudes:
+        magnitudes["offset_fraction"] = (strength * lab.uniform(0.06, 0.12)
+                                         * np.sign(magnitudes["offset_fraction"]))
 
     def stress(time_s: np.ndarray, strain: np.ndarray, angle_deg: float) -> np.ndarray:
         return truth_stress_pa(time_s, strain, angle_deg, magnitudes)
@@ -314,7 +321,8 @@ def write_hidden_effect_set(folder: Path, seed: int, effect: Effects = "random",
         magnitudes["specimen_log_sd"] = repeats.spread_sd
     peak = max(float(np.abs(f).max()) for f in forces)
     offset = magnitudes.get("offset_fraction", 0.0) * peak
-    noise_n = rng.uniform(0.003, 0.015) * peak
+    noise_n = (rng.uniform(0.003, 0.015) if protocol == "hidden"
+               else lab.uniform(0.003, 0.012)) * peak
     measured = measure(tests, forces, height, Noise(noise_n, DISPLACEMENT_NOISE_M, offset), rng)
     write_set(folder,
               specimen_toml(_HIDDEN_HEADER, f"hidden-effect-{seed} (synthetic)", size,

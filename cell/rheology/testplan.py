@@ -100,3 +100,28 @@ def true_force_n(plan: TestPlan, stress_pa: StressLaw, area_m2: float,
     fine = np.unique(np.linspace(plan.time_s[:-1], plan.time_s[1:], substeps + 1))
     strain = np.interp(fine, plan.time_s, plan.strain())
     return np.interp(plan.time_s, fine, stress_pa(fine, strain, plan.angle_deg)) * area_m2
+
+
+def lab_protocol(rng: np.random.Generator) -> list[TestPlan]:
+    """Ten tests as many labs run them: slow tension ramps (0.1 to 0.5 %/s) at three angles,
+    relaxation holds in tension at three strains and two angles, load/unload cycles in
+    tension and in compression at two angles; no compression ramp and no fast ramp, unlike
+    the hidden-effect sets' own protocol."""
+    rate = rng.uniform(0.001, 0.005)
+    tension = rng.uniform(0.10, 0.18)
+    mid = float(np.round(rng.uniform(30.0, 60.0)))
+    held, hold_s = rng.uniform(0.05, 0.08), float(np.round(rng.uniform(120.0, 300.0)))
+
+    def samples() -> int:
+        return int(rng.integers(120, 240))
+
+    return [ramp("t00", "tension", 0.0, tension, rate, samples()),
+            ramp(f"t{mid:02.0f}", "tension", mid, tension, rate, samples()),
+            ramp("t90", "tension", 90.0, tension, rate, samples()),
+            relaxation("r00", 0.0, held, 5.0 * rate, hold_s, 30, samples()),
+            relaxation("r00-high", 0.0, 2.0 * held, 5.0 * rate, hold_s, 30, samples()),
+            relaxation("r90", 90.0, 1.5 * held, 5.0 * rate, hold_s, 30, samples()),
+            cyclic("y00", 0.0, rng.uniform(0.10, 0.13), rate, 3, samples()),
+            cyclic("y90", 90.0, rng.uniform(0.10, 0.13), rate, 3, samples()),
+            cyclic("y00c", 0.0, rng.uniform(-0.15, -0.10), rate, 3, samples()),
+            cyclic("y90c", 90.0, rng.uniform(-0.15, -0.10), rate, 3, samples())]
