@@ -130,7 +130,8 @@ def _read_dump(folder: Path, topic: str) -> TopicSeries:
 
 
 def _integers(table: CsvTable, column: str) -> list[int]:
-    """A column of times in ns as exact integers (a float would round them to 256 ns)."""
+    """A column of times in ns as exact integers (a float of epoch nanoseconds would round
+    them)."""
     table.numbers(column)  # a bad cell named by line and column
     return [int(cell) if cell.lstrip("-").isdigit() else round(float(cell))
             for cell in table.cells[column]]
