@@ -287,15 +287,17 @@ def linear_columns(model: CutCandidate, shape: np.ndarray,
             return unit.indentation_ramp(depth) * (layer == k)
         return factor
 
+    rubbing = "edge_friction" in model.causes
+    if rubbing:
+        unit = replace(unit, edge_slip_m=model.values(shape)["edge_slip_m"])
+        edge, rubbed = kinematics.edge_terms_n(unit, unit.indentation_ramp)
     if "layered_toughness" in model.causes:
         columns = [flat(kinematics.edge_n(unit, in_layer(k))) for k in range(model.layers)]
     else:
-        columns = [flat(kinematics.edge_n(unit, unit.indentation_ramp))]
-    if "edge_friction" in model.causes:
-        rubbing = replace(unit, edge_friction=1.0, edge_slip_m=model.values(shape)[
-            "edge_slip_m"])
-        columns.append(flat(kinematics.edge_n(rubbing, unit.indentation_ramp)
-                            - kinematics.edge_n(unit, unit.indentation_ramp)))
+        columns = [flat(edge if rubbing else kinematics.edge_n(unit, unit.indentation_ramp))]
+    if rubbing:
+        # The friction of the whole load, at the first layer's toughness.
+        columns.append(flat(rubbed))
     if "blade_friction" in model.causes:
         faces = CuttingParams(1.0, face_friction=1.0, face_pressure_pa=1.0)
         columns.append(flat(kinematics.faces_n(faces)))

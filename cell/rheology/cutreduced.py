@@ -49,7 +49,7 @@ from cell.tissue.cutmodel import (
     path_velocity_m_s,
     push_and_slice,
 )
-from cell.tissue.edgestate import EdgeState, loaded_edge_force
+from cell.tissue.edgestate import EdgeState, edge_terms
 
 #: Strips across the edge that remember their crack front: the engaged length is resolved to
 #: the block's extent along the edge over this many.
@@ -201,23 +201,30 @@ class CutKinematics:
         """(n, 3) force of the material on the edge, N, its friction along itself included;
         ``depth_factor`` (of the strips' depths, (n, s)) in place of the model's own layers
         and ramp (:meth:`CuttingParams.depth_factor`) where given."""
-        factor = (cutting.depth_factor if depth_factor is None else depth_factor)(self.depth_m)
         if cutting.loading_depth_m > 0.0 or cutting.edge_friction > 0.0:
-            if self.whole is not None:
-                return self.whole.edge_n(cutting, depth_factor)[self.samples]
-            return self._loaded_edge_n(cutting, factor)
+            edge, rubbing = self.edge_terms_n(cutting, depth_factor,
+                                              cutting.edge_friction > 0.0)
+            return edge + cutting.edge_friction * rubbing
+        factor = (cutting.depth_factor if depth_factor is None else depth_factor)(self.depth_m)
         # Each strip's own factor weights its length, so the law runs once per sample.
         weighted = self.strip_width_m * np.where(self.fresh, factor, 0.0).sum(axis=1)
         return edge_force(cutting.uniform(), weighted, self.push_m_s, self.slice_m_s,
                           self.middle_depth_m)
 
-    def _loaded_edge_n(self, cutting: CuttingParams, factor: np.ndarray) -> np.ndarray:
-        """The edge's force with the loading before the crack runs and the friction along
-        the edge (:func:`~cell.tissue.cutmodel.loaded_edge_force`), every sample."""
-        return loaded_edge_force(cutting, EdgeState(
+    def edge_terms_n(self, cutting: CuttingParams,
+                     depth_factor: Callable[[np.ndarray], np.ndarray] | None = None,
+                     rubbing: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """The edge's force without its friction along itself and that friction per unit
+        of ``edge_friction`` (:func:`~cell.tissue.edgestate.edge_terms`), (n, 3) each, N:
+        found on the whole path, which the terms' state follows."""
+        if self.whole is not None:
+            edge, rubbed = self.whole.edge_terms_n(cutting, depth_factor, rubbing)
+            return edge[self.samples], rubbed[self.samples]
+        factor = (cutting.depth_factor if depth_factor is None else depth_factor)(self.depth_m)
+        return edge_terms(cutting, EdgeState(
             self.strip_width_m * factor, self.depth_m, self.inside, self.fresh,
             self.push_m_s, self.slice_m_s, self.along_m, self.down, self.edge,
-            self.middle_depth_m))
+            self.middle_depth_m), rubbing)
 
     def faces_n(self, cutting: CuttingParams) -> np.ndarray:
         """(n, 3) friction of the cut faces on the blade, N."""

@@ -99,10 +99,7 @@ class EdgeState:
 
 def loaded_edge_force(params: CuttingParams, state: EdgeState) -> np.ndarray:
     """(n, 3) the edge's force along a path with the loading before the crack runs and the
-    friction along the edge (module docstring), N: the load presses against the cutting
-    direction; where the edge cuts fresh material the slice component of :func:`edge_force`
-    goes with it in the law's ratio to the push. Layers and the indentation ramp come in
-    through ``state.length_m``; the rate factor here.
+    friction along the edge (module docstring), N: :func:`edge_terms` joined.
 
     Example:
         >>> depth = np.array([[-0.001], [0.001], [0.002], [0.002]])
@@ -114,6 +111,18 @@ def loaded_edge_force(params: CuttingParams, state: EdgeState) -> np.ndarray:
         >>> (loaded_edge_force(params, state)[:, 2] + 0.0).tolist()  # ramps in, holds
         [0.0, 20.0, 40.0, 40.0]
     """
+    force, rubbing = edge_terms(params, state, params.edge_friction > 0.0)
+    return force + params.edge_friction * rubbing
+
+
+def edge_terms(params: CuttingParams, state: EdgeState, rubbing: bool = True
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 3) the edge's force without its friction along itself, N, and (n, 3) that friction
+    per unit of ``edge_friction`` (zero unless ``rubbing``), N: the load presses against the
+    cutting direction; where the edge cuts fresh material the slice component of
+    :func:`~cell.tissue.cutmodel.edge_force` goes with it in the law's ratio to the push.
+    Layers and the indentation ramp come in through ``state.length_m``; the rate factor
+    here."""
     uniform = params.uniform()
     if params.loading_depth_m > 0.0:
         unit = edge_force(replace(uniform, toughness_j_m2=1.0), np.ones(len(state.along_m)),
@@ -130,8 +139,8 @@ def loaded_edge_force(params: CuttingParams, state: EdgeState) -> np.ndarray:
     else:
         force = edge_force(uniform, np.where(state.fresh, state.length_m, 0.0).sum(axis=1),
                            state.push_m_s, state.slice_m_s, state.middle_depth_m)
-    if params.edge_friction > 0.0:
-        load_n = np.maximum(-(force @ state.down), 0.0)
-        force = force + params.edge_friction * edge_friction_state(
-            state.along_m, load_n, params.edge_slip_m)[:, None] * state.edge
-    return force
+    if not rubbing:
+        return force, np.zeros_like(force)
+    load_n = np.maximum(-(force @ state.down), 0.0)
+    return force, edge_friction_state(state.along_m, load_n, params.edge_slip_m)[:, None] * (
+        state.edge)
