@@ -126,7 +126,7 @@ class Block:
         Example:
             >>> round_block = Block((0.04, 0.05, 0.05), section="round")
             >>> [round(float(z), 4) for z in round_block.surfaces_z_m(0.02, 0.005)]
-            [0.005, 0.045]
+            [0.01, 0.04]
         """
         x, y = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(y_m, dtype=float))
         on = (x >= 0.0) & (x <= self.size_m[0]) & (y >= 0.0) & (y <= self.size_m[1])
