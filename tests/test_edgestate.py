@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cell.errors import InputError
-from cell.rheology.cutcauses import CutCandidate
+from cell.rheology.cutcauses import CutCandidate, source_checks
 from cell.rheology.cutfitting import CutProblem, fit_cut
 from cell.rheology.cutreduced import simulate_cut
 from cell.rheology.cuts import Blade, Block, CutTest
@@ -127,3 +127,13 @@ def test_a_fit_recovers_the_loading_and_the_edge_friction() -> None:
     assert fit.params["loading_depth_m"] == pytest.approx(0.003, rel=0.05)
     assert fit.params["edge_friction"] == pytest.approx(0.7, rel=0.05)
     assert fit.params["edge_slip_m"] == pytest.approx(0.0015, rel=0.1)
+
+
+def test_a_fitted_parameter_outside_its_sources_range_is_flagged_and_an_unsourced_one_said_so(
+        ) -> None:
+    checks = {c["parameter"]: c for c in source_checks(
+        {"toughness_j_m2": 90.0, "slicing_efficiency": 1.46, "edge_friction": 0.9})}
+    assert set(checks) == {"slicing_efficiency", "edge_friction"}
+    assert checks["slicing_efficiency"]["outside"] is True
+    assert checks["edge_friction"]["outside"] is None
+    assert checks["edge_friction"]["range"] == [None, None]

@@ -7,7 +7,8 @@ when the set has uniaxial tests, and for its cut tests:
   depth, measured and held-out predictions of the baseline and the extended cutting model;
   for a sawing cut, a second panel with the force along the edge against the stroke;
 - ``cut-report.md``: the causes, the gain, the evidence of each cause (held-out RMSE with and
-  without it, the tests it improves, its parameters with 95 % intervals), the candidates, the
+  without it, the tests it improves, its parameters with 95 % intervals), the fitted
+  parameters against their sources' ranges (those outside flagged), the candidates, the
   steps and the extended cutting model's parameters, with a link to the figure.
 
 Plots need matplotlib (the ``report`` extra), imported only when a report is written.
@@ -22,6 +23,7 @@ import numpy as np
 
 from cell.extras import require
 from cell.outputs import figure_png, write_atomic
+from cell.rheology.cutcauses import source_checks
 from cell.rheology.cutreduced import cutting_direction
 from cell.rheology.report import evidence_table, search_lines
 
@@ -109,6 +111,24 @@ def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
              f"Gain {cut.gain:.3f}: held-out RMSE {base.heldout_rmse_n:.4g} N (baseline) → "
              f"{extended.heldout_rmse_n:.4g} N (extended); noise {cut.noise_n:.3g} N.", "",
              *(evidence_table(cut.evidence) if cut.evidence else []),
+             *_source_lines(extended.params),
              *search_lines(cut, folder, material_path),
              f"![Measured and held-out cut forces]({forces})", ""]
     return "\n".join(lines)
+
+
+def _source_lines(params: dict[str, float]) -> list[str]:
+    """The fitted parameters against their sources' ranges
+    (:func:`~cell.rheology.cutcauses.source_checks`): those outside flagged, those no
+    source bounds said so."""
+    checks = source_checks(params)
+    if not checks:
+        return []
+    lines = ["| parameter | fitted | sources' range | source |", "| --- | --- | --- | --- |"]
+    for check in checks:
+        low, high = check["range"]
+        bounds = "none published" if low is None else f"{low:g} to {high:g}"
+        flag = " **outside**" if check["outside"] else ""
+        lines.append(f"| `{check['parameter']}` | {check['value']:.4g}{flag} | {bounds} | "
+                     f"{check['source']} |")
+    return [*lines, ""]
