@@ -165,6 +165,8 @@ class CutCandidate:
                              rate_exponent=value.get("rate_exponent", 0.0),
                              indentation_depth_m=value.get("indentation_depth_m", 0.0),
                              loading_depth_m=value.get("loading_depth_m", 0.0))
+        if "edge_slip_m" in value:
+            unit = replace(unit, edge_slip_m=value["edge_slip_m"])
         return unit, depths
 
     def cutting(self, shape: np.ndarray, linear: np.ndarray) -> CuttingParams:
@@ -186,7 +188,7 @@ class CutCandidate:
                              layer_depths_m=depths, layer_factors=factors,
                              loading_depth_m=unit.loading_depth_m,
                              edge_friction=solved.get("edge_friction_j_m2", 0.0) / base,
-                             edge_slip_m=self.values(shape).get("edge_slip_m", 0.001))
+                             edge_slip_m=unit.edge_slip_m)
 
     def reported(self, shape: np.ndarray, linear: np.ndarray) -> dict[str, float]:
         """The fitted parameters in physical units, for people and the JSON report."""
@@ -289,7 +291,6 @@ def linear_columns(model: CutCandidate, shape: np.ndarray,
 
     rubbing = "edge_friction" in model.causes
     if rubbing:
-        unit = replace(unit, edge_slip_m=model.values(shape)["edge_slip_m"])
         edge, rubbed = kinematics.edge_terms_n(unit, unit.indentation_ramp)
     if "layered_toughness" in model.causes:
         columns = [flat(kinematics.edge_n(unit, in_layer(k))) for k in range(model.layers)]
