@@ -21,8 +21,9 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.tissue": BASE,
     "cell.perception": (*BASE, "cell.robots", "cell.tissue"),
     "cell.rheology": (*BASE, "cell.tissue.curves", "cell.tissue.material",
-                      "cell.tissue.materialfile", "cell.tissue.cutmodel", "cell.tissue.springlaw",
-                      "cell.tissue.packedlaw", "cell.tissue.lattice", "cell.tissue.tetmesh"),
+                      "cell.tissue.materialfile", "cell.tissue.cutmodel", "cell.tissue.edgestate",
+                      "cell.tissue.springlaw", "cell.tissue.packedlaw", "cell.tissue.lattice",
+                      "cell.tissue.tetmesh"),
     "cell.robotlog": (*BASE, "cell.rheology.cuts", "cell.rheology.measured"),
     "controllers": (*BASE, "cell.robots", "cell.tissue", "cell.perception"),
     # The cut tests' types and the cut causes' names (MuJoCo-free), which the full simulation

@@ -66,6 +66,8 @@ HIDDEN = {
     "layered_toughness": (replace(PLAIN, layer_depths_m=(0.012,), layer_factors=(1.0, 1.8)),
                           (0.0, 0.0, 0.0)),
     "blade_force_offset": (PLAIN, (0.5, -0.3, 2.0)),
+    "edge_loading": (replace(PLAIN, loading_depth_m=0.004), (0.0, 0.0, 0.0)),
+    "edge_friction": (replace(PLAIN, edge_friction=0.5, edge_slip_m=0.002), (0.0, 0.0, 0.0)),
 }
 
 
@@ -134,6 +136,11 @@ def test_a_hidden_cause_is_named_with_its_parameters(cause: str) -> None:
     elif cause == "layered_toughness":
         assert fitted.layer_depths_m[0] == pytest.approx(0.012, rel=0.15)
         assert fitted.layer_factors[1] == pytest.approx(1.8, rel=0.15)
+    elif cause == "edge_loading":
+        assert fitted.loading_depth_m == pytest.approx(0.004, rel=0.15)
+    elif cause == "edge_friction":
+        assert fitted.edge_friction == pytest.approx(0.5, rel=0.15)
+        assert fitted.edge_slip_m == pytest.approx(0.002, rel=0.15)
     else:
         np.testing.assert_allclose(result.extended.offset_n, offset, atol=0.1)
 

@@ -64,11 +64,11 @@ def bench_seeds(count: int, kind: Kind = "single") -> list[int]:
 
 def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
     """The causes hidden in the set of ``seed``: the catalogue in turn and none twice
-    (single: 40 sets hold each cause 5 times and none 10 times), or every pair in turn.
+    (single: 40 sets hold each cause 4 times and none 8 times), or every pair in turn.
 
     Example:
-        >>> hidden(41_000, "single"), hidden(41_006, "single"), hidden(41_007, "single")
-        (('blade_friction',), (), ())
+        >>> hidden(41_000, "single"), hidden(41_007, "single"), hidden(41_008, "single")
+        (('blade_friction',), ('edge_friction',), ())
     """
     return cycled_causes(seed - FIRST_SEED[kind], CUT_CAUSES, 2,
                          PAIRS if kind == "pairs" else None)
@@ -90,6 +90,10 @@ def _truth_vector(cause: str, cutting: CuttingParams, offset_n: Sequence[float]
         return np.array([*cutting.layer_depths_m, *cutting.layer_factors[1:]])
     if cause == "blade_force_offset":
         return np.asarray(offset_n, dtype=float)
+    if cause == "edge_loading":
+        return np.array([cutting.loading_depth_m])
+    if cause == "edge_friction":
+        return np.array([cutting.edge_friction, cutting.edge_slip_m])
     return None
 
 

@@ -19,6 +19,10 @@ cause                       change (shape parameters; linear ones in brackets)
 ``layered_toughness``       G changes at depths below the top face (``layer_depth_{k}_m``)
                             [one toughness per layer]
 ``blade_force_offset``      the sensor reads a constant 3-vector [``offset_{x,y,z}_n``]
+``edge_loading``            the edge loads the material over ``loading_depth_m`` past the crack
+                            front before the crack runs; the load holds while the edge rests
+``edge_friction``           the edge drags along itself with mu_e times its load, turning over
+                            the slip ``edge_slip_m`` [``edge_friction_j_m2``: mu_e G]
 ==========================  ====================================================================
 
 Example:
@@ -31,7 +35,8 @@ Example:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -39,8 +44,8 @@ from cell.errors import DiagnosisError
 from cell.rheology.cutreduced import CutKinematics
 from cell.tissue.cutmodel import CUT_CAUSES, CuttingParams, beef_cutting
 
-__all__ = ["CUT_CAUSES", "FACE_PRESSURE_PA", "REPORTED_SPEED_M_S", "CutCandidate", "cause_of",
-           "flat", "linear_columns"]
+__all__ = ["CUT_CAUSES", "FACE_PRESSURE_PA", "REPORTED_SPEED_M_S", "SOURCE_RANGES",
+           "CutCandidate", "cause_of", "flat", "linear_columns", "source_checks"]
 _AXES = ("x", "y", "z")
 #: The faces' pressure that a fitted shear stress ``mu p`` is divided by, Pa, unless a
 #: material says otherwise: the default beef's.
@@ -106,6 +111,10 @@ class CutCandidate:
             names.append("indentation_depth_m")
         if "layered_toughness" in self.causes:
             names += [f"layer_depth_{k}_m" for k in range(self.layers - 1)]
+        if "edge_loading" in self.causes:
+            names.append("loading_depth_m")
+        if "edge_friction" in self.causes:
+            names.append("edge_slip_m")
         return tuple(names)
 
     @property
@@ -115,6 +124,8 @@ class CutCandidate:
                  if "layered_toughness" in self.causes else ["toughness_j_m2"])
         if "blade_friction" in self.causes:
             names.append("face_shear_pa")
+        if "edge_friction" in self.causes:
+            names.append("edge_friction_j_m2")
         if self.has_offset:
             names += [f"offset_{a}_n" for a in _AXES]
         return tuple(names)
@@ -125,14 +136,17 @@ class CutCandidate:
         depths = {f"layer_depth_{k}_m": self.depth_m * (k + 1) / self.layers
                   for k in range(self.layers - 1)}
         start = {"slicing_efficiency": 1.0, "rate_exponent": 0.0,
-                 "indentation_depth_m": 0.1 * self.depth_m, **depths}
+                 "indentation_depth_m": 0.1 * self.depth_m,
+                 "loading_depth_m": 0.1 * self.depth_m, "edge_slip_m": 0.002, **depths}
         return np.array([start[n] for n in self.parameter_names])
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the shape parameters."""
         limits = {"slicing_efficiency": (0.0, 10.0), "rate_exponent": (-1.0, 1.0),
-                  "indentation_depth_m": (1e-5, 0.5 * self.depth_m)}
+                  "indentation_depth_m": (1e-5, 0.5 * self.depth_m),
+                  "loading_depth_m": (1e-5, 0.5 * self.depth_m),
+                  "edge_slip_m": (1e-5, 0.5 * self.depth_m)}
         pairs = [limits.get(n, (0.02 * self.depth_m, 0.98 * self.depth_m))
                  for n in self.parameter_names]
         return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
@@ -149,7 +163,10 @@ class CutCandidate:
         unit = CuttingParams(1.0, slicing_efficiency=value.get("slicing_efficiency", 0.0),
                              reference_speed_m_s=self.reference_speed_m_s,
                              rate_exponent=value.get("rate_exponent", 0.0),
-                             indentation_depth_m=value.get("indentation_depth_m", 0.0))
+                             indentation_depth_m=value.get("indentation_depth_m", 0.0),
+                             loading_depth_m=value.get("loading_depth_m", 0.0))
+        if "edge_slip_m" in value:
+            unit = replace(unit, edge_slip_m=value["edge_slip_m"])
         return unit, depths
 
     def cutting(self, shape: np.ndarray, linear: np.ndarray) -> CuttingParams:
@@ -168,7 +185,10 @@ class CutCandidate:
                              reference_speed_m_s=REPORTED_SPEED_M_S,
                              rate_exponent=unit.rate_exponent,
                              indentation_depth_m=unit.indentation_depth_m,
-                             layer_depths_m=depths, layer_factors=factors)
+                             layer_depths_m=depths, layer_factors=factors,
+                             loading_depth_m=unit.loading_depth_m,
+                             edge_friction=solved.get("edge_friction_j_m2", 0.0) / base,
+                             edge_slip_m=unit.edge_slip_m)
 
     def reported(self, shape: np.ndarray, linear: np.ndarray) -> dict[str, float]:
         """The fitted parameters in physical units, for people and the JSON report."""
@@ -184,6 +204,11 @@ class CutCandidate:
             params["reference_speed_m_s"] = cutting.reference_speed_m_s
         if "indentation_stiffness" in self.causes:
             params["indentation_depth_m"] = cutting.indentation_depth_m
+        if "edge_loading" in self.causes:
+            params["loading_depth_m"] = cutting.loading_depth_m
+        if "edge_friction" in self.causes:
+            params["edge_friction"] = cutting.edge_friction
+            params["edge_slip_m"] = cutting.edge_slip_m
         for k, depth in enumerate(cutting.layer_depths_m):
             params[f"layer_depth_{k}_m"] = depth
         for k, factor in enumerate(cutting.layer_factors):
@@ -192,6 +217,36 @@ class CutCandidate:
         params.update({f"blade_force_offset_{a}_n": solved[f"offset_{a}_n"] for a in _AXES
                        if self.has_offset})
         return params
+
+
+#: The range each fitted parameter of a cause may take by its sources, (low, high, source);
+#: (None, None, why) where no source bounds it, so that a report says so instead of passing it.
+SOURCE_RANGES: dict[str, tuple[float | None, float | None, str]] = {
+    "slicing_efficiency": (0.0, 1.0, "Atkins, Xu & Jeronimidis 2004: 1 is the ideal slice; "
+                           "Reyssat et al. 2012 measured less"),
+    "loading_depth_m": (None, None, "toughness over the stiffness under the edge (material "
+                        "and rig): no published range for a rig"),
+    "edge_friction": (None, None, "no published friction of an edge along itself in food"),
+    "edge_slip_m": (None, None, "no published Dahl slip of an edge in food"),
+}
+
+
+def source_checks(params: dict[str, float]) -> list[dict[str, object]]:
+    """Each fitted parameter of ``params`` that :data:`SOURCE_RANGES` names, with its range,
+    source and whether it lies outside (None where no source bounds it).
+
+    Example:
+        >>> source_checks({"slicing_efficiency": 1.4, "toughness_j_m2": 90.0})[0]["outside"]
+        True
+    """
+    checks = []
+    for name, value in params.items():
+        if name in SOURCE_RANGES:
+            low, high, source = SOURCE_RANGES[name]
+            outside = None if low is None or high is None else not low <= value <= high
+            checks.append({"parameter": name, "value": value, "range": [low, high],
+                           "source": source, "outside": outside})
+    return checks
 
 
 def cause_of(name: str) -> str | None:
@@ -203,7 +258,9 @@ def cause_of(name: str) -> str | None:
         ('layered_toughness', 'blade_friction', None)
     """
     owners = {"slicing_efficiency": "slicing", "rate_exponent": "rate_dependent_cutting",
-              "indentation_depth_m": "indentation_stiffness", "face_shear_pa": "blade_friction"}
+              "indentation_depth_m": "indentation_stiffness", "face_shear_pa": "blade_friction",
+              "loading_depth_m": "edge_loading", "edge_slip_m": "edge_friction",
+              "edge_friction_j_m2": "edge_friction"}
     if name in owners:
         return owners[name]
     if name.startswith("offset_"):
@@ -226,13 +283,22 @@ def linear_columns(model: CutCandidate, shape: np.ndarray,
     """(3 n, k) the force of one test (:func:`flat`) per unit of each of ``model``'s linear
     parameters (:attr:`CutCandidate.linear_names`) at ``shape``."""
     unit, depths = model.unit_edge(shape)
-    ramp = unit.indentation_ramp(kinematics.depth_m)
+    def in_layer(k: int) -> Callable[[np.ndarray], np.ndarray]:
+        def factor(depth: np.ndarray) -> np.ndarray:
+            layer = np.searchsorted(np.asarray(depths), depth, side="right")
+            return unit.indentation_ramp(depth) * (layer == k)
+        return factor
+
+    rubbing = "edge_friction" in model.causes
+    if rubbing:
+        edge, rubbed = kinematics.edge_terms_n(unit, unit.indentation_ramp)
     if "layered_toughness" in model.causes:
-        layer = np.searchsorted(np.asarray(depths), kinematics.depth_m, side="right")
-        columns = [flat(kinematics.edge_n(unit, ramp * (layer == k)))
-                   for k in range(model.layers)]
+        columns = [flat(kinematics.edge_n(unit, in_layer(k))) for k in range(model.layers)]
     else:
-        columns = [flat(kinematics.edge_n(unit, ramp))]
+        columns = [flat(edge if rubbing else kinematics.edge_n(unit, unit.indentation_ramp))]
+    if rubbing:
+        # The friction of the whole load, at the first layer's toughness.
+        columns.append(flat(rubbed))
     if "blade_friction" in model.causes:
         faces = CuttingParams(1.0, face_friction=1.0, face_pressure_pa=1.0)
         columns.append(flat(kinematics.faces_n(faces)))

@@ -26,6 +26,7 @@ from typing import Any
 from cell.determined import shown
 from cell.errors import DiagnosisError
 from cell.rheology.causes import UNEXPLAINED
+from cell.rheology.cutcauses import source_checks
 from cell.rheology.cutsearch import CutDiagnosis, diagnose_cuts
 from cell.rheology.diagnosis import Diagnosis, diagnose
 from cell.rheology.measured import MeasurementSet
@@ -91,6 +92,10 @@ class SetDiagnosis:
                              f"{shown(part.extended.heldout_rmse_n, '.4g')} N (gain "
                              f"{shown(part.gain, '.3f')}, "
                              f"noise {part.noise_n:.3g} N)")
+        if self.cut is not None:
+            lines += [f"cut: {c['parameter']} = {c['value']:.4g} outside its sources' range "
+                      f"{c['range']} ({c['source']})"
+                      for c in source_checks(self.cut.extended.params) if c["outside"]]
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:

@@ -36,6 +36,7 @@ Example:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,6 +49,7 @@ from cell.tissue.cutmodel import (
     path_velocity_m_s,
     push_and_slice,
 )
+from cell.tissue.edgestate import EdgeState, edge_terms
 
 #: Strips across the edge that remember their crack front: the engaged length is resolved to
 #: the block's extent along the edge over this many.
@@ -129,6 +131,13 @@ class CutKinematics:
         slice_m_s: (n, 3) the edge's velocity along itself, m/s.
         face_area_m2: (n,) area of one face of the blade inside the material, m^2.
         middle_depth_m: (n,) depth of the edge's midpoint below the top face, m.
+        inside: (n, s) whether the edge is in the material in the strip at the sample.
+        along_m: (n,) the edge's midpoint along the edge direction, m.
+        down: (3,) the cutting direction (:func:`cutting_direction`).
+        edge: (3,) the edge's direction.
+        whole: the kinematics of every sample, where these are some of them (:meth:`rows`):
+            the terms with a state (the loading, the edge's friction) follow the whole path.
+        samples: the indices of these samples in ``whole``.
     """
 
     fresh: np.ndarray
@@ -138,6 +147,12 @@ class CutKinematics:
     slice_m_s: np.ndarray
     face_area_m2: np.ndarray
     middle_depth_m: np.ndarray
+    inside: np.ndarray
+    along_m: np.ndarray
+    down: np.ndarray
+    edge: np.ndarray
+    whole: CutKinematics | None = None
+    samples: np.ndarray | None = None
 
     @classmethod
     def of(cls, test: CutTest, block: Block, blade: Blade, strips: int = STRIPS
@@ -149,41 +164,67 @@ class CutKinematics:
         along = centres[None, :] - (test.edge_m @ edge_dir)[:, None]
         covered = np.abs(along) <= 0.5 * blade.edge_length_m
         x, y, z = (test.edge_m[:, k, None] + along * edge_dir[k] for k in range(3))
-        depth = block.top_z_m - z
-        in_footprint = covered & (x >= 0.0) & (x <= block.size_m[0]) & (y >= 0.0) & (
-            y <= block.size_m[1])
-        inside = in_footprint & (depth > 0.0) & (z >= 0.0)
+        bottom, top = block.surfaces_z_m(x, y)
+        depth = np.nan_to_num(top - z, nan=-1.0)
+        in_footprint = covered & np.isfinite(top)
+        inside = in_footprint & (depth > 0.0) & (z >= np.nan_to_num(bottom, nan=np.inf))
         front = np.maximum.accumulate(np.where(inside, depth, -np.inf), axis=0)
         before = np.empty_like(front)
         before[0], before[1:] = -np.inf, front[:-1]
         push, slide = push_and_slice(edge_velocity_m_s(test), edge_dir, blade.blade_normal)
         fresh = inside & (depth > before - FRONT_TOLERANCE_M) & ((push @ down) > 0.0)[:, None]
         rise = abs(float(down[2])) or 1.0
-        height = np.where(in_footprint, np.clip(depth, 0.0, block.top_z_m) / rise, 0.0)
+        height = np.where(in_footprint, np.clip(np.minimum(depth, np.nan_to_num(
+            top - bottom)), 0.0, None) / rise, 0.0)
         return cls(fresh, depth, width, push, slide, width * height.sum(axis=1),
-                   block.top_z_m - test.edge_m[:, 2])
+                   block.top_z_m - test.edge_m[:, 2], inside, test.edge_m @ edge_dir, down,
+                   edge_dir)
 
     def rows(self, samples: np.ndarray) -> CutKinematics:
         """The kinematics at ``samples`` only (indices): the crack fronts were found on the
         whole path, so a thinned test cuts where the whole one does."""
+        whole = self.whole or self
+        picked = samples if self.samples is None else self.samples[samples]
         return CutKinematics(self.fresh[samples], self.depth_m[samples], self.strip_width_m,
                              self.push_m_s[samples], self.slice_m_s[samples],
-                             self.face_area_m2[samples], self.middle_depth_m[samples])
+                             self.face_area_m2[samples], self.middle_depth_m[samples],
+                             self.inside[samples], self.along_m[samples], self.down,
+                             self.edge, whole, picked)
 
     @property
     def engaged_length_m(self) -> np.ndarray:
         """(n,) length of edge cutting fresh material, m."""
         return self.strip_width_m * self.fresh.sum(axis=1)
 
-    def edge_n(self, cutting: CuttingParams, depth_factor: np.ndarray | None = None
-               ) -> np.ndarray:
-        """(n, 3) force of the material on the edge, N; ``depth_factor`` (n, s) in place of
-        the model's own layers and ramp (:meth:`CuttingParams.depth_factor`) where given."""
-        factor = cutting.depth_factor(self.depth_m) if depth_factor is None else depth_factor
+    def edge_n(self, cutting: CuttingParams,
+               depth_factor: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+        """(n, 3) force of the material on the edge, N, its friction along itself included;
+        ``depth_factor`` (of the strips' depths, (n, s)) in place of the model's own layers
+        and ramp (:meth:`CuttingParams.depth_factor`) where given."""
+        if cutting.loading_depth_m > 0.0 or cutting.edge_friction > 0.0:
+            edge, rubbing = self.edge_terms_n(cutting, depth_factor,
+                                              cutting.edge_friction > 0.0)
+            return edge + cutting.edge_friction * rubbing
+        factor = (cutting.depth_factor if depth_factor is None else depth_factor)(self.depth_m)
         # Each strip's own factor weights its length, so the law runs once per sample.
         weighted = self.strip_width_m * np.where(self.fresh, factor, 0.0).sum(axis=1)
         return edge_force(cutting.uniform(), weighted, self.push_m_s, self.slice_m_s,
                           self.middle_depth_m)
+
+    def edge_terms_n(self, cutting: CuttingParams,
+                     depth_factor: Callable[[np.ndarray], np.ndarray] | None = None,
+                     rubbing: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """The edge's force without its friction along itself and that friction per unit
+        of ``edge_friction`` (:func:`~cell.tissue.edgestate.edge_terms`), (n, 3) each, N:
+        found on the whole path, which the terms' state follows."""
+        if self.whole is not None:
+            edge, rubbed = self.whole.edge_terms_n(cutting, depth_factor, rubbing)
+            return edge[self.samples], rubbed[self.samples]
+        factor = (cutting.depth_factor if depth_factor is None else depth_factor)(self.depth_m)
+        return edge_terms(cutting, EdgeState(
+            self.strip_width_m * factor, self.depth_m, self.inside, self.fresh,
+            self.push_m_s, self.slice_m_s, self.along_m, self.down, self.edge,
+            self.middle_depth_m), rubbing)
 
     def faces_n(self, cutting: CuttingParams) -> np.ndarray:
         """(n, 3) friction of the cut faces on the blade, N."""

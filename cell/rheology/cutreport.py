@@ -10,7 +10,8 @@ when the set has uniaxial tests, and for its cut tests:
   against the depth, the stroke, the stroke's speed and the time, and in ``cut-report.md``
   the quantity it follows most (:mod:`cell.rheology.residuals`);
 - ``cut-report.md``: the causes, the gain, the evidence of each cause (held-out RMSE with and
-  without it, the tests it improves, its parameters with 95 % intervals), the candidates, the
+  without it, the tests it improves, its parameters with 95 % intervals), the fitted
+  parameters against their sources' ranges (those outside flagged), the candidates, the
   steps and the extended cutting model's parameters, with a link to the figure.
 
 Plots need matplotlib (the ``report`` extra), imported only when a report is written.
@@ -25,6 +26,7 @@ import numpy as np
 
 from cell.extras import require
 from cell.outputs import figure_png, write_atomic
+from cell.rheology.cutcauses import source_checks
 from cell.rheology.cutreduced import cutting_direction
 from cell.rheology.report import evidence_table, gain_line, search_lines
 from cell.rheology.residuals import ResidualTrend, cut_quantities, strongest
@@ -140,6 +142,7 @@ def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
              causes, "",
              gain_line(cut), "",
              *(evidence_table(cut.evidence) if cut.evidence else []),
+             *_source_lines(cut.extended.params),
              *_trend_lines(cut.residual_trends),
              *(["![The residual against what the tests vary](cut-residuals.png)", ""]
                if cut.residual_trends else []),
@@ -164,4 +167,21 @@ def _trend_lines(trends: tuple[ResidualTrend, ...]) -> list[str]:
     lines += [f"| {t.quantity} | {t.component} | {t.rank_correlation:+.2f} | "
               + (f"[{t.ci95[0]:+.2f}, {t.ci95[1]:+.2f}]" if t.ci95 else "not determined")
               + " |" for t in trends]
+    return [*lines, ""]
+
+
+def _source_lines(params: dict[str, float]) -> list[str]:
+    """The fitted parameters against their sources' ranges
+    (:func:`~cell.rheology.cutcauses.source_checks`): those outside flagged, those no
+    source bounds said so."""
+    checks = source_checks(params)
+    if not checks:
+        return []
+    lines = ["| parameter | fitted | sources' range | source |", "| --- | --- | --- | --- |"]
+    for check in checks:
+        low, high = check["range"]
+        bounds = "none published" if low is None else f"{low:g} to {high:g}"
+        flag = " **outside**" if check["outside"] else ""
+        lines.append(f"| `{check['parameter']}` | {check['value']:.4g}{flag} | {bounds} | "
+                     f"{check['source']} |")
     return [*lines, ""]

@@ -52,6 +52,8 @@ TORQUE_NM = Plausible(-1e4, 1e4, "N m", "six-axis sensors of robot tools read at
 #: three or four digits (0.707) is meant as unit.
 DIRECTION_TOLERANCE = 1e-3
 _MIN_SAMPLES = 3
+#: The shapes of a block's section (:attr:`Block.section`).
+BLOCK_SECTIONS = ("box", "round")
 
 
 def _vector(value: tuple[float, ...], name: str) -> tuple[float, float, float]:
@@ -80,6 +82,9 @@ class Block:
             axis, resting on z = 0 with its top face at z = ``size_m[2]``.
         fibre_direction: unit direction of the muscle fibres in the block frame, or None for
             an isotropic block.
+        section: ``"box"``, or ``"round"``: a cylinder lying along the block's x (a
+            vegetable cut across), its section the ellipse inscribed in the box's y-z face,
+            so that the edge's length in the material grows with depth as a chord.
 
     Raises:
         InputError: a size that is not > 0 or not plausible (:data:`cell.config.LENGTH_M`).
@@ -93,8 +98,12 @@ class Block:
 
     size_m: tuple[float, float, float]
     fibre_direction: tuple[float, float, float] | None = None
+    section: str = "box"
 
     def __post_init__(self) -> None:
+        if self.section not in BLOCK_SECTIONS:
+            raise InputError(None, "section", f"must be one of {list(BLOCK_SECTIONS)}, got "
+                             f"{self.section!r}")
         size = _vector(self.size_m, "size_m")
         if not all(s > 0 for s in size):
             raise InputError(None, "size_m", f"must be three lengths > 0, got {list(size)}")
@@ -109,6 +118,26 @@ class Block:
     def top_z_m(self) -> float:
         """Height of the top face, m."""
         return self.size_m[2]
+
+    def surfaces_z_m(self, x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The heights of the block's bottom and top surfaces over the points (x, y), m; NaN
+        off the block.
+
+        Example:
+            >>> round_block = Block((0.04, 0.05, 0.05), section="round")
+            >>> [round(float(z), 4) for z in round_block.surfaces_z_m(0.02, 0.005)]
+            [0.01, 0.04]
+        """
+        x, y = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(y_m, dtype=float))
+        on = (x >= 0.0) & (x <= self.size_m[0]) & (y >= 0.0) & (y <= self.size_m[1])
+        if self.section == "box":
+            bottom, top = np.zeros(x.shape), np.full(x.shape, self.top_z_m)
+        else:
+            half = 0.5 * self.top_z_m
+            across = (y - 0.5 * self.size_m[1]) / (0.5 * self.size_m[1])
+            rise = half * np.sqrt(np.clip(1.0 - across**2, 0.0, None))
+            bottom, top = half - rise, half + rise
+        return np.where(on, bottom, np.nan), np.where(on, top, np.nan)
 
     def holds_inside(self, point: np.ndarray, tolerance_m: float = 0.0) -> bool:
         """Whether ``point`` (3,) lies inside the block, deeper than ``tolerance_m`` (m) below

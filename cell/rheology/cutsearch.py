@@ -29,7 +29,13 @@ import numpy as np
 
 from cell.rheology.acceptance import improved_fraction
 from cell.rheology.causes import UNEXPLAINED
-from cell.rheology.cutcauses import CUT_CAUSES, FACE_PRESSURE_PA, CutCandidate, cause_of
+from cell.rheology.cutcauses import (
+    CUT_CAUSES,
+    FACE_PRESSURE_PA,
+    CutCandidate,
+    cause_of,
+    source_checks,
+)
 from cell.rheology.cutfitting import CutFit, CutProblem, best_layer_depth, fit_cut, refine
 from cell.rheology.cuts import Blade, Block, CutTest
 from cell.rheology.diagnosis import Evidence, SearchOutcome, force_noise_n
@@ -119,9 +125,11 @@ class CutDiagnosis(SearchOutcome):
 
     def to_json(self) -> dict[str, Any]:
         """The contract's JSON, plus the evidence of each cause (as the uniaxial
-        diagnosis's) and, where ``unexplained`` stands, the residual's trends (the strongest
-        first, :mod:`cell.rheology.residuals`)."""
+        diagnosis's), the fitted parameters checked against their sources' ranges
+        (:func:`~cell.rheology.cutcauses.source_checks`) and, where ``unexplained`` stands, the
+        residual's trends (the strongest first, :mod:`cell.rheology.residuals`)."""
         return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence],
+                "source_ranges": source_checks(self.extended.params),
                 "residual_trends": [t.to_json() for t in self.residual_trends]}
 
 

@@ -18,7 +18,12 @@ plus the hidden causes of the format's cut table, each with drawn magnitudes:
 ``indentation_stiffness``   ``indentation_depth_m``
 ``layered_toughness``       one layer depth and the factor of the layer below it
 ``blade_force_offset``      a constant 3-vector added to the sensor's force
+``edge_loading``            ``loading_depth_m``
+``edge_friction``           ``edge_friction`` and ``edge_slip_m``
 ==========================  ====================================================================
+
+The two terms with a state along the path (``edge_loading``, ``edge_friction``) draw from a
+second stream of the seed, so that the sets drawn before they existed are unchanged.
 
 The faces' friction coefficient is drawn about the default beef's (the published one of
 muscle on bone) at the default beef's ``face_pressure_pa``, which the diagnosis divides its
@@ -153,8 +158,8 @@ def _sample_times(rng: np.random.Generator, duration_s: float) -> np.ndarray:
     return np.sort(jittered[kept])
 
 
-def _truth_cutting(rng: np.random.Generator, causes: Sequence[str], height_m: float
-                   ) -> tuple[CuttingParams, np.ndarray]:
+def _truth_cutting(rng: np.random.Generator, causes: Sequence[str], height_m: float,
+                   seed: int) -> tuple[CuttingParams, np.ndarray]:
     """The drawn cutting model and sensor offset: the baseline's toughness always, then each
     cause's magnitudes (drawn whether hidden or not, so the other draws do not depend on
     which causes are hidden)."""
@@ -167,6 +172,10 @@ def _truth_cutting(rng: np.random.Generator, causes: Sequence[str], height_m: fl
     layer_factor = rng.choice([rng.uniform(0.4, 0.7), rng.uniform(1.5, 2.5)])
     offset = rng.normal(0.0, 1.0, 3)
     offset *= rng.uniform(0.5, 2.0) / np.linalg.norm(offset)
+    second = np.random.default_rng((seed, 1))
+    loading = second.uniform(0.002, 0.006)
+    edge_friction = second.uniform(0.3, 1.0)
+    edge_slip = second.uniform(0.001, 0.004)
     hidden = set(causes)
     layered = "layered_toughness" in hidden
     cutting = CuttingParams(
@@ -178,7 +187,10 @@ def _truth_cutting(rng: np.random.Generator, causes: Sequence[str], height_m: fl
         rate_exponent=rate if "rate_dependent_cutting" in hidden else 0.0,
         indentation_depth_m=indentation if "indentation_stiffness" in hidden else 0.0,
         layer_depths_m=(layer_depth,) if layered else (),
-        layer_factors=(1.0, layer_factor) if layered else ())
+        layer_factors=(1.0, layer_factor) if layered else (),
+        loading_depth_m=loading if "edge_loading" in hidden else 0.0,
+        edge_friction=edge_friction if "edge_friction" in hidden else 0.0,
+        edge_slip_m=edge_slip)
     return cutting, offset if "blade_force_offset" in hidden else np.zeros(3)
 
 
@@ -211,7 +223,7 @@ def write_hidden_cut_set(folder: Path, seed: int, causes: Sequence[str] = (),
     blade = Blade(0.12, float(np.round(rng.uniform(0.001, 0.002), 4)), (0.0, 1.0, 0.0),
                   (1.0, 0.0, 0.0), 20.0)
     plans = _plans(rng, block.top_z_m, tests)
-    cutting, offset = _truth_cutting(rng, hidden, block.top_z_m)
+    cutting, offset = _truth_cutting(rng, hidden, block.top_z_m, seed)
     material = replace(material or default_meat(), cutting=cutting)
     start = np.array([size[0] / 2, size[1] / 2, size[2] + START_HEIGHT_M])
     settings = CutSimulation(cell_size_m)
@@ -291,5 +303,7 @@ def describe(truth: CutTruth) -> dict[str, Any]:
             "indentation_depth_m": cutting.indentation_depth_m,
             "layer_depths_m": list(cutting.layer_depths_m),
             "layer_factors": list(cutting.layer_factors),
+            "loading_depth_m": cutting.loading_depth_m, "edge_friction": cutting.edge_friction,
+            "edge_slip_m": cutting.edge_slip_m,
             "offset_n": list(truth.offset_n), "noise_n": truth.noise_n,
             "cell_size_m": truth.cell_size_m}

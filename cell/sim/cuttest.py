@@ -74,6 +74,7 @@ from cell.tissue.cutmodel import (
     path_velocity_m_s,
     push_and_slice,
 )
+from cell.tissue.edgestate import EdgeState, loaded_edge_force
 from cell.tissue.massspring import MassSpringModel
 from cell.tissue.material import MassSpringMaterial
 
@@ -192,8 +193,16 @@ def edge_term_n(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bla
     spine = edge_m @ spine_direction
     fresh = (push @ spine_direction < 0.0) & (spine <= np.minimum.accumulate(spine))
     length = np.array([engaged_length_m(block, p, edge_direction, blade.edge_length_m)
-                       for p in edge_m]) * fresh
-    return edge_force(cutting, length, push, slide, block.top_z_m - edge_m[:, 2])
+                       for p in edge_m])
+    depth = block.top_z_m - edge_m[:, 2]
+    if cutting.loading_depth_m > 0.0 or cutting.edge_friction > 0.0:
+        # The terms with a state, on the one strip of the edge in the box.
+        inside = (length > 0.0)[:, None]
+        return loaded_edge_force(cutting, EdgeState(
+            (length * cutting.depth_factor(depth))[:, None], depth[:, None], inside,
+            inside & fresh[:, None], push, slide, edge_m @ edge_direction, -spine_direction,
+            edge_direction, depth))
+    return edge_force(cutting, length * fresh, push, slide, depth)
 
 
 def _spans(coordinate_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -307,12 +316,16 @@ def simulate_cut(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bl
     in straight lines at constant speed.
 
     Raises:
-        InputError: a path of fewer than two samples, time not increasing, or a blade whose
-            plane the block's mesh cannot follow (:func:`~cell.sim.cuttestscene.normal_axis`).
+        InputError: a path of fewer than two samples, time not increasing, a block that is
+            not a box, or a blade whose plane the block's mesh cannot follow
+            (:func:`~cell.sim.cuttestscene.normal_axis`).
         DivergenceError: the simulation blew up.
     """
     time_s = np.asarray(time_s, dtype=float)
     edge_m = np.asarray(edge_m, dtype=float)
+    if block.section != "box":
+        raise InputError(None, "section", f"the full simulation meshes box blocks only, got "
+                         f"{block.section!r}")
     if len(time_s) < 2 or np.any(np.diff(time_s) <= 0) or edge_m.shape != (len(time_s), 3):
         raise InputError(None, "time_s", "a cut path needs >= 2 samples, time increasing, "
                          "one edge position (3) per sample")

@@ -1,7 +1,7 @@
 """The cutting model: what a blade's edge and faces feel in tissue, as pure numpy functions.
 
 A material file's ``[cutting]`` table (:class:`CuttingParams`) gives the material's
-resistance to a blade. Two terms, each a force that the tissue exerts on the blade, in the
+resistance to a blade. Its terms, each a force that the tissue exerts on the blade, in the
 frame the caller's vectors are in (the block frame of a cut test, the world frame of the
 cell):
 
@@ -16,6 +16,19 @@ cell):
   the factor of the layer the edge is in, the rate factor of the edge's speed v, and the
   indentation ramp ``min(1, depth / indentation_depth_m)`` (the material deforms under the
   edge before the first crack).
+- **loading before the crack runs** (``loading_depth_m``,
+  :func:`~cell.tissue.edgestate.loaded_edge_force`): the material and the rig deform under
+  the edge, which presses on them as a spring until the energy at the edge reaches the
+  toughness; the crack then runs, its front ``loading_depth_m`` (times
+  the slicing factor, which lowers the load the crack needs) behind the edge. The edge's
+  load is ``G L`` times the share of that depth it has sunk past the front: it ramps in
+  after first contact and after every stroke that backed out, and holds while the edge
+  rests in its cut (the indentation phase of Atkins 2009 and of Jamdagni & Jia).
+- **friction along the edge** (``edge_friction``,
+  :func:`~cell.tissue.edgestate.edge_friction_state`): the edge's load presses it into the
+  material, which drags on it along itself as a Dahl friction (Dahl 1976): the force turns
+  over a slip ``edge_slip_m`` of the edge along itself, easing through zero where a sawing
+  stroke turns, up to ``edge_friction`` times the load.
 - the **faces** (:func:`face_friction_force`): both faces of the blade drag in the cut with
   the shear stress ``mu p`` over the blade's area in the material, opposite to the blade's
   velocity along its faces, also while it moves back out.
@@ -54,6 +67,8 @@ CUT_CAUSES = (
     "indentation_stiffness",
     "layered_toughness",
     "blade_force_offset",
+    "edge_loading",
+    "edge_friction",
 )
 
 #: Speed below which the faces' friction fades linearly to zero instead of flipping sign:
@@ -90,6 +105,11 @@ class CuttingParams:
             layer ends and the next begins, m, strictly increasing, > 0.
         layer_factors: G's factor in each layer, one more than ``layer_depths_m`` (the first
             from the surface to the first depth, the last below the last depth), each > 0.
+        loading_depth_m: depth the edge sinks past the crack front before the crack runs
+            (the toughness over the stiffness per unit length of edge), m, >= 0; 0 = the
+            edge's load is a cutting force only (module docstring).
+        edge_friction: mu_e, the edge's friction along itself per unit of its load, >= 0.
+        edge_slip_m: the slip along the edge over which its friction turns, m, > 0.
 
     Raises:
         MaterialError: naming the key at fault (a value out of range or not finite, layer
@@ -111,12 +131,15 @@ class CuttingParams:
     indentation_depth_m: float = 0.0
     layer_depths_m: tuple[float, ...] = ()
     layer_factors: tuple[float, ...] = ()
+    loading_depth_m: float = 0.0
+    edge_friction: float = 0.0
+    edge_slip_m: float = 0.001
 
     def __post_init__(self) -> None:
-        for name in ("toughness_j_m2", "reference_speed_m_s"):
+        for name in ("toughness_j_m2", "reference_speed_m_s", "edge_slip_m"):
             _check(name, getattr(self, name), lambda v: v > 0, "> 0")
         for name in ("face_friction", "face_pressure_pa", "slicing_efficiency",
-                     "indentation_depth_m"):
+                     "indentation_depth_m", "loading_depth_m", "edge_friction"):
             _check(name, getattr(self, name), lambda v: v >= 0, ">= 0")
         _check("rate_exponent", self.rate_exponent, lambda v: -1 <= v <= 1, "in [-1, 1]")
         depths = _numbers("layer_depths_m", self.layer_depths_m)
