@@ -155,3 +155,8 @@ def test_the_command_writes_the_set_or_nothing(logs, tmp_path, capsys):
                  str(tmp_path / "other")]) == 2
     assert "mapping.toml, blades: unknown table" in capsys.readouterr().err
     assert not (tmp_path / "other").exists()
+
+
+def test_a_round_section_in_the_mapping_reaches_the_set(logs, tmp_path):
+    out = import_cut_set(_mapping(block={"section": "round"}), logs["dumps"], tmp_path / "set")
+    assert load_measurement_set(out).block.section == "round"

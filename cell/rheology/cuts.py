@@ -1,7 +1,7 @@
 """Cut tests: a blade on a force sensor driven through a block of tissue, read and validated.
 
-A measurement set may hold tests of mode ``cut`` beside its uniaxial ones (the project's spec
-of cell logs, section 1): ``specimen.toml`` then describes the block (``[block]``) and the
+A measurement set may hold tests of mode ``cut`` beside its uniaxial ones (docs/measured-data.md,
+cut tests): ``specimen.toml`` then describes the block (``[block]``) and the
 blade (``[blade]``), and each cut row of ``tests.csv`` gives the edge's midpoint (the input)
 and the force the block exerts on the blade (what a model must predict), in the block frame:
 the block rests on z = 0 with its corner at the origin, its top face at z = ``size_m[2]``.

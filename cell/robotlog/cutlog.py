@@ -131,7 +131,8 @@ def import_cut_set(mapping: ImportMapping, sources: Sequence[str | Path], out: s
                             "test named after its file or folder")
     tests = [cut_test_from_log(source, mapping, name)
              for source, name in zip(sources, names, strict=True)]
-    block = Block(mapping.block.size_m, mapping.block.fibre_direction)
+    block = Block(mapping.block.size_m, mapping.block.fibre_direction,
+                  section=mapping.block.section)
     blade = Blade(mapping.blade.edge_length_m, mapping.blade.thickness_m, (0.0, 1.0, 0.0),
                   (1.0, 0.0, 0.0), mapping.blade.edge_angle_deg)
 
@@ -154,6 +155,8 @@ def _specimen_toml(block: Block, blade: Blade, names: Sequence[str], mapping: Im
              "", "[block]", f"size_m = {vector(block.size_m)}"]
     if block.fibre_direction is not None:
         lines.append(f"fibre_direction = {vector(block.fibre_direction)}")
+    if block.section != "box":
+        lines.append(f'section = "{block.section}"')
     lines += ["", "[blade]", f"edge_length_m = {blade.edge_length_m!r}",
               f"thickness_m = {blade.thickness_m!r}",
               f"edge_direction = {vector(blade.edge_direction)}",

@@ -132,10 +132,12 @@ class CutFrame:
 @dataclass(frozen=True)
 class BlockSize:
     """The ``[block]`` table: the block's size (x along the blade's normal, y along the edge,
-    z its height), m, and the fibres' direction in the block frame (optional)."""
+    z its height), m, the fibres' direction in the block frame (optional) and its section
+    (``box``, or ``round``: a vegetable lying along x, :class:`cell.rheology.cuts.Block`)."""
 
     size_m: tuple[float, float, float]
     fibre_direction: tuple[float, float, float] | None = None
+    section: str = "box"
 
 
 @dataclass(frozen=True)
