@@ -113,6 +113,15 @@ def _messages(log: CutLog, typestore: object) -> list[tuple[str, str, int, objec
     return sorted(found, key=lambda item: item[2])
 
 
+def _write_bag(log: CutLog, writer: object, typestore: object, serialize: object) -> None:
+    """Every message of ``log`` into an open bag ``writer``, a connection a topic."""
+    connections = {}
+    for topic, msgtype, time_ns, message in _messages(log, typestore):
+        if topic not in connections:
+            connections[topic] = writer.add_connection(topic, msgtype, typestore=typestore)
+        writer.write(connections[topic], time_ns + 150, serialize(message, msgtype))
+
+
 def write_ros1_bag(log: CutLog, path: Path) -> Path:
     """A ROS 1 bag."""
     from rosbags.rosbag1 import Writer
@@ -120,12 +129,7 @@ def write_ros1_bag(log: CutLog, path: Path) -> Path:
 
     typestore = get_typestore(Stores.ROS1_NOETIC)
     with Writer(path) as writer:
-        connections = {}
-        for topic, msgtype, time_ns, message in _messages(log, typestore):
-            if topic not in connections:
-                connections[topic] = writer.add_connection(topic, msgtype, typestore=typestore)
-            writer.write(connections[topic], time_ns + 150,
-                         typestore.serialize_ros1(message, msgtype))
+        _write_bag(log, writer, typestore, typestore.serialize_ros1)
     return path
 
 
@@ -137,12 +141,7 @@ def write_ros2_bag(log: CutLog, path: Path, storage: str = "sqlite3") -> Path:
     typestore = get_typestore(Stores.ROS2_HUMBLE)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
     with Writer(path, version=9, storage_plugin=plugin) as writer:
-        connections = {}
-        for topic, msgtype, time_ns, message in _messages(log, typestore):
-            if topic not in connections:
-                connections[topic] = writer.add_connection(topic, msgtype, typestore=typestore)
-            writer.write(connections[topic], time_ns + 150,
-                         typestore.serialize_cdr(message, msgtype))
+        _write_bag(log, writer, typestore, typestore.serialize_cdr)
     return path
 
 
