@@ -73,6 +73,7 @@ def test_a_diagnosis_completes_and_reports_an_interval_the_tests_do_not_bound(
         tmp_path / "report" / "report.md").read_text()
 
 
+@pytest.mark.slow  # the set of the test above, diagnosed again as a batch
 def test_the_batch_diagnoses_it_too(ramps_without_holds: Path, tmp_path: Path) -> None:
     out = tmp_path / "batch"
     assert main(["diagnose", "--batch", str(ramps_without_holds.parent), "--out", str(out),
