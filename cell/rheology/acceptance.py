@@ -76,10 +76,10 @@ def _at_rest(richer: ModelFit, poorer: ModelFit,
     return rest if sum(len(r) for r in rest) >= MIN_REST_SAMPLES else None
 
 
-def _accepts_at_rest(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
-                     tests: tuple[MechanicalTest, ...], rest: list[np.ndarray],
-                     params: DiagnosisParams) -> bool:
-    """:func:`accepts`'s rule on the samples at rest (:func:`_at_rest`) alone."""
+def _scores_at_rest(richer: ModelFit, poorer: ModelFit, tests: tuple[MechanicalTest, ...],
+                    rest: list[np.ndarray]) -> tuple[float, float, float]:
+    """Held-out RMSE of ``richer`` and ``poorer`` on the samples at rest (:func:`_at_rest`),
+    N, and the share of tests at rest whose error ``richer`` lowers."""
     judged = [i for i, samples in enumerate(rest) if len(samples)]
 
     def errors(fit: ModelFit) -> list[np.ndarray]:
@@ -88,12 +88,9 @@ def _accepts_at_rest(richer: ModelFit, poorer: ModelFit, first: bool, noise: flo
     rich_errors, poor_errors = errors(richer), errors(poorer)
     rich, poor = (float(np.sqrt(np.mean(np.concatenate(e) ** 2)))
                   for e in (rich_errors, poor_errors))
-    ratio = params.max_rmse_ratio if first else params.later_rmse_ratio
-    improved = np.mean([np.mean(r**2) < np.mean(p**2)
-                        for r, p in zip(rich_errors, poor_errors, strict=True)])
-    return (poor**2 - rich**2 > params.min_variance_drop * noise**2 and richer.bic < poorer.bic
-            and rich <= ratio * poor
-            and (first or improved >= params.min_improved_fraction))
+    improved = float(np.mean([np.mean(r**2) < np.mean(p**2)
+                              for r, p in zip(rich_errors, poor_errors, strict=True)]))
+    return rich, poor, improved
 
 
 def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
@@ -103,12 +100,13 @@ def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
     (:func:`_at_rest`)."""
     rest = _at_rest(richer, poorer, tests)
     if rest is not None:
-        return _accepts_at_rest(richer, poorer, first, noise, tests, rest, params)
-    judged = _judged(richer, poorer, tests)
-    rich, poor = (_heldout_rmse_n(f, tests, judged) for f in (richer, poorer))
+        rich, poor, improved = _scores_at_rest(richer, poorer, tests, rest)
+    else:
+        judged = _judged(richer, poorer, tests)
+        rich, poor = (_heldout_rmse_n(f, tests, judged) for f in (richer, poorer))
+        improved = np.mean(richer.heldout_mse_per_test(tests)[judged]
+                           < poorer.heldout_mse_per_test(tests)[judged])
     ratio = params.max_rmse_ratio if first else params.later_rmse_ratio
-    improved = np.mean(richer.heldout_mse_per_test(tests)[judged]
-                       < poorer.heldout_mse_per_test(tests)[judged])
     return (poor**2 - rich**2 > params.min_variance_drop * noise**2 and richer.bic < poorer.bic
             and rich <= ratio * poor
             and (first or improved >= params.min_improved_fraction))
