@@ -6,7 +6,7 @@ interface's lean, up to about a centimetre at the entry, where the guideline's w
 the meat's tapered end, under a millimetre mid-cut). The policy sees what ``Cut-v2``'s sees
 (the tip against the wrong path, the knife's force and torque, its progress, the path ahead)
 and corrects across and in depth; the score is the tip's mean distance to the true interface
-over the cut (:class:`cell.sim.cutscore.CutScore`). ``Steer-v2``'s observation adds the knife's
+over the cut (:class:`cell.sim.score.CutScore`). ``Steer-v2``'s observation adds the knife's
 force low-passed: one step's reading is noisy and jerks where the tissue tears, and where the
 blade runs shows in the load it holds.
 """
@@ -22,8 +22,8 @@ import numpy as np
 
 from cell.config import require_non_negative, require_positive
 from cell.errors import InputError
-from cell.sim.cutscore import CutScore
 from cell.sim.episode import Episode
+from cell.sim.score import CutScore
 from envs.observation import OBSERVATION_NAMES
 from envs.params import ActionLimits
 from envs.settings import parameters
@@ -197,7 +197,7 @@ class SteerEnv(CutEnv):
 
     As ``Cut-v2``'s. The final step's info adds ``tip_distance_mean_m`` and
     ``tip_distance_max_m`` (the tip's distance to the true, deforming interface over the
-    cut: :class:`~cell.sim.cutscore.CutScore`; None when the tip never came across from
+    cut: :class:`~cell.sim.score.CutScore`; None when the tip never came across from
     it) and ``path_error`` (the world's draw).
 
     .. rubric:: Arguments

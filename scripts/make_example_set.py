@@ -18,8 +18,8 @@ The force is the truth along that path plus N(0, 1 mN); the written displacement
 path plus N(0, 0.3 um), except the first sample of each test, which is exactly 0. One
 generator, seeded once, draws the noise test by test in the order of ``TESTS``: force
 noise, then displacement noise. The generator itself (test plans, QLV integral, noise,
-writers) is the library's, :mod:`cell.rheology.testplan`, :mod:`cell.rheology.truth` and
-:mod:`cell.rheology.synthetic`; this script holds the example's truth, tests and header.
+writers) is the library's, :mod:`cell.measure.protocols`, :mod:`cell.synthetic.truth` and
+:mod:`cell.synthetic.specimen`; this script holds the example's truth, tests and header.
 
 Usage::
 
@@ -33,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from cell.rheology.synthetic import Digits, Noise, csv_text, measure, specimen_toml, write_set
-from cell.rheology.testplan import TestPlan, cyclic, ramp, relaxation, true_force_n
-from cell.rheology.truth import qlv_stress_pa
+from cell.measure.protocols import TestPlan, cyclic, ramp, relaxation, true_force_n
+from cell.synthetic.specimen import Digits, Noise, csv_text, measure, specimen_toml, write_set
+from cell.synthetic.truth import qlv_stress_pa
 
 SEED = 20240607
 SIZE_M = 0.010  # cube edge; the load axis is z

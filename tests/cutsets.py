@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cell.rheology.cutreduced import simulate_cut
-from cell.rheology.cuts import Blade, Block, CutTest
+from cell.diagnosis.cut.reduced import simulate_cut
+from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CuttingParams
 
 

@@ -1,13 +1,13 @@
 """The fine, slow reference of the specimen tests: the whole specimen mesh in MuJoCo, in time.
 
-:mod:`cell.rheology.specimen` simulates a test quasi-statically on a homogeneous lattice; this
-module runs the same springs (:class:`~cell.tissue.massspring.MassSpringModel`, calibrated like the
-specimen's lattice, with their fibres along the load axis) on every vertex of a tet mesh of the
-specimen (:func:`~cell.rheology.specimen.specimen_mesh`) in a MuJoCo flexcomp, in dynamics, to show
-what the quasi- static choice changes. The platens are lubricated as there: the bottom face is held
-along z (one corner also in x and y, against drift), the top face follows the test's displacement
-history along z, and both slide freely. The result is the axial force on the top face at the
-test's sample times (positive pulls).
+:mod:`cell.diagnosis.specimen.solve` simulates a test quasi-statically on a homogeneous lattice;
+this module runs the same springs (:class:`~cell.tissue.massspring.MassSpringModel`, calibrated like
+the specimen's lattice, with their fibres along the load axis) on every vertex of a tet mesh of the
+specimen (:func:`~cell.diagnosis.specimen.solve.specimen_mesh`) in a MuJoCo flexcomp, in dynamics,
+to show what the quasi- static choice changes. The platens are lubricated as there: the bottom face
+is held along z (one corner also in x and y, against drift), the top face follows the test's
+displacement history along z, and both slide freely. The result is the axial force on the top face
+at the test's sample times (positive pulls).
 
 The material runs as in the cell, each on MuJoCo's semi-implicit ``Euler`` (dof damping
 implicit, material forces explicit):
@@ -36,7 +36,7 @@ its inertia ratio (net force on the free vertices, zero at equilibrium, over the
 force) and its smallest tet volume ratio (<= 0 once the mesh has inverted).
 
 Example:
-    >>> from cell.rheology.measured import load_measurement_set
+    >>> from cell.measure.specimens import load_measurement_set
     >>> from cell.tissue.material import MassSpringMaterial
     >>> data = load_measurement_set("assets/measured/beef_round_example")
     >>> run = simulate_meshed(data.test("t00"), data.specimen, MassSpringMaterial.isotropic(6e3))
@@ -52,9 +52,9 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
+from cell.diagnosis.specimen.solve import fibre_direction, specimen_mesh
 from cell.errors import DivergenceError
-from cell.rheology.measured import MechanicalTest, Specimen
-from cell.rheology.specimen import fibre_direction, specimen_mesh
+from cell.measure.specimens import MechanicalTest, Specimen
 from cell.tissue.flexcomp import flexcomp_xml, set_continuum_law
 from cell.tissue.massspring import MassSpringModel
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from cell.rheology.acceptance import accepts
-from cell.rheology.causes import CandidateMaterial
-from cell.rheology.fitting import ModelFit
-from cell.rheology.measured import MechanicalTest
-from cell.rheology.settings import DiagnosisParams
+from cell.diagnosis.engine.acceptance import accepts
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.specimen.causes import CandidateMaterial
+from cell.diagnosis.specimen.fitting import ModelFit
+from cell.measure.specimens import MechanicalTest
 from cell.tissue.material import MassSpringMaterial
 
 _TIME = np.linspace(0.0, 10.0, 50)

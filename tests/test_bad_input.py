@@ -176,10 +176,10 @@ def test_a_policy_of_another_name_is_named(cwd: Path) -> None:
 # -- issue 32, item 2: a batch keeps going ---------------------------------------------------
 
 def test_a_batch_records_unreadable_sets_and_diagnoses_the_good_one(tmp_path: Path) -> None:
-    from cell.rheology.settings import DiagnosisParams
-    from cell.rheology.synthetic import write_hidden_effect_set
+    from cell.diagnosis.engine.settings import DiagnosisParams
     from cell.scale.batch import diagnose_batch
     from cell.scale.pool import Workers
+    from cell.synthetic.specimen import write_hidden_effect_set
 
     sets = tmp_path / "sets"
     write_hidden_effect_set(sets / "good", 3, "force_offset")

@@ -26,8 +26,8 @@ from cell.errors import (
     file_read_error,
 )
 from cell.io import read_json, read_text
+from cell.measure.specimens import Specimen
 from cell.outputs import AtomicFile, write_atomic, write_json, write_together
-from cell.rheology.measured import Specimen
 from cell.sim.scenario import SimulationParams
 
 

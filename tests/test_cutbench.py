@@ -1,4 +1,4 @@
-"""The cut part of the diagnose bench (cell.bench.cutdiagnose), on its pure pieces."""
+"""The cut part of the diagnose bench (cell.bench.diagnose_cuts), on its pure pieces."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cell.bench.cutdiagnose import (
+from cell.bench.diagnose_cuts import (
     FIRST_SEED,
     PAIRS,
     bench_seeds,
@@ -16,8 +16,8 @@ from cell.bench.cutdiagnose import (
     parameter_error,
     reduced_vs_full,
 )
-from cell.rheology.cutreduced import simulate_cut
-from cell.rheology.cuts import Blade, Block, CutTest
+from cell.diagnosis.cut.reduced import simulate_cut
+from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CUT_CAUSES, CuttingParams
 
 

@@ -1,4 +1,4 @@
-"""The reduced model of a cut test (cell.rheology.cutreduced)."""
+"""The reduced model of a cut test (cell.diagnosis.cut.reduced)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import time
 import numpy as np
 import pytest
 
-from cell.rheology.cutreduced import cutting_direction, edge_velocity_m_s, simulate_cut
-from cell.rheology.cuts import Blade, Block, CutTest
+from cell.diagnosis.cut.reduced import cutting_direction, edge_velocity_m_s, simulate_cut
+from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CuttingParams
 
 BLOCK = Block((0.06, 0.04, 0.03))

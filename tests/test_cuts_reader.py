@@ -18,8 +18,8 @@ from cell.errors import (
     EdgeInsideBlockError,
     InputError,
 )
-from cell.rheology.cuts import Blade, Block, CutTest
-from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE, load_measurement_set
+from cell.measure.cuts import Blade, Block, CutTest
+from cell.measure.specimens import SPECIMEN_FILE, TESTS_FILE, load_measurement_set
 from tests.refusals import snapshot
 
 SPECIMEN = """[specimen]
@@ -279,7 +279,7 @@ def test_diagnose_refuses_a_bad_cut_set_and_writes_nothing(
 def test_diagnose_diagnoses_a_good_cut_set(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # A set holding cuts is read whole (every error above is found), then its cut tests are
-    # diagnosed (cell.rheology.cutdiagnosis): the JSON has their part, the material a
+    # diagnosed (cell.diagnosis.sets): the JSON has their part, the material a
     # [cutting] table.
     _cut_set(tmp_path / "set")
     monkeypatch.chdir(tmp_path)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from cell.sim.assembly import Scene, build_scene
-from cell.sim.cutscore import CutScore
 from cell.sim.scenario import Scenario
+from cell.sim.score import CutScore
 from cell.tissue.geometry import MuscleShape
 
 DOWN = np.array([0.0, 0.0, 1.0])  # the tool's z points down to the tip

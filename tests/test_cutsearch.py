@@ -1,4 +1,4 @@
-"""The diagnosis of cut tests (cell.rheology.cutcauses, cutfitting, cutsearch, cutdiagnosis) on
+"""The diagnosis of cut tests (cell.diagnosis.cut.causes, cutfitting, cutsearch, cutdiagnosis) on
 sets that the reduced model makes, each with one hidden effect."""
 
 from __future__ import annotations
@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cell.diagnosis.cut.causes import CUT_CAUSES, CutCandidate, linear_columns
+from cell.diagnosis.cut.fitting import CutProblem, best_layer_depth, fit_cut, solve_linear
+from cell.diagnosis.cut.reduced import simulate_cut
+from cell.diagnosis.cut.search import diagnose_cuts
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.sets import diagnose_set
 from cell.errors import DiagnosisError
-from cell.rheology.cutcauses import CUT_CAUSES, CutCandidate, linear_columns
-from cell.rheology.cutdiagnosis import diagnose_set
-from cell.rheology.cutfitting import CutProblem, best_layer_depth, fit_cut, solve_linear
-from cell.rheology.cutreduced import simulate_cut
-from cell.rheology.cuts import Blade, Block, CutTest
-from cell.rheology.cutsearch import diagnose_cuts
-from cell.rheology.measured import MeasurementSet, load_measurement_set
-from cell.rheology.settings import DiagnosisParams
+from cell.measure.cuts import Blade, Block, CutTest
+from cell.measure.specimens import MeasurementSet, load_measurement_set
 from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.materialfile import load_material, material_to_toml
 
@@ -212,7 +212,7 @@ def mixed_set(folder: Path, cut_tests: tuple[CutTest, ...],
               effect: str | tuple[str, ...] | None = None) -> None:
     """A generated uniaxial set with ``effect`` hidden (none by default) and ``cut_tests``
     beside it, every row leaving the other kind's columns empty."""
-    from cell.rheology.synthetic import write_hidden_effect_set
+    from cell.synthetic.specimen import write_hidden_effect_set
 
     write_hidden_effect_set(folder, 2, effect)
     specimen = folder / "specimen.toml"

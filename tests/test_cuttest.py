@@ -1,5 +1,5 @@
-"""The full simulation of a cut test (cell.sim.cuttest) and the hidden-effect cut sets made with
-it (cell.sim.cutsets)."""
+"""The full simulation of a cut test (cell.cuttest.run) and the hidden-effect cut sets made with
+it (cell.synthetic.cut)."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cell.cuttest.run import CutSimulation, engaged_length_m, knife_sensor_to_spec, simulate_cut
 from cell.errors import DivergenceError, InputError
-from cell.rheology.cuts import Blade, Block
-from cell.rheology.measured import load_measurement_set
-from cell.sim.cutsets import describe, write_hidden_cut_set
-from cell.sim.cuttest import CutSimulation, engaged_length_m, knife_sensor_to_spec, simulate_cut
+from cell.measure.cuts import Blade, Block
+from cell.measure.specimens import load_measurement_set
+from cell.synthetic.cut import describe, write_hidden_cut_set
 from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.material import default_meat
 
@@ -159,8 +159,8 @@ def test_a_generated_sawing_and_press_cut_tell_whether_slicing_acts(
     # One press and one sawing cut of the same generated material (the full simulation, on
     # coarse cells to stay quick), diagnosed together (issue 33, acceptance 2): slicing is
     # named when it is hidden, and only then.
-    from cell.rheology.cutsearch import diagnose_cuts
-    from cell.rheology.settings import DiagnosisParams
+    from cell.diagnosis.cut.search import diagnose_cuts
+    from cell.diagnosis.engine.settings import DiagnosisParams
 
     write_hidden_cut_set(tmp_path / "set", seed=11, causes=causes, tests=2, cell_size_m=0.012)
     data = load_measurement_set(tmp_path / "set")

@@ -28,7 +28,7 @@ def _kept_rows(path: Path, kept: tuple[str, ...]) -> tuple[str, list[str]]:
 
 def write_sets(parent: Path) -> None:
     """A set of uniaxial tests, one of cut tests and one of both kinds, in ``parent``."""
-    from cell.rheology.synthetic import write_hidden_effect_set
+    from cell.synthetic.specimen import write_hidden_effect_set
 
     uniaxial = parent / "uniaxial"
     write_hidden_effect_set(uniaxial, 3, "force_offset")

@@ -11,14 +11,14 @@ from pathlib import Path
 import pytest
 
 from cell.cli import main
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.specimen.causes import CAUSES, UNEXPLAINED
+from cell.diagnosis.specimen.diagnosis import diagnose
 from cell.errors import DiagnosisError
-from cell.rheology.causes import CAUSES, UNEXPLAINED
-from cell.rheology.diagnosis import diagnose
-from cell.rheology.measured import load_measurement_set, load_specimen
-from cell.rheology.settings import DiagnosisParams
-from cell.rheology.synthetic import write_hidden_effect_set
+from cell.measure.specimens import load_measurement_set, load_specimen
 from cell.sim.episode import Episode
 from cell.sim.scenario import load_scenario
+from cell.synthetic.specimen import write_hidden_effect_set
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.materialfile import load_material
 from tests.paths import DEFAULT_SCENARIO, EXAMPLE_SET

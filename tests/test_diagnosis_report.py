@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from cell.rheology.diagnosis import diagnose
-from cell.rheology.measured import load_measurement_set
-from cell.rheology.report import write_report
-from cell.rheology.settings import DiagnosisParams
-from cell.rheology.synthetic import write_hidden_effect_set
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.specimen.diagnosis import diagnose
+from cell.diagnosis.specimen.report import write_report
+from cell.measure.specimens import load_measurement_set
+from cell.synthetic.specimen import write_hidden_effect_set
 
 
 def test_report_shows_the_figures_the_cause_and_the_gain(tmp_path: Path) -> None:

@@ -7,13 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from cell.cuttest.run import edge_term_n
+from cell.cuttest.run import simulate_cut as simulate_full
+from cell.diagnosis.cut.causes import CutCandidate, source_checks
+from cell.diagnosis.cut.fitting import CutProblem, fit_cut
+from cell.diagnosis.cut.reduced import simulate_cut
 from cell.errors import InputError
-from cell.rheology.cutcauses import CutCandidate, source_checks
-from cell.rheology.cutfitting import CutProblem, fit_cut
-from cell.rheology.cutreduced import simulate_cut
-from cell.rheology.cuts import Blade, Block, CutTest
-from cell.sim.cuttest import edge_term_n
-from cell.sim.cuttest import simulate_cut as simulate_full
+from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.edgestate import edge_friction_state
 from cell.tissue.material import default_meat

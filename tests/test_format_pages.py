@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from cell.sim import logformat
+from cell.measure import logs as logformat
 
 ROOT = Path(__file__).resolve().parent.parent
 LIBRARY = ("cell", "envs", "controllers", "scripts")

@@ -2,9 +2,10 @@
 their magnitudes (down to barely there, whose parameters the data hardly determine), the noise,
 the protocol's tests and repeats and the samples per test, the diagnosis completes and its
 JSON is strict: every number finite, or ``null`` with its reason beside it
-(:mod:`cell.determined`). A few examples by default, :data:`tests.fuzzing.SLOW_EXAMPLES` under
-``-m slow``; each example is a small set (two to four conditions, a few dozen samples a test)
-diagnosed with few samples per fit, so that the slow run stays feasible."""
+(:mod:`cell.diagnosis.engine.determined`). A few examples by default,
+:data:`tests.fuzzing.SLOW_EXAMPLES` under ``-m slow``; each example is a small set (two to four
+conditions, a few dozen samples a test) diagnosed with few samples per fit, so that the slow run
+stays feasible."""
 
 from __future__ import annotations
 
@@ -16,13 +17,13 @@ import numpy as np
 from hypothesis import event
 from hypothesis import strategies as st
 
-from cell.determined import NOT_IDENTIFIABLE, NOT_PREDICTED
+from cell.diagnosis.engine.determined import NOT_IDENTIFIABLE, NOT_PREDICTED
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.sets import diagnose_set
+from cell.diagnosis.specimen.causes import CAUSES, EXCLUSIVE
+from cell.measure.specimens import load_measurement_set
 from cell.outputs import json_text
-from cell.rheology.causes import CAUSES, EXCLUSIVE
-from cell.rheology.cutdiagnosis import diagnose_set
-from cell.rheology.measured import load_measurement_set
-from cell.rheology.settings import DiagnosisParams
-from cell.rheology.synthetic import Repeats, write_hidden_effect_set
+from cell.synthetic.specimen import Repeats, write_hidden_effect_set
 from cell.tissue.materialfile import material_to_toml
 from tests.fuzzing import fuzz_tests, scratch
 

@@ -15,7 +15,7 @@ import numpy as np
 from hypothesis import strategies as st
 
 from cell.errors import LogError
-from cell.sim.logformat import FORCE, POSE, QUATERNION_TOLERANCE, TORQUE, read_log
+from cell.measure.logs import FORCE, POSE, QUATERNION_TOLERANCE, TORQUE, read_log
 from tests.fuzzing import (
     documents,
     fuzz_tests,

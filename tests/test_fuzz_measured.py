@@ -14,9 +14,9 @@ from typing import Any
 import numpy as np
 from hypothesis import strategies as st
 
+from cell.diagnosis.specimen.solve import simulate_set
 from cell.errors import MusclecellError
-from cell.rheology.measured import MODES, load_measurement_set
-from cell.rheology.specimen import simulate_set
+from cell.measure.specimens import MODES, load_measurement_set
 from cell.tissue.forcecurve import ForceCurve
 from cell.tissue.material import default_meat
 from tests.fuzzing import (

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from cell.config import read_toml
 from cell.errors import FileReadError, InputError, ScenarioError
 from cell.io import read_text
-from cell.rheology.measured import load_measurement_set, load_specimen, load_tests
+from cell.measure.specimens import load_measurement_set, load_specimen, load_tests
 from cell.scale.spec import load_sweep
 from cell.scale.sweep import prepare
 from cell.sim.scenario import Scenario, load_scenario

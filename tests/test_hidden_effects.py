@@ -1,7 +1,7 @@
 """Hidden-effect sets: the generator's own checks, then the diagnosis must name what is hidden.
 
 For every effect of the catalogue (and none) and three fixed seeds, a set is drawn with that
-effect at random magnitudes and noise (``cell/rheology/synthetic.py``); the diagnosis must name
+effect at random magnitudes and noise (``cell/synthetic/specimen.py``); the diagnosis must name
 exactly that cause (``unexplained`` aside) and gain more than half of the baseline's held-out
 error, or name nothing when nothing is hidden.
 """
@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cell.rheology.measured import MeasurementSet, MechanicalTest, load_measurement_set
-from cell.rheology.synthetic import EFFECTS, HiddenEffect, write_hidden_effect_set
+from cell.measure.specimens import MeasurementSet, MechanicalTest, load_measurement_set
+from cell.synthetic.specimen import EFFECTS, HiddenEffect, write_hidden_effect_set
 
 CAUSES = tuple(e for e in EFFECTS if e is not None)
 
@@ -147,8 +147,8 @@ def test_each_effect_shows_in_the_data(tmp_path: Path, effect: str | None) -> No
      for i, effect in enumerate(EFFECTS) for k in range(3)])
 def test_diagnosis_names_the_hidden_effect(tmp_path: Path, effect: str | None,
                                            seed: int) -> None:
-    from cell.rheology.diagnosis import diagnose
-    from cell.rheology.settings import DiagnosisParams
+    from cell.diagnosis.engine.settings import DiagnosisParams
+    from cell.diagnosis.specimen.diagnosis import diagnose
 
     truth: HiddenEffect = write_hidden_effect_set(tmp_path, seed=seed, effect=effect)
     result = diagnose(load_measurement_set(tmp_path), DiagnosisParams())

@@ -2,7 +2,7 @@
 name exactly what is hidden.
 
 Every pair of the catalogue (never both viscoelasticities) is drawn at random magnitudes and
-noise (``cell/rheology/synthetic.py``); six pairs that between them hold every cause run by
+noise (``cell/synthetic/specimen.py``); six pairs that between them hold every cause run by
 default and must be named exactly. The others run with ``-m slow`` and must have at least one
 of their two named: exactness over every pair is a rate (at least 80 % in
 ``musclecell bench diagnose --pairs``), which one set cannot test. Seeds below the bench's
@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 from cell.bench.diagnose import PAIRS
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.specimen.diagnosis import diagnose
 from cell.errors import MeasurementError
-from cell.rheology.diagnosis import diagnose
-from cell.rheology.measured import load_measurement_set
-from cell.rheology.settings import DiagnosisParams
-from cell.rheology.synthetic import write_hidden_effect_set, write_relaxation_set
+from cell.measure.specimens import load_measurement_set
+from cell.synthetic.specimen import write_hidden_effect_set, write_relaxation_set
 
 DEFAULT_PAIRS = (
     ("strain_stiffening", "anisotropy"),

@@ -18,7 +18,7 @@ from cell.bench.diagnose import (
     hidden,
 )
 from cell.errors import MeasurementError
-from cell.rheology.synthetic import write_hidden_effect_set
+from cell.synthetic.specimen import write_hidden_effect_set
 
 
 def test_every_triple_of_the_catalogue_is_there_with_one_viscoelasticity_at_most() -> None:

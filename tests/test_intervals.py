@@ -8,18 +8,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cell.rheology.causes import CandidateMaterial
-from cell.rheology.diagnosis import noise_n
-from cell.rheology.fitting import Problem, fit
-from cell.rheology.intervals import (
+from cell.diagnosis.specimen.causes import CandidateMaterial
+from cell.diagnosis.specimen.diagnosis import noise_n
+from cell.diagnosis.specimen.fitting import Problem, fit
+from cell.diagnosis.specimen.intervals import (
     LEVEL,
     Z90,
     clustered_covariance,
     discrepancy_needed,
     prediction_intervals,
 )
-from cell.rheology.measured import load_measurement_set
-from cell.rheology.synthetic import Repeats, write_hidden_effect_set
+from cell.measure.specimens import load_measurement_set
+from cell.synthetic.specimen import Repeats, write_hidden_effect_set
 
 
 def test_clustered_covariance_of_a_mean_counts_tests_not_samples() -> None:

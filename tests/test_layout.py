@@ -21,16 +21,18 @@ def test_an_upward_import_is_caught(tmp_path: Path) -> None:
     (tmp_path / "cell" / "tissue").mkdir()
     (tmp_path / "cell" / "tissue" / "geometry.py").write_text(
         "from cell.sim.episode import Episode\nfrom cell.errors import MeshError\n")
-    (tmp_path / "cell" / "rheology").mkdir()
-    (tmp_path / "cell" / "rheology" / "diagnosis.py").write_text(
-        "from cell.rheology import synthetic\nfrom cell.tissue import massspring\n")
+    (tmp_path / "cell" / "diagnosis" / "cut").mkdir(parents=True)
+    (tmp_path / "cell" / "diagnosis" / "cut" / "new_cause.py").write_text(
+        "from cell.synthetic import cut\nfrom cell.tissue import massspring\n")
     (tmp_path / "controllers" / "knife.py").write_text("import envs\nimport tests.paths\n")
     found = sorted(str(v) for v in import_violations(tmp_path))
     assert found == [
-        "cell/rheology/diagnosis.py:1: cell.rheology.diagnosis must not import "
-        "cell.rheology.synthetic",
-        "cell/rheology/diagnosis.py:2: cell.rheology.diagnosis (cell.rheology) imports "
-        "cell.tissue.massspring",
+        "cell/diagnosis/cut/new_cause.py:1: cell.diagnosis.cut.new_cause must not import "
+        "cell.synthetic",
+        "cell/diagnosis/cut/new_cause.py:1: cell.diagnosis.cut.new_cause must not import "
+        "cell.synthetic.cut",
+        "cell/diagnosis/cut/new_cause.py:2: cell.diagnosis.cut.new_cause (cell.diagnosis) "
+        "imports cell.tissue.massspring",
         "cell/tissue/geometry.py:1: cell.tissue.geometry (cell.tissue) imports cell.sim.episode",
         "cell/tissue/geometry.py:1: cell.tissue.geometry (cell.tissue) imports "
         "cell.sim.episode.Episode",
@@ -48,13 +50,14 @@ def test_an_import_circle_is_caught(tmp_path: Path) -> None:
     and across packages; a package's ``__init__`` importing its own modules does not."""
     files = {
         "cell/__init__.py": "",
-        "cell/rheology/__init__.py": "",
-        "cell/rheology/diagnosis.py": "from cell.rheology.search import Search\n",
-        "cell/rheology/search.py": ("from typing import TYPE_CHECKING\n"
-                                    "from . import acceptance\n"),
-        "cell/rheology/acceptance.py": ("from typing import TYPE_CHECKING\n"
-                                        "if TYPE_CHECKING:\n"
-                                        "    from cell.rheology.diagnosis import Params\n"),
+        "cell/diagnosis/__init__.py": "",
+        "cell/diagnosis/specimen/diagnosis.py": "from cell.diagnosis.engine.search import Search\n",
+        "cell/diagnosis/engine/search.py": ("from typing import TYPE_CHECKING\n"
+                                            "from . import acceptance\n"),
+        "cell/diagnosis/engine/acceptance.py": (
+            "from typing import TYPE_CHECKING\n"
+            "if TYPE_CHECKING:\n"
+            "    from cell.diagnosis.specimen.diagnosis import Params\n"),
         "cell/sim/__init__.py": "",
         "cell/sim/episode.py": "def run():\n    import controllers.knife\n",
         "controllers/__init__.py": "",
@@ -67,8 +70,9 @@ def test_an_import_circle_is_caught(tmp_path: Path) -> None:
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / name).write_text(text)
     assert sorted(str(v) for v in import_cycles(tmp_path)) == [
-        "cell/rheology/acceptance.py:3: import circle: cell.rheology.acceptance -> "
-        "cell.rheology.diagnosis -> cell.rheology.search -> cell.rheology.acceptance",
+        "cell/diagnosis/engine/acceptance.py:3: import circle: cell.diagnosis.engine.acceptance"
+        " -> cell.diagnosis.specimen.diagnosis -> cell.diagnosis.engine.search"
+        " -> cell.diagnosis.engine.acceptance",
         "cell/sim/episode.py:2: import circle: cell.sim.episode -> controllers.knife -> "
         "cell.sim.episode",
     ]
@@ -79,7 +83,8 @@ def test_modules_and_functions_stay_small() -> None:
 
 
 def test_the_diagnosis_side_does_not_load_mujoco() -> None:
-    code = ("import sys, cell.rheology.diagnosis, cell.rheology.report, cell.rheology.synthetic;"
+    code = ("import sys, cell.diagnosis.sets, cell.diagnosis.specimen.report, "
+            "cell.diagnosis.cut.report, cell.measure.logs, cell.synthetic.specimen;"
             "print('mujoco' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=PROJECT_ROOT)

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from cell.errors import LogBatchError, LogScenarioError
-from cell.sim.logbatch import read_log_batch
-from cell.sim.logformat import Channel, channel_rows, log_toml, read_log
+from cell.logs.batch import read_log_batch
+from cell.measure.logs import Channel, channel_rows, log_toml, read_log
 from tests.fuzzing import written
 from tests.paths import PROJECT_ROOT
 from tests.refusals import refused

@@ -1,4 +1,4 @@
-"""The log part of the diagnose bench (cell.bench.logdiagnose): which batches it draws, how it
+"""The log part of the diagnose bench (cell.bench.diagnose_logs): which batches it draws, how it
 scores a fitted magnitude, its summary, the requests it refuses, and (slow) a quick run."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from cell.bench.logdiagnose import (
+from cell.bench.diagnose_logs import (
     FIRST_SEED,
     LOG_TABLE,
     PAIRS,

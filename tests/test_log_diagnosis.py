@@ -1,5 +1,5 @@
 """The pieces of the batch diagnosis of separation logs: the causes as changes of the world
-(:mod:`cell.sim.logcauses`), the linear algebra (:mod:`cell.sim.logfit`: the closed-form
+(:mod:`cell.logs.causes`), the linear algebra (:mod:`cell.logs.fit`: the closed-form
 offset, the forward selection, the logs left out) and the command line's refusals."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import pytest
 
 from cell.cli import main
 from cell.errors import LogError
-from cell.sim.logbatch import LogBatch
-from cell.sim.logcauses import (
+from cell.logs.batch import LogBatch
+from cell.logs.causes import (
     CAUSES,
     GradedSeam,
     applicable,
@@ -22,8 +22,8 @@ from cell.sim.logcauses import (
     episode_adjustment,
     magnitudes_json,
 )
-from cell.sim.logdiagnosis import LogDiagnosis
-from cell.sim.logfit import (
+from cell.logs.diagnosis import LogDiagnosis
+from cell.logs.fit import (
     Rows,
     broyden,
     decorrelation_rows,
@@ -35,8 +35,8 @@ from cell.sim.logfit import (
     simulated_vector,
     solve,
 )
-from cell.sim.logformat import Channel, SeparationLog
-from cell.sim.logreport import MATERIAL, SCENARIO, write_log_diagnosis
+from cell.logs.report import MATERIAL, SCENARIO, write_log_diagnosis
+from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario, load_scenario
 from cell.tissue.seamcut import SeamLoad
 from tests.paths import PROJECT_ROOT

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from cell.cli import main
-from cell.sim.logbatch import read_log_batch
-from cell.sim.logdiagnosis import LogDiagnosisParams, diagnose_logs
-from cell.sim.logsets import write_hidden_log_batch
+from cell.logs.batch import read_log_batch
+from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
+from cell.synthetic.logs import write_hidden_log_batch
 from tests.paths import PROJECT_ROOT
 
 QUICK = PROJECT_ROOT / "scenarios" / "quick.toml"

@@ -15,10 +15,10 @@ import pytest
 
 from cell.cli import main
 from cell.errors import PoolError
+from cell.logs.batch import read_log_batch
+from cell.logs.replays import Replayer
 from cell.scale.pool import RunPool, Workers
-from cell.sim.logbatch import read_log_batch
-from cell.sim.logreplays import Replayer
-from cell.sim.logsets import write_hidden_log_batch
+from cell.synthetic.logs import write_hidden_log_batch
 from tests.paths import PROJECT_ROOT
 
 QUICK = PROJECT_ROOT / "scenarios" / "quick.toml"

@@ -1,6 +1,6 @@
 """The batch diagnosis of separation logs names a world cause only when it carries from the
 logs it was fitted to onto each log left out, and fits a cause whose response flattens as it
-grows (cell.sim.logdiagnosis), on replays that a world of known responses stands in for."""
+grows (cell.logs.diagnosis), on replays that a world of known responses stands in for."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 
-import cell.sim.logdiagnosis as logdiagnosis
-from cell.sim.logbatch import LogBatch
-from cell.sim.logdiagnosis import LogDiagnosisParams, diagnose_logs
-from cell.sim.logfit import logged_vector
-from cell.sim.logformat import Channel, SeparationLog
+import cell.logs.diagnosis as logdiagnosis
+from cell.logs.batch import LogBatch
+from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
+from cell.logs.fit import logged_vector
+from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario
 
 CAUSES = ("tearing_threshold", "tissue_stiffness")

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from cell.cli import main
-from cell.sim.logsets import write_hidden_log_batch
+from cell.synthetic.logs import write_hidden_log_batch
 from tests.paths import PROJECT_ROOT
 
 pytest.importorskip("ray")

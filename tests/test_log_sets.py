@@ -1,4 +1,4 @@
-"""Hidden-effect log batches (:mod:`cell.sim.logsets`): the logs read as one batch, hold
+"""Hidden-effect log batches (:mod:`cell.synthetic.logs`): the logs read as one batch, hold
 nothing of the truth, and show the hidden change (a sensor's offset, exactly; a world's
 changes in the scenario the cell runs)."""
 
@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from cell.errors import LogError
-from cell.sim.logbatch import read_log_batch
-from cell.sim.logcauses import changed_world
-from cell.sim.logformat import read_log
-from cell.sim.logsets import _world_changes, write_hidden_log_batch
+from cell.logs.batch import read_log_batch
+from cell.logs.causes import changed_world
+from cell.measure.logs import read_log
 from cell.sim.scenario import load_scenario
+from cell.synthetic.logs import _world_changes, write_hidden_log_batch
 from tests.paths import PROJECT_ROOT
 
 QUICK = PROJECT_ROOT / "scenarios" / "quick.toml"

@@ -17,9 +17,9 @@ from cell.errors import (
     SampleError,
     TimeOrderError,
 )
-from cell.sim.logformat import read_log
-from cell.sim.logwriter import LoggedEpisode, write_log
-from cell.sim.replay import replay
+from cell.logs.replay import replay
+from cell.measure.logs import read_log
+from cell.sim.episodelog import LoggedEpisode, write_log
 from cell.sim.scenario import load_scenario
 from tests.paths import PROJECT_ROOT
 from tests.refusals import refused

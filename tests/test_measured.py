@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cell.errors import InputError
-from cell.rheology.measured import (
+from cell.measure.specimens import (
     MODES,
     SPECIMEN_FILE,
     TESTS_FILE,

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cell.rheology.cutfitting import CutSeries
-from cell.rheology.cuts import Block, CutTest
-from cell.rheology.cutsearch import diagnose_cuts
-from cell.rheology.measured import MechanicalTest
+from cell.diagnosis.cut.fitting import CutSeries
+from cell.diagnosis.cut.search import diagnose_cuts
+from cell.measure.cuts import Block, CutTest
+from cell.measure.specimens import MechanicalTest
 from tests.cutsets import sawing_set
 
 

@@ -9,9 +9,9 @@ import json
 import numpy as np
 import pytest
 
+from cell.diagnosis.cut.residuals import MIN_TESTS, rank_trend, strongest
+from cell.diagnosis.cut.search import diagnose_cuts
 from cell.outputs import first_non_finite
-from cell.rheology.cutsearch import diagnose_cuts
-from cell.rheology.residuals import MIN_TESTS, rank_trend, strongest
 from tests.cutsets import sawing_set
 
 

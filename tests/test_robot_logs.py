@@ -11,7 +11,7 @@ import pytest
 
 from cell.cli import main
 from cell.errors import FrameError, MappingError, MissingTopicError, NoContactError
-from cell.rheology.measured import load_measurement_set
+from cell.measure.specimens import load_measurement_set
 from cell.robotlog.cutlog import import_cut_set
 from cell.robotlog.mapping import mapping_from_toml
 from tests.robotlogs import (

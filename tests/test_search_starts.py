@@ -1,13 +1,13 @@
-"""The starts of the search's fits (``cell/rheology/search.py``): a load-cell offset added to a
-model is also fitted with the model's compression terms back at their tension values, where
+"""The starts of the search's fits (``cell/diagnosis/engine/search.py``): a load-cell offset added
+to a model is also fitted with the model's compression terms back at their tension values, where
 an offset missing from the fit before had bent them."""
 
 from types import SimpleNamespace
 
 import numpy as np
 
-from cell.rheology.causes import CandidateMaterial
-from cell.rheology.search import _mirrored
+from cell.diagnosis.engine.search import _mirrored
+from cell.diagnosis.specimen.causes import CandidateMaterial
 
 
 def test_the_compression_terms_restart_at_their_tension_twins() -> None:

@@ -6,9 +6,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from cell.diagnosis.specimen.solve import (
+    fibre_direction,
+    simulate_set,
+    simulate_test,
+    specimen_mesh,
+)
 from cell.errors import DivergenceError
-from cell.rheology.measured import MechanicalTest, Specimen, load_measurement_set
-from cell.rheology.specimen import fibre_direction, simulate_set, simulate_test, specimen_mesh
+from cell.measure.specimens import MechanicalTest, Specimen, load_measurement_set
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.packedlaw import LATTICE_STIFFENING

@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cell.rheology.causes import CandidateMaterial
-from cell.rheology.diagnosis import diagnose, noise_n
-from cell.rheology.fitting import Problem, fit
-from cell.rheology.measured import MeasurementSet, load_measurement_set
-from cell.rheology.repeats import repeat_groups
-from cell.rheology.settings import DiagnosisParams
-from cell.rheology.spread import specimen_spread
-from cell.rheology.synthetic import Repeats, write_hidden_effect_set
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.specimen.causes import CandidateMaterial
+from cell.diagnosis.specimen.diagnosis import diagnose, noise_n
+from cell.diagnosis.specimen.fitting import Problem, fit
+from cell.diagnosis.specimen.repeats import repeat_groups
+from cell.diagnosis.specimen.spread import specimen_spread
+from cell.measure.specimens import MeasurementSet, load_measurement_set
+from cell.synthetic.specimen import Repeats, write_hidden_effect_set
 
 # Five ramps of the hidden-effect protocol, three specimens each.
 _SMALL = (5, 3)
@@ -74,7 +74,7 @@ def test_diagnosis_names_the_spread_with_intervals(tmp_path: Path) -> None:
     report = result.to_json()
     assert report["specimen_variability"]["named"]
     assert 0.75 <= report["intervals"]["coverage"] <= 1.0
-    from cell.rheology.report import write_report
+    from cell.diagnosis.specimen.report import write_report
 
     markdown = write_report(result, tmp_path / "report")[-1].read_text()
     assert "## Specimens and predictions with intervals" in markdown

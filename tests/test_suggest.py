@@ -14,18 +14,18 @@ import pytest
 
 from cell.bench.suggestbench import MISSING, add_test, missing_kind, write_ambiguous_set
 from cell.cli import main
-from cell.rheology.causes import CandidateMaterial
-from cell.rheology.diagnosis import Diagnosis, noise_n
-from cell.rheology.fitting import Problem, fit
-from cell.rheology.measured import (
+from cell.diagnosis.specimen.causes import CandidateMaterial
+from cell.diagnosis.specimen.diagnosis import Diagnosis, noise_n
+from cell.diagnosis.specimen.fitting import Problem, fit
+from cell.diagnosis.specimen.nexttests import CandidateTest, candidate_tests
+from cell.diagnosis.specimen.suggest import suggest
+from cell.measure.protocols import ramp
+from cell.measure.specimens import (
     MeasurementSet,
     MechanicalTest,
     Specimen,
     load_measurement_set,
 )
-from cell.rheology.suggest import suggest
-from cell.rheology.suggesttests import CandidateTest, candidate_tests
-from cell.rheology.testplan import ramp
 from tests.paths import EXAMPLE_SET
 
 CUBE = Specimen("cube", (0.01, 0.01, 0.01))

@@ -204,9 +204,9 @@ def test_a_policy_sweep_refuses_an_unknown_env_keyword(tmp_path: Path) -> None:
 
 
 def test_a_batch_diagnoses_every_set_records_a_broken_one_and_resumes(tmp_path: Path) -> None:
-    from cell.rheology.settings import DiagnosisParams
-    from cell.rheology.synthetic import write_hidden_effect_set
+    from cell.diagnosis.engine.settings import DiagnosisParams
     from cell.scale.batch import diagnose_batch
+    from cell.synthetic.specimen import write_hidden_effect_set
 
     write_hidden_effect_set(tmp_path / "sets" / "offset", 3, "force_offset")
     lines = (tmp_path / "sets" / "offset" / "tests.csv").read_text().splitlines()

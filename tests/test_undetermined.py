@@ -1,7 +1,7 @@
 """A diagnosis is never stopped by its own numbers: what a fit does not determine (a parameter
 the tests do not bound, a score of a prediction that did not stay finite) is ``null`` with its
 reason in the JSON and "not determined" in the report, in the uniaxial, the cut and the log
-diagnoses alike (:mod:`cell.determined`), and the command ends with exit 0."""
+diagnoses alike (:mod:`cell.diagnosis.engine.determined`), and the command ends with exit 0."""
 
 from __future__ import annotations
 
@@ -13,17 +13,17 @@ from pathlib import Path
 import pytest
 
 from cell.cli import main
-from cell.determined import NOT_IDENTIFIABLE, NOT_IN_LOGS, NOT_PREDICTED
+from cell.diagnosis.cut.causes import CutCandidate
+from cell.diagnosis.cut.fitting import CutProblem, fit_cut
+from cell.diagnosis.engine.determined import NOT_IDENTIFIABLE, NOT_IN_LOGS, NOT_PREDICTED
+from cell.logs.batch import LogBatch
+from cell.logs.causes import magnitudes_json
+from cell.logs.diagnosis import LogDiagnosis
+from cell.logs.fit import logged_vector
+from cell.logs.report import write_log_diagnosis
 from cell.outputs import json_text
-from cell.rheology.cutcauses import CutCandidate
-from cell.rheology.cutfitting import CutProblem, fit_cut
-from cell.rheology.synthetic import Repeats, write_hidden_effect_set
-from cell.sim.logbatch import LogBatch
-from cell.sim.logcauses import magnitudes_json
-from cell.sim.logdiagnosis import LogDiagnosis
-from cell.sim.logfit import logged_vector
-from cell.sim.logreport import write_log_diagnosis
 from cell.sim.scenario import load_scenario
+from cell.synthetic.specimen import Repeats, write_hidden_effect_set
 from tests.paths import PROJECT_ROOT
 from tests.test_cutsearch import BLADE, BLOCK, PLAIN, _press, cut_set
 from tests.test_log_diagnosis import _log

@@ -76,21 +76,21 @@ class FakeSetDiagnosis:
 
 
 def _diagnose(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list[str]:
-    monkeypatch.setattr("cell.rheology.cutdiagnosis.diagnose_set",
+    monkeypatch.setattr("cell.diagnosis.sets.diagnose_set",
                         lambda measurements, params, on_fit: FakeSetDiagnosis())
     monkeypatch.setattr("cell.tissue.materialfile.material_to_toml",
                         lambda material, comment: "# material\n")
-    monkeypatch.setattr("cell.rheology.cutreport.write_set_report", writer)
+    monkeypatch.setattr("cell.diagnosis.cut.report.write_set_report", writer)
     return ["diagnose", str(EXAMPLE_SET), "--out", "d.json", "--report", "out"]
 
 
 def _diagnose_logs(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list[str]:
-    monkeypatch.setattr("cell.sim.logbatch.read_log_batch", lambda logs: None)
+    monkeypatch.setattr("cell.logs.batch.read_log_batch", lambda logs: None)
     data = {"causes": [], "baseline": {"heldout_rmse_N": 1.0}, "gain": 0.0,
             "extended": {"heldout_rmse_N": 1.0}, "timing": {"replays": 0, "total_s": 0.0}}
-    monkeypatch.setattr("cell.sim.logdiagnosis.diagnose_logs",
+    monkeypatch.setattr("cell.logs.diagnosis.diagnose_logs",
                         lambda *args: SimpleNamespace(to_json=lambda: data))
-    monkeypatch.setattr("cell.sim.logreport.write_log_diagnosis", writer)
+    monkeypatch.setattr("cell.logs.report.write_log_diagnosis", writer)
     return ["diagnose-logs", "log-a", "log-b", "--out", "out", "--no-plots"]
 
 
@@ -99,11 +99,11 @@ def _replay(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list
     summary = {"log": "log", "rmse_share": {}, "bindings": 0,
                "counts": {"released": {"replayed": 0, "logged": 0},
                           "torn": {"replayed": 0, "logged": 0}}}
-    monkeypatch.setattr("cell.sim.logbatch.read_log_batch",
+    monkeypatch.setattr("cell.logs.batch.read_log_batch",
                         lambda paths: SimpleNamespace(logs=logs))
-    monkeypatch.setattr("cell.sim.replay.replay",
+    monkeypatch.setattr("cell.logs.replay.replay",
                         lambda log, progress: SimpleNamespace(summary=lambda: summary))
-    monkeypatch.setattr("cell.sim.replay.write_replay", writer)
+    monkeypatch.setattr("cell.logs.replay.write_replay", writer)
     return ["replay", "log-a", "log-b", "--out", "out"]
 
 
@@ -121,8 +121,8 @@ class FakeLoggedEpisode:
 
 def _run(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list[str]:
     monkeypatch.setattr("cell.sim.command.load", lambda args: None)
-    monkeypatch.setattr("cell.sim.logwriter.LoggedEpisode", FakeLoggedEpisode)
-    monkeypatch.setattr("cell.sim.logwriter.write_log", writer)
+    monkeypatch.setattr("cell.sim.episodelog.LoggedEpisode", FakeLoggedEpisode)
+    monkeypatch.setattr("cell.sim.episodelog.write_log", writer)
     return ["run", str(PROJECT_ROOT / "scenarios" / "quick.toml"), "--log", "out", "--quiet"]
 
 
@@ -207,16 +207,16 @@ def test_a_folder_that_is_not_the_commands_own_is_refused_not_replaced(
 #: ``diagnose-logs`` whose writer writes one file and waits to be stopped.
 STOPPED_WRITER = """
 import sys, time
-import cell.sim.logbatch, cell.sim.logdiagnosis, cell.sim.logreport
+import cell.logs.batch, cell.logs.diagnosis, cell.logs.report
 from cell.cli import main
 
 def wait_to_be_stopped(folder, *args, **kwargs):
     (folder / "first.txt").write_text("written before the stop\\n")
     time.sleep(60)
 
-cell.sim.logbatch.read_log_batch = lambda logs: None
-cell.sim.logdiagnosis.diagnose_logs = lambda *args: None
-cell.sim.logreport.write_log_diagnosis = wait_to_be_stopped
+cell.logs.batch.read_log_batch = lambda logs: None
+cell.logs.diagnosis.diagnose_logs = lambda *args: None
+cell.logs.report.write_log_diagnosis = wait_to_be_stopped
 sys.exit(main(sys.argv[1:]))
 """
 

@@ -238,7 +238,7 @@ def _diagnose_kind(args: argparse.Namespace) -> str:
         what = "cut sets" if args.cut else "log batches"
         raise InputError(None, f"--{kinds[0]}", f"the {what} have single and --pairs kinds")
     if args.including is not None:
-        from cell.rheology.causes import CAUSES
+        from cell.diagnosis.specimen.causes import CAUSES
 
         if kinds not in (["pairs"], ["triples"]) or args.cut or args.logs:
             raise InputError(None, "--including", "goes with --pairs or --triples (uniaxial)")
@@ -270,9 +270,9 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
     elif args.logs:
         report = _log_bench(args, kind, count, workers)
     elif args.cut:
-        from cell.bench import cutdiagnose
+        from cell.bench import diagnose_cuts
 
-        report = cutdiagnose.run_cut_diagnose_bench(cutdiagnose.bench_seeds(count, kind),
+        report = diagnose_cuts.run_cut_diagnose_bench(diagnose_cuts.bench_seeds(count, kind),
                                                     kind, progress=_progress(args))
     else:
         protocol = "lab" if args.lab_protocol else "hidden"
@@ -299,15 +299,15 @@ def _log_bench(args: argparse.Namespace, kind: str, count: int, workers: int
     ``--address``, on that Ray cluster (joined once, before the first batch is drawn)."""
     from contextlib import nullcontext
 
-    from cell.bench import logdiagnose
+    from cell.bench import diagnose_logs
     from cell.scale.command import log_cluster
 
     cluster = None if args.address is None else log_cluster(args.workers, args.address)
     asked = workers if cluster is None else args.workers  # a cluster's: None, all of it
-    params = (logdiagnose.LogBenchParams.quick(asked) if args.quick
-              else logdiagnose.LogBenchParams(workers=asked))
+    params = (diagnose_logs.LogBenchParams.quick(asked) if args.quick
+              else diagnose_logs.LogBenchParams(workers=asked))
     with cluster or nullcontext() as pool:
-        return logdiagnose.run_log_diagnose_bench(logdiagnose.bench_seeds(count, kind), kind,
+        return diagnose_logs.run_log_diagnose_bench(diagnose_logs.bench_seeds(count, kind), kind,
                                                   params, progress=_progress(args), cluster=pool)
 
 

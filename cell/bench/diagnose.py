@@ -1,6 +1,6 @@
 """``musclecell bench diagnose``: the diagnosis on hidden-effect sets it has never seen.
 
-Each set is drawn by the project's hidden-effect generator (:mod:`cell.rheology.synthetic`) with a
+Each set is drawn by the project's hidden-effect generator (:mod:`cell.synthetic.specimen`) with a
 seed the tests never use, so that the magnitudes, the noise, the mid angle and the rates are all
 unseen. Three kinds of sets (:data:`KINDS`):
 
@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from cell.errors import MeasurementError
-from cell.rheology import synthetic as generator
+from cell.synthetic import specimen as generator
 
 Kind = Literal["single", "subtle", "pairs", "triples"]
 KINDS: tuple[Kind, ...] = ("single", "subtle", "pairs", "triples")
@@ -178,8 +178,8 @@ def time_summary(times: Sequence[float], median_target: float, max_target: float
 
 def _diagnose_one(folder: Path, params: Any) -> tuple[Any, float, Any]:
     """Read and diagnose the set in ``folder``: the diagnosis, its wall time (s), the set."""
-    from cell.rheology.diagnosis import diagnose
-    from cell.rheology.measured import load_measurement_set
+    from cell.diagnosis.specimen.diagnosis import diagnose
+    from cell.measure.specimens import load_measurement_set
 
     data = load_measurement_set(folder)
     start = time.perf_counter()
@@ -217,8 +217,8 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
             (:func:`check_request`).
     """
     check_request(seeds, kind, KINDS, including)
-    from cell.rheology.diagnosis import CAUSES
-    from cell.rheology.settings import DiagnosisParams
+    from cell.diagnosis.engine.settings import DiagnosisParams
+    from cell.diagnosis.specimen.diagnosis import CAUSES
 
     params = DiagnosisParams() if workers is None else DiagnosisParams(workers=workers)
     sets: list[dict[str, Any]] = []

@@ -2,12 +2,12 @@
 test another specimen, diagnosed unseen.
 
 Per seed two sets of the same structure (the hidden-effect protocol's ten tests, three times
-each: thirty tests, :class:`~cell.rheology.synthetic.Repeats`) and the same draws: one with a
+each: thirty tests, :class:`~cell.synthetic.specimen.Repeats`) and the same draws: one with a
 hidden specimen spread (the standard deviation of the log modulus factor drawn in
 :data:`SPREAD_RANGE`), one without. The material effect hidden beside it cycles through the
 catalogue and none with the seed, as the ``single`` kind of :mod:`cell.bench.diagnose` does.
 Each set is written to a temporary folder, read back and diagnosed; the wall time of
-:func:`~cell.rheology.diagnosis.diagnose` is measured per set.
+:func:`~cell.diagnosis.specimen.diagnosis.diagnose` is measured per set.
 
 Targets (:data:`TARGETS`): ``specimen_variability`` named in >= 90 % of the sets with a spread
 and <= 10 % of those without; the fitted spread within 35 % of the truth in >= 75 % of the
@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from cell.bench.diagnose import check_request, hidden, time_summary
-from cell.rheology import synthetic as generator
+from cell.synthetic import specimen as generator
 
 #: The spread's standard deviation (of the log modulus factor) is drawn in this range.
 SPREAD_RANGE = (0.10, 0.30)
@@ -59,9 +59,9 @@ def spread_sd(seed: int) -> float:
 
 def run_one(folder: Path, seed: int, kind: str, workers: int) -> dict[str, Any]:
     """Write, read and diagnose the set of ``seed`` and ``kind``: its row of the bench."""
-    from cell.rheology.diagnosis import CAUSES, diagnose
-    from cell.rheology.measured import load_measurement_set
-    from cell.rheology.settings import DiagnosisParams
+    from cell.diagnosis.engine.settings import DiagnosisParams
+    from cell.diagnosis.specimen.diagnosis import CAUSES, diagnose
+    from cell.measure.specimens import load_measurement_set
 
     effects = hidden(seed, "single")
     sd = spread_sd(seed) if kind == "spread" else 0.0

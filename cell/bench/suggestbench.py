@@ -1,6 +1,6 @@
 """``musclecell bench diagnose --suggest``: does the suggested next test tell the truth apart?
 
-Each set is a hidden-effect set (:mod:`cell.rheology.synthetic`, seeds no test uses) with the
+Each set is a hidden-effect set (:mod:`cell.synthetic.specimen`, seeds no test uses) with the
 tests that would show its effect taken out: one kind of missing evidence per set, in turn
 (:data:`MISSING`):
 
@@ -11,8 +11,8 @@ tests that would show its effect taken out: one kind of missing evidence per set
 - ``cycles``: the same tests taken out, a plasticity hidden (a ramp that softens could relax
   as well).
 
-The set is diagnosed and a test suggested (:func:`cell.rheology.suggest.suggest`); the test is
-then run on the truth (the generator's law, its noise drawn as the set's), added to the set,
+The set is diagnosed and a test suggested (:func:`cell.diagnosis.specimen.suggest.suggest`); the
+test is then run on the truth (the generator's law, its noise drawn as the set's), added to the set,
 and the set diagnosed again; and, for comparison, a candidate test drawn at random is added to
 the same set instead. A set counts when the diagnosis then names exactly the hidden effect
 (``unexplained`` and ``specimen_variability`` aside).
@@ -35,11 +35,11 @@ from typing import Any
 import numpy as np
 
 from cell.bench.diagnose import check_request
+from cell.diagnosis.specimen.nexttests import CandidateTest
 from cell.errors import MeasurementError
 from cell.io import read_text
 from cell.outputs import write_atomic
-from cell.rheology import synthetic as generator
-from cell.rheology.suggesttests import CandidateTest
+from cell.synthetic import specimen as generator
 
 #: The first seed of the suggest bench; the tests use seeds below 10 000.
 FIRST_SEED = 140_000
@@ -92,7 +92,7 @@ def missing_kind(seed: int) -> str:
 
 def write_ambiguous_set(folder: Path, seed: int) -> generator.HiddenEffect:
     """The hidden-effect set of ``seed`` with the tests of its missing evidence taken out."""
-    from cell.rheology.measured import load_measurement_set
+    from cell.measure.specimens import load_measurement_set
 
     missing = MISSING[missing_kind(seed)]
     truth = generator.write_hidden_effect_set(folder, seed, missing.effect)
@@ -108,9 +108,9 @@ def write_ambiguous_set(folder: Path, seed: int) -> generator.HiddenEffect:
 def add_test(folder: Path, truth: generator.HiddenEffect, test: CandidateTest,
              test_id: str, rng: np.random.Generator) -> None:
     """Run ``test`` on the truth of the set in ``folder`` (noise as the set's) and add it."""
-    from cell.rheology.measured import load_specimen
-    from cell.rheology.testplan import true_force_n
-    from cell.rheology.truth import truth_stress_pa
+    from cell.measure.protocols import true_force_n
+    from cell.measure.specimens import load_specimen
+    from cell.synthetic.truth import truth_stress_pa
 
     specimen = load_specimen(folder / "specimen.toml")
     plan = test.plan(test_id)
@@ -128,7 +128,7 @@ def add_test(folder: Path, truth: generator.HiddenEffect, test: CandidateTest,
 
 
 def _named(result: Any, truth: generator.HiddenEffect) -> bool:
-    from cell.rheology.causes import CAUSES
+    from cell.diagnosis.specimen.causes import CAUSES
 
     return sorted(c for c in result.causes if c in CAUSES) == sorted(truth.effects)
 
@@ -138,10 +138,10 @@ def _one_set(scratch: Path, seed: int, params: Any) -> dict[str, Any]:
     and with a random candidate test added."""
     import shutil
 
-    from cell.rheology.diagnosis import diagnose
-    from cell.rheology.measured import load_measurement_set
-    from cell.rheology.suggest import suggest
-    from cell.rheology.suggesttests import candidate_tests
+    from cell.diagnosis.specimen.diagnosis import diagnose
+    from cell.diagnosis.specimen.nexttests import candidate_tests
+    from cell.diagnosis.specimen.suggest import suggest
+    from cell.measure.specimens import load_measurement_set
 
     base = scratch / f"set-{seed}"
     truth = write_ambiguous_set(base, seed)
@@ -182,7 +182,7 @@ def run_suggest_bench(seeds: Sequence[int], workers: int | None = None,
         MeasurementError: no seed.
     """
     check_request(seeds, "suggest", ("suggest",))
-    from cell.rheology.settings import DiagnosisParams
+    from cell.diagnosis.engine.settings import DiagnosisParams
 
     params = DiagnosisParams() if workers is None else DiagnosisParams(workers=workers)
     sets = []

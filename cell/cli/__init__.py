@@ -28,15 +28,15 @@ from importlib.metadata import PackageNotFoundError, version
 
 from cell.bench.command import add_bench
 from cell.cli.signals import stop_signals_raise
+from cell.diagnosis.command import add_diagnose
 from cell.errors import DivergenceError, FailedRowsError, MusclecellError, Stopped
 from cell.learning.command import add_learning
+from cell.logs.command import add_log_diagnosis, add_replay
 from cell.outputs import discard_pending
-from cell.rheology.command import add_diagnose
 from cell.robotlog.command import add_import
 from cell.scale.command import add_batch, add_log_cluster, add_sweep
 from cell.sim.command import add_simulation
 from cell.sim.examples import add_scenarios
-from cell.sim.logcommand import add_log_diagnosis
 
 #: Exit codes (module docstring).
 EXIT_INPUT, EXIT_DIVERGED, EXIT_FAILED_ROWS, EXIT_INTERRUPTED = 2, 3, 4, 130
@@ -54,6 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"musclecell {_version()}")
     commands = parser.add_subparsers(dest="command", required=True)
     add_simulation(commands)
+    add_replay(commands)
     add_scenarios(commands)
     add_log_cluster(add_log_diagnosis(commands))
     add_batch(add_diagnose(commands))

@@ -31,7 +31,7 @@ def add_import(commands: argparse._SubParsersAction) -> argparse.ArgumentParser:
 def import_command(args: argparse.Namespace) -> int:
     """``musclecell import MAPPING LOG... --out SET``: the output checked, the mapping read,
     every log converted, then the set written whole."""
-    from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE
+    from cell.measure.specimens import SPECIMEN_FILE, TESTS_FILE
     from cell.robotlog.cutlog import import_cut_set
     from cell.robotlog.mapping import read_mapping
 

@@ -1,4 +1,4 @@
-"""A robot's log of a cut turned into a cut test (:class:`cell.rheology.cuts.CutTest`), and a
+"""A robot's log of a cut turned into a cut test (:class:`cell.measure.cuts.CutTest`), and a
 set of them into a measurement set (docs/robot-logs.md).
 
 The wrench and the position are recorded apart, each at its own uneven rate: the test keeps
@@ -17,8 +17,8 @@ import numpy as np
 
 from cell.errors import FrameError, NoContactError, RobotLogError
 from cell.folders import write_folder
-from cell.rheology.cuts import Blade, Block, CutTest, cut_rows_csv
-from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE, load_measurement_set
+from cell.measure.cuts import Blade, Block, CutTest, cut_rows_csv
+from cell.measure.specimens import SPECIMEN_FILE, TESTS_FILE, load_measurement_set
 from cell.robotlog.mapping import ImportMapping
 from cell.robotlog.topics import TopicSeries, read_topic
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from cell.config import from_table, read_toml
 from cell.errors import InputError, MappingError
-from cell.rheology.cuts import DIRECTION_TOLERANCE
+from cell.measure.cuts import DIRECTION_TOLERANCE
 
 _TABLES = ("wrench", "position", "cut", "block", "blade")
 
@@ -133,7 +133,7 @@ class CutFrame:
 class BlockSize:
     """The ``[block]`` table: the block's size (x along the blade's normal, y along the edge,
     z its height), m, the fibres' direction in the block frame (optional) and its section
-    (``box``, or ``round``: a vegetable lying along x, :class:`cell.rheology.cuts.Block`)."""
+    (``box``, or ``round``: a vegetable lying along x, :class:`cell.measure.cuts.Block`)."""
 
     size_m: tuple[float, float, float]
     fibre_direction: tuple[float, float, float] | None = None

@@ -2,7 +2,7 @@
 per set, into one table of causes and gains; a re-run skips the sets already diagnosed.
 
 Each set is diagnosed as ``musclecell diagnose`` diagnoses it, through the same entry point
-(:func:`cell.rheology.cutdiagnosis.diagnose_set`): uniaxial tests, cut tests or both. The
+(:func:`cell.diagnosis.sets.diagnose_set`): uniaxial tests, cut tests or both. The
 results folder gets ``diagnoses.parquet`` and ``diagnoses.csv`` (one row per set),
 ``summary.md``, and per set ``sets/<set>.json`` (what ``musclecell diagnose --out`` writes)
 and ``sets/<set>-material.toml`` (the extended material); a set that cannot be read or
@@ -18,14 +18,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cell.determined import finite_or_none, shown
+from cell.diagnosis.engine.determined import finite_or_none, shown
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.sets import SetDiagnosis, diagnose_set
+from cell.diagnosis.specimen.diagnosis import SearchOutcome
 from cell.errors import InputError, MaterialError
 from cell.io import read_bytes
+from cell.measure.specimens import SPECIMEN_FILE, TESTS_FILE, MeasurementSet, load_measurement_set
 from cell.outputs import first_non_finite, write_atomic, write_json
-from cell.rheology.cutdiagnosis import SetDiagnosis, diagnose_set
-from cell.rheology.diagnosis import SearchOutcome
-from cell.rheology.measured import SPECIMEN_FILE, TESTS_FILE, MeasurementSet, load_measurement_set
-from cell.rheology.settings import DiagnosisParams
 from cell.scale.failure import describe_failure
 from cell.scale.pool import Workers
 from cell.scale.resume import play_missing
@@ -101,7 +101,7 @@ def set_folders(parent: str | Path) -> list[Path]:
 
 def diagnose_task(task: SetTask) -> SetOutcome:
     """Diagnose one set, whatever tests it holds, as ``musclecell diagnose`` does
-    (:func:`~cell.rheology.cutdiagnosis.diagnose_set`); never raises for the set's own faults
+    (:func:`~cell.diagnosis.sets.diagnose_set`); never raises for the set's own faults
     (they are its status)."""
     started = time.perf_counter()
     row: dict[str, Any] = {"set": task.name}
@@ -120,8 +120,8 @@ def diagnose_task(task: SetTask) -> SetOutcome:
             "causes": " ".join(result.causes), "wall_s": time.perf_counter() - started}
     diagnosis = result.to_json()
     # The diagnosis gives every number it computes finite or null with its reason
-    # (cell.determined); what else is not finite, or a fit that found no plausible material,
-    # is the set's failure, not the batch's: it must not reach the strict writers.
+    # (cell.diagnosis.engine.determined); what else is not finite, or a fit that found no plausible
+    # material, is the set's failure, not the batch's: it must not reach the strict writers.
     failed = {"set": task.name, "specimen": row["specimen"], "status": "failed",
               "wall_s": row["wall_s"]}
     diverged = first_non_finite({"row": row, "diagnosis": diagnosis})

@@ -39,18 +39,6 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     plan.add_argument("--seed", type=int, help="override the scenario's seed (sensor noise)")
     plan.set_defaults(handler=plan_command)
 
-    replay = commands.add_parser(
-        "replay", help="replay a separation log: the tools follow its poses, every channel "
-        "compared per phase (docs/logs.md)")
-    replay.add_argument("logs", type=Path, nargs="+", metavar="LOG",
-                        help="the log's folder (log.toml, knife.csv, ...); several: one batch "
-                        "of meat, which must share tools, sensors and material")
-    add_out(replay, "write replay.json and the channels side by side (<channel>.csv) into "
-            "this folder (several logs: a folder each in it, by the log folder's name)",
-            folder=True)
-    add_quiet(replay)
-    replay.set_defaults(handler=replay_command)
-
     export = commands.add_parser("export-mjcf", help="write the scene as MJCF",
                                  usage="%(prog)s [-h] scenario -o FILE")
     export.add_argument("scenario", type=Path, help="scenario TOML file")
@@ -91,7 +79,7 @@ def run_command(args: argparse.Namespace) -> int:
     from cell.folders import write_folder
     from cell.outputs import write_json
     from cell.sim.episode import Episode
-    from cell.sim.logwriter import LoggedEpisode, write_log
+    from cell.sim.episodelog import LoggedEpisode, write_log
 
     check_outputs([args.rerun and Output(args.rerun, "--rerun"),
                    args.out and Output(args.out, "--out"),
@@ -180,43 +168,3 @@ def render_command(args: argparse.Namespace) -> int:
     write_atomic(args.out, png_bytes(rgb))
     print(f"wrote {args.out} ({args.width} x {args.height} px)")
     return 0
-
-
-def replay_command(args: argparse.Namespace) -> int:
-    """``musclecell replay``: the logs read (a bad one, or logs that are not one batch, stop
-    it: nothing written), replayed and compared."""
-    from cell.folders import write_folder
-    from cell.sim.logbatch import read_log_batch
-    from cell.sim.logformat import read_log
-    from cell.sim.replay import replay, write_replay
-
-    check_outputs([args.out and Output(args.out, "--out", folder=True, whole=True,
-                                      marks=("replay.json",))],
-                  args.logs)
-    logs = (read_log_batch(args.logs).logs if len(args.logs) > 1
-            else (read_log(args.logs[0]),))
-    names = [log.folder.name for log in logs]
-    if len(set(names)) < len(names):
-        names = [f"{k + 1}-{name}" for k, name in enumerate(names)]
-    results = []
-    for log in logs:
-        results.append(replay(log, progress=not args.quiet))
-        _print_replay(results[-1].summary())
-    if args.out:
-        # One folder for all the logs, written whole once every replay is done.
-        write_folder(args.out, lambda folder: [
-            write_replay(folder / name if len(logs) > 1 else folder, result)
-            for name, result in zip(names, results, strict=True)])
-    return 0
-
-
-def _print_replay(summary: dict) -> None:
-    print(f"{summary['log']}:")
-    for name, phases in summary["rmse_share"].items():
-        shares = ", ".join(f"{phase} {'-' if v is None else f'{v:.1%}'}"
-                           for phase, v in phases.items())
-        print(f"  {name}: RMSE over peak {shares}")
-    counts = summary["counts"]
-    print(f"  released {counts['released']['replayed']} (logged "
-          f"{counts['released']['logged']}), torn {counts['torn']['replayed']} (logged "
-          f"{counts['torn']['logged']}) of {summary['bindings']} bindings")

@@ -1,6 +1,6 @@
 """When a MuJoCo state is no longer data: the divergence checks that every stepping loop of the
 project runs (the cell's :class:`~cell.sim.simulation.TissueSimulation`, a cut test's block in
-:mod:`cell.sim.cuttest`).
+:mod:`cell.cuttest.run`).
 
 Example:
     >>> import mujoco

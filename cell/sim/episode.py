@@ -25,10 +25,10 @@ from cell.sim.assembly import (
     build_scene,
     grasp_point,
 )
-from cell.sim.cutscore import CutScore
 from cell.sim.recording import EpisodeRecorder
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
+from cell.sim.score import CutScore
 from cell.sim.simulation import Simulation
 from cell.sim.summary import (
     EpisodeTrace,

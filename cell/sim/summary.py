@@ -14,9 +14,9 @@ import numpy as np
 
 from cell.perception.pipeline import PerceivedPlan
 from cell.sim.assembly import Scene
-from cell.sim.cutscore import CutScore
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
+from cell.sim.score import CutScore
 from cell.sim.simulation import Simulation
 from cell.tissue.aponeurosis import Aponeurosis
 from cell.tissue.geometry import TwoMuscleMesh

@@ -59,7 +59,7 @@ from cell.errors import MaterialError
 
 #: The causes of a cut test (the cut cause table, docs/measured-data.md), each a term of
 #: this model or the blade's sensor: the names the diagnosis of cut tests
-#: (:mod:`cell.rheology.cutcauses`) and the generator of hidden-effect cut sets share.
+#: (:mod:`cell.diagnosis.cut.causes`) and the generator of hidden-effect cut sets share.
 CUT_CAUSES = (
     "blade_friction",
     "slicing",

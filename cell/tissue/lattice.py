@@ -18,7 +18,7 @@ that stiffens fourfold over its range is followed within 8% (isotropic) to 16% (
 r = 1.3, one that stiffens twofold within 5%.
 
 This module holds no MuJoCo: the muscles (:mod:`cell.tissue.massspring`) and the specimen
-tests (:mod:`cell.rheology.specimen`) share it.
+tests (:mod:`cell.diagnosis.specimen.solve`) share it.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
 The law, :func:`spring_stress` (described with its parameters at
 :class:`~cell.tissue.packedlaw.SpringLaw`), serves the muscles' kernel (:func:`muscle_forces`,
 for :mod:`cell.tissue.massspring`) and the specimen's (:func:`uniaxial_stress`, for
-:mod:`cell.rheology.specimen`): a material fitted to measured tests is the one the muscles run.
+:mod:`cell.diagnosis.specimen.solve`): a material fitted to measured tests is the one the muscles
+run.
 
 They share this file with the layouts of the packed arrays they read (the ``CURVE_``,
 ``PARAM_``, ``HISTORY_``, ``TANGENT_`` columns): numba's on-disk cache checks only the source
@@ -311,8 +312,8 @@ def _jacobian(state: np.ndarray, tau: np.ndarray, stretch: float, directions: np
 def uniaxial_stress(time_s: np.ndarray, strain: np.ndarray, directions: np.ndarray,
               weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
               history: np.ndarray, stress_out: np.ndarray, lateral_out: np.ndarray) -> int:
-    """The specimen's kernel (:mod:`cell.rheology.specimen`): nominal axial stress (Pa) of the
-    homogeneous lattice at every sample into ``stress_out``; returns the index of the first
+    """The specimen's kernel (:mod:`cell.diagnosis.specimen.solve`): nominal axial stress (Pa) of
+    the homogeneous lattice at every sample into ``stress_out``; returns the index of the first
     sample without an equilibrium, or -1.
 
     Newton's method with a Jacobian kept from sample to sample and refreshed when it stops

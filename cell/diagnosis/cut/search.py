@@ -1,0 +1,199 @@
+"""Diagnosis of a set's cut tests: the cut baseline, the causes of the cut catalogue
+(:mod:`cell.diagnosis.cut.causes`), the extended cutting model and the gain on held-out tests.
+
+The search is the uniaxial diagnosis's own (:func:`cell.diagnosis.engine.search.forward`, with its
+look-ahead, backward drops and second start, and :func:`cell.diagnosis.engine.acceptance.accepts`
+judging each cause) walking the cut catalogue: :class:`CutSearch` fits the models it asks for
+on the reduced model of a cut (:mod:`cell.diagnosis.cut.fitting`). The noise is the uniaxial
+estimate (:func:`cell.diagnosis.specimen.diagnosis.force_noise_n`) over each force channel.
+
+A depth where the toughness steps (``layered_toughness``) gives a fit no gradient to follow
+between samples: the boundary is put where it fits best among every depth between two that
+the edges cut at (:func:`cell.diagnosis.cut.fitting.best_layer_depth`, the linear parameters
+solved at each, all at once), the other parameters fitted, the boundary put again and the
+whole fitted with its held-out predictions once.
+
+Usage::
+
+    result = diagnose_cuts(data.block, data.blade, data.cut_tests)
+    result.causes  # cut catalogue names, most important first
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from cell.diagnosis.cut.causes import (
+    CUT_CAUSES,
+    FACE_PRESSURE_PA,
+    CutCandidate,
+    cause_of,
+    source_checks,
+)
+from cell.diagnosis.cut.fitting import CutFit, CutProblem, best_layer_depth, fit_cut, refine
+from cell.diagnosis.cut.residuals import ResidualTrend, cut_residual_trends
+from cell.diagnosis.engine.acceptance import improved_fraction
+from cell.diagnosis.engine.search import Swap, forward, second_start, unexplained
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.specimen.causes import UNEXPLAINED
+from cell.diagnosis.specimen.diagnosis import Evidence, SearchOutcome, force_noise_n
+from cell.measure.cuts import Blade, Block, CutTest
+
+
+def _start(model: CutCandidate, previous: CutFit | None) -> np.ndarray:
+    """A start for ``model``: the values of a related fit where the names match, its initial
+    values elsewhere."""
+    start = model.initial.copy()
+    if previous is not None:
+        names = previous.model.parameter_names
+        for i, name in enumerate(model.parameter_names):
+            if name in names:
+                start[i] = previous.shape[names.index(name)]
+    return start
+
+
+def fit_best(problem: CutProblem, model: CutCandidate, previous: CutFit | None,
+             max_evaluations: int) -> CutFit:
+    """``model`` fitted from the start :func:`_start` gives; a layered model's boundary first
+    put where it fits best with the start's other parameters, those fitted, the boundary put
+    again where it fits best with them, and the whole fitted from there (module docstring)."""
+    start = _start(model, previous)
+    if "layered_toughness" in model.causes and model.layers == 2:
+        shape, _ = refine(problem, model, best_layer_depth(problem, model, start),
+                          max_evaluations)
+        start = best_layer_depth(problem, model, shape)
+    return fit_cut(problem, model, start, max_evaluations)
+
+
+class CutSearch:
+    """The fits of one cut diagnosis, remembered by their causes: what
+    :func:`cell.diagnosis.engine.search.forward` asks of a search (``run``, ``problem.tests``,
+    ``params``, ``catalogue``)."""
+
+    def __init__(self, problem: CutProblem, params: DiagnosisParams,
+                 root: CutCandidate) -> None:
+        self.problem, self.params, self.root = problem, params, root
+        self.catalogue: tuple[str, ...] = CUT_CAUSES
+        self.fits: dict[frozenset[str], CutFit] = {}
+        #: Called with 1 after each fit (a progress bar's ``update``), or None.
+        self.on_fit: Callable[[int], object] | None = None
+        self.swaps: list[Swap] = []
+
+    def run(self, jobs: list[tuple[CutFit | None, str | None]]) -> list[CutFit]:
+        """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root model),
+        or removed when the fit has it; a model fitted before is fitted again only when a cause
+        is removed, the fit with the lower residual kept."""
+        results = []
+        for base, cause in jobs:
+            model = self.root if base is None else base.model
+            removing = cause is not None and cause in model.causes
+            if cause is not None:
+                kept = tuple(c for c in model.causes if c != cause)
+                model = replace(model, causes=kept if removing else (*model.causes, cause))
+            key = frozenset(model.causes)
+            if key not in self.fits or removing:
+                result = fit_best(self.problem, model, base, self.params.max_evaluations)
+                if key not in self.fits or result.rmse_n < self.fits[key].rmse_n:
+                    self.fits[key] = result
+                if self.on_fit is not None:
+                    self.on_fit(1)
+            results.append(self.fits[key])
+        return results
+
+
+@dataclass(frozen=True, eq=False)
+class CutDiagnosis(SearchOutcome):
+    """What :func:`diagnose_cuts` found: as :class:`~cell.diagnosis.specimen.diagnosis.Diagnosis`
+    for the cut tests (``noise_n``, ``baseline``, ``candidates``, ``steps``, ``extended``,
+    ``causes``, ``evidence``, ``params``); each cause's evidence is the uniaxial diagnosis's
+    :class:`~cell.diagnosis.specimen.diagnosis.Evidence`, its ``without`` a cut fit."""
+
+    noise_n: float
+    baseline: CutFit
+    candidates: tuple[CutFit, ...]
+    steps: tuple[CutFit, ...]
+    extended: CutFit
+    causes: tuple[str, ...]
+    evidence: tuple[Evidence, ...] = ()
+    params: DiagnosisParams = field(default_factory=DiagnosisParams)
+    swaps: tuple[Swap, ...] = ()
+    residual_trends: tuple[ResidualTrend, ...] = ()
+
+    def to_json(self) -> dict[str, Any]:
+        """The contract's JSON, plus the evidence of each cause (as the uniaxial
+        diagnosis's), the fitted parameters checked against their sources' ranges
+        (:func:`~cell.diagnosis.cut.causes.source_checks`) and, where ``unexplained`` stands, the
+        residual's trends (the strongest first, :mod:`cell.diagnosis.cut.residuals`)."""
+        return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence],
+                "source_ranges": source_checks(self.extended.params),
+                "residual_trends": [t.to_json() for t in self.residual_trends]}
+
+
+def _evidence(search: CutSearch, final: CutFit, order: list[str]) -> tuple[Evidence, ...]:
+    """Per cause of ``final``: its held-out RMSE with and without the cause (the search's
+    fit without it, fitted now if the search has none), the share of tests the cause
+    improves, and the cause's own fitted parameters with their 95 % intervals (for
+    ``blade_friction`` the friction coefficient at the model's face pressure too)."""
+    evidence = []
+    fitted = final.fitted
+    for cause in order:
+        kept = frozenset(c for c in final.model.causes if c != cause)
+        without = search.fits.get(kept) or search.run([(final, cause)])[0]
+        own = {n: v for n, v in fitted.items() if cause_of(n) == cause}
+        if cause == "blade_friction":
+            own["face_friction"] = tuple(v / final.model.face_pressure_pa
+                                         for v in own["face_shear_pa"])
+        evidence.append(Evidence(cause, final.heldout_rmse_n, without.heldout_rmse_n,
+                                 improved_fraction(final, without, search.problem.tests),
+                                 own, without))
+    return tuple(evidence)
+
+
+def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
+                  params: DiagnosisParams | None = None,
+                  face_pressure_pa: float = FACE_PRESSURE_PA,
+                  on_fit: Callable[[int], object] | None = None) -> CutDiagnosis:
+    """Diagnose a set's cut tests (module docstring); ``face_pressure_pa`` is the pressure a
+    fitted face shear stress is divided by (the material's, where it has a cutting model);
+    ``on_fit`` is called with 1 after each fit (progress).
+
+    Example:
+        >>> from cell.diagnosis.cut.reduced import simulate_cut
+        >>> from cell.tissue.cutmodel import CuttingParams
+        >>> block = Block((0.06, 0.04, 0.03))
+        >>> blade = Blade(0.12, 0.0015, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))
+        >>> t = np.linspace(0.0, 5.0, 200)
+        >>> tests = []
+        >>> for k, speed in enumerate((0.004, 0.006, 0.008)):
+        ...     edge = np.column_stack([0.03 + 0 * t, 0.02 + 0 * t, 0.032 - speed * t])
+        ...     force = simulate_cut(CutTest("c", t, edge, edge), block, blade,
+        ...                          CuttingParams(800.0)).total_n + [0.0, 0.0, 1.5]
+        ...     noisy = force + np.random.default_rng(k).normal(0.0, 0.05, force.shape)
+        ...     tests.append(CutTest(f"c{k}", t, edge, noisy))
+        >>> diagnose_cuts(block, blade, tuple(tests)).causes
+        ('blade_force_offset',)
+    """
+    params = DiagnosisParams() if params is None else params
+    problem = CutProblem.of(block, blade, tests, 2 * params.fit_samples)
+    root = CutCandidate((), problem.reference_speed_m_s(), block.top_z_m,
+                        face_pressure_pa=face_pressure_pa)
+    noise = force_noise_n([channel for test in tests for channel in test.force_n.T])
+    search = CutSearch(problem, params, root)
+    search.on_fit = on_fit
+    baseline = search.run([(None, None)])[0]
+    candidates = search.run([(baseline, c) for c in CUT_CAUSES])
+    current, steps, order = forward(search, baseline, candidates, noise)
+    if unexplained(current, noise, params, problem.tests):
+        current, steps, order = second_start(search, baseline, candidates, noise,
+                                             (current, steps, order))
+    causes, trends = tuple(order), ()
+    if unexplained(current, noise, params, problem.tests):
+        causes += (UNEXPLAINED,)
+        trends = cut_residual_trends(tests, block, blade, current.heldout_force_n)
+    return CutDiagnosis(noise, baseline, tuple(candidates), tuple(steps), current, causes,
+                        _evidence(search, current, list(order)), params, tuple(search.swaps),
+                        trends)

@@ -1,0 +1,391 @@
+"""Diagnosis of a measurement set: where the simulation is wrong, the causes, the extended
+material, the gain on held-out tests, and the evidence for each cause.
+
+1. The baseline (:class:`~cell.diagnosis.specimen.causes.CandidateMaterial` with no cause: linear,
+   isotropic, rate-independent springs) is fitted to every test
+   (:mod:`cell.diagnosis.specimen.fitting`:
+   each test simulated with the muscles' own spring law, errors measured leave-one-test-out).
+2. A stepwise search, forward with backward steps, over combinations of the catalogue's causes:
+   every cause not in the current model is added to it and fitted (``nonlinear_viscoelasticity``
+   replaces ``viscoelasticity``, never joins it); the best is kept when it passes
+   :func:`accepts` against the current model: it lowers the held-out mean square error by more
+   than ``min_variance_drop`` noise variances (the noise from the data: second differences of
+   each test's force) *and* lowers the Bayesian information criterion, cuts the held-out RMSE
+   to at most ``max_rmse_ratio`` of what it was (``later_rmse_ratio`` from the second cause
+   on), and (from the second on) lowers it on at least ``min_improved_fraction`` of the tests.
+   When no single cause passes, pairs of the three best are tried (look-ahead), the best
+   pair kept when it passes the same test.
+3. After each addition every other cause must still pass the same test against the model
+   without it (for ``nonlinear_viscoelasticity``: with ``viscoelasticity`` in its place); the
+   weakest that does not is dropped, and so on. A cause stays named only while removing it
+   raises the held-out error beyond the noise; those fits are the evidence of each cause
+   (:class:`Evidence`). ``nonlinear_viscoelasticity`` in place of ``viscoelasticity`` is
+   judged on the ramp-and-hold tests alone (mode ``relaxation``), where a relaxed fraction that
+   depends on the strain shows.
+4. When the final held-out error is still more than ``unexplained_ratio`` times the noise and
+   its residuals are correlated (lag-one autocorrelation above ``structure_correlation``),
+   ``unexplained`` is added, unless the search run again from the runner-up single cause
+   ends with less held-out error and no structure left (one cause can stand in for two others
+   well enough to win the first step; the second path is kept then).
+5. Where tests repeat a condition (:mod:`cell.diagnosis.specimen.repeats`: mode, angle and
+   displacement path, never names), each is another specimen: the steps judge every cause with the
+   specimens' scatter within each group of repeats taken out
+   (:mod:`cell.diagnosis.specimen.repeatsearch`), and ``specimen_variability`` is named when the
+   repeats disagree beyond the noise, its spread fitted as a random effect
+   (:mod:`cell.diagnosis.specimen.spread`).
+6. Each held-out prediction of the extended model gets a 90 % interval holding the specimen
+   spread, the parameters' uncertainty and the model's discrepancy
+   (:mod:`cell.diagnosis.specimen.intervals`), and the share of held-out samples they cover.
+
+Candidates are fitted side by side in ``workers`` processes (default: every core). Usage::
+
+    result = diagnose(load_measurement_set("assets/measured/beef_round_example"))
+    result.causes  # catalogue names, most important first
+
+Example:
+    >>> from cell.measure.specimens import load_measurement_set
+    >>> data = load_measurement_set("assets/measured/beef_round_example")
+    >>> round(noise_n(data) * 1e3, 1)  # mN: the set's stated force noise is 1 mN
+    1.0
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from typing import Any
+
+import numpy as np
+
+from cell.diagnosis.engine.acceptance import improved_fraction
+from cell.diagnosis.engine.determined import (
+    NOT_PREDICTED,
+    determined,
+    determined_each,
+    estimates_json,
+    shown,
+)
+from cell.diagnosis.engine.search import Search, Swap, forward, second_start, unexplained
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.specimen.causes import (
+    CAUSES,
+    EXCLUSIVE,
+    SPECIMEN_VARIABILITY,
+    UNEXPLAINED,
+    CandidateMaterial,
+)
+from cell.diagnosis.specimen.fitting import ModelFit, Problem
+from cell.diagnosis.specimen.intervals import PredictionIntervals, prediction_intervals
+from cell.diagnosis.specimen.repeats import repeat_groups
+from cell.diagnosis.specimen.repeatsearch import RepeatSearch, at_own_factors
+from cell.diagnosis.specimen.spread import SpecimenSpread, specimen_spread
+from cell.errors import DiagnosisError
+from cell.measure.specimens import MeasurementSet, MechanicalTest
+
+_RELAXATION_TERMS = 2
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """Why one named cause is named.
+
+    Attributes:
+        cause: the cause.
+        heldout_rmse_with_n: held-out RMSE of the final model, N.
+        heldout_rmse_without_n: of the final model refitted without the cause, N (for
+            ``nonlinear_viscoelasticity``: with ``viscoelasticity`` in its place).
+        improved_fraction: fraction of the tests whose held-out error the cause lowers.
+        params: the cause's shape parameters: value and 95 % interval (NaN where the data
+            do not bound it: ``null`` in the JSON, with ``ci95_reason``), in the units of
+            their names (``log_`` ones: natural log, except ``log_relaxation_time``: log10 s).
+        without: the fit without the cause (for plots).
+        with_fit: the fit with it, where that is not the extended model (for plots: for
+            ``specimen_variability``, each test at its specimen's factor within its group of
+            repeats).
+    """
+
+    cause: str
+    heldout_rmse_with_n: float
+    heldout_rmse_without_n: float
+    improved_fraction: float
+    params: dict[str, tuple[float, float, float]]
+    without: ModelFit
+    with_fit: ModelFit | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """The evidence as the JSON's ``evidence`` entry."""
+        return {"cause": self.cause,
+                **determined("heldout_rmse_with_N", self.heldout_rmse_with_n, NOT_PREDICTED),
+                **determined("heldout_rmse_without_N", self.heldout_rmse_without_n,
+                             NOT_PREDICTED),
+                "improved_fraction": self.improved_fraction,
+                "params": estimates_json(self.params)}
+
+
+class SearchOutcome:
+    """What the uniaxial and the cut diagnosis share, from the fields of the dataclass that
+    takes it in: ``noise_n``, ``baseline``, ``candidates``, ``steps``, ``extended`` and
+    ``causes``."""
+
+    @property
+    def gain(self) -> float:
+        """1 - extended over baseline held-out RMSE."""
+        return 1.0 - self.extended.heldout_rmse_n / self.baseline.heldout_rmse_n
+
+    def to_json(self) -> dict[str, Any]:
+        """The diagnosis contract (docs/measured-data.md), plus the noise, the
+        information criteria and the search's steps."""
+        return {
+            "baseline": self.baseline.to_json(),
+            "causes": list(self.causes),
+            "candidates": [
+                {"cause": fit.model.causes[0], "params": determined_each(fit.params),
+                 **fit.scores_json(),
+                 "selected": fit.model.causes[0] in self.causes}
+                for fit in self.candidates
+            ],
+            "extended": self.extended.to_json(),
+            **determined("gain", self.gain, NOT_PREDICTED),
+            "noise_N": self.noise_n,
+            "steps": [{"causes": list(fit.model.causes), **fit.scores_json()}
+                      for fit in self.steps],
+            "second_look": [swap.to_json() for swap in self.swaps],
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis(SearchOutcome):
+    """What :func:`diagnose` found (module docstring).
+
+    Attributes:
+        measurements: the set.
+        noise_n: the force noise estimated from the data, N.
+        baseline: the baseline fit.
+        candidates: each cause of the catalogue alone, fitted.
+        steps: the model after each step of the search (an addition, with its drops).
+        extended: the final model (the baseline when no cause is accepted).
+        causes: accepted causes, most important first, then ``unexplained`` if it applies.
+        evidence: per accepted cause, in the order of ``causes``.
+        params: the settings it ran with.
+        explored: every model the search fitted.
+        specimen: the specimen spread between tests under equal conditions
+            (:mod:`cell.diagnosis.specimen.spread`).
+        intervals: the extended model's held-out predictions with their 90 % intervals
+            (:mod:`cell.diagnosis.specimen.intervals`).
+        swaps: what the search's second look tried (:func:`cell.diagnosis.engine.search.forward`).
+
+    ``to_json()`` is the JSON that ``musclecell diagnose --out`` writes.
+    """
+
+    measurements: MeasurementSet
+    noise_n: float
+    baseline: ModelFit
+    candidates: tuple[ModelFit, ...]
+    steps: tuple[ModelFit, ...]
+    extended: ModelFit
+    causes: tuple[str, ...]
+    evidence: tuple[Evidence, ...] = ()
+    params: DiagnosisParams = field(default_factory=DiagnosisParams)
+    explored: tuple[ModelFit, ...] = ()
+    specimen: SpecimenSpread = field(default_factory=SpecimenSpread.absent)
+    intervals: PredictionIntervals | None = None
+    swaps: tuple[Swap, ...] = ()
+
+    def material_comment(self) -> str:
+        """The comment lines on top of the extended material's file: where it comes from,
+        the causes, the held-out errors and a rig offset left out of it."""
+        extended = self.extended
+        comment = (f"Extended material fitted by `musclecell diagnose` to "
+                   f"{self.measurements.folder.name} ({self.measurements.specimen.name}).\n"
+                   f"Model: {extended.model.name}; causes: {', '.join(self.causes) or 'none'}; "
+                   f"held-out RMSE {shown(extended.heldout_rmse_n, '.4g')} N (baseline "
+                   f"{shown(self.baseline.heldout_rmse_n, '.4g')} N).")
+        if extended.model.has_offset:
+            comment += (f"\nThe load cell read {extended.offset_n:.4g} N at rest: a rig effect, "
+                        "not part of this material.")
+        return comment
+
+    def to_json(self) -> dict[str, Any]:
+        """The diagnosis contract (docs/measured-data.md), plus the noise, the
+        information criteria, the search's steps, the evidence of each cause, the specimen
+        spread and the held-out predictions with their intervals."""
+        intervals = {} if self.intervals is None else {"intervals": self.intervals.to_json()}
+        return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence],
+                "specimen_variability": self.specimen.to_json(), **intervals}
+
+
+def noise_n(measurements: MeasurementSet) -> float:
+    """Force noise of a set, N: the median over tests of a robust spread of the force's second
+    differences (``sqrt(6)`` times the noise for white noise)."""
+    return force_noise_n([test.force_N for test in measurements.tests])
+
+
+def force_noise_n(forces: Iterable[np.ndarray]) -> float:
+    """Force noise of a set's force series, N, as :func:`noise_n` says (the cut tests' force
+    series too: :mod:`cell.diagnosis.cut.search`)."""
+    spreads = []
+    for force in forces:
+        second = np.diff(force, 2)
+        if len(second) >= 3:
+            spreads.append(1.4826 * np.median(np.abs(second - np.median(second))) / math.sqrt(6))
+    return float(np.median(spreads)) if spreads else 0.0
+
+
+def _time_range_s(measurements: MeasurementSet) -> tuple[float, float]:
+    """Relaxation times a fit may give: from a third of the shortest sample interval (faster
+    ones act at once) to twice the longest test (slower ones never act)."""
+    shortest = min(float(np.median(np.diff(t.time_s))) for t in measurements.tests
+                   if len(t.time_s) > 1)
+    longest = max(t.duration_s for t in measurements.tests)
+    low = max(shortest / 3.0, 1e-3)
+    return low, max(2.0 * longest, 10.0 * low)
+
+
+def _stretch_range(measurements: MeasurementSet) -> tuple[float, float]:
+    """The set's stretches, widened by 10% of their span and to contain 1."""
+    strains = np.concatenate([t.strain(measurements.specimen) for t in measurements.tests])
+    margin = 0.1 * max(float(np.ptp(strains)), 0.01)
+    return (max(1.0 + min(float(strains.min()), 0.0) - margin, 0.05),
+            1.0 + max(float(strains.max()), 0.0) + margin)
+
+
+def _reference_strain(measurements: MeasurementSet) -> float:
+    """The strain a non-linear relaxed fraction is fitted at: the median of the tests' peak
+    strains (within the set's strains, where the fraction is measured)."""
+    return float(np.median([np.abs(t.strain(measurements.specimen)).max()
+                            for t in measurements.tests]))
+
+
+def _evidence(search: Search, final: ModelFit, order: list[str]) -> tuple[Evidence, ...]:
+    """The evidence of each cause of ``final``, in ``order``."""
+    tests = search.problem.tests
+    evidence = []
+    for cause in order:
+        if final.model.causes == (cause,) and cause != EXCLUSIVE[1]:
+            without = search.run([(None, None)])[0]
+        else:
+            without = search.run([(final, cause)])[0]
+        names = final.model.parameter_names
+        owners = {cause, EXCLUSIVE[0]} if cause == EXCLUSIVE[1] else {cause}
+        own = [i for i, n in enumerate(names) if cause_of(n) in owners]
+        evidence.append(Evidence(
+            cause, final.heldout_rmse_n, without.heldout_rmse_n,
+            improved_fraction(final, without, tests),
+            {names[i]: (float(final.shape[i]), *map(float, final.shape_ci95[i])) for i in own},
+            without))
+    return tuple(evidence)
+
+
+def cause_of(name: str) -> str:
+    """The cause a shape parameter belongs to.
+
+    Example:
+        >>> cause_of("log_relaxation_time_1"), cause_of("oblique")
+        ('viscoelasticity', 'anisotropy')
+    """
+    if name == "relaxed_fraction_slope":
+        return "nonlinear_viscoelasticity"
+    if "relax" in name:
+        return "viscoelasticity"
+    if "stiffening" in name:
+        return "strain_stiffening"
+    if name in ("log_el_over_et", "oblique", "log_el_over_et_compressed", "oblique_compressed"):
+        return "anisotropy"
+    if "compression" in name:
+        return "tension_compression_asymmetry"
+    return "plasticity"
+
+
+def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None,
+             on_fit: Callable[[int], object] | None = None) -> Diagnosis:
+    """Diagnose ``measurements`` (module docstring); ``on_fit`` is called with 1 after each
+    fit (progress).
+
+    Raises:
+        DiagnosisError: a set of one test (nothing to hold it out against), or the baseline
+            or the extended model cannot run a test (which, and with which causes).
+    """
+    params = DiagnosisParams() if params is None else params
+    if len(measurements.tests) == 1:
+        # Each test is predicted by the model fitted to the others: one alone has none.
+        raise DiagnosisError(measurements.folder / "tests.csv", "test_id",
+                             f"one uniaxial test ({measurements.tests[0].test_id}): the "
+                             "diagnosis holds each test out in turn, so it needs at least two")
+    problem = Problem.of(measurements.specimen, measurements.tests, params.fit_samples)
+    root = CandidateMaterial((), "exponential", _time_range_s(measurements), _RELAXATION_TERMS,
+                             _stretch_range(measurements), oblique=True,
+                             reference_strain=_reference_strain(measurements))
+    noise = noise_n(measurements)
+    tests = measurements.tests
+    # Spawned, not forked: a fork of a process whose numba (and MuJoCo, in the CLI) has
+    # started threads can deadlock. The workers load the compiled spring law from numba's
+    # on-disk cache rather than compiling it again.
+    pool = (ProcessPoolExecutor(params.workers, mp_context=get_context("spawn"))
+            if params.workers > 1 else None)
+    groups = repeat_groups(tests, measurements.specimen)
+    try:
+        search = RepeatSearch(problem, params, root, pool, groups)
+        search.on_fit = on_fit
+        baseline = search.run([(None, None)])[0]
+        _require_runs(baseline)
+        floor = _judged_noise(search.plain(baseline), tests, noise, groups)
+        candidates = search.run([(baseline, c) for c in CAUSES])
+        current, steps, order = forward(search, baseline, candidates, floor)
+        if unexplained(current, floor, params, tests):
+            current, steps, order = second_start(search, baseline, candidates, floor,
+                                                  (current, steps, order))
+        # The evidence, the intervals and the report read the plain held-out errors.
+        search.judging = False
+        judged, current = current, search.plain(current)
+        baseline, candidates = search.plain(baseline), [search.plain(c) for c in candidates]
+        steps = [search.plain(f) for f in steps]
+        evidence = _evidence(search, current, order)
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+    _require_runs(current)
+    order.sort(key=lambda c: -next(e.heldout_rmse_without_n for e in evidence if e.cause == c))
+    evidence = tuple(sorted(evidence, key=lambda e: order.index(e.cause)))
+    causes = tuple(order)
+    spread = specimen_spread(tests, current.fitted_force_n, current.offset_n, noise, groups)
+    if spread.named:
+        causes += (SPECIMEN_VARIABILITY,)
+        evidence += (Evidence(SPECIMEN_VARIABILITY, judged.heldout_rmse_n,
+                              current.heldout_rmse_n, improved_fraction(judged, current, tests),
+                              {"log_modulus_sd": (spread.sd, *spread.ci95)}, current, judged),)
+    # With a spread named, what no specimen's factor explains is left, against the noise
+    # alone (the factors took the group means' spread too); else, what the steps judged.
+    left = ((at_own_factors(current, tests, None), noise) if spread.named else (judged, floor))
+    if unexplained(*left, params, tests):
+        causes += (UNEXPLAINED,)
+    intervals = prediction_intervals(problem, current, noise, spread.sd if spread.named else 0.0)
+    return Diagnosis(measurements, noise, baseline, tuple(candidates), tuple(steps), current,
+                     causes, evidence, params, tuple(search.fits.values()), spread, intervals,
+                     tuple(search.swaps))
+
+
+def _judged_noise(baseline: ModelFit, tests: tuple[MechanicalTest, ...], noise: float,
+                  groups: list[list[int]]) -> float:
+    """The noise a cause must explain more than, N: the force noise, and where the repeats
+    show a specimen spread, the spread of each group's mean specimen (what the steps, judged
+    within groups, still see between conditions: ``sd**2 / n`` of the material force squared,
+    ``n`` the mean group size). The spread is read about the baseline: within groups its
+    misfit drops out (:mod:`cell.diagnosis.specimen.spread`)."""
+    spread = specimen_spread(tests, baseline.fitted_force_n, baseline.offset_n, noise, groups)
+    if not spread.named:
+        return noise
+    size = float(np.mean([len(g) for g in groups if len(g) >= 2]))
+    material = np.concatenate([f - baseline.offset_n for f in baseline.fitted_force_n])
+    return math.sqrt(noise**2 + spread.sd**2 / size * float(np.mean(material**2)))
+
+
+def _require_runs(model_fit: ModelFit) -> None:
+    """Raise when the fitted material of ``model_fit`` cannot run a test of the set."""
+    if model_fit.failed_test is not None:
+        causes = ", ".join(model_fit.model.causes) or "none (the baseline)"
+        raise DiagnosisError(None, model_fit.failed_test,
+                             f"the fit with causes {causes} does not converge on test "
+                             f"{model_fit.failed_test!r}: the specimen has no equilibrium")

@@ -1,0 +1,97 @@
+"""The search of a set with repeats (tests under equal conditions,
+:mod:`cell.diagnosis.specimen.repeats`), each cause judged on held-out errors with the specimens'
+scatter within each group of repeats taken out.
+
+Where each test is another specimen, a model's held-out error is mostly the specimens' spread,
+the same with any cause or without: a real effect then lowers it by less than a cause must, and
+structure reads as ``unexplained``. What a material cause changes shows between conditions,
+not between the specimens of one condition. So each held-out prediction is judged at its own
+specimen's factor relative to its group: ``exp(u_k - mu_g)`` with ``u_k`` the log factor that
+fits test k best (:func:`cell.diagnosis.specimen.spread.log_factors`) and ``mu_g`` the mean over its
+group. The factors between conditions stay for the causes to explain (anisotropy is a factor between
+angles), and a test without a repeat keeps its prediction. Without a spread the factors are
+noise and the judgement is the plain one.
+
+The fits themselves are the search's own; only what :meth:`RepeatSearch.run` returns to the
+steps is judged so, and :meth:`RepeatSearch.plain` gives back the fit a judged one came from.
+
+Usage::
+
+    search = RepeatSearch(problem, params, root, pool, repeat_groups(tests, specimen))
+    baseline = search.run([(None, None)])[0]  # judged between repeats
+    search.plain(baseline).heldout_rmse_n     # the plain held-out error
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import Executor
+from dataclasses import replace
+
+import numpy as np
+
+from cell.diagnosis.engine.search import Search
+from cell.diagnosis.engine.settings import DiagnosisParams
+from cell.diagnosis.specimen.causes import CandidateMaterial
+from cell.diagnosis.specimen.fitting import ModelFit, Problem
+from cell.diagnosis.specimen.spread import log_factors
+from cell.measure.specimens import MechanicalTest
+
+
+class RepeatSearch(Search):
+    """A :class:`~cell.diagnosis.engine.search.Search` whose fits are judged between repeats (module
+    docstring); ``groups`` are the tests under equal conditions; ``judging`` off returns the
+    plain fits.
+
+    Example:
+        >>> from cell.measure.specimens import load_measurement_set
+        >>> from cell.diagnosis.specimen.repeats import repeat_groups
+        >>> data = load_measurement_set("assets/measured/beef_round_example")
+        >>> search = RepeatSearch(Problem.of(data.specimen, data.tests, 32),
+        ...                       DiagnosisParams(workers=1), CandidateMaterial(()), None,
+        ...                       repeat_groups(data.tests, data.specimen))
+        >>> search.judging  # the example set repeats no condition
+        False
+    """
+
+    def __init__(self, problem: Problem, params: DiagnosisParams, root: CandidateMaterial,
+                 pool: Executor | None, groups: list[list[int]]) -> None:
+        super().__init__(problem, params, root, pool)
+        self.groups = [g for g in groups if len(g) >= 2]
+        self.judging = bool(self.groups)
+        # Keyed by id, each with the fit it is keyed by (kept alive, so its id is not reused).
+        self._judged: dict[int, tuple[ModelFit, ModelFit]] = {}
+        self._plain: dict[int, tuple[ModelFit, ModelFit]] = {}
+
+    def run(self, jobs: list[tuple[ModelFit | None, str | None]]) -> list[ModelFit]:
+        """:meth:`Search.run`, each fit judged between repeats while ``judging``."""
+        fits = super().run([(None if base is None else self.plain(base), cause)
+                            for base, cause in jobs])
+        return [self.judged(f) for f in fits] if self.judging else fits
+
+    def plain(self, fit: ModelFit) -> ModelFit:
+        """The search's own fit behind ``fit`` (``fit`` when it is one)."""
+        return self._plain[id(fit)][1] if id(fit) in self._plain else fit
+
+    def judged(self, fit: ModelFit) -> ModelFit:
+        """``fit`` with its held-out predictions at each specimen's factor within its group."""
+        if id(fit) not in self._judged:
+            judged = at_own_factors(fit, self.problem.tests, self.groups)
+            self._judged[id(fit)] = (fit, judged)
+            self._plain[id(judged)] = (judged, fit)
+        return self._judged[id(fit)][1]
+
+
+def at_own_factors(fit: ModelFit, tests: tuple[MechanicalTest, ...],
+                   groups: list[list[int]] | None) -> ModelFit:
+    """``fit`` with each held-out prediction at its specimen's factor relative to its group
+    (module docstring; a test in no group keeps its prediction), or at its own factor outright
+    when ``groups`` is None (what is left then is what no specimen's factor explains)."""
+    u, _ = log_factors(tests, fit.heldout_force_n, fit.offset_n, 0.0)
+    shift = u.copy() if groups is None else np.zeros(len(tests))
+    for group in groups or []:
+        shift[group] = u[group] - u[group].mean()
+    heldout = tuple(fit.offset_n + np.exp(s) * (h - fit.offset_n)
+                    for s, h in zip(shift, fit.heldout_force_n, strict=True))
+    errors = np.concatenate([h - t.force_N for h, t in zip(heldout, tests, strict=True)])
+    return replace(fit, heldout_force_n=heldout,
+                   heldout_rmse_n=float(np.sqrt(np.mean(errors**2))))

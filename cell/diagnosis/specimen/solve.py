@@ -1,0 +1,251 @@
+"""A measured test, simulated quasi-statically with the muscles' own spring law.
+
+The specimen is the spring lattice of its tet mesh (:func:`specimen_mesh`, the mirrored Kuhn
+split the muscles use), every spring following :func:`~cell.tissue.springlaw.spring_stress`, the law
+of the muscles' kernel, history included. Its platens are lubricated: the bottom face is held
+along the load axis z, the top face follows the test's displacement, and both slide freely, so
+the specimen deforms homogeneously. The deformation gradient is then
+
+    F = [[a, 0, c], [0, b, 0], [0, 0, 1 + strain]]
+
+(fibres in the x-z plane keep y a plane of symmetry; c is the shear a fibre at an angle to the
+load gives), and every spring of one rest direction strains alike. Each sample solves, by
+Newton's method, for the a, b, c at which the lateral faces and the platens carry no traction
+(the Kirchhoff stress ``sum_j w_j s_j r_j n_j n_j`` has only its zz entry; w_j the volume share of
+the springs along rest direction j, s_j their stress, r_j their stretch, n_j their direction now),
+commits the springs' history, and reads the axial force ``A tau_zz / (1 + strain)``.
+
+Why quasi-static and homogeneous (measured in ``tests/test_specimen.py`` against
+:mod:`tests.specimen_reference`, the same springs in MuJoCo on a 6-cell mesh at the real mass and
+half the stable step): the tests last minutes at strain rates of 1%/s, where inertia and the
+springs' dashpots carry nothing, and the forces agree within 2%. One set of 10 tests takes
+milliseconds instead of minutes, which is what lets a diagnosis refit the material hundreds of
+times. The springs' dashpots (``damping_s``) are left out for that reason.
+
+The lattice is calibrated (:func:`~cell.tissue.lattice.calibrated_law`) with the fibres along a
+lattice axis, and keeps those factors at every fibre angle: a cubic lattice is not isotropic,
+and recalibrating it for oblique fibres would give an isotropic material an angle dependence
+that no tissue has.
+
+Example:
+    >>> from cell.measure.specimens import load_measurement_set
+    >>> data = load_measurement_set("assets/measured/beef_round_example")
+    >>> run = simulate_test(data.test("t00"), data.specimen, MassSpringMaterial.isotropic(6e3))
+    >>> run.force_N.shape
+    (250,)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cell.errors import DivergenceError
+from cell.measure.specimens import MeasurementSet, MechanicalTest, Specimen
+from cell.tissue.lattice import calibration_factors, tet_edges
+from cell.tissue.material import MassSpringMaterial
+from cell.tissue.packedlaw import SpringLaw
+from cell.tissue.springlaw import uniaxial_stress as _uniaxial
+from cell.tissue.tetmesh import TetMesh, structured_hex_tets
+
+# Cells along the specimen's longest edge; the homogeneous lattice only needs their shape.
+_CELLS = 2
+_LOAD_AXIS = (0.0, 0.0, 1.0)
+
+
+def specimen_mesh(specimen: Specimen, cells: int) -> TetMesh:
+    """The specimen as a box of tets, ``cells`` along its longest edge, from the origin to
+    ``size_m``: bottom face at z = 0, top face at z = ``size_m[2]``.
+
+    Example:
+        >>> len(specimen_mesh(Specimen("cube", (0.01, 0.01, 0.01)), 2).tets)
+        48
+    """
+    size = np.asarray(specimen.size_m)
+    counts = tuple(max(1, round(cells * s / size.max())) for s in size)
+    axes = [np.linspace(0.0, s, n + 1) for s, n in zip(size, counts, strict=True)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    return TetMesh.from_arrays(grid, structured_hex_tets(counts), specimen.name)
+
+
+def fibre_direction(angle_deg: float) -> tuple[float, float, float]:
+    """Unit fibre direction at ``angle_deg`` from the load axis z, in the x-z plane.
+
+    Example:
+        >>> [round(v, 6) for v in fibre_direction(90.0)]
+        [1.0, 0.0, 0.0]
+    """
+    angle = math.radians(angle_deg)
+    return (math.sin(angle), 0.0, math.cos(angle))
+
+
+@dataclass(frozen=True, eq=False)
+class SpecimenLattice:
+    """The specimen's springs grouped by rest direction, for homogeneous deformation.
+
+    Attributes:
+        directions: (J, 3) unit rest directions, one per group of parallel springs.
+        weights: (J,) each group's volume share, ``sum(sum(V)) / V`` over its springs
+            (dimensionless; ``K0 l0**2 = sum(V)`` for every spring).
+        mesh: the specimen's mesh.
+        edges: (E, 2) its springs.
+        edge_volume_m3: (E,) volume of the tets sharing each spring, m^3.
+
+    Example:
+        >>> lattice = SpecimenLattice.of(Specimen("cube", (0.01,) * 3))
+        >>> len(lattice.directions), round(float(lattice.weights.sum()), 6)
+        (9, 6.0)
+    """
+
+    directions: np.ndarray
+    weights: np.ndarray
+    mesh: TetMesh
+    edges: np.ndarray
+    edge_volume_m3: np.ndarray
+    # Calibration factors by (El / Et, oblique): they depend on nothing else, and a diagnosis
+    # asks for the same ones thousands of times.
+    _factors: dict[tuple[float, float], tuple[float, float]] = field(
+        default_factory=dict, repr=False)
+
+    @classmethod
+    def of(cls, specimen: Specimen) -> SpecimenLattice:
+        """The lattice of ``specimen``: cubic cells whatever its proportions, as the muscles'
+        (under homogeneous deformation its size only sets the area and the height; cells of
+        its own proportions would make an isotropic material depend on the fibre angle)."""
+        mesh = specimen_mesh(Specimen(specimen.name, (1.0, 1.0, 1.0)), _CELLS)
+        edges, volume = tet_edges(mesh.points, mesh.tets)
+        vectors = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
+        units = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+        # Springs strain alike when parallel (either sign) or mirror images across y = 0, which
+        # F keeps a plane of symmetry: one group per direction up to both.
+        units[:, 1] = np.abs(units[:, 1])
+        in_plane = units[:, [0, 2]]
+        lead = in_plane[np.arange(len(units)), np.argmax(np.abs(in_plane) > 1e-9, axis=1)]
+        units[:, [0, 2]] *= np.where(lead < 0.0, -1.0, 1.0)[:, None]
+        keys, group = np.unique(np.round(units, 9), axis=0, return_inverse=True)
+        weights = np.bincount(group.ravel(), weights=volume) / mesh.volume_m3
+        return cls(keys / np.linalg.norm(keys, axis=1, keepdims=True), weights, mesh, edges,
+                   volume)
+
+    def law(self, material: MassSpringMaterial) -> SpringLaw:
+        """``material``'s spring law on this lattice, calibrated with its fibres along the load
+        axis (as :func:`~cell.tissue.lattice.calibrated_law`, its factors remembered)."""
+        squeezed = material.in_compression()
+        tension = self._calibration(material)
+        return SpringLaw.of(material, tension,
+                            tension if material.symmetric else self._calibration(squeezed))
+
+    def _calibration(self, material: MassSpringMaterial) -> tuple[float, float]:
+        key = (material.longitudinal.small_strain_modulus_pa
+               / material.transverse.small_strain_modulus_pa, material.oblique)
+        if key not in self._factors:
+            if len(self._factors) > 4096:
+                self._factors.clear()
+            self._factors[key] = calibration_factors(self.mesh.points, self.edges,
+                                                     self.edge_volume_m3, material, _LOAD_AXIS)
+        return self._factors[key]
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedTest:
+    """The simulated force of one test.
+
+    Attributes:
+        test_id: the measured test's id.
+        time_s: (n,) the test's sample times, s.
+        force_N: (n,) simulated axial force on the top face at those times, N (+ pulls).
+        lateral_stretch: (n, 2) a and b of the deformation gradient (x and y stretch).
+
+    Example:
+        >>> from cell.measure.specimens import MechanicalTest, Specimen
+        >>> from cell.tissue.material import MassSpringMaterial
+        >>> t = np.linspace(0.0, 10.0, 11)
+        >>> test = MechanicalTest("t00", "tension", 0.0, t, 1e-5 * t, 0.0 * t)
+        >>> cube = Specimen("cube", (0.01, 0.01, 0.01))
+        >>> run = simulate_test(test, cube, MassSpringMaterial.isotropic(1e4))
+        >>> round(float(run.force_N[-1]), 4)  # 10 kPa at 1 % strain on 1 cm^2: 0.01 N
+        0.01
+    """
+
+    test_id: str
+    time_s: np.ndarray
+    force_N: np.ndarray
+    lateral_stretch: np.ndarray
+
+
+def simulate_test(
+    test: MechanicalTest,
+    specimen: Specimen,
+    material: MassSpringMaterial,
+    lattice: SpecimenLattice | None = None,
+) -> SimulatedTest:
+    """Simulate ``test`` on ``specimen`` made of ``material`` (module docstring).
+
+    The material's fibres are turned to the test's ``angle_deg`` from the load axis, in the
+    x-z plane. ``lattice`` may be passed to reuse the specimen's.
+
+    Raises:
+        MaterialError: an anisotropy the lattice's springs cannot give.
+        DivergenceError: no equilibrium at some sample (a spring collapsed).
+
+    Example:
+        >>> from cell.measure.specimens import load_measurement_set
+        >>> from cell.tissue.material import MassSpringMaterial
+        >>> data = load_measurement_set("assets/measured/beef_round_example")
+        >>> run = simulate_test(data.test("c00"), data.specimen, MassSpringMaterial.isotropic(6e3))
+        >>> run.force_N.shape
+        (250,)
+    """
+    return simulate_tests((test,), specimen, material, lattice)[0]
+
+
+def simulate_tests(
+    tests: Sequence[MechanicalTest],
+    specimen: Specimen,
+    material: MassSpringMaterial,
+    lattice: SpecimenLattice | None = None,
+) -> list[SimulatedTest]:
+    """:func:`simulate_test` for each of ``tests``, with one spring law (its calibration is
+    most of the cost of a short test).
+
+    Raises:
+        MaterialError: an anisotropy the lattice's springs cannot give.
+        DivergenceError: no equilibrium at some sample of a test (named).
+    """
+    lattice = SpecimenLattice.of(specimen) if lattice is None else lattice
+    law = lattice.law(material)
+    runs = []
+    for test in tests:
+        fibre = np.asarray(fibre_direction(test.angle_deg))
+        cos_sq = (lattice.directions @ fibre) ** 2
+        time = np.ascontiguousarray(test.time_s - test.time_s[0])
+        strain = np.ascontiguousarray(test.strain(specimen))
+        stress = np.empty(len(time))
+        lateral = np.empty((len(time), 2))
+        failed = _uniaxial(time, strain, lattice.directions, lattice.weights, cos_sq,
+                           law.curves, law.params, law.history(len(lattice.directions)), stress,
+                           lateral)
+        if failed >= 0:
+            raise DivergenceError(float(time[failed]),
+                                  f"test {test.test_id!r}: the specimen has no equilibrium at "
+                                  f"strain {strain[failed]:.4g}")
+        runs.append(SimulatedTest(test.test_id, test.time_s, stress * specimen.area_m2,
+                                  lateral))
+    return runs
+
+
+def simulate_set(measurements: MeasurementSet,
+                 material: MassSpringMaterial) -> tuple[SimulatedTest, ...]:
+    """Simulate every test of a set, in its order, on one lattice.
+
+    Example:
+        >>> from cell.measure.specimens import load_measurement_set
+        >>> from cell.tissue.material import MassSpringMaterial
+        >>> data = load_measurement_set("assets/measured/beef_round_example")
+        >>> len(simulate_set(data, MassSpringMaterial.isotropic(6e3)))
+        20
+    """
+    return tuple(simulate_tests(measurements.tests, measurements.specimen, material))

@@ -1,0 +1,323 @@
+"""The diagnosis of a batch of separation logs (docs/logs.md): what the simulation gets
+wrong about them, why, and the world that gets it right, in the contract of the measurement
+sets (baseline, causes, candidates with evidence, extended, held-out error, gain), held out
+by leave-one-log-out.
+
+A replay is an episode, so the search is kept to about a hundred of them: one replay of every
+log in the lab's world (the baseline), two per log and cause with the cause's screening
+magnitude one way and the other (its linearised signature: the change of every channel at
+every sample), a greedy forward selection on those signatures (:mod:`cell.logs.fit`: a
+sensor's offset is a constant on its channel, in closed form), Gauss-Newton steps on the
+causes selected, each confirmed by replaying the batch (Broyden's update keeps the
+signatures true to the replays), a line search along the fit, and one replay per log left
+out, in the world fitted on the others: unless those lower the held-out error by the gain
+asked, the world's causes are not named (a change that fits the logs it was fitted to but no
+log left out). A confirmed fit gets a second look: the other causes screened again in the
+fitted world, where a cause the first hid may show, and kept on the same terms
+(:mod:`cell.logs.search`). Replays run side by side on every core, or on a Ray cluster
+(:mod:`cell.logs.replays`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from cell.diagnosis.engine.determined import NOT_PREDICTED, determined, determined_each
+from cell.logs.batch import LogBatch
+from cell.logs.causes import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
+from cell.logs.fit import (
+    FORCE_CHANNELS,
+    Rows,
+    Step,
+    forward_selection,
+    heldout,
+    logged_vector,
+    rmse_n,
+    solve,
+)
+from cell.logs.replays import Replayer, ReplayPool
+from cell.logs.search import (
+    OFFSET,
+    Fit,
+    fixed,
+    gauss_newton,
+    heldout_replays,
+    replayed_fit,
+    screening_worlds,
+    second_look,
+    signatures,
+)
+
+
+@dataclass(frozen=True)
+class LogDiagnosisParams:
+    """How the batch diagnosis searches.
+
+    Attributes:
+        workers: replays side by side on this machine (None: one per core); on a cluster
+            (:func:`diagnose_logs`'s ``cluster``), its pool says how many.
+        min_heldout_gain: the share by which a cause must lower the held-out RMSE (linearised
+            in the selection; replayed to confirm the world causes, on the logs fitted and
+            on each log left out).
+        newton_steps: Gauss-Newton steps on the causes selected, a batch replay each.
+        causes: the world causes screened (None: every one that applies).
+
+    Example:
+        >>> LogDiagnosisParams(workers=1).newton_steps
+        2
+    """
+
+    workers: int | None = None
+    min_heldout_gain: float = 0.08
+    newton_steps: int = 2
+    causes: tuple[str, ...] | None = None
+
+
+@dataclass
+class LogDiagnosis:
+    """A batch's diagnosis (:meth:`to_json` gives the contract's keys).
+
+    Attributes:
+        logs: the logs' names.
+        baseline_rmse_n: each log's force RMSE in the lab's world, N.
+        causes: the causes named, most important first.
+        candidates: every cause screened, with its linearised fit.
+        extended: the magnitudes and offsets of the extended world, and its RMSE.
+        heldout_rmse_n: baseline and extended RMSE of the logs left out, N.
+        evidence: per named cause, the held-out RMSE with and without it.
+        steps: the forward selection's steps.
+        simulated: the simulated vectors of the baseline and the extended world.
+        timing: replays, their wall and CPU time, and the fits' (the rest's), s.
+
+    Example:
+        >>> LogDiagnosis(["a", "b"], [2.0, 2.0], [], [], {}, {"baseline": 2.0, "extended": 1.5},
+        ...              {}, [], {}, {}).gain
+        0.25
+    """
+
+    logs: list[str]
+    baseline_rmse_n: list[float]
+    causes: list[str]
+    candidates: list[dict[str, Any]]
+    extended: dict[str, Any]
+    heldout_rmse_n: dict[str, float]
+    evidence: dict[str, dict[str, Any]]
+    steps: list[dict[str, Any]]
+    simulated: dict[str, np.ndarray] = field(repr=False)
+    timing: dict[str, float]
+
+    @property
+    def gain(self) -> float:
+        """``1 - extended / baseline`` held-out RMSE."""
+        base = self.heldout_rmse_n["baseline"]
+        return 1.0 - self.heldout_rmse_n["extended"] / base if base > 0 else 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        """The contract (docs/diagnosis.md) with the logs' evidence; a score the replays do
+        not determine ``null`` with its reason (:mod:`cell.diagnosis.engine.determined`)."""
+        return {"logs": self.logs,
+                "baseline": {"model": "the logs' scenarios as the lab believes them",
+                             "params": {}, **determined("rmse_N", self.baseline_rmse_n),
+                             **_score("heldout_rmse_N", self.heldout_rmse_n["baseline"])},
+                "causes": self.causes,
+                "candidates": [_scored(c) for c in self.candidates],
+                "extended": _scored({**self.extended,
+                                     "heldout_rmse_N": self.heldout_rmse_n["extended"]}),
+                "evidence": {name: determined_each(e, NOT_PREDICTED)
+                             for name, e in self.evidence.items()},
+                "steps": [_scored(s) for s in self.steps],
+                **_score("gain", self.gain), "timing": self.timing}
+
+
+def _score(name: str, value: float) -> dict[str, Any]:
+    """A score of the replays, ``null`` where a replay's residual did not stay finite."""
+    return determined(name, value, NOT_PREDICTED)
+
+
+def _scored(entry: dict[str, Any]) -> dict[str, Any]:
+    """``entry`` with its scores (RMSE, information criterion) through :func:`_score`."""
+    return {**entry, **{key: item for name in ("rmse_N", "heldout_rmse_N", "information")
+                        if name in entry for key, item in _score(name, entry[name]).items()}}
+
+
+def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
+                  cluster: ReplayPool | None = None,
+                  on_replay: Callable[[int], object] | None = None) -> LogDiagnosis:
+    """Diagnose ``batch`` (module docstring), its replays on ``params.workers`` processes
+    here, or on ``cluster`` (an entered :class:`cell.scale.pool.RunPool` on a Ray cluster,
+    whose ``Workers`` then say how many run at a time); ``on_replay`` is called with 1 after
+    each replay (progress).
+
+    Raises:
+        DivergenceError: the lab's own world blew up in a replay.
+        PoolError: a replay on ``cluster`` gave no result (its worker or node died).
+    """
+    params = params or LogDiagnosisParams()
+    measured, rows = logged_vector(batch.logs)
+    names = [c for c in applicable(batch.scenarios[0])
+             if params.causes is None or c in params.causes]
+    workers = params.workers or os.cpu_count() or 1
+    started, cpu_started = time.perf_counter(), time.process_time()
+    jobs = len(batch.logs) * (2 * len(names) + 1)
+    with Replayer(batch, min(workers, jobs), cluster) as replayer:
+        replayer.on_replay = on_replay
+        base, blocks = _screen(replayer, measured, names)
+        residual = measured - base
+        blocks.update({OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})
+        steps = forward_selection(residual, blocks, rows, params.min_heldout_gain,
+                                  frozenset(OFFSET + ch for ch in FORCE_CHANNELS))
+        chosen = [step.added for step in steps[1:]]
+        world = [c for c in chosen if c in CAUSES]
+        offsets = {c: blocks[c] for c in chosen if c.startswith(OFFSET)}
+        start = replayed_fit(measured, base, {}, offsets)
+        fit = _first_fit(replayer, measured, start, blocks, world, offsets, params)
+        without = heldout(residual, offsets, rows, fixed(offsets))
+        left = (heldout_replays(replayer, measured, rows, fit, world, offsets)
+                if fit["confirmed"] else without)
+        second: list[Step] = []
+        if world and (not fit["confirmed"] or rmse_n(left)
+                      > (1.0 - params.min_heldout_gain) * rmse_n(without)):
+            # Only the offsets stand when the world's causes do not lower the error of the logs
+            # they were fitted to, or do but not of each log left out (the change does not
+            # carry from one separation to the next): then they are named as dropped.
+            dropped = ({"causes": world, "heldout_rmse_N": rmse_n(left),
+                        "without_N": rmse_n(without)} if fit["confirmed"] else None)
+            world, left = [], without
+            fit = {**start, "confirmed": False, **({"dropped": dropped} if dropped else {})}
+        elif world:
+            fit, left, second = _second_look(replayer, measured, rows, fit, world, left,
+                                             [c for c in names if c in blocks], offsets, params)
+            added = [step.added for step in second]
+            world, chosen = world + added, chosen + added
+    steps_json = [{"added": s.added, "information": s.information,
+                   "heldout_rmse_N": s.heldout_rmse_n, "round": round_}
+                  for round_, part in ((1, steps), (2, second)) for s in part]
+    causes = world + ([SENSOR_OFFSET] if offsets else [])
+    baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
+    heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
+    offset_fit = {c.removeprefix(OFFSET): _offset_n(offsets[c], rows, fit["offsets"][c])
+                  for c in offsets}
+    extended = {"model": "the logs' scenarios with the causes' changes",
+                "params": {**magnitudes_json(fit["magnitudes"]),
+                           **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
+                "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
+                **{key: fit[key] for key in ("dropped", "second_look") if key in fit}}
+    return LogDiagnosis(
+        [log.name for log in batch.logs], baseline, causes,
+        _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
+        _evidence(residual, blocks, rows, chosen, left),
+        steps_json, {"baseline": base, "extended": fit["simulated"],
+                           "measured": measured},
+        _timing(replayer, started, cpu_started))
+
+
+def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
+               blocks: dict[str, np.ndarray], world: list[str], offsets: dict[str, np.ndarray],
+               params: LogDiagnosisParams) -> Fit:
+    """Gauss-Newton from the lab's world (``start``) on the causes selected, from their
+    screening signatures, and whether its replays beat the lab's world by the gain asked."""
+    if not world:
+        return {**start, "confirmed": False}
+    jacobian = np.concatenate([blocks[c] for c in world], axis=1)
+    fit = gauss_newton(replayer, measured, offsets, start, world, jacobian, params.newton_steps)
+    return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
+            <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}
+
+
+def _second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
+                 world: list[str], left: np.ndarray, names: list[str],
+                 offsets: dict[str, np.ndarray], params: LogDiagnosisParams
+                 ) -> tuple[Fit, np.ndarray, list[Step]]:
+    """:func:`second_look` on a confirmed fit: the fit, the held-out residual and the steps
+    of the causes it adds, kept only where the replays of each log left out confirm them
+    too (else ``fit`` says what was tried)."""
+    selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
+                                             offsets, params.min_heldout_gain,
+                                             params.newton_steps)
+    if not selected:
+        return fit, left, []
+    confirmed = rmse_n(moved["left"]) <= (1.0 - params.min_heldout_gain) * rmse_n(fit["left"])
+    moved_left = (heldout_replays(replayer, measured, rows, moved, world + selected, offsets)
+                  if confirmed else None)
+    kept = moved_left is not None and (
+        rmse_n(moved_left) <= (1.0 - params.min_heldout_gain) * rmse_n(left))
+    tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
+             rmse_n(fit["left"]), **determined(
+                 "heldout_rmse_N", math.nan if moved_left is None else rmse_n(moved_left),
+                 "not replayed: the logs fitted do not confirm the causes"),
+             "without_heldout_rmse_N": rmse_n(left), "kept": kept}
+    if not kept:
+        return {**fit, "second_look": tried}, left, []
+    return {**moved, "confirmed": True, "second_look": tried}, moved_left, selection[1:]
+
+
+def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str, float]:
+    """Where the time went: the replays' and the rest's (the fits', in this process), wall
+    and CPU, s."""
+    wall = time.perf_counter() - started
+    cpu = time.process_time() - cpu_started - (replayer.cpu_s if replayer.in_process else 0.0)
+    return {"replays": replayer.count, "replay_wall_s": replayer.wall_s,
+            "fit_s": wall - replayer.wall_s, "total_s": wall, "replay_cpu_s": replayer.cpu_s,
+            "fit_cpu_s": cpu}
+
+
+def _screen(replayer: Replayer, measured: np.ndarray, names: list[str]
+            ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The baseline's simulated vector and each cause's signature (:func:`signatures`), from
+    one batch replay in the lab's world and one each way of every cause's screening step."""
+    base, *screened = replayer.batches([{}, *screening_worlds(names, {})])
+    if base is None:
+        from cell.errors import DivergenceError
+
+        raise DivergenceError(0.0, "a replay of the lab's own world blew up")
+    blocks = signatures(measured - base, base, names, screened)
+    return base, blocks
+
+
+def _offset_n(column: np.ndarray, rows: Rows, scale: np.ndarray) -> list[float]:
+    """The offset (N, each component) that an offset's column times ``scale`` adds."""
+    first = [int(np.flatnonzero((column[:, 0] != 0) & (rows.axis == k))[0])
+             if ((column[:, 0] != 0) & (rows.axis == k)).any() else None for k in range(3)]
+    return [0.0 if i is None else float(column[i, 0] * scale[0]) for i in first]
+
+
+def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
+                chosen: list[str]) -> list[dict[str, Any]]:
+    """Every block screened, alone: its linearised magnitude and held-out RMSE."""
+    out = []
+    for name, columns in blocks.items():
+        alone = {name: columns}
+        fitted, _ = solve(residual, alone, None, fixed(alone))
+        entry: dict[str, Any] = {"cause": name.split(":")[0],
+                                 "heldout_rmse_N": rmse_n(heldout(residual, alone, rows,
+                                                                  fixed(alone))),
+                                 "selected": name in chosen, "linearised": True}
+        if name.startswith(OFFSET):
+            entry["params"] = {"channel": name.removeprefix(OFFSET),
+                               "offset_N": _offset_n(columns, rows, fitted[name])}
+        else:
+            entry["params"] = magnitudes_json({name: float(fitted[name][0])})[name]
+        out.append(entry)
+    return out
+
+
+def _evidence(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
+              chosen: list[str], left: np.ndarray) -> dict[str, dict[str, Any]]:
+    """Per named block, the held-out RMSE of the logs with the extended world (replayed) and
+    without the block (linearised), and the share of the logs it improves."""
+    out = {}
+    for name in chosen:
+        others = {c: blocks[c] for c in chosen if c != name}
+        without = heldout(residual, others, rows, fixed(others))
+        logs = np.unique(rows.log)
+        better = [rmse_n(left[rows.log == i]) < rmse_n(without[rows.log == i]) for i in logs]
+        out[name] = {"heldout_rmse_N": rmse_n(left), "without_heldout_rmse_N": rmse_n(without),
+                     "logs_improved_share": float(np.mean(better))}
+    return out

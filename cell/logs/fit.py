@@ -1,0 +1,230 @@
+"""The linear algebra of the batch diagnosis of separation logs (MuJoCo-free): the logged
+and simulated force channels of a batch stacked into one vector, the causes' linearised
+signatures as columns beside it, their magnitudes by least squares, a sensor's offset in
+closed form (three constant columns of its channel), and the greedy forward selection with
+an information criterion and the logs left out one at a time.
+
+A log's vector holds its force channels (:data:`FORCE_CHANNELS`, N, each in its sensor's
+frame), every sample's three components, channel after channel; a batch's vector the logs'
+one after another. The residual is the logged minus the simulated vector: the signature of a
+world cause is the change of the simulated vector per unit of its magnitude (one perturbed
+replay), so that a magnitude ``m`` explains ``J m`` of the residual.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from cell.measure.logs import Channel, SeparationLog
+
+#: The force channels compared and fitted (``heldout_rmse_N`` is over these).
+FORCE_CHANNELS = ("knife", "gripper", "fixture")
+
+
+@dataclass(frozen=True)
+class Rows:
+    """Where each sample of a batch's vector lies.
+
+    Attributes:
+        log: (n,) the log's index of each entry.
+        channel: (n,) its channel's index in :data:`FORCE_CHANNELS`.
+        axis: (n,) its component (0, 1, 2).
+        resting: (n,) whether it was sampled before its sensor's tare and the knife's first
+            cut (None: all).
+
+    Example:
+        >>> rows = Rows(np.zeros(6, int), np.array([0, 0, 0, 2, 2, 2]), np.tile([0, 1, 2], 2))
+        >>> rows.offset_columns("fixture")[:, 0].tolist()
+        [0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
+    """
+
+    log: np.ndarray
+    channel: np.ndarray
+    axis: np.ndarray
+    resting: np.ndarray | None = None
+
+    def offset_columns(self, channel: str) -> np.ndarray:
+        """The three columns of a constant offset of ``channel`` (N, its frame)."""
+        index = FORCE_CHANNELS.index(channel)
+        return np.stack([((self.channel == index) & (self.axis == k)).astype(float)
+                         for k in range(3)], axis=1)
+
+    def resting_offset(self, residual: np.ndarray, channel: str) -> np.ndarray:
+        """A constant offset of ``channel`` as one column: the mean residual of each of its
+        components at rest (:attr:`resting`; all samples where none are), where a sensor's
+        offset shows alone ("also at rest": the log cause table) and the replay follows the log
+        closest: a misfit of the cell while it cuts and pulls, or a replay's tare taken in a
+        state a little off the log's, is not taken for one."""
+        columns = self.offset_columns(channel)
+        resting = self.resting if self.resting is not None and self.resting.any() else None
+        fitted, _ = solve(residual, {"offset": columns}, resting)
+        return columns @ fitted["offset"][:, None]
+
+
+def logged_vector(logs: Sequence[SeparationLog]) -> tuple[np.ndarray, Rows]:
+    """The batch's logged force channels as one vector, and where each entry lies."""
+    parts, log_index, channel_index, axis_index, resting = [], [], [], [], []
+    for i, log in enumerate(logs):
+        first_cut = log.cut_windows_s[0][0] if log.cut_windows_s else np.inf
+        for c, name in enumerate(FORCE_CHANNELS):
+            force = log.channels[name].force_n
+            parts.append(force.ravel())
+            log_index.append(np.full(force.size, i))
+            channel_index.append(np.full(force.size, c))
+            axis_index.append(np.tile([0, 1, 2], len(force)))
+            until = min(first_cut, log.sensors.get(f"{name}_tare_s", np.inf))
+            resting.append(np.repeat(log.channels[name].time_s < until, 3))
+    rows = Rows(*(np.concatenate(a) for a in (log_index, channel_index, axis_index, resting)))
+    return np.concatenate(parts), rows
+
+
+def simulated_vector(log: SeparationLog, simulated: dict[str, Channel]) -> np.ndarray:
+    """One log's simulated force channels at its logged times, as :func:`logged_vector`
+    stacks them."""
+    parts = []
+    for name in FORCE_CHANNELS:
+        t, ours = log.channels[name].time_s, simulated[name]
+        parts.append(np.stack([np.interp(t, ours.time_s, ours.force_n[:, k]) for k in range(3)],
+                              axis=1).ravel())
+    return np.concatenate(parts)
+
+
+def rmse_n(residual: np.ndarray) -> float:
+    """The RMSE of the force vectors in ``residual`` (three components a sample), N."""
+    return float(np.sqrt(3.0 * np.mean(residual ** 2))) if residual.size else 0.0
+
+
+def solve(residual: np.ndarray, blocks: dict[str, np.ndarray], mask: np.ndarray | None = None,
+          fixed: frozenset[str] = frozenset()) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The least-squares coefficients of ``blocks`` (name -> columns) on ``residual`` (only
+    the rows of ``mask`` where given), and what is left of the whole residual. The blocks
+    named in ``fixed`` are fitted already (a sensor's offset at rest): they are taken whole,
+    their coefficient 1."""
+    taken = [name for name in blocks if name in fixed]
+    if taken:
+        shifted = residual - sum(blocks[name].sum(axis=1) for name in taken)
+        fitted, left = solve(shifted, {k: v for k, v in blocks.items() if k not in fixed}, mask)
+        return {**fitted, **{name: np.ones(1) for name in taken}}, left
+    if not blocks:
+        return {}, residual.copy()
+    names = list(blocks)
+    design = np.concatenate([blocks[name] for name in names], axis=1)
+    rows = slice(None) if mask is None else mask
+    scale = np.linalg.norm(design[rows], axis=0)
+    scale[scale == 0.0] = 1.0
+    coefficients = np.linalg.lstsq(design[rows] / scale, residual[rows], rcond=None)[0] / scale
+    split = np.cumsum([blocks[name].shape[1] for name in names])[:-1]
+    fitted = dict(zip(names, np.split(coefficients, split), strict=True))
+    return fitted, residual - design @ coefficients
+
+
+def signature(residual: np.ndarray, sides: Sequence[tuple[float, np.ndarray | None]]
+              ) -> np.ndarray | None:
+    """A cause's signature (one column) from its screening replays ``sides`` (the magnitude
+    and the change of the simulated vector it gave; None where the replay blew up): of the
+    secants, the one that explains ``residual`` best with a magnitude on its own side. A
+    cause may act otherwise one way than the other (softer muscles tear bindings that
+    stiffer ones do not), or alike both ways (the fibres turned either way)."""
+    best, best_left = None, np.inf
+    for step, change in sides:
+        if change is None:
+            continue
+        column = (change / step)[:, None]
+        fitted, left = solve(residual, {"cause": column})
+        consistent = fitted["cause"][0] * step >= 0.0
+        score = float(left @ left) if consistent else np.inf
+        if best is None or score < best_left:
+            best, best_left = column, score
+    return best
+
+
+def heldout(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
+            fixed: frozenset[str] = frozenset()) -> np.ndarray:
+    """Leave one log out: each log's residual after the blocks fitted on the other logs
+    (``fixed`` ones as in :func:`solve`)."""
+    left = np.empty_like(residual)
+    for i in np.unique(rows.log):
+        mine = rows.log == i
+        rest = solve(residual, blocks, ~mine, fixed)[1] if blocks else residual
+        left[mine] = rest[mine]
+    return left
+
+
+def decorrelation_rows(residual: np.ndarray, rows: Rows) -> int:
+    """How many samples apart a residual's series forget each other (the median over the
+    logs' channel components of the first lag where the autocorrelation falls below 1/e):
+    the information criterion counts one sample per such stretch."""
+    lags = []
+    for i in np.unique(rows.log):
+        for c in range(len(FORCE_CHANNELS)):
+            for k in range(3):
+                series = residual[(rows.log == i) & (rows.channel == c) & (rows.axis == k)]
+                series = series - series.mean()
+                if series.size < 4 or not series.any():
+                    continue
+                full = np.correlate(series, series, "full")[series.size - 1:]
+                below = np.flatnonzero(full / full[0] < np.exp(-1.0))
+                lags.append(int(below[0]) if below.size else series.size)
+    return max(1, int(np.median(lags))) if lags else 1
+
+
+def information(residual: np.ndarray, parameters: int, stretch: int) -> float:
+    """The Bayesian information criterion of a residual with ``parameters`` fitted, on one
+    sample per ``stretch`` (:func:`decorrelation_rows`)."""
+    n = max(residual.size / stretch, 2.0)
+    return float(n * np.log(max(np.mean(residual ** 2), 1e-300)) + parameters * np.log(n))
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of the forward selection: the block added, and the criterion and the held-out
+    RMSE (N, linearised) with it.
+
+    Example:
+        >>> Step("binding_strength", -120.0, 0.9).added
+        'binding_strength'
+    """
+
+    added: str
+    information: float
+    heldout_rmse_n: float
+
+
+def forward_selection(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
+                      min_heldout_gain: float, fixed: frozenset[str] = frozenset()
+                      ) -> list[Step]:
+    """Add, one at a time, the block that lowers the linearised held-out error most, as long
+    as the information criterion falls and the held-out RMSE falls by ``min_heldout_gain``
+    (a share) of the current one (``fixed`` blocks as in :func:`solve`, three parameters
+    each). The first step is the start: ``added`` is ""."""
+    stretch = decorrelation_rows(residual, rows)
+    chosen: dict[str, np.ndarray] = {}
+    steps = [Step("", information(residual, 0, stretch), rmse_n(heldout(residual, {}, rows)))]
+    while len(chosen) < len(blocks):
+        trials = []
+        for name in blocks.keys() - chosen.keys():
+            trial = {**chosen, name: blocks[name]}
+            _, left = solve(residual, trial, None, fixed)
+            size = sum(3 if b in fixed else trial[b].shape[1] for b in trial)
+            trials.append(Step(name, information(left, size, stretch),
+                               rmse_n(heldout(residual, trial, rows, fixed))))
+        best = min(trials, key=lambda step: step.heldout_rmse_n)
+        last = steps[-1]
+        if (best.information >= last.information
+                or best.heldout_rmse_n > (1.0 - min_heldout_gain) * last.heldout_rmse_n):
+            break
+        chosen[best.added] = blocks[best.added]
+        steps.append(best)
+    return steps
+
+
+def broyden(jacobian: np.ndarray, step: np.ndarray, change: np.ndarray) -> np.ndarray:
+    """The signatures (columns) updated so that they explain the simulated vector's
+    ``change`` over the magnitudes' ``step`` (Broyden's rank-one update)."""
+    norm = float(step @ step)
+    if norm == 0.0:
+        return jacobian
+    return jacobian + np.outer(change - jacobian @ step, step) / norm

@@ -1,0 +1,175 @@
+"""Where a batch diagnosis's replays run (docs/logs.md): side by side on worker processes of
+this machine, each reading its log from the log's folder, or on a Ray cluster
+(``diagnose-logs --address``), whose nodes need not share this machine's disk: the batch,
+read once here, goes to the cluster's object store once, and each replay reads it there.
+
+The pool that reaches a cluster is :class:`cell.scale.pool.RunPool` (the sweeps'); this
+layer only names what it needs of it (:class:`ReplayPool`).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
+from types import TracebackType
+from typing import Any, Protocol
+
+import numpy as np
+
+from cell.errors import DivergenceError, PoolError
+from cell.logs.batch import LogBatch, log_scenario
+from cell.logs.causes import changed_world, episode_adjustment
+from cell.logs.fit import simulated_vector
+from cell.measure.logs import SeparationLog, read_log
+from cell.sim.scenario import Scenario
+
+#: A world as a task carries it: the causes' magnitudes, sorted by cause.
+Magnitudes = tuple[tuple[str, float], ...]
+
+
+class ReplayPool(Protocol):
+    """What the replays need of a pool on a Ray cluster: :class:`cell.scale.pool.RunPool`,
+    entered (its ``share`` and ``play``)."""
+
+    def share(self, value: Any) -> Any:
+        """``value`` sent once, for every task to read."""
+
+    def play(self, function: Callable[..., Any], tasks: Sequence[Any], names: Sequence[str],
+             shared: Any = None) -> Iterator[tuple[int, Any, str]]:
+        """``function(shared value, task)`` on each task: ``(position, result, error)``."""
+
+
+def _replayed(log: SeparationLog, scenario: Scenario, magnitudes: dict[str, float],
+              started: float) -> tuple[np.ndarray | None, float]:
+    """``log`` replayed in ``scenario`` changed by ``magnitudes``: its simulated vector (None
+    where the physics blew up) and the CPU time since ``started`` (``time.process_time``), s."""
+    from cell.logs.replay import replay
+
+    world = changed_world(scenario, magnitudes)
+    try:
+        result = replay(log, world, episode_adjustment(magnitudes))
+    except DivergenceError:
+        return None, time.process_time() - started
+    return simulated_vector(log, result.simulated), time.process_time() - started
+
+
+def _replay_task(task: tuple[str, Magnitudes]) -> tuple[np.ndarray | None, float]:
+    """One replay in a worker process here: the log in the folder ``task[0]`` in the world of
+    the magnitudes ``task[1]`` (:func:`_replayed`)."""
+    started = time.process_time()
+    log = read_log(task[0])
+    return _replayed(log, log_scenario(log), dict(task[1]), started)
+
+
+def _replay_shipped(batch: LogBatch, task: tuple[int, Magnitudes]
+                    ) -> tuple[np.ndarray | None, float]:
+    """One replay on a cluster: log ``task[0]`` of ``batch`` (shipped from the driver) with its
+    scenario, in the world of the magnitudes ``task[1]`` (:func:`_replayed`)."""
+    started = time.process_time()
+    index, magnitudes = task
+    return _replayed(batch.logs[index], batch.scenarios[index], dict(magnitudes), started)
+
+
+def _one_thread() -> None:
+    # Replays run side by side, a core each: numeric libraries' own threads only compete.
+    os.environ["OMP_NUM_THREADS"] = "1"
+
+
+class Replayer:
+    """Replays a batch's logs in changed worlds, side by side on ``workers`` processes (one:
+    in this process) or, given ``cluster``, on that pool's Ray cluster; counting them, their
+    wall time and their CPU time (the workers').
+
+    Example:
+        >>> Replayer(LogBatch((), ()), 1).count
+        0
+    """
+
+    def __init__(self, batch: LogBatch, workers: int, cluster: ReplayPool | None = None
+                 ) -> None:
+        self.batch = batch
+        self.folders = [str(log.folder) for log in batch.logs]
+        self.count, self.wall_s, self.cpu_s = 0, 0.0, 0.0
+        #: Called with 1 after each replay (a progress bar's ``update``), or None.
+        self.on_replay: Callable[[int], object] | None = None
+        self._cluster = cluster
+        self._shipped: Any = None
+        self._pool = (ProcessPoolExecutor(workers, mp_context=get_context("spawn"),
+                                          initializer=_one_thread)
+                      if workers > 1 and cluster is None else None)
+
+    def __enter__(self) -> Replayer:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 trace: TracebackType | None) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+
+    def run(self, jobs: Sequence[tuple[int, dict[str, float]]]) -> list[np.ndarray | None]:
+        """The simulated vectors of ``jobs`` (a log's index and the world's magnitudes).
+
+        Raises:
+            PoolError: on a cluster, a replay that came back without a result (its worker or
+                node died, or it failed otherwise).
+        """
+        if self._cluster is not None:
+            return self._on_cluster(self._cluster, jobs)
+        tasks = [(self.folders[i], tuple(sorted(m.items()))) for i, m in jobs]
+        started = time.perf_counter()
+        mapped = (self._pool.map(_replay_task, tasks) if self._pool is not None
+                  else map(_replay_task, tasks))
+        results = []
+        for result in mapped:
+            results.append(result)
+            self._replayed()
+        return self._counted(results, started)
+
+    def _replayed(self) -> None:
+        if self.on_replay is not None:
+            self.on_replay(1)
+
+    def _on_cluster(self, cluster: ReplayPool, jobs: Sequence[tuple[int, dict[str, float]]]
+                    ) -> list[np.ndarray | None]:
+        """:meth:`run` on ``cluster``; sending it the batch counts as replay time."""
+        started = time.perf_counter()
+        if self._shipped is None:
+            self._shipped = cluster.share(self.batch)
+        tasks = [(i, tuple(sorted(m.items()))) for i, m in jobs]
+        names = [f"replay-{self.count + k}-{self.batch.logs[i].name}"
+                 for k, (i, _) in enumerate(jobs)]
+        results: list[Any] = [None] * len(tasks)
+        for position, result, error in cluster.play(_replay_shipped, tasks, names,
+                                                    shared=self._shipped):
+            if error:
+                raise PoolError(None, "--address", f"{names[position]} gave no result: {error}")
+            results[position] = result
+            self._replayed()
+        return self._counted(results, started)
+
+    def _counted(self, results: list[tuple[np.ndarray | None, float]], started: float
+                 ) -> list[np.ndarray | None]:
+        """The vectors of ``results``, counted with their wall time since ``started`` and their
+        CPU time."""
+        self.count += len(results)
+        self.wall_s += time.perf_counter() - started
+        self.cpu_s += sum(cpu for _, cpu in results)
+        return [vector for vector, _ in results]
+
+    @property
+    def in_process(self) -> bool:
+        """Whether the replays run in this process (their CPU time is then this process's)."""
+        return self._pool is None and self._cluster is None
+
+    def batches(self, worlds: Sequence[dict[str, float]]) -> list[np.ndarray | None]:
+        """Each world's simulated batch vector (every log replayed; None: one blew up)."""
+        logs = range(len(self.folders))
+        flat = self.run([(i, world) for world in worlds for i in logs])
+        out = []
+        for k in range(len(worlds)):
+            parts = flat[k * len(logs):(k + 1) * len(logs)]
+            out.append(None if any(p is None for p in parts) else np.concatenate(parts))
+        return out

@@ -1,0 +1,184 @@
+"""The replayed search of the log diagnosis (:mod:`cell.logs.diagnosis`): Gauss-Newton on
+world causes' magnitudes, each step confirmed by replaying the batch, a line search along the
+fit, a second look for the causes the first fit hid, and the replays of each log left out.
+
+A fit is a dict: ``magnitudes`` (cause -> magnitude), ``simulated`` (the batch's replayed
+vector there), ``offsets`` (the sensors' offsets fitted on it, closed form), ``left`` (what is
+left of the logged vector, N) and, once a Gauss-Newton step was replayed, ``jacobian`` (the
+causes' signatures at the fit, Broyden-updated).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from cell.logs.causes import CAUSES, SENSOR_OFFSET
+from cell.logs.fit import Rows, Step, broyden, forward_selection, rmse_n, signature, solve
+from cell.logs.replays import Replayer
+
+#: The largest magnitude a Gauss-Newton step may reach (a factor of about 4.5, or 86 deg):
+#: beyond it the cell is another cell, and its physics may not hold.
+MAX_MAGNITUDE = 1.5
+#: The line search's factor on the fitted magnitudes (:func:`stretch`) and its most replays
+#: (each search's).
+STRETCH = 1.3
+STRETCH_REPLAYS = 3
+OFFSET = SENSOR_OFFSET + ":"
+
+Fit = dict[str, Any]
+
+
+def fixed(blocks: dict[str, np.ndarray]) -> frozenset[str]:
+    """The offsets among ``blocks``: fitted at rest, taken whole."""
+    return frozenset(name for name in blocks if name.startswith(OFFSET))
+
+
+#: The sides of a screening: its step one way and the other.
+_SIDES = (1.0, -1.0)
+
+
+def screening_worlds(names: list[str], at: dict[str, float]) -> list[dict[str, float]]:
+    """The worlds that screen each of ``names`` (not in ``at``) beside the magnitudes ``at``:
+    its screening step one way, then the other."""
+    return [{**at, c: side * CAUSES[c].step} for c in names for side in _SIDES]
+
+
+def signatures(residual: np.ndarray, reference: np.ndarray, names: list[str],
+               replayed: list[np.ndarray | None]) -> dict[str, np.ndarray]:
+    """Each of ``names``' signature (:func:`signature` on ``residual``) from the replays of
+    its :func:`screening_worlds`, their changes taken against the ``reference`` replay; a
+    cause whose replays both blew up has none."""
+    blocks: dict[str, np.ndarray] = {}
+    for k, c in enumerate(names):
+        sides = [(side * CAUSES[c].step, None if vector is None else vector - reference)
+                 for side, vector in zip(_SIDES, replayed[2 * k:2 * k + 2], strict=True)]
+        column = signature(residual, sides)
+        if column is not None:
+            blocks[c] = column
+    return blocks
+
+
+def replayed_fit(measured: np.ndarray, simulated: np.ndarray, magnitudes: dict[str, float],
+                 offsets: dict[str, np.ndarray]) -> Fit:
+    """The fit of a replayed world: its sensors' offsets and what is left."""
+    fitted, left = solve(measured - simulated, offsets, None, fixed(offsets))
+    return {"magnitudes": magnitudes, "simulated": simulated, "left": left, "offsets": fitted}
+
+
+def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+                 start: Fit, world: list[str], jacobian: np.ndarray, steps: int) -> Fit:
+    """Gauss-Newton on ``world``'s magnitudes from ``start`` (a cause it lacks at 0), with
+    ``jacobian``'s columns as their signatures there, each step replayed, then
+    :func:`stretch`: the best replayed fit, ``start`` itself where none beats it."""
+    best = start
+    magnitudes = np.array([start["magnitudes"].get(c, 0.0) for c in world])
+    simulated = start["simulated"]
+    for _ in range(steps + 1):
+        fitted, _ = solve(measured - simulated, {"world": jacobian, **offsets}, None,
+                          fixed(offsets))
+        target = np.clip(magnitudes + fitted["world"], -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        at = dict(zip(world, target.tolist(), strict=True))
+        (replayed,) = replayer.batches([at])
+        if replayed is None:
+            break
+        jacobian = broyden(jacobian, target - magnitudes, replayed - simulated)
+        magnitudes, simulated = target, replayed
+        trial = replayed_fit(measured, simulated, at, offsets)
+        if rmse_n(trial["left"]) < rmse_n(best["left"]):
+            best = {**trial, "jacobian": jacobian}
+    return stretch(replayer, measured, offsets, world, best) if best is not start else start
+
+
+def stretch(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+            world: list[str], best: Fit) -> Fit:
+    """A line search along the lab's world to the best fit (:func:`_line_search` on every
+    magnitude at once), then, where the world has more than one cause, on each cause's
+    magnitude alone: a cause's response flattens as it grows (a turned fibre, a stiffer
+    muscle), so signatures taken at the screening step and Gauss-Newton on them stop short
+    of a strong cause, and causes beside one another stop short by different shares."""
+    best = _line_search(replayer, measured, offsets, world, best, np.ones(len(world), bool))
+    if len(world) > 1:
+        for alone in np.eye(len(world), dtype=bool):
+            best = _line_search(replayer, measured, offsets, world, best, alone)
+    return best
+
+
+def _line_search(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+                 world: list[str], best: Fit, scaled: np.ndarray) -> Fit:
+    """The magnitudes of ``best`` where ``scaled`` is true times :data:`STRETCH` while that
+    lowers the replayed error, or once by its inverse where the first stretch does not; the
+    signatures follow each better point (Broyden)."""
+    start = np.array([best["magnitudes"][c] for c in world])
+    scale, factor = 1.0, STRETCH
+    for _ in range(STRETCH_REPLAYS):
+        trial = np.clip(np.where(scaled, start * scale * factor, start),
+                        -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        at = dict(zip(world, trial.tolist(), strict=True))
+        (replayed,) = replayer.batches([at])
+        better = False
+        if replayed is not None:
+            moved = replayed_fit(measured, replayed, at, offsets)
+            if rmse_n(moved["left"]) < rmse_n(best["left"]):
+                previous = np.array([best["magnitudes"][c] for c in world])
+                moved["jacobian"] = broyden(best["jacobian"], trial - previous,
+                                            replayed - best["simulated"])
+                best, scale, better = moved, scale * factor, True
+        if not better:
+            if factor < 1.0 or scale != 1.0:
+                break
+            factor = 1.0 / STRETCH
+    return best
+
+
+def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
+                world: list[str], names: list[str], offsets: dict[str, np.ndarray],
+                min_heldout_gain: float, steps: int) -> tuple[list[str], Fit, list[Step]]:
+    """The causes a first fit hid: each of ``names`` not in ``world`` screened again in the
+    fitted world (its signature there, one replay each way), the forward selection on what
+    the fit leaves (of both, the part the fitted causes' signatures cannot take), and
+    Gauss-Newton on ``world`` with those it adds. A cause may show only beside another (a
+    binding's tearing under stiffer muscles, a gradient under a stronger seam). Returns the
+    causes selected, the best replayed fit with them (``fit`` where none was selected or
+    none beat it) and the selection's steps."""
+    others = [c for c in names if c not in world]
+    replayed = replayer.batches(screening_worlds(others, fit["magnitudes"]))
+    blocks = signatures(fit["left"], fit["simulated"], others, replayed)
+    basis = np.linalg.qr(fit["jacobian"])[0]
+
+    def beside(vector: np.ndarray) -> np.ndarray:
+        return vector - basis @ (basis.T @ vector)
+
+    selection = forward_selection(beside(fit["left"]),
+                                  {c: beside(column) for c, column in blocks.items()},
+                                  rows, min_heldout_gain)
+    added = [step.added for step in selection[1:]]
+    if not added:
+        return [], fit, selection
+    union = world + added
+    jacobian = np.concatenate([fit["jacobian"]] + [blocks[c] for c in added], axis=1)
+    return added, gauss_newton(replayer, measured, offsets, fit, union, jacobian, steps), selection
+
+
+def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
+                    world: list[str], offsets: dict[str, np.ndarray]) -> np.ndarray:
+    """Each log's residual in the world of ``world``'s causes fitted on the other logs (a
+    Gauss-Newton step from the batch's fit on their rows), replayed."""
+    residual = measured - fit["simulated"]
+    left = np.empty_like(measured)
+    jobs, fits = [], []
+    for i in range(len(replayer.folders)):
+        others = rows.log != i
+        fitted, _ = solve(residual, {"world": fit["jacobian"], **offsets}, others,
+                          fixed(offsets))
+        moved = np.clip(np.array([fit["magnitudes"][c] for c in world]) + fitted["world"],
+                        -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        jobs.append((i, dict(zip(world, moved.tolist(), strict=True))))
+        fits.append(fitted)
+    for i, (vector, fitted) in enumerate(zip(replayer.run(jobs), fits, strict=True)):
+        mine = rows.log == i
+        simulated = fit["simulated"][mine] if vector is None else vector
+        correction = sum((offsets[c] @ fitted[c] for c in offsets), np.zeros(measured.size))
+        left[mine] = measured[mine] - simulated - correction[mine]
+    return left

@@ -1,0 +1,203 @@
+"""Hidden-effect log batches: separations of one batch of meat, run by the cell in a world
+with hidden changes and written as separation logs (:mod:`cell.sim.episodelog`), the truth
+returned and never written.
+
+A batch is a folder with the lab's material file (``material.toml``) and :data:`LOG_COUNT`
+logs (``log-1``, ...), each with the scenario the lab believes (the base scenario with that
+log's meat shape, naming ``../material.toml``). Each log's meat shape is drawn about the
+base's (length, round's width and height, the interface's bow); its episode has a seed of
+its own, so its sensors' noise differs. The world the cell runs differs from the belief by
+the hidden causes of the log cause table (docs/logs.md), with drawn
+magnitudes, the same for every log of the batch:
+
+=====================  ===========================================================================
+``binding_strength``   the seam's toughness and the bindings' stiffness times a factor
+``binding_gradient``   the seam's toughness graded along the interface: the factor is the ratio
+                       of its two ends
+``tearing_threshold``  the bindings' tearing stretch times a factor
+``tissue_stiffness``   every modulus curve of the material times a factor
+``fibre_direction``    the fibres turned about the vertical by an angle
+``blade_friction``     the material's face friction times a factor (a cutting cause)
+``sensor_offset``      a constant force added to one channel (knife, gripper or fixture)
+=====================  ===========================================================================
+
+The world's changes are those the batch diagnosis fits (:mod:`cell.logs.causes`), so that
+a fitted magnitude compares with the truth.
+
+The files say that the batch is synthetic and hold nothing of the truth (compare
+:mod:`cell.synthetic.cut` for cut sets).
+
+Example:
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp()) / "batch"
+    >>> truth = write_hidden_log_batch(folder, seed=1, base="scenarios/quick.toml",
+    ...                                causes=("tissue_stiffness",), logs=1, end_s=0.04)
+    >>> truth.causes, sorted(p.name for p in (folder / "log-1").iterdir())[:3]
+    (('tissue_stiffness',), ['fixture.csv', 'gripper.csv', 'knife.csv'])
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cell.config import read_toml
+from cell.errors import LogError
+from cell.logs.causes import SENSOR_OFFSET, applicable, changed_world, episode_adjustment
+from cell.outputs import write_atomic
+from cell.sim.episodelog import LoggedEpisode, write_log
+from cell.sim.scenario import Scenario, load_scenario
+from cell.sim.scenariotoml import resolved_tables, tables_toml
+from cell.tissue.material import MassSpringMaterial
+from cell.tissue.materialfile import material_to_toml
+
+#: The causes this generator can hide: the log cause table's and ``blade_friction``.
+LOG_CAUSES = ("binding_strength", "binding_gradient", "tearing_threshold", "tissue_stiffness",
+              "fibre_direction", "blade_friction", SENSOR_OFFSET)
+#: Logs per batch.
+LOG_COUNT = 3
+#: The meat shape's drawn keys and the range of their factor on the base's value.
+SHAPE_FACTORS = {"length_m": (0.85, 1.15), "round_width_m": (0.9, 1.1),
+                 "round_height_m": (0.9, 1.1), "interface_bow_m": (0.5, 1.5)}
+_HEADER = ("Synthetic separation log (musclecell, cell/synthetic/logs.py): the cell as the lab "
+           "believes it,\nthis log's meat shape; a world with hidden changes ran it.")
+
+
+@dataclass(frozen=True)
+class LogBatchTruth:
+    """The answer key of one hidden-effect log batch (never written into the batch).
+
+    Attributes:
+        causes: the hidden causes, in :data:`LOG_CAUSES`' order (none: the belief's world).
+        seed: the seed everything was drawn from.
+        magnitudes: each hidden cause's drawn magnitude: a factor (``binding_strength``,
+            ``binding_gradient``, ``tearing_threshold``, ``tissue_stiffness``,
+            ``blade_friction``), an angle in rad (``fibre_direction``), or the offset
+            channel's force, N (``sensor_offset``).
+        offset_channel: the channel ``sensor_offset`` changes ("" without it).
+        shapes: each log's drawn meat shape (the keys of :data:`SHAPE_FACTORS`, m).
+        wall_s: wall-clock time of the batch's episodes, s.
+    """
+
+    causes: tuple[str, ...]
+    seed: int
+    magnitudes: dict[str, Any]
+    offset_channel: str
+    shapes: tuple[dict[str, float], ...]
+    wall_s: float
+
+    def to_json(self) -> str:
+        """The truth as JSON text, to be kept apart from the batch."""
+        return json.dumps(self.__dict__, indent=2, default=list) + "\n"
+
+
+def _draw_world(seed: int) -> tuple[dict[str, Any], str, np.random.Generator]:
+    """Every cause's magnitude (drawn whether hidden or not, so that the other draws do not
+    depend on which are hidden): factors away from 1, an angle, an offset; and the stream
+    the shapes and seeds are drawn from next. ``binding_gradient`` and ``blade_friction``
+    draw from a stream of their own, so that a seed's batches of the other causes are those
+    the generator made before it had them."""
+    rng, later = np.random.default_rng(seed), np.random.default_rng([seed, 1])
+
+    def factor(low: float, high: float, stream: np.random.Generator = rng) -> float:
+        return float(np.exp(stream.choice([-1.0, 1.0])
+                            * stream.uniform(np.log(low), np.log(high))))
+
+    magnitudes = {"binding_strength": factor(1.3, 2.0), "tearing_threshold": factor(1.3, 2.0),
+                  "tissue_stiffness": factor(1.25, 1.6),
+                  "fibre_direction": float(rng.choice([-1.0, 1.0])
+                                           * np.radians(rng.uniform(20.0, 60.0)))}
+    offset = rng.normal(0.0, 1.0, 3)
+    offset *= rng.uniform(0.5, 2.0) / np.linalg.norm(offset)
+    magnitudes[SENSOR_OFFSET] = tuple(float(v) for v in offset)
+    channel = str(rng.choice(["knife", "gripper", "fixture"]))
+    magnitudes["binding_gradient"] = factor(1.6, 2.5, later)
+    magnitudes["blade_friction"] = factor(1.5, 2.5, later)
+    return magnitudes, channel, rng
+
+
+def _world_changes(causes: Sequence[str], magnitudes: dict[str, Any]) -> dict[str, float]:
+    """The hidden world causes as :func:`~cell.logs.causes.changed_world` takes them: the
+    log of a factor, an angle."""
+    return {cause: (magnitudes[cause] if cause == "fibre_direction"
+                    else float(np.log(magnitudes[cause])))
+            for cause in causes if cause != SENSOR_OFFSET}
+
+
+def _check(causes: Sequence[str], scenario: Scenario, logs: int) -> tuple[str, ...]:
+    unknown = [c for c in causes if c not in LOG_CAUSES]
+    if unknown or len(set(causes)) != len(causes):
+        raise LogError(None, "causes", f"must be distinct causes of {LOG_CAUSES}, got "
+                       f"{list(causes)}")
+    if not isinstance(scenario.material, MassSpringMaterial):
+        raise LogError(None, "material", "the generator writes mass-spring materials only")
+    idle = [c for c in causes if c != SENSOR_OFFSET and c not in applicable(scenario)]
+    if idle:
+        raise LogError(None, "causes", f"{idle[0]} changes nothing in this scenario's world")
+    if logs < 1:
+        raise LogError(None, "logs", f"must be >= 1, got {logs}")
+    return tuple(c for c in LOG_CAUSES if c in causes)
+
+
+def write_hidden_log_batch(folder: Path, seed: int, base: str | Path,
+                           causes: Sequence[str] = (), logs: int = LOG_COUNT,
+                           end_s: float | None = None) -> LogBatchTruth:
+    """Draw a batch from ``seed`` on the ``base`` scenario with ``causes`` hidden in it, run
+    its episodes, write it into ``folder`` (created) and return its truth. ``end_s`` cuts
+    every episode short (tests).
+
+    Raises:
+        LogError: unknown or repeated causes, a cause that changes nothing in the base's
+            world, a material that is not mass-spring.
+        ScenarioError: the base scenario cannot be read.
+    """
+    folder, base = Path(folder), Path(base)
+    scenario = load_scenario(base)
+    causes = _check(causes, scenario, logs)
+    magnitudes, offset_channel, rng = _draw_world(seed)
+    changes = _world_changes(causes, magnitudes)
+    raw = resolved_tables(read_toml(base), scenario)
+    folder.mkdir(parents=True, exist_ok=True)
+    write_atomic(folder / "material.toml", material_to_toml(scenario.material, _HEADER))
+    shapes, wall_start = [], time.perf_counter()
+    for k in range(1, logs + 1):
+        shape = {key: float(getattr(scenario.tissue, key) * rng.uniform(low, high))
+                 for key, (low, high) in SHAPE_FACTORS.items()}
+        log_seed = int(rng.integers(0, 2**31))
+        belief = replace(scenario, name=f"{scenario.name}-{k}", seed=log_seed, end_s=end_s,
+                         tissue=replace(scenario.tissue, **shape))
+        path = folder / f"log-{k}" / "scenario.toml"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(path, _scenario_toml(raw, belief, shape))
+        episode = LoggedEpisode(changed_world(belief, changes))
+        adjust = episode_adjustment(changes)
+        if adjust is not None:
+            adjust(episode)
+        episode.run()
+        offset = ({offset_channel: np.asarray(magnitudes[SENSOR_OFFSET])}
+                  if SENSOR_OFFSET in causes else {})
+        write_log(path.parent, episode, path, offset)
+        shapes.append(shape)
+    hidden = {cause: magnitudes[cause] for cause in causes}
+    return LogBatchTruth(causes, seed, hidden,
+                         offset_channel if SENSOR_OFFSET in causes else "", tuple(shapes),
+                         time.perf_counter() - wall_start)
+
+
+def _scenario_toml(raw: dict[str, Any], belief: Scenario, shape: dict[str, float]) -> str:
+    """The base scenario's tables with this log's name, seed, end and shape, naming the
+    batch's material file."""
+    tables = {**raw, "scenario": {**raw.get("scenario", {}), "name": belief.name,
+                                  "seed": belief.seed},
+              "tissue": {**raw.get("tissue", {}), **shape},
+              "material": {"file": "../material.toml"}}
+    if belief.end_s is not None:
+        tables["scenario"]["end_s"] = belief.end_s
+    return tables_toml(tables, _HEADER)
