@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cell.diagnosis.engine.statistics import bic
 from cell.measure.logs import Channel, SeparationLog
 
 #: The force channels compared and fitted (``heldout_rmse_N`` is over these).
@@ -175,7 +176,7 @@ def information(residual: np.ndarray, parameters: int, stretch: int) -> float:
     """The Bayesian information criterion of a residual with ``parameters`` fitted, on one
     sample per ``stretch`` (:func:`decorrelation_rows`)."""
     n = max(residual.size / stretch, 2.0)
-    return float(n * np.log(max(np.mean(residual ** 2), 1e-300)) + parameters * np.log(n))
+    return bic(float(np.mean(residual ** 2)) * n, n, parameters)
 
 
 @dataclass(frozen=True)

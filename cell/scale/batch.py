@@ -19,9 +19,9 @@ from pathlib import Path
 from typing import Any
 
 from cell.diagnosis.engine.determined import finite_or_none, shown
+from cell.diagnosis.engine.outcome import SearchOutcome
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.sets import SetDiagnosis, diagnose_set
-from cell.diagnosis.specimen.diagnosis import SearchOutcome
 from cell.errors import InputError, MaterialError
 from cell.io import read_bytes
 from cell.measure.specimens import SPECIMEN_FILE, TESTS_FILE, MeasurementSet, load_measurement_set

@@ -26,14 +26,13 @@ from scipy.optimize import least_squares, lsq_linear
 from cell.diagnosis.cut.causes import CutCandidate, flat, linear_columns
 from cell.diagnosis.cut.reduced import CutKinematics
 from cell.diagnosis.engine.determined import estimates_json
+from cell.diagnosis.engine.statistics import Z95, bic
 from cell.diagnosis.specimen.fitting import HeldOutScores, one_step_held_out
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CuttingParams, edge_force
 
 # Relative tolerance of a fit: as the uniaxial fits'.
 _TOLERANCE = 1e-5
-# The normal distribution's two-sided 95 % quantile.
-_Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True, eq=False)
@@ -306,7 +305,7 @@ def fit_cut(problem: CutProblem, model: CutCandidate, start: np.ndarray,
                   _ci95(problem, model, shape, linear, rss, count),
                   rmse_n=math.sqrt(rss / count),
                   heldout_rmse_n=float(np.sqrt(np.mean(errors**2))),
-                  bic=count * math.log(max(rss / count, 1e-300)) + parameters * math.log(count),
+                  bic=bic(rss, count, parameters),
                   fitted_force_n=tuple(fitted), heldout_force_n=tuple(heldout))
 
 
@@ -332,7 +331,7 @@ def _ci95(problem: CutProblem, model: CutCandidate, shape: np.ndarray, linear: n
     normal = jacobian.T @ jacobian
     variance = rss / max(count - len(values), 1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        half = _Z95 * np.sqrt(np.diag(np.linalg.pinv(normal)) * variance)
+        half = Z95 * np.sqrt(np.diag(np.linalg.pinv(normal)) * variance)
     half = np.where(np.isfinite(half) & (np.diag(normal) > 0), half, np.nan)
     return np.stack([values - half, values + half], axis=1)
 

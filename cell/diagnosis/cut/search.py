@@ -5,7 +5,7 @@ The search is the uniaxial diagnosis's own (:func:`cell.diagnosis.engine.search.
 look-ahead, backward drops and second start, and :func:`cell.diagnosis.engine.acceptance.accepts`
 judging each cause) walking the cut catalogue: :class:`CutSearch` fits the models it asks for
 on the reduced model of a cut (:mod:`cell.diagnosis.cut.fitting`). The noise is the uniaxial
-estimate (:func:`cell.diagnosis.specimen.diagnosis.force_noise_n`) over each force channel.
+estimate (:func:`cell.diagnosis.engine.outcome.force_noise_n`) over each force channel.
 
 A depth where the toughness steps (``layered_toughness``) gives a fit no gradient to follow
 between samples: the boundary is put where it fits best among every depth between two that
@@ -37,10 +37,10 @@ from cell.diagnosis.cut.causes import (
 from cell.diagnosis.cut.fitting import CutFit, CutProblem, best_layer_depth, fit_cut, refine
 from cell.diagnosis.cut.residuals import ResidualTrend, cut_residual_trends
 from cell.diagnosis.engine.acceptance import improved_fraction
+from cell.diagnosis.engine.outcome import Evidence, SearchOutcome, force_noise_n
 from cell.diagnosis.engine.search import Swap, forward, second_start, unexplained
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.specimen.causes import UNEXPLAINED
-from cell.diagnosis.specimen.diagnosis import Evidence, SearchOutcome, force_noise_n
 from cell.measure.cuts import Blade, Block, CutTest
 
 

@@ -35,6 +35,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cell.diagnosis.engine.determined import NOT_PREDICTED, determined, determined_each
+from cell.diagnosis.engine.statistics import Z95, bic
 from cell.diagnosis.specimen.causes import CandidateMaterial
 from cell.diagnosis.specimen.solve import SpecimenLattice, simulate_tests
 from cell.errors import DivergenceError, MaterialError
@@ -50,8 +51,6 @@ FAILED = 1.0e3
 _TOLERANCE = 1e-5
 # Damping of the held-out Gauss-Newton step, relative to the diagonal of the full fit's J^T J.
 _STEP_DAMPING = 1e-2
-# Two-sided 95 % quantile of the normal distribution.
-_Z95 = 1.959964
 
 
 def fit_samples(test: MechanicalTest, count: int) -> np.ndarray:
@@ -253,7 +252,7 @@ def fit(problem: Problem, model: CandidateMaterial, start: np.ndarray,
         rmse_n=math.sqrt(rss / count),
         heldout_rmse_n=float(np.sqrt(np.mean(np.concatenate(
             [(h - t.force_N) ** 2 for h, t in zip(heldout, problem.tests, strict=True)])))),
-        bic=count * math.log(max(rss / count, 1e-300)) + parameters * math.log(count),
+        bic=bic(rss, count, parameters),
         fitted_force_n=tuple(fitted), heldout_force_n=tuple(heldout), failed_test=failed)
 
 
@@ -328,6 +327,6 @@ def _ci95(jacobian: np.ndarray, rss: float, count: int, shape: np.ndarray) -> np
     normal = jacobian.T @ jacobian
     with np.errstate(divide="ignore", invalid="ignore"):
         covariance = np.linalg.pinv(normal) * variance
-        half = _Z95 * np.sqrt(np.diag(covariance))
+        half = Z95 * np.sqrt(np.diag(covariance))
     half = np.where(np.isfinite(half) & (np.diag(normal) > 0), half, np.nan)
     return np.stack([shape - half, shape + half], axis=1)

@@ -38,7 +38,8 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from cell.diagnosis.cut.search import CutDiagnosis
-    from cell.diagnosis.specimen.diagnosis import Diagnosis, Evidence, ModelFit
+    from cell.diagnosis.engine.outcome import Evidence
+    from cell.diagnosis.specimen.diagnosis import Diagnosis, ModelFit
     from cell.measure.specimens import MechanicalTest, Specimen
 
 _DPI = 110
