@@ -110,7 +110,7 @@ class CutDiagnosis(SearchOutcome):
     """What :func:`diagnose_cuts` found: as :class:`~cell.diagnosis.specimen.diagnosis.Diagnosis`
     for the cut tests (``noise_n``, ``baseline``, ``candidates``, ``steps``, ``extended``,
     ``causes``, ``evidence``, ``params``); each cause's evidence is the uniaxial diagnosis's
-    :class:`~cell.diagnosis.specimen.diagnosis.Evidence`, its ``without`` a cut fit."""
+    :class:`~cell.diagnosis.engine.outcome.Evidence`, its ``without`` a cut fit."""
 
     noise_n: float
     baseline: CutFit
