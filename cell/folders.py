@@ -86,8 +86,9 @@ def write_folder(path: str | Path, fill: Callable[[Path], object]) -> Path:
         return target.commit()
 
 
-def write_together(files: Mapping[Path, str | bytes],
-                   folders: Mapping[Path, Callable[[Path], object]] | None = None) -> None:
+def write_files_and_folders(files: Mapping[Path, str | bytes],
+                            folders: Mapping[Path, Callable[[Path], object]] | None = None
+                            ) -> None:
     """Write ``files`` (path to content) and ``folders`` (path to the function that fills the
     temporary folder it is given) as one output: every one is filled in its temporary first,
     and they are renamed into place one after the other only once all are filled, so a
@@ -96,7 +97,7 @@ def write_together(files: Mapping[Path, str | bytes],
     Example:
         >>> import tempfile
         >>> out = Path(tempfile.mkdtemp())
-        >>> write_together({out / "a.json": "{}"}, {out / "report": lambda f: None})
+        >>> write_files_and_folders({out / "a.json": "{}"}, {out / "report": lambda f: None})
         >>> sorted(p.name for p in out.iterdir())
         ['a.json', 'report']
     """

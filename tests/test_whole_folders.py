@@ -20,7 +20,7 @@ import pytest
 
 from cell.cli import main
 from cell.errors import Stopped
-from cell.folders import AtomicFolder, write_folder, write_together
+from cell.folders import AtomicFolder, write_files_and_folders, write_folder
 from cell.outputs import write_atomic
 from tests.paths import EXAMPLE_SET, PROJECT_ROOT
 
@@ -286,9 +286,9 @@ def test_outputs_written_together_appear_only_once_all_are_filled(tmp_path: Path
 
     broken: Any = None  # a content that cannot be written, after the report is filled
     with pytest.raises(TypeError):
-        write_together({tmp_path / "m.toml": "material\n", tmp_path / "d.json": broken},
-                       {tmp_path / "report": report})
+        write_files_and_folders({tmp_path / "m.toml": "material\n",
+                                 tmp_path / "d.json": broken}, {tmp_path / "report": report})
     assert filled and listing(tmp_path) == {}
-    write_together({tmp_path / "d.json": "{}"}, {tmp_path / "report": report})
+    write_files_and_folders({tmp_path / "d.json": "{}"}, {tmp_path / "report": report})
     assert listing(tmp_path) == {"d.json": "{}", "report": "dir",
                                  "report/report.md": "the report\n"}

@@ -87,7 +87,7 @@ def diagnose_command(args: argparse.Namespace) -> int:
                                                   {"suggestion": suggestion.to_json()})},
                           args.out)
     material = material_to_toml(result.material(), result.material_comment())
-    from cell.folders import write_together
+    from cell.folders import write_files_and_folders
 
     report = {}
     if args.report is not None:
@@ -95,7 +95,7 @@ def diagnose_command(args: argparse.Namespace) -> int:
 
         report[args.report] = lambda folder: write_set_report(result, folder, material_path)
     # The report, the material and the JSON appear together or not at all.
-    write_together({material_path: material, args.out: diagnosis}, report)
+    write_files_and_folders({material_path: material, args.out: diagnosis}, report)
     print(f"causes: {', '.join(result.causes) or 'none (the baseline explains the data)'}\n"
           f"{result.summary()}\n"
           + ("" if suggestion is None else suggestion.summary() + "\n")
