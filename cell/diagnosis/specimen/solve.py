@@ -15,7 +15,7 @@ Newton's method, for the a, b, c at which the lateral faces and the platens carr
 the springs along rest direction j, s_j their stress, r_j their stretch, n_j their direction now),
 commits the springs' history, and reads the axial force ``A tau_zz / (1 + strain)``.
 
-Why quasi-static and homogeneous (measured in ``tests/test_specimen.py`` against
+Why quasi-static and homogeneous (measured in ``tests/diagnosis/specimen/test_solve.py`` against
 :mod:`tests.specimen_reference`, the same springs in MuJoCo on a 6-cell mesh at the real mass and
 half the stable step): the tests last minutes at strain rates of 1%/s, where inertia and the
 springs' dashpots carry nothing, and the forces agree within 2%. One set of 10 tests takes

@@ -19,7 +19,7 @@ from envs.policies import HoldThenPullAway, TableSkimmingKnife
 from envs.reward import reward_terms
 
 
-# Cut's check: tests/test_randomization.py (with its drawn worlds).
+# Cut's check: tests/envs/test_randomization.py (with its drawn worlds).
 @pytest.mark.parametrize("env_class", [MuscleSeparationEnv, PullEnv])
 def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
     env = env_class(time_limit_s=1.0)

@@ -13,7 +13,7 @@ from cell.cli import main
 from cell.sim.episode import Episode
 from cell.sim.scenario import load_scenario
 from cell.tissue.materialfile import load_material
-from tests.test_cutsearch import PLAIN, _press, _saw, cut_set, mixed_set
+from tests.diagnosis.cut.test_search import PLAIN, _press, _saw, cut_set, mixed_set
 
 
 @pytest.mark.slow

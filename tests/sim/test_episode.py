@@ -21,6 +21,7 @@ from cell.tissue.geometry import MuscleShape
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
 from controllers.steering import SteeringParams
+from tests.paths import PROJECT_ROOT
 
 
 def coarse(**changes: object) -> Scenario:
@@ -193,7 +194,7 @@ def test_force_rule_alone_cuts_with_the_hooked_bindings() -> None:
 def test_a_meat_twenty_times_stiffer_runs_the_default_episode_unchanged() -> None:
     # Only the material changes (the implicit tissue step needs no shorter step): the default
     # episode, at the default resolution, still separates the muscles to the end.
-    scenario = load_scenario(Path(__file__).parents[1] / "scenarios" / "default.toml")
+    scenario = load_scenario(PROJECT_ROOT / "scenarios" / "default.toml")
     meat = scenario.material
     stiffer = replace(meat, **{name: replace(getattr(meat, name), coefficients=tuple(
         20.0 * c for c in getattr(meat, name).coefficients))
@@ -208,7 +209,7 @@ def test_the_papers_stiff_material_runs_the_default_episode() -> None:
     # scenarios/paper_material.toml, 10 to 25 times stiffer than the default meat, on a seed
     # where the blade's fully resolved contacts made the stiff flesh chatter until the
     # tissue ran away (above 20 m/s at 5 s): cell.robots.tools.BLADE_SOLIMP.
-    scenario = load_scenario(Path(__file__).parents[1] / "scenarios" / "paper_material.toml")
+    scenario = load_scenario(PROJECT_ROOT / "scenarios" / "paper_material.toml")
     result = Episode(replace(scenario, seed=2)).run()["result"]
     assert result["released_fraction"] >= 0.95
     assert result["muscles_apart"]

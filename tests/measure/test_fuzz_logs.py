@@ -26,8 +26,8 @@ from tests.fuzzing import (
     values,
     written,
 )
+from tests.measure.test_fuzz_specimens import cells, tables
 from tests.refusals import refused
-from tests.test_fuzz_measured import cells, tables
 
 #: Each table of ``log.toml`` and its keys.
 LOG_KEYS = {"log": ("name", "scenario", "seed"),

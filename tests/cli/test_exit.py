@@ -11,11 +11,12 @@ import os
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.paths import PROJECT_ROOT
+
+ROOT = PROJECT_ROOT
 
 #: Headless rendering (EGL, its context left to the display's teardown at exit) and a Rerun
 #: recording (its background threads alive at exit), as the suite's tests do.

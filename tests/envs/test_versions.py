@@ -5,11 +5,12 @@ The fingerprint of an id is its observation's names, its action space, its param
 limits, reward weights, task), the cut and pull it plans, its constructor's options, where its
 knife's cutting force comes from, its default randomisation, and the rewards of a seeded
 rollout under a fixed action sequence on the coarse cell (a fingerprint pinned before a part
-existed is compared on the parts it has). The pinned values are in ``tests/env_fingerprints.json``.
+existed is compared on the parts it has). The pinned values are in
+``tests/envs/env_fingerprints.json``.
 
 If this test fails, the env's behaviour changed: register the changed env under a new version
 (``envs/registration.py``, the card's version history) and pin the new id with
-``python tests/test_env_versions.py``, which adds the fingerprint of every registered id not
+``python tests/envs/test_versions.py``, which adds the fingerprint of every registered id not
 pinned yet; a pinned one is never rewritten (a version means one thing for good).
 """
 
@@ -36,7 +37,7 @@ ROLLOUT_STEPS = 12
 #: Rewards may differ by float rounding across machines, never by more.
 REWARD_TOLERANCE = 1e-6
 BUMP = ("changed: give the changed env a new version in envs/registration.py (and its card's "
-        "version history), then pin it with `python tests/test_env_versions.py`")
+        "version history), then pin it with `python tests/envs/test_versions.py`")
 
 
 def fingerprint(env_id: str) -> dict[str, Any]:

@@ -22,7 +22,7 @@ from cell.synthetic.specimen import write_hidden_effect_set
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.materialfile import load_material
 from tests.paths import DEFAULT_SCENARIO, EXAMPLE_SET
-from tests.test_episode import coarse
+from tests.sim.test_episode import coarse
 
 
 @pytest.fixture(scope="module")

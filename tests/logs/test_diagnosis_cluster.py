@@ -1,7 +1,7 @@
 """The batch diagnosis of separation logs on a Ray cluster (`diagnose-logs --address`, `bench
 diagnose --logs --address`), without starting Ray: the options refused before any work, the
 batch shipped to the cluster as data (not as folders its nodes may not have), a replay lost on
-the cluster named. tests/test_log_diagnosis_ray.py diagnoses a batch on a real cluster."""
+the cluster named. tests/logs/test_diagnosis_ray.py diagnoses a batch on a real cluster."""
 
 from __future__ import annotations
 

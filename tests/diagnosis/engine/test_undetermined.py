@@ -24,9 +24,9 @@ from cell.logs.report import write_log_diagnosis
 from cell.outputs import json_text
 from cell.sim.scenario import load_scenario
 from cell.synthetic.specimen import Repeats, write_hidden_effect_set
+from tests.diagnosis.cut.test_search import BLADE, BLOCK, PLAIN, _press, cut_set
+from tests.logs.test_diagnosis import _log
 from tests.paths import PROJECT_ROOT
-from tests.test_cutsearch import BLADE, BLOCK, PLAIN, _press, cut_set
-from tests.test_log_diagnosis import _log
 
 #: A set the generator draws with plasticity (little hardening) beside viscoelasticity: its
 #: first six tests (ramps at three angles in tension, two in compression, one ten times

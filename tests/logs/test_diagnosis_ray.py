@@ -14,7 +14,7 @@ from tests.paths import PROJECT_ROOT
 
 pytest.importorskip("ray")
 
-from tests.test_sweep_ray import cluster  # noqa: F401  (the fixture)
+from tests.scale.test_sweep_ray import cluster  # noqa: F401  (the fixture)
 
 QUICK = PROJECT_ROOT / "scenarios" / "quick.toml"
 
