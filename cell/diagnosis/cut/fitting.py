@@ -26,7 +26,7 @@ from scipy.optimize import least_squares, lsq_linear
 from cell.diagnosis.cut.causes import CutCandidate, flat, linear_columns
 from cell.diagnosis.cut.reduced import CutKinematics
 from cell.diagnosis.engine.determined import estimates_json
-from cell.diagnosis.engine.statistics import Z95, bic
+from cell.diagnosis.engine.statistics import bic, half_widths_95
 from cell.diagnosis.specimen.fitting import HeldOutScores, one_step_held_out
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CuttingParams, edge_force
@@ -328,11 +328,7 @@ def _ci95(problem: CutProblem, model: CutCandidate, shape: np.ndarray, linear: n
     jacobian = np.column_stack([*derivatives, np.vstack(_columns(problem, model, shape,
                                                                   everything))])
     values = np.concatenate([shape, linear])
-    normal = jacobian.T @ jacobian
-    variance = rss / max(count - len(values), 1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        half = Z95 * np.sqrt(np.diag(np.linalg.pinv(normal)) * variance)
-    half = np.where(np.isfinite(half) & (np.diag(normal) > 0), half, np.nan)
+    half = half_widths_95(jacobian, rss / max(count - len(values), 1))
     return np.stack([values - half, values + half], axis=1)
 
 

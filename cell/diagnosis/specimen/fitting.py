@@ -35,7 +35,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cell.diagnosis.engine.determined import NOT_PREDICTED, determined, determined_each
-from cell.diagnosis.engine.statistics import Z95, bic
+from cell.diagnosis.engine.statistics import bic, half_widths_95
 from cell.diagnosis.specimen.causes import CandidateMaterial
 from cell.diagnosis.specimen.solve import SpecimenLattice, simulate_tests
 from cell.errors import DivergenceError, MaterialError
@@ -323,10 +323,5 @@ def _ci95(jacobian: np.ndarray, rss: float, count: int, shape: np.ndarray) -> np
     """95 % intervals of the shape parameters from the fit's Jacobian (module docstring)."""
     if not len(shape):
         return np.zeros((0, 2))
-    variance = rss / max(count - len(shape), 1)
-    normal = jacobian.T @ jacobian
-    with np.errstate(divide="ignore", invalid="ignore"):
-        covariance = np.linalg.pinv(normal) * variance
-        half = Z95 * np.sqrt(np.diag(covariance))
-    half = np.where(np.isfinite(half) & (np.diag(normal) > 0), half, np.nan)
+    half = half_widths_95(jacobian, rss / max(count - len(shape), 1))
     return np.stack([shape - half, shape + half], axis=1)

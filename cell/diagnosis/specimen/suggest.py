@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
 from cell.diagnosis.specimen.causes import CAUSES, EXCLUSIVE, CandidateMaterial
 from cell.diagnosis.specimen.diagnosis import Diagnosis
 from cell.diagnosis.specimen.fitting import REFERENCE_PA, ModelFit, Problem, scale_and_offset
@@ -106,8 +107,8 @@ class Rival:
 
     def to_json(self) -> dict[str, Any]:
         """The rival as the suggestion's JSON lists it."""
-        return {"model": self.name, "causes": list(self.causes), "rmse_N": self.rmse_n,
-                "typical": self.typical}
+        return {"model": self.name, "causes": list(self.causes),
+                **determined("rmse_N", self.rmse_n, NOT_PREDICTED), "typical": self.typical}
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,12 +159,13 @@ class Suggestion:
             "rivals": [r.to_json() for r in self.rivals],
             "test": None if self.test is None else self.test.to_json(),
             "rival": None if self.rival is None else self.rival.name,
-            "predicted_difference_N": self.difference_n,
-            "scatter_N": self.scatter_n,
-            "predicted_difference_over_scatter": self.over_scatter,
-            "score": self.score,
-            "specimen_spread_sd": self.spread_sd,
-            "ranking": [{**t.to_json(), "score": s} for t, s in self.ranking],
+            **determined("predicted_difference_N", self.difference_n, NOT_PREDICTED),
+            **determined("scatter_N", self.scatter_n, NOT_PREDICTED),
+            **determined("predicted_difference_over_scatter", self.over_scatter, NOT_PREDICTED),
+            **determined("score", self.score, NOT_PREDICTED),
+            **determined("specimen_spread_sd", self.spread_sd),
+            "ranking": [{**t.to_json(), **determined("score", s, NOT_PREDICTED)}
+                        for t, s in self.ranking],
         }
 
 
