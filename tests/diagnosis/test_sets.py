@@ -13,14 +13,14 @@ from cell.cli import main
 from cell.sim.episode import Episode
 from cell.sim.scenario import load_scenario
 from cell.tissue.materialfile import load_material
-from tests.diagnosis.cut.test_search import PLAIN, _press, _saw, cut_set, mixed_set
+from tests.cutsets import PLAIN, cut_set, mixed_set, press, saw
 
 
 @pytest.mark.slow
 def test_the_default_episode_cuts_with_the_material_a_mixed_diagnosis_writes(
         tmp_path: Path) -> None:
     truth = replace(PLAIN, slicing_efficiency=1.0, face_friction=0.4)
-    paths = [_press(0.005), _press(0.01), _press(0.03), _saw(0.004), _saw(0.008)]
+    paths = [press(0.005), press(0.01), press(0.03), saw(0.004), saw(0.008)]
     # A stiffening, anisotropic meat (a linear one, softer than beef across the fibres at the
     # pull's strains, let the pull tear most bindings before the knife reached them).
     mixed_set(tmp_path / "set", cut_set(truth, paths=paths),

@@ -16,20 +16,12 @@ from cell.cli import main
 from cell.perception.params import PerceptionParams
 from cell.robots.names import KNIFE_BLADE_GEOM
 from cell.sim.episode import Episode
-from cell.sim.scenario import AponeurosisParams, Scenario, SensorParams, load_scenario
-from cell.tissue.geometry import MuscleShape
+from cell.sim.scenario import AponeurosisParams, SensorParams, load_scenario
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
 from controllers.steering import SteeringParams
+from tests.coarse import coarse
 from tests.paths import PROJECT_ROOT
-
-
-def coarse(**changes: object) -> Scenario:
-    """The default cell with a coarse tissue and a brisk plan, so that an episode takes
-    seconds."""
-    base = Scenario(tissue=MuscleShape(cell_size_m=0.05), cut=CutPlan(speed_m_s=0.06),
-                    pull=PullPlan(speed_m_s=0.04))
-    return replace(base, **changes)
 
 
 @pytest.fixture(scope="module")

@@ -11,51 +11,16 @@ import pytest
 
 from cell.diagnosis.cut.causes import CUT_CAUSES, CutCandidate, linear_columns
 from cell.diagnosis.cut.fitting import CutProblem, best_layer_depth, fit_cut, solve_linear
-from cell.diagnosis.cut.reduced import simulate_cut
 from cell.diagnosis.cut.search import diagnose_cuts
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.sets import diagnose_set
 from cell.errors import DiagnosisError
-from cell.measure.cuts import Blade, Block, CutTest
+from cell.measure.cuts import CutTest
 from cell.measure.specimens import MeasurementSet, load_measurement_set
-from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.materialfile import load_material, material_to_toml
+from tests.cutsets import BLADE, BLOCK, PLAIN, cut_set, mixed_set, press, saw
 
-BLOCK = Block((0.06, 0.04, 0.03))
-BLADE = Blade(0.12, 0.0015, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))
-PLAIN = CuttingParams(900.0, face_pressure_pa=1600.0)
 PARAMS = DiagnosisParams(workers=1)
-
-
-def _press(speed_m_s: float, depth_m: float = 0.025, samples: int = 240
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """From 2 mm above the block down to ``depth_m`` and back."""
-    down = (0.002 + depth_m) / speed_m_s
-    t = np.linspace(0.0, 2.0 * down, samples)
-    z = 0.032 - speed_m_s * np.minimum(t, 2.0 * down - t)
-    return t, np.column_stack([np.full_like(t, 0.03), np.full_like(t, 0.02), z])
-
-
-def _saw(sink_m_s: float, stroke_m: float = 0.02, samples: int = 320
-         ) -> tuple[np.ndarray, np.ndarray]:
-    """Back and forth along the edge once a second while sinking to 25 mm."""
-    t = np.linspace(0.0, 0.027 / sink_m_s, samples)
-    y = 0.02 + 0.5 * stroke_m * np.sin(2.0 * np.pi * t)
-    return t, np.column_stack([np.full_like(t, 0.03), y, 0.032 - sink_m_s * t])
-
-
-def cut_set(truth: CuttingParams, offset_n: tuple[float, float, float] = (0.0, 0.0, 0.0),
-             paths: list | None = None, seed: int = 0) -> tuple[CutTest, ...]:
-    """Cut tests of ``truth`` with 0.2 N of noise on each channel."""
-    rng = np.random.default_rng(seed)
-    paths = paths or [_press(0.005), _press(0.01), _press(0.03), _press(0.01, 0.015),
-                      _saw(0.004), _saw(0.008)]
-    tests = []
-    for k, (t, edge) in enumerate(paths):
-        force = simulate_cut(CutTest("truth", t, edge, edge), BLOCK, BLADE, truth).total_n
-        force = force + np.asarray(offset_n) + rng.normal(0.0, 0.2, force.shape)
-        tests.append(CutTest(f"cut{k}", t, edge, force))
-    return tuple(tests)
 
 
 HIDDEN = {
@@ -148,7 +113,7 @@ def test_a_hidden_cause_is_named_with_its_parameters(cause: str) -> None:
 @pytest.mark.parametrize("slicing", [0.0, 1.0])
 def test_a_sawing_and_a_press_cut_together_tell_whether_slicing_acts(slicing: float) -> None:
     truth = replace(PLAIN, slicing_efficiency=slicing)
-    tests = cut_set(truth, paths=[_press(0.01), _saw(0.006)], seed=5)
+    tests = cut_set(truth, paths=[press(0.01), saw(0.006)], seed=5)
     causes = diagnose_cuts(BLOCK, BLADE, tests, PARAMS).causes
     assert ("slicing" in causes) == (slicing > 0)
 
@@ -199,35 +164,13 @@ def test_the_command_diagnoses_a_cut_set_with_its_report(tmp_path: Path) -> None
     from cell.cli import main
 
     truth, offset = HIDDEN["blade_friction"]
-    _write_cut_set(tmp_path / "cuts", cut_set(truth, offset, paths=[_press(0.01), _saw(0.006)]))
+    _write_cut_set(tmp_path / "cuts", cut_set(truth, offset, paths=[press(0.01), saw(0.006)]))
     out = tmp_path / "out"
     assert main(["diagnose", str(tmp_path / "cuts"), "--out", str(out / "d.json"),
                  "--report", str(out / "report"), "--workers", "1"]) == 0
     assert {p.name for p in (out / "report").iterdir()} == {"cut-forces.png", "cut-report.md"}
     assert "| blade_friction |" in (out / "report" / "cut-report.md").read_text()
     assert load_material(out / "d-material.toml").cutting.face_friction > 0.0
-
-
-def mixed_set(folder: Path, cut_tests: tuple[CutTest, ...],
-              effect: str | tuple[str, ...] | None = None) -> None:
-    """A generated uniaxial set with ``effect`` hidden (none by default) and ``cut_tests``
-    beside it, every row leaving the other kind's columns empty."""
-    from cell.synthetic.specimen import write_hidden_effect_set
-
-    write_hidden_effect_set(folder, 2, effect)
-    specimen = folder / "specimen.toml"
-    specimen.write_text(specimen.read_text() + "\n[block]\nsize_m = [0.06, 0.04, 0.03]\n\n"
-                        "[blade]\nedge_length_m = 0.12\nthickness_m = 0.0015\n"
-                        "edge_direction = [0.0, 1.0, 0.0]\nblade_normal = [1.0, 0.0, 0.0]\n")
-    lines = (folder / "tests.csv").read_text().splitlines()
-    cut_columns = "edge_x_m,edge_y_m,edge_z_m,force_x_N,force_y_N,force_z_N"
-    rows = [f"{lines[0]},{cut_columns}", *(f"{line},,,,,," for line in lines[1:])]
-    for test in cut_tests:
-        for t, edge, force in zip(test.time_s, test.edge_m, test.force_n, strict=True):
-            cells = [test.test_id, "cut", "", repr(float(t)), "", "",
-                     *(repr(float(v)) for v in (*edge, *force))]
-            rows.append(",".join(cells))
-    (folder / "tests.csv").write_text("\n".join(rows) + "\n")
 
 
 @pytest.mark.slow

@@ -24,7 +24,7 @@ from cell.logs.report import write_log_diagnosis
 from cell.outputs import json_text
 from cell.sim.scenario import load_scenario
 from cell.synthetic.specimen import Repeats, write_hidden_effect_set
-from tests.diagnosis.cut.test_search import BLADE, BLOCK, PLAIN, _press, cut_set
+from tests.cutsets import BLADE, BLOCK, PLAIN, cut_set, press
 from tests.logs.test_diagnosis import _log
 from tests.paths import PROJECT_ROOT
 
@@ -85,7 +85,7 @@ def test_the_batch_diagnoses_it_too(ramps_without_holds: Path, tmp_path: Path) -
 
 def test_a_cut_parameter_no_test_moves_has_no_interval_and_says_why() -> None:
     # Pressed cuts never move the edge along itself: slicing does nothing to them.
-    problem = CutProblem.of(BLOCK, BLADE, cut_set(PLAIN, paths=[_press(0.01), _press(0.01, 0.015)]),
+    problem = CutProblem.of(BLOCK, BLADE, cut_set(PLAIN, paths=[press(0.01), press(0.01, 0.015)]),
                             64)
     model = CutCandidate(("slicing",), problem.reference_speed_m_s(), BLOCK.top_z_m)
     fitted = fit_cut(problem, model, model.initial, 100).to_json()["fitted"]

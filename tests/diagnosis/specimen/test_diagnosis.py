@@ -21,8 +21,8 @@ from cell.sim.scenario import load_scenario
 from cell.synthetic.specimen import write_hidden_effect_set
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.materialfile import load_material
+from tests.coarse import coarse
 from tests.paths import DEFAULT_SCENARIO, EXAMPLE_SET
-from tests.sim.test_episode import coarse
 
 
 @pytest.fixture(scope="module")
