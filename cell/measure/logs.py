@@ -239,12 +239,12 @@ def channel_rows(channel: Channel) -> tuple[list[str], list[dict[str, float]]]:
     return columns, rows
 
 
-def log_toml(name: str, scenario: str, seed: int, sensors: dict[str, float],
+def log_toml(name: str, scenario: str, seed: int | None, sensors: dict[str, float],
              cut_windows_s: tuple[tuple[float, float], ...], outcome: dict[str, int]) -> str:
-    """The text of a ``log.toml``."""
+    """The text of a ``log.toml`` (``seed`` None: the scenario's own, no ``seed`` key)."""
     quoted = lambda text: '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'  # noqa: E731
     lines = ["[log]", f"name = {quoted(name)}", f"scenario = {quoted(scenario)}",
-             f"seed = {seed}",
+             *([] if seed is None else [f"seed = {seed}"]),
              "# Poses are of each sensor's frame, in the cell's world frame (m, unit "
              "quaternion w x y z);",
              "# forces and torques are those the meat exerts on the sensor, in its frame "
