@@ -17,17 +17,18 @@ from hypothesis import strategies as st
 from cell.errors import LogError
 from cell.measure.logs import FORCE, POSE, QUATERNION_TOLERANCE, TORQUE, read_log
 from tests.fuzzing import (
+    cells,
     documents,
     fuzz_tests,
     mostly,
     numbers,
     scratch,
+    tables,
     toml_document,
     values,
     written,
 )
 from tests.refusals import refused
-from tests.test_fuzz_measured import cells, tables
 
 #: Each table of ``log.toml`` and its keys.
 LOG_KEYS = {"log": ("name", "scenario", "seed"),

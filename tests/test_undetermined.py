@@ -24,9 +24,9 @@ from cell.logs.report import write_log_diagnosis
 from cell.outputs import json_text
 from cell.sim.scenario import load_scenario
 from cell.synthetic.specimen import Repeats, write_hidden_effect_set
+from tests.logcases import wave_log
 from tests.paths import PROJECT_ROOT
 from tests.test_cutsearch import BLADE, BLOCK, PLAIN, _press, cut_set
-from tests.test_log_diagnosis import _log
 
 #: A set the generator draws with plasticity (little hardening) beside viscoelasticity: its
 #: first six tests (ramps at three angles in tension, two in compression, one ten times
@@ -99,7 +99,7 @@ def test_a_cut_parameter_no_test_moves_has_no_interval_and_says_why() -> None:
 def test_a_log_magnitude_past_any_factor_and_an_unpredicted_score_are_null(
         tmp_path: Path) -> None:
     quick = PROJECT_ROOT / "scenarios" / "quick.toml"
-    logs = tuple(replace(_log(30), scenario=quick, name=f"log-{k}") for k in (1, 2))
+    logs = tuple(replace(wave_log(30), scenario=quick, name=f"log-{k}") for k in (1, 2))
     batch = LogBatch(logs, (load_scenario(quick),) * 2)
     measured, _ = logged_vector(logs)
     # A signature the logs barely show gives a linearised magnitude whose factor no float holds.
