@@ -1,7 +1,7 @@
 """The causes a batch of separation logs can show (the log cause table of docs/logs.md, and
 the causes of the cut cause table, docs/measured-data.md, that map onto the cell's knife):
 one module each, an object of a :class:`~cell.logs.causes.cause.LogCause` subclass, registered
-below. Adding a cause is one new module and one line in :data:`CAUSES` (docs/logs.md): the
+below. Adding a cause is one new module and one line in :data:`REGISTERED` (docs/logs.md): the
 diagnosis screens it, the report writes its change into the extended scenario, the
 hidden-effect batches can hide it and the bench cycles through it.
 
@@ -21,32 +21,30 @@ form (:mod:`cell.logs.fit`), without a replay.
 
 from __future__ import annotations
 
+from importlib import import_module
 from typing import Any
 
 from cell.errors import LogError
-from cell.logs.causes import (
-    binding_gradient,
-    binding_strength,
-    blade_friction,
-    fibre_direction,
-    tearing_threshold,
-    tissue_stiffness,
-)
 from cell.logs.causes.cause import MAX_MAGNITUDE, LogCause
 from cell.sim.scenario import Scenario
 
-__all__ = ["CAUSES", "MAX_MAGNITUDE", "SENSOR_OFFSET", "LogCause", "applicable",
+__all__ = ["CAUSES", "MAX_MAGNITUDE", "REGISTERED", "SENSOR_OFFSET", "LogCause", "applicable",
            "changed_world", "magnitudes_json", "table_causes"]
 
-#: The world causes by name, in the order the diagnosis screens them: the registry.
-CAUSES: dict[str, LogCause] = {cause.name: cause for cause in (
-    binding_strength.CAUSE,
-    binding_gradient.CAUSE,
-    tearing_threshold.CAUSE,
-    tissue_stiffness.CAUSE,
-    fibre_direction.CAUSE,
-    blade_friction.CAUSE,
-)}
+#: The registry: the modules of this package that hold a cause (its ``CAUSE``), in the order
+#: the diagnosis screens them. A new cause is one module and one line here.
+REGISTERED = (
+    "binding_strength",
+    "binding_gradient",
+    "tearing_threshold",
+    "tissue_stiffness",
+    "fibre_direction",
+    "blade_friction",
+)
+#: The world causes by name, in the registry's order.
+CAUSES: dict[str, LogCause] = {
+    cause.name: cause for cause in (import_module(f"{__name__}.{module}").CAUSE
+                                    for module in REGISTERED)}
 #: The cause fitted on the channels alone.
 SENSOR_OFFSET = "sensor_offset"
 
