@@ -29,9 +29,11 @@ from typing import Any
 
 import numpy as np
 
-from cell.diagnosis.engine.determined import NOT_PREDICTED, determined, determined_each
+from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
+from cell.diagnosis.engine.outcome import force_noise_n
 from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
+from cell.logs.evidence import LogEvidence, log_evidence
 from cell.logs.fit import (
     FORCE_CHANNELS,
     Rows,
@@ -91,14 +93,17 @@ class LogDiagnosis:
         candidates: every cause screened, with its linearised fit.
         extended: the magnitudes and offsets of the extended world, and its RMSE.
         heldout_rmse_n: baseline and extended RMSE of the logs left out, N.
-        evidence: per named cause, the held-out RMSE with and without it.
+        evidence: per named cause (an offset per channel), the held-out RMSE with and
+            without it (:class:`~cell.logs.evidence.LogEvidence`).
         steps: the forward selection's steps.
         simulated: the simulated vectors of the baseline and the extended world.
         timing: replays, their wall and CPU time, and the fits' (the rest's), s.
+        noise_n: the logged force channels' noise (the engine's
+            :func:`~cell.diagnosis.engine.outcome.force_noise_n`), N.
 
     Example:
         >>> LogDiagnosis(["a", "b"], [2.0, 2.0], [], [], {}, {"baseline": 2.0, "extended": 1.5},
-        ...              {}, [], {}, {}).gain
+        ...              [], [], {}, {}).gain
         0.25
     """
 
@@ -108,10 +113,11 @@ class LogDiagnosis:
     candidates: list[dict[str, Any]]
     extended: dict[str, Any]
     heldout_rmse_n: dict[str, float]
-    evidence: dict[str, dict[str, Any]]
+    evidence: list[LogEvidence]
     steps: list[dict[str, Any]]
     simulated: dict[str, np.ndarray] = field(repr=False)
     timing: dict[str, float]
+    noise_n: float = 0.0
 
     @property
     def gain(self) -> float:
@@ -120,8 +126,13 @@ class LogDiagnosis:
         return 1.0 - self.heldout_rmse_n["extended"] / base if base > 0 else 0.0
 
     def to_json(self) -> dict[str, Any]:
-        """The contract (docs/diagnosis.md) with the logs' evidence; a score the replays do
-        not determine ``null`` with its reason (:mod:`cell.diagnosis.engine.determined`)."""
+        """The search outcome's JSON shape of every diagnosis
+        (:meth:`cell.diagnosis.engine.outcome.SearchOutcome.to_json`: ``baseline``,
+        ``causes``, ``candidates``, ``extended``, ``gain``, ``noise_N``, ``steps``,
+        ``second_look``, ``evidence``) with the logs' own keys (``logs``, ``timing``; a step's
+        ``added`` and ``round``); a score the replays do not determine ``null`` with its
+        reason (:mod:`cell.diagnosis.engine.determined`)."""
+        tried = self.extended.get("second_look")
         return {"logs": self.logs,
                 "baseline": {"model": "the logs' scenarios as the lab believes them",
                              "params": {}, **determined("rmse_N", self.baseline_rmse_n),
@@ -130,10 +141,10 @@ class LogDiagnosis:
                 "candidates": [_scored(c) for c in self.candidates],
                 "extended": _scored({**self.extended,
                                      "heldout_rmse_N": self.heldout_rmse_n["extended"]}),
-                "evidence": {name: determined_each(e, NOT_PREDICTED)
-                             for name, e in self.evidence.items()},
+                **_score("gain", self.gain), "noise_N": self.noise_n,
                 "steps": [_scored(s) for s in self.steps],
-                **_score("gain", self.gain), "timing": self.timing}
+                "second_look": [] if tried is None else [tried],
+                "evidence": [e.to_json() for e in self.evidence], "timing": self.timing}
 
 
 def _score(name: str, value: float) -> dict[str, Any]:
@@ -196,9 +207,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                                              [c for c in names if c in blocks], offsets, params)
             added = [step.added for step in second]
             world, chosen = world + added, chosen + added
-    steps_json = [{"added": s.added, "information": s.information,
-                   "heldout_rmse_N": s.heldout_rmse_n, "round": round_}
-                  for round_, part in ((1, steps), (2, second)) for s in part]
+    steps_json = _steps_json(steps, second)
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
     heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
@@ -212,10 +221,9 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
         _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
-        _evidence(residual, blocks, rows, chosen, left),
-        steps_json, {"baseline": base, "extended": fit["simulated"],
-                           "measured": measured},
-        _timing(replayer, started, cpu_started))
+        log_evidence(residual, blocks, rows, chosen, left),
+        steps_json, {"baseline": base, "extended": fit["simulated"], "measured": measured},
+        _timing(replayer, started, cpu_started), _noise_n(batch))
 
 
 def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
@@ -308,16 +316,21 @@ def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
     return out
 
 
-def _evidence(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
-              chosen: list[str], left: np.ndarray) -> dict[str, dict[str, Any]]:
-    """Per named block, the held-out RMSE of the logs with the extended world (replayed) and
-    without the block (linearised), and the share of the logs it improves."""
-    out = {}
-    for name in chosen:
-        others = {c: blocks[c] for c in chosen if c != name}
-        without = heldout(residual, others, rows, fixed(others))
-        logs = np.unique(rows.log)
-        better = [rmse_n(left[rows.log == i]) < rmse_n(without[rows.log == i]) for i in logs]
-        out[name] = {"heldout_rmse_N": rmse_n(left), "without_heldout_rmse_N": rmse_n(without),
-                     "logs_improved_share": float(np.mean(better))}
+def _steps_json(first: list[Step], second: list[Step]) -> list[dict[str, Any]]:
+    """The selection's steps (the first round's, then the second look's) as the engine's
+    ``steps`` (``causes``: the blocks in the model after the step) with the block ``added``
+    and the ``round``."""
+    out, causes = [], []
+    for round_, part in ((1, first), (2, second)):
+        for step in part:
+            causes = [*causes, step.added] if step.added else causes
+            out.append({"causes": causes, "added": step.added, "information": step.information,
+                        "heldout_rmse_N": step.heldout_rmse_n, "round": round_})
     return out
+
+
+def _noise_n(batch: LogBatch) -> float:
+    """The force noise of the logged channels, each component of each channel of each log a
+    series (:func:`~cell.diagnosis.engine.outcome.force_noise_n`), N."""
+    return force_noise_n(log.channels[name].force_n[:, k] for log in batch.logs
+                         for name in FORCE_CHANNELS for k in range(3))

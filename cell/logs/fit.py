@@ -19,10 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell.diagnosis.engine.statistics import bic
-from cell.measure.logs import Channel, SeparationLog
+from cell.measure.logs import CHANNELS, Channel, SeparationLog
 
-#: The force channels compared and fitted (``heldout_rmse_N`` is over these).
-FORCE_CHANNELS = ("knife", "gripper", "fixture")
+#: The force channels compared and fitted (``heldout_rmse_N`` is over these): every channel
+#: of the log format (:data:`~cell.measure.logs.CHANNELS`).
+FORCE_CHANNELS = tuple(CHANNELS)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ import numpy as np
 
 from cell.errors import DivergenceError, PoolError
 from cell.logs.batch import LogBatch, log_scenario
-from cell.logs.causes import changed_world, episode_adjustment
+from cell.logs.causes import changed_world
 from cell.logs.fit import simulated_vector
 from cell.measure.logs import SeparationLog, read_log
 from cell.sim.scenario import Scenario
@@ -50,7 +50,7 @@ def _replayed(log: SeparationLog, scenario: Scenario, magnitudes: dict[str, floa
 
     world = changed_world(scenario, magnitudes)
     try:
-        result = replay(log, world, episode_adjustment(magnitudes))
+        result = replay(log, world)
     except DivergenceError:
         return None, time.process_time() - started
     return simulated_vector(log, result.simulated), time.process_time() - started

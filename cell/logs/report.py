@@ -6,6 +6,7 @@ the ``report`` extra, matplotlib).
 
 from __future__ import annotations
 
+from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,6 +18,7 @@ from cell.extras import require
 from cell.logs.causes import SENSOR_OFFSET, changed_world
 from cell.logs.fit import FORCE_CHANNELS, logged_vector
 from cell.outputs import figure_png, write_atomic, write_json
+from cell.sim.scenario import Scenario
 from cell.sim.scenariotoml import resolved_tables, tables_toml
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.materialfile import material_to_toml
@@ -28,8 +30,6 @@ if TYPE_CHECKING:
     from cell.logs.diagnosis import LogDiagnosis
 
 MATERIAL, SCENARIO = "extended-material.toml", "extended-scenario.toml"
-#: The aponeurosis keys the world causes change.
-_APONEUROSIS = ("toughness_j_m2", "stiffness_n_m", "tearing_stretch_m", "tearing_force_n")
 _HEADER = ("The extended world of a batch diagnosis of separation logs (musclecell "
            "diagnose-logs):\nthe first log's scenario with the causes' changes.")
 
@@ -43,10 +43,8 @@ def write_extended(folder: Path, batch: LogBatch, diagnosis: LogDiagnosis) -> li
                   if value.get("magnitude") is not None}
     world = changed_world(belief, magnitudes)
     raw = resolved_tables(read_toml(batch.logs[0].scenario), belief)
-    raw["aponeurosis"] = {**raw.get("aponeurosis", {}),
-                          **{key: getattr(world.aponeurosis, key) for key in _APONEUROSIS
-                             if getattr(world.aponeurosis, key)
-                             != getattr(belief.aponeurosis, key)}}
+    for table, changed in changed_keys(belief, world).items():
+        raw[table] = {**raw.get(table, {}), **changed}
     written = []
     if isinstance(world.material, MassSpringMaterial):
         written.append(write_atomic(folder / MATERIAL,
@@ -54,9 +52,32 @@ def write_extended(folder: Path, batch: LogBatch, diagnosis: LogDiagnosis) -> li
         raw["material"] = {"file": MATERIAL}
     header = "\n".join([_HEADER, *(f"Not in a scenario's keys: {name} (see diagnosis.json)"
                                    for name in diagnosis.extended["params"]
-                                   if name in ("binding_gradient", SENSOR_OFFSET))])
+                                   if name == SENSOR_OFFSET)])
     written.append(write_atomic(folder / SCENARIO, tables_toml(raw, header)))
     return written
+
+
+def changed_keys(belief: Scenario, world: Scenario) -> dict[str, dict[str, Any]]:
+    """The scenario's tables (but the material, written whole) and their keys whose values
+    differ in ``world`` from ``belief``: what a cause's change of the world writes into the
+    extended scenario.
+
+    Example:
+        >>> from dataclasses import replace
+        >>> belief = Scenario()
+        >>> world = replace(belief, aponeurosis=replace(belief.aponeurosis,
+        ...                                             toughness_gradient=0.5))
+        >>> changed_keys(belief, world)
+        {'aponeurosis': {'toughness_gradient': 0.5}}
+    """
+    out: dict[str, dict[str, Any]] = {}
+    for table in fields(belief):
+        before, after = getattr(belief, table.name), getattr(world, table.name)
+        if table.name == "material" or not is_dataclass(before) or before == after:
+            continue
+        out[table.name] = {key.name: getattr(after, key.name) for key in fields(before)
+                           if getattr(after, key.name) != getattr(before, key.name)}
+    return out
 
 
 def write_log_diagnosis(folder: str | Path, batch: LogBatch, diagnosis: LogDiagnosis,
@@ -130,11 +151,11 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path]) -> str:
     lines += ["", "Extended world: " + ", ".join(
         f"{k} ({_short(v)})" for k, v in data["extended"]["params"].items()) + "." if
         data["extended"]["params"] else "Extended world: the lab's.", ""]
-    for name, e in data["evidence"].items():
-        lines.append(f"- {name}: held-out {shown(e['heldout_rmse_N'], '.3f')} N with it, "
-                     f"{shown(e['without_heldout_rmse_N'], '.3f')} N without (linearised); "
-                     "improves "
-                     f"{e['logs_improved_share']:.0%} of the logs")
+    for e in data["evidence"]:
+        name = f"{e['cause']} ({e['channel']})" if "channel" in e else e["cause"]
+        lines.append(f"- {name}: held-out {shown(e['heldout_rmse_with_N'], '.3f')} N with it, "
+                     f"{shown(e['heldout_rmse_without_N'], '.3f')} N without (linearised); "
+                     f"improves {e['improved_fraction']:.0%} of the logs")
     t = data["timing"]
     lines += ["", f"{t['replays']} replays, {t['replay_wall_s']:.0f} s; the fits "
               f"{t['fit_s']:.1f} s.", ""]

@@ -18,9 +18,6 @@ from cell.logs.causes import CAUSES, SENSOR_OFFSET
 from cell.logs.fit import Rows, Step, broyden, forward_selection, rmse_n, signature, solve
 from cell.logs.replays import Replayer
 
-#: The largest magnitude a Gauss-Newton step may reach (a factor of about 4.5, or 86 deg):
-#: beyond it the cell is another cell, and its physics may not hold.
-MAX_MAGNITUDE = 1.5
 #: The line search's factor on the fitted magnitudes (:func:`stretch`) and its most replays
 #: (each search's).
 STRETCH = 1.3
@@ -28,6 +25,14 @@ STRETCH_REPLAYS = 3
 OFFSET = SENSOR_OFFSET + ":"
 
 Fit = dict[str, Any]
+
+
+def bounded(world: list[str], magnitudes: np.ndarray) -> np.ndarray:
+    """``magnitudes`` of ``world``'s causes within each cause's bounds
+    (:attr:`~cell.logs.causes.cause.LogCause.bounds`: beyond them the cell is another cell,
+    and its physics may not hold)."""
+    low, high = np.array([CAUSES[c].bounds for c in world], dtype=float).reshape(-1, 2).T
+    return np.clip(magnitudes, low, high)
 
 
 def fixed(blocks: dict[str, np.ndarray]) -> frozenset[str]:
@@ -78,7 +83,7 @@ def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
     for _ in range(steps + 1):
         fitted, _ = solve(measured - simulated, {"world": jacobian, **offsets}, None,
                           fixed(offsets))
-        target = np.clip(magnitudes + fitted["world"], -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        target = bounded(world, magnitudes + fitted["world"])
         at = dict(zip(world, target.tolist(), strict=True))
         (replayed,) = replayer.batches([at])
         if replayed is None:
@@ -113,8 +118,7 @@ def _line_search(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
     start = np.array([best["magnitudes"][c] for c in world])
     scale, factor = 1.0, STRETCH
     for _ in range(STRETCH_REPLAYS):
-        trial = np.clip(np.where(scaled, start * scale * factor, start),
-                        -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        trial = bounded(world, np.where(scaled, start * scale * factor, start))
         at = dict(zip(world, trial.tolist(), strict=True))
         (replayed,) = replayer.batches([at])
         better = False
@@ -172,8 +176,8 @@ def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: F
         others = rows.log != i
         fitted, _ = solve(residual, {"world": fit["jacobian"], **offsets}, others,
                           fixed(offsets))
-        moved = np.clip(np.array([fit["magnitudes"][c] for c in world]) + fitted["world"],
-                        -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        moved = bounded(world, np.array([fit["magnitudes"][c] for c in world])
+                        + fitted["world"])
         jobs.append((i, dict(zip(world, moved.tolist(), strict=True))))
         fits.append(fitted)
     for i, (vector, fitted) in enumerate(zip(replayer.run(jobs), fits, strict=True)):

@@ -31,7 +31,10 @@ from cell.io import CsvTable, read_csv
 POSE = ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")
 FORCE = ("force_x_N", "force_y_N", "force_z_N")
 TORQUE = ("torque_x_Nm", "torque_y_Nm", "torque_z_Nm")
-#: The channels of a log: file stem -> whether it carries a pose.
+#: The channels of a log: file stem -> whether it carries a pose. The one list of them: the
+#: reader, the writer (:mod:`cell.sim.episodelog`), the replay's comparison, the diagnosis's
+#: force vector and the hidden offsets of the synthetic batches read it (each channel is also
+#: a sensor of the cell: ``<stem>/force`` in its model).
 CHANNELS = {"knife": True, "gripper": True, "fixture": False}
 #: How far a quaternion's norm may be off 1 (the four decimals a log may be written with).
 QUATERNION_TOLERANCE = 1e-3

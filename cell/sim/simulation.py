@@ -181,7 +181,8 @@ class Simulation(TissueSimulation):
             ReleaseRule.FORCE.value in params.release_rules or params.edge_share > 0) else None)
         # The material's cutting model in the seam, or a share of the curve at the edge.
         self.seam = (SeamCut(params.cutting(scenario.material.cutting), scene.mesh.top_line,
-                             float(scene.mesh.origin_m[2])) if by_model else None)
+                             float(scene.mesh.origin_m[2]), params.toughness_gradient)
+                     if by_model else None)
         self.edge = EdgeResistance(self.model)
         self._edge_force_n = 0.0  # the curve's share the edge meets until the next check, N
         self._cutting_n = 0.0  # the seam's force to cut where the edge was at the last step, N

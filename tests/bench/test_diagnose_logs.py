@@ -10,12 +10,12 @@ import pytest
 
 from cell.bench.diagnose_logs import (
     FIRST_SEED,
-    LOG_TABLE,
-    PAIRS,
     TUNING_SEEDS,
     LogBenchParams,
     bench_seeds,
     hidden,
+    log_pairs,
+    log_table,
     magnitude_error,
     run_log_diagnose_bench,
     summary,
@@ -35,6 +35,9 @@ def _row(truth: tuple[str, ...], named: tuple[str, ...], gain: float, seconds: f
 
 
 def test_the_single_batches_cycle_through_the_log_table_and_none() -> None:
+    LOG_TABLE, PAIRS = log_table(), log_pairs()
+    assert LOG_TABLE == ("binding_strength", "binding_gradient", "tearing_threshold",
+                         "tissue_stiffness", "fibre_direction", "sensor_offset")
     seeds = bench_seeds(len(LOG_TABLE) + 3)
     assert [hidden(s, "single") for s in seeds] == [(c,) for c in LOG_TABLE] + [()] * 3
     seventeen = [hidden(s, "single") for s in bench_seeds(17)]

@@ -4,6 +4,7 @@ offset, the forward selection, the logs left out) and the command line's refusal
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -14,15 +15,9 @@ import pytest
 from cell.cli import main
 from cell.errors import LogError
 from cell.logs.batch import LogBatch
-from cell.logs.causes import (
-    CAUSES,
-    GradedSeam,
-    applicable,
-    changed_world,
-    episode_adjustment,
-    magnitudes_json,
-)
+from cell.logs.causes import CAUSES, applicable, changed_world, magnitudes_json
 from cell.logs.diagnosis import LogDiagnosis
+from cell.logs.evidence import LogEvidence
 from cell.logs.fit import (
     Rows,
     broyden,
@@ -36,9 +31,10 @@ from cell.logs.fit import (
     solve,
 )
 from cell.logs.report import MATERIAL, SCENARIO, write_log_diagnosis
-from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario, load_scenario
-from cell.tissue.seamcut import SeamLoad
+from cell.tissue.cutmodel import CuttingParams
+from cell.tissue.seamcut import SeamCut, SeamLoad
+from tests.logcases import wave_log
 from tests.paths import PROJECT_ROOT
 
 
@@ -68,37 +64,35 @@ def test_each_world_cause_changes_its_part_of_the_world_by_its_magnitude() -> No
         changed_world(belief, {"sensor_offset": 1.0})
 
 
-def test_the_binding_gradient_grades_the_seams_edge_along_the_interface() -> None:
-    class Seam:
-        def load(self, *args: object) -> SeamLoad:
-            return SeamLoad(np.array([1.0, 0, 0]), np.array([0, 2.0, 0]), np.zeros(3), 10.0,
-                            0.05, 1e-3)
+def test_the_binding_gradient_is_the_scenarios_toughness_gradient_along_the_seam() -> None:
+    graded = changed_world(Scenario(), {"binding_gradient": math.log(4.0)}).aponeurosis
+    assert graded.toughness_gradient == pytest.approx(math.log(4.0))
+    top = np.array([[-0.2, 0.0, 0.08], [0.2, 0.0, 0.08]])
+    down = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+    half = np.array([0.0125, 0.0005, 0.1])
 
-    graded = GradedSeam(Seam(), math.log(4.0), 0.0, 0.4)
-    at = lambda x: graded.load(np.array([x, 0, 0]), np.eye(3), np.ones(3), np.zeros(3))  # noqa: E731
-    assert at(0.4).resistance_n / at(0.0).resistance_n == pytest.approx(4.0)
-    assert at(0.2).edge_n[0] == pytest.approx(1.0)
-    assert at(0.4).faces_n[1] == 2.0  # the faces' friction is not the seam's strength
-    assert episode_adjustment({"binding_strength": 0.3}) is None
-    assert callable(episode_adjustment({"binding_gradient": 0.3}))
+    def load(gradient: float, x: float) -> SeamLoad:
+        seam = SeamCut(CuttingParams(toughness_j_m2=200.0, face_friction=0.3), top, 0.0,
+                       gradient)
+        return seam.load(np.array([x, 0.0, 0.105]), down, half, np.array([0.03, 0.0, 0.0]))
+
+    # A quarter of the interface's length past its middle: 4 ** (1/4) times the toughness.
+    ahead, flat = load(graded.toughness_gradient, 0.1), load(0.0, 0.1)
+    assert flat.resistance_n > 0.0
+    assert ahead.resistance_n / flat.resistance_n == pytest.approx(math.sqrt(2.0))
+    assert load(graded.toughness_gradient, -0.1).resistance_n == pytest.approx(
+        load(0.0, -0.1).resistance_n / math.sqrt(2.0))
+    assert np.allclose(ahead.edge_n, math.sqrt(2.0) * flat.edge_n)
+    assert np.array_equal(ahead.faces_n, flat.faces_n)  # the faces' friction is no seam's
     assert magnitudes_json({"fibre_direction": math.radians(45.0)})[
         "fibre_direction"]["angle_deg"] == pytest.approx(45.0)
 
 
-def _log(n: int, offset: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> SeparationLog:
-    t = np.linspace(0.0, 1.0, n)
-    wave = np.stack([np.sin(3 * t), np.cos(2 * t), t], axis=1)
-    pose = {"position_m": np.zeros((n, 3)), "quaternion": np.tile([1.0, 0, 0, 0], (n, 1))}
-    channels = {"knife": Channel(t, wave, **pose), "gripper": Channel(t, 2 * wave, **pose),
-                "fixture": Channel(t, wave + np.asarray(offset))}
-    return SeparationLog(Path("log"), "log", Path("scenario.toml"), 0, channels)
-
-
 def test_the_stacked_channels_and_a_sensors_offset_in_closed_form() -> None:
     offset = (0.5, -1.0, 2.0)
-    logs = [_log(50, offset), _log(40, offset)]
+    logs = [wave_log(50, offset), wave_log(40, offset)]
     measured, rows = logged_vector(logs)
-    simulated = np.concatenate([simulated_vector(log, _log(4001).channels) for log in logs])
+    simulated = np.concatenate([simulated_vector(log, wave_log(4001).channels) for log in logs])
     assert measured.size == 3 * 3 * 90 and rows.log.max() == 1
     residual = measured - simulated
     fitted, left = solve(residual, {"fixture": rows.offset_columns("fixture")})
@@ -147,7 +141,7 @@ def test_diagnose_logs_refuses_bad_options_and_writes_nothing(
     assert not out.exists()
 
 
-def test_diagnose_logs_refuses_a_batch_of_one_log(tmp_path: Path,
+def test_diagnose_logs_refuses_a_batch_of_onewave_log(tmp_path: Path,
                                                   capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "out"
     assert main(["diagnose-logs", str(tmp_path / "one"), "--out", str(out), "--no-plots"]) == 2
@@ -166,14 +160,18 @@ def test_a_causes_signature_is_the_secant_of_the_side_it_acts_on() -> None:
 
 def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> None:
     quick = PROJECT_ROOT / "scenarios" / "quick.toml"
-    logs = tuple(replace(_log(30), scenario=quick, name=f"log-{k}") for k in (1, 2))
+    logs = tuple(replace(wave_log(30), scenario=quick, name=f"log-{k}") for k in (1, 2))
     batch = LogBatch(logs, (load_scenario(quick),) * 2)
     measured, _ = logged_vector(logs)
-    strength = magnitudes_json({"binding_strength": math.log(1.5)})
+    strength = magnitudes_json({"binding_strength": math.log(1.5),
+                                "binding_gradient": math.log(2.0)})
+    evidence = [LogEvidence("binding_strength", 1.0, 1.8, 1.0, {}, None),
+                LogEvidence("sensor_offset", 1.0, 1.2, 0.5, {}, None, channel="knife")]
     diagnosis = LogDiagnosis(
-        ["log-1", "log-2"], [1.0, 1.0], ["binding_strength", "sensor_offset"], [],
+        ["log-1", "log-2"], [1.0, 1.0], ["binding_strength", "binding_gradient",
+                                         "sensor_offset"], [],
         {"params": {**strength, "sensor_offset": {"knife": [0.5, 0.0, 0.0]}}},
-        {"baseline": 2.0, "extended": 1.0}, {}, [],
+        {"baseline": 2.0, "extended": 1.0}, evidence, [],
         {"baseline": measured + 1.0, "extended": measured + 0.1, "measured": measured},
         {"replays": 9, "replay_wall_s": 1.0, "fit_s": 0.1, "total_s": 1.1})
     written = write_log_diagnosis(tmp_path / "out", batch, diagnosis, plots=True)
@@ -183,6 +181,16 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
     assert extended.aponeurosis.toughness_j_m2 == pytest.approx(
         1.5 * batch.scenarios[0].aponeurosis.toughness_j_m2)
     assert extended.material == batch.scenarios[0].material
-    assert "sensor_offset" in (tmp_path / "out" / SCENARIO).read_text()
+    assert extended.aponeurosis.toughness_gradient == pytest.approx(math.log(2.0))
+    header = [line for line in (tmp_path / "out" / SCENARIO).read_text().splitlines()
+              if line.startswith("# Not in")]
+    assert header == ["# Not in a scenario's keys: sensor_offset (see diagnosis.json)"]
     assert diagnosis.gain == pytest.approx(0.5)
-    assert "gain 0.50" in (tmp_path / "out" / "report.md").read_text()
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "gain 0.50" in report and "- sensor_offset (knife): held-out 1.000 N" in report
+    data = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
+    assert {"causes", "candidates", "steps", "evidence", "gain", "noise_N", "baseline",
+            "extended", "second_look"} <= set(data)
+    assert data["evidence"][1] == {"cause": "sensor_offset", "heldout_rmse_with_N": 1.0,
+                                   "heldout_rmse_without_N": 1.2, "improved_fraction": 0.5,
+                                   "params": {}, "channel": "knife", "linearised": True}

@@ -14,14 +14,13 @@ from tests.paths import PROJECT_ROOT
 
 pytest.importorskip("ray")
 
-from tests.scale.test_sweep_ray import cluster  # noqa: F401  (the fixture)
 
 QUICK = PROJECT_ROOT / "scenarios" / "quick.toml"
 
 
 @pytest.mark.slow
 def test_a_tiny_batch_is_diagnosed_on_a_cluster_as_on_this_machine(
-        cluster: str, tmp_path: Path) -> None:  # noqa: F811
+        cluster: str, tmp_path: Path) -> None:
     folder = tmp_path / "batch"
     write_hidden_log_batch(folder, 5, QUICK, ("tissue_stiffness",), logs=2, end_s=1.0)
     logs = [str(folder / "log-1"), str(folder / "log-2")]

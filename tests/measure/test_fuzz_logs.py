@@ -17,16 +17,17 @@ from hypothesis import strategies as st
 from cell.errors import LogError
 from cell.measure.logs import FORCE, POSE, QUATERNION_TOLERANCE, TORQUE, read_log
 from tests.fuzzing import (
+    cells,
     documents,
     fuzz_tests,
     mostly,
     numbers,
     scratch,
+    tables,
     toml_document,
     values,
     written,
 )
-from tests.measure.test_fuzz_specimens import cells, tables
 from tests.refusals import refused
 
 #: Each table of ``log.toml`` and its keys.

@@ -25,7 +25,7 @@ from cell.outputs import json_text
 from cell.sim.scenario import load_scenario
 from cell.synthetic.specimen import Repeats, write_hidden_effect_set
 from tests.cutsets import BLADE, BLOCK, PLAIN, cut_set, press
-from tests.logs.test_diagnosis import _log
+from tests.logcases import wave_log
 from tests.paths import PROJECT_ROOT
 
 #: A set the generator draws with plasticity (little hardening) beside viscoelasticity: its
@@ -99,7 +99,7 @@ def test_a_cut_parameter_no_test_moves_has_no_interval_and_says_why() -> None:
 def test_a_log_magnitude_past_any_factor_and_an_unpredicted_score_are_null(
         tmp_path: Path) -> None:
     quick = PROJECT_ROOT / "scenarios" / "quick.toml"
-    logs = tuple(replace(_log(30), scenario=quick, name=f"log-{k}") for k in (1, 2))
+    logs = tuple(replace(wave_log(30), scenario=quick, name=f"log-{k}") for k in (1, 2))
     batch = LogBatch(logs, (load_scenario(quick),) * 2)
     measured, _ = logged_vector(logs)
     # A signature the logs barely show gives a linearised magnitude whose factor no float holds.
