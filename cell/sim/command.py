@@ -17,7 +17,9 @@ from cell.options import add_out, add_quiet, moved_positional
 from cell.outputs import Output, check_outputs
 
 if TYPE_CHECKING:
+    from cell.sim.episode import Episode
     from cell.sim.scenario import Scenario
+    from cell.sim.trajectory import TrajectorySampler
 
 
 def add_simulation(commands: argparse._SubParsersAction) -> None:
@@ -29,6 +31,21 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--log", type=Path, help="write the episode's separation log (sensors "
                      "over time, docs/logs.md) into this folder")
+    run.add_argument("--trajectory", type=Path, metavar="FILE",
+                     help="write the arms' planned and executed joint trajectories, tool poses "
+                     "and wrenches here: .mcap (ROS 2 messages) or .csv; and their limits "
+                     "report beside it (FILE's stem + .limits.json)")
+    run.add_argument("--view", nargs="?", const="auto", choices=("auto", "spawn", "serve"),
+                     help="show the recording live in Rerun's viewer as the episode runs: "
+                     "spawn the viewer (a display), serve it to a browser (none), or auto "
+                     "(the default of a bare --view: spawn where there is a display)")
+    run.add_argument("--grpc-port", type=int, default=9876,
+                     help="--view: the port the recording streams on (default 9876)")
+    run.add_argument("--web-port", type=int, default=9090,
+                     help="--view serve: the web viewer's port (default 9090)")
+    run.add_argument("--view-hold", type=float, metavar="S",
+                     help="--view serve: keep serving S seconds after the episode (default: "
+                     "until Ctrl-C)")
     add_quiet(run)
     run.set_defaults(handler=run_command)
 
@@ -91,16 +108,28 @@ def run_command(args: argparse.Namespace) -> int:
     from cell.folders import write_folder
     from cell.outputs import write_json
     from cell.sim.episode import Episode
+    from cell.sim.liveview import LiveView
     from cell.sim.logwriter import LoggedEpisode, write_log
+    from cell.sim.trajectory import TrajectorySampler
+    from cell.sim.trajectoryfiles import check_trajectory_path, limits_path
 
+    if args.trajectory:
+        check_trajectory_path(args.trajectory)
     check_outputs([args.rerun and Output(args.rerun, "--rerun"),
                    args.out and Output(args.out, "--out"),
+                   args.trajectory and Output(args.trajectory, "--trajectory"),
+                   args.trajectory and Output(limits_path(args.trajectory), "--trajectory"),
                    args.log and Output(args.log, "--log", folder=True, whole=True,
                                        marks=("log.toml",))],
                   [args.scenario])
+    view = (LiveView(args.view, args.grpc_port, args.web_port, args.view_hold) if args.view
+            else None)
     scenario = load(args)
     episode = LoggedEpisode(scenario) if args.log else Episode(scenario)
-    summary = episode.run(rerun_path=args.rerun, progress=not args.quiet)
+    sampler = TrajectorySampler.attach(episode) if args.trajectory else None
+    summary = episode.run(rerun_path=args.rerun, progress=not args.quiet, view=view)
+    if sampler is not None:
+        _write_trajectory(args.trajectory, episode, sampler, summary["timing"]["wall_time_s"])
     if args.out:
         write_json(args.out, summary)
     if isinstance(episode, LoggedEpisode):
@@ -111,6 +140,26 @@ def run_command(args: argparse.Namespace) -> int:
           f"knife tracking median {result['knife_tracking_error_m']['median'] * 1e3:.2f} mm, "
           f"real-time factor {summary['timing']['real_time_factor']:.3f}")
     return 0
+
+
+def _write_trajectory(path: Path, episode: Episode, sampler: TrajectorySampler,
+                      episode_wall_s: float) -> None:
+    """The trajectory file and its limits report; what writing them cost against the
+    episode's wall time (the sampling during it, and the writing)."""
+    import time
+
+    from cell.sim.trajectoryfiles import write_trajectory
+    from cell.sim.trajectorylimits import limits_report
+
+    start = time.perf_counter()
+    trajectory = sampler.trajectory()
+    report = limits_report(episode.sim.model, episode.sim.data.qpos, trajectory)
+    write_trajectory(path, trajectory, report)
+    cost_s = sampler.elapsed_s + time.perf_counter() - start
+    verdict = ("the limits hold" if report["holds"]
+               else f"{len(report['flags'])} limits broken: {'; '.join(report['flags'])}")
+    print(f"wrote {path} ({trajectory.steps} control steps; {verdict}); the trajectory took "
+          f"{cost_s / episode_wall_s:.1%} of the episode's wall time")
 
 
 def plan_command(args: argparse.Namespace) -> int:
