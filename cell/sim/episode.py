@@ -28,7 +28,7 @@ from cell.sim.assembly import (
 )
 from cell.sim.cutscore import CutScore
 from cell.sim.liveview import LiveView
-from cell.sim.recording import EpisodeRecorder
+from cell.sim.recording import EpisodeRecorder, open_recording
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
 from cell.sim.simulation import Simulation
@@ -213,15 +213,8 @@ class Episode:
             held["gripper"] = ik.site_pose(GRASP_SITE)[0]
         if not scenario.cut.enabled:
             held["knife"] = ik.site_pose(KNIFE_TIP)[0]
-        recorder = None
-        if rerun_path is not None or view is not None:
-            recorder = EpisodeRecorder(rerun_path, scene, f"{scenario.name}-{scenario.seed}",
-                                       view)
-            recorder.log_planned_path(plan.cut_path_m)
-            if perceived is not None:
-                recorder.log_perception(perceived)
-                recorder.log_look(0, perceived.guideline.points_m, perceived.cloud_m,
-                                  plan.passes.cut_paths_m[0])
+        recorder = open_recording(rerun_path, view, scene, f"{scenario.name}-{scenario.seed}",
+                                  plan.cut_path_m, perceived, plan.passes.cut_paths_m[0])
         frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
         camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
                                            * self.control_dt_s)))

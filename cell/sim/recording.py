@@ -226,3 +226,19 @@ class EpisodeRecorder:
         self.stream.disconnect()
         if self._file is not None:
             self._file.discard()
+
+
+def open_recording(path: str | Path | None, view: LiveView | None, scene: Scene,
+                   recording_id: str, cut_path_m: np.ndarray, perceived: PerceivedPlan | None,
+                   first_pass_m: np.ndarray) -> EpisodeRecorder | None:
+    """An episode's recording (to the file ``path``, the live ``view`` or both; None when
+    neither is asked for), its planned tip path (``cut_path_m``) and, where the camera looked,
+    its first look and the first pass's tip path (``first_pass_m``) logged."""
+    if path is None and view is None:
+        return None
+    recorder = EpisodeRecorder(path, scene, recording_id, view)
+    recorder.log_planned_path(cut_path_m)
+    if perceived is not None:
+        recorder.log_perception(perceived)
+        recorder.log_look(0, perceived.guideline.points_m, perceived.cloud_m, first_pass_m)
+    return recorder
