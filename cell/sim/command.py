@@ -145,21 +145,20 @@ def run_command(args: argparse.Namespace) -> int:
 def _write_trajectory(path: Path, episode: Episode, sampler: TrajectorySampler,
                       episode_wall_s: float) -> None:
     """The trajectory file and its limits report; what writing them cost against the
-    episode's wall time (the sampling during it, and the writing)."""
+    episode's wall time (the sampling during it, the report and the files)."""
     import time
 
-    from cell.sim.trajectoryfiles import write_trajectory
-    from cell.sim.trajectorylimits import limits_report
+    from cell.sim.trajectoryfiles import program_output, write_trajectory
 
     start = time.perf_counter()
-    trajectory = sampler.trajectory()
-    report = limits_report(episode.sim.model, episode.sim.data.qpos, trajectory)
-    write_trajectory(path, trajectory, report)
+    output = program_output(episode, sampler, path.suffix)
+    write_trajectory(path, output)
     cost_s = sampler.elapsed_s + time.perf_counter() - start
+    report = output.report
     verdict = ("the limits hold" if report["holds"]
                else f"{len(report['flags'])} limits broken: {'; '.join(report['flags'])}")
-    print(f"wrote {path} ({trajectory.steps} control steps; {verdict}); the trajectory took "
-          f"{cost_s / episode_wall_s:.1%} of the episode's wall time")
+    print(f"wrote {path} ({output.trajectory.steps} control steps; {verdict}); the trajectory "
+          f"took {cost_s / episode_wall_s:.1%} of the episode's wall time")
 
 
 def plan_command(args: argparse.Namespace) -> int:

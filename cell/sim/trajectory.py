@@ -106,7 +106,7 @@ class EpisodeTrajectory:
 class TrajectorySampler:
     """Samples an episode's arms and tool sensors after every control step: register it with
     :meth:`attach`, run the episode, then take :meth:`trajectory`. :attr:`elapsed_s` is the
-    wall time it took (its share of the episode's).
+    wall time the sampling took during the episode, s.
 
     Example:
         >>> from dataclasses import replace
@@ -172,7 +172,6 @@ class TrajectorySampler:
 
     def trajectory(self) -> EpisodeTrajectory:
         """The samples so far."""
-        start = time.perf_counter()
         n_q = len(self._start_q)
         table = np.array(self._rows).reshape(len(self._rows), -1)
         time_s, rest = table[:, 0], table[:, 1:]
@@ -197,5 +196,4 @@ class TrajectorySampler:
         force = {sensor: wrenches[:, 6 * k:6 * k + 3] for k, sensor in enumerate(WRENCH_SENSORS)}
         torque = {sensor: wrenches[:, 6 * k + 3:6 * k + 6]
                   for k, sensor in enumerate(WRENCH_SENSORS)}
-        self.elapsed_s += time.perf_counter() - start
         return EpisodeTrajectory(time_s, dt, start_q, arms, frames, force, torque)

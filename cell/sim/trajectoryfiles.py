@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import io
 import json
+import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +32,9 @@ import numpy as np
 from cell.errors import InputError
 from cell.extras import require
 from cell.outputs import write_together
-from cell.sim.trajectory import EpisodeTrajectory
+from cell.sim.episode import Episode
+from cell.sim.trajectory import EpisodeTrajectory, TrajectorySampler
+from cell.sim.trajectorylimits import limits_report
 
 #: The file forms ``--trajectory`` writes, by extension.
 TRAJECTORY_SUFFIXES = (".mcap", ".csv")
@@ -64,13 +68,46 @@ def check_trajectory_path(path: Path) -> None:
         require("rosbags", "ros", "writing ROS 2 messages as MCAP")
 
 
-def write_trajectory(path: Path, trajectory: EpisodeTrajectory, report: dict[str, Any]
-                     ) -> tuple[Path, Path]:
-    """The trajectory at ``path`` (its form by the extension) and its limits ``report`` beside
-    it (:func:`limits_path`), written together: both or neither."""
+@dataclass(frozen=True, eq=False)
+class ProgramOutput:
+    """What ``--trajectory`` writes of an episode that ran, made ready.
+
+    Attributes:
+        trajectory: the episode's robot program.
+        report: its limits report (:func:`~cell.sim.trajectorylimits.limits_report`).
+        content: the trajectory file's bytes.
+        cost_s: the wall time it all took: sampling during the episode, then the report and
+            the file's content, s.
+
+    Example:
+        >>> ProgramOutput.__name__  # made by program_output(episode, sampler, ".mcap")
+        'ProgramOutput'
+    """
+
+    trajectory: EpisodeTrajectory
+    report: dict[str, Any]
+    content: bytes
+    cost_s: float
+
+
+def program_output(episode: Episode, sampler: TrajectorySampler, suffix: str
+                   ) -> ProgramOutput:
+    """The trajectory ``sampler`` took of ``episode`` (which ran), its limits report and the
+    file's content for the extension ``suffix``."""
+    start = time.perf_counter()
+    trajectory = sampler.trajectory()
+    report = limits_report(episode.sim.model, episode.sim.data.qpos, trajectory)
+    content = trajectory_bytes(trajectory, suffix)
+    cost_s = sampler.elapsed_s + time.perf_counter() - start
+    return ProgramOutput(trajectory, report, content, cost_s)
+
+
+def write_trajectory(path: Path, output: ProgramOutput) -> tuple[Path, Path]:
+    """The trajectory at ``path`` and its limits report beside it (:func:`limits_path`),
+    written together: both or neither."""
     report_path = limits_path(path)
-    write_together({path: trajectory_bytes(trajectory, path.suffix),
-                    report_path: json.dumps(report, indent=2) + "\n"})
+    write_together({path: output.content,
+                    report_path: json.dumps(output.report, indent=2) + "\n"})
     return path, report_path
 
 
