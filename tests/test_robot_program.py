@@ -78,6 +78,14 @@ def test_the_mcap_opens_with_the_mcap_reader_and_with_rosbags(short: Path) -> No
     assert {m.header.frame_id for m in messages["/knife/wrench"]} == {"knife/ft"}
 
 
+def test_the_messages_are_serialised_as_rosbags_serialises_them(short: Path) -> None:
+    typestore = get_typestore(Stores.ROS2_HUMBLE)
+    with (short / "program.mcap").open("rb") as stream:
+        for schema, _, message in make_reader(stream).iter_messages():
+            decoded = typestore.deserialize_cdr(message.data, schema.name)
+            assert bytes(typestore.serialize_cdr(decoded, schema.name)) == message.data
+
+
 def test_the_csv_holds_the_mcap_numbers(short: Path) -> None:
     messages = _mcap_messages(short / "program.mcap")
     table = np.genfromtxt(short / "program.csv", delimiter=",", names=True, deletechars="")

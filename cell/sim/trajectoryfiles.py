@@ -32,6 +32,7 @@ import numpy as np
 from cell.errors import InputError
 from cell.extras import require
 from cell.outputs import write_together
+from cell.sim import cdr
 from cell.sim.episode import Episode
 from cell.sim.trajectory import EpisodeTrajectory, TrajectorySampler
 from cell.sim.trajectorylimits import limits_report
@@ -146,57 +147,30 @@ def csv_text(trajectory: EpisodeTrajectory) -> str:
     return out.getvalue()
 
 
-def _stamp(types: Any, time_s: float) -> Any:
-    ns = round(time_s * 1e9)
-    return types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
-
-
-def _messages(trajectory: EpisodeTrajectory, types: Any
-              ) -> list[tuple[str, str, float, Any]]:
-    """(topic, message type, time s, message) of every message, plan first."""
-    header = types["std_msgs/msg/Header"]
-    vector, duration = types["geometry_msgs/msg/Vector3"], types["builtin_interfaces/msg/Duration"]
-    point = types["trajectory_msgs/msg/JointTrajectoryPoint"]
-    out = []
-    for prefix, arm in trajectory.arms.items():
-        points = [point(positions=arm.planned_q_rad[k], velocities=arm.planned_qd_rad_s[k],
-                        accelerations=np.zeros(0), effort=np.zeros(0),
-                        time_from_start=duration(sec=int(t), nanosec=round((t % 1) * 1e9)))
-                  for k, t in enumerate(trajectory.time_s)]
-        out.append((f"/{prefix}/joint_trajectory", "trajectory_msgs/msg/JointTrajectory", 0.0,
-                    types["trajectory_msgs/msg/JointTrajectory"](
-                        header=header(stamp=_stamp(types, 0.0), frame_id=WORLD_FRAME),
-                        joint_names=list(arm.joints), points=points)))
-    for k, t in enumerate(trajectory.time_s):
-        stamp = _stamp(types, t)
-        for prefix, arm in trajectory.arms.items():
-            out.append((f"/{prefix}/joint_states", "sensor_msgs/msg/JointState", t,
-                        types["sensor_msgs/msg/JointState"](
-                            header=header(stamp=stamp, frame_id=""), name=list(arm.joints),
-                            position=arm.executed_q_rad[k], velocity=arm.executed_qd_rad_s[k],
-                            effort=arm.effort_nm[k])))
-        for sensor, frame in trajectory.wrench_frames.items():
-            force, torque = trajectory.force_n[sensor][k], trajectory.torque_nm[sensor][k]
-            out.append((f"/{sensor}/wrench", "geometry_msgs/msg/WrenchStamped", t,
-                        types["geometry_msgs/msg/WrenchStamped"](
-                            header=header(stamp=stamp, frame_id=frame),
-                            wrench=types["geometry_msgs/msg/Wrench"](
-                                force=vector(*force), torque=vector(*torque)))))
-        out.append(("/tf", "tf2_msgs/msg/TFMessage", t, types["tf2_msgs/msg/TFMessage"](
-            transforms=[_transform(types, header(stamp=stamp, frame_id=WORLD_FRAME),
-                                   arm.tool_site, arm.tool_position_m[k],
-                                   arm.tool_quaternion[k])
-                        for arm in trajectory.arms.values()])))
+def _messages(trajectory: EpisodeTrajectory) -> list[tuple[str, str, int, bytes]]:
+    """(topic, message type, time ns, CDR bytes) of every message, in time order, the plan
+    first."""
+    times_ns = [round(t * 1e9) for t in trajectory.time_s]
+    arms = trajectory.arms.values()
+    out = [(f"/{prefix}/joint_trajectory", "trajectory_msgs/msg/JointTrajectory", 0,
+            cdr.joint_trajectory(0, WORLD_FRAME, arm.joints, times_ns, arm.planned_q_rad,
+                                 arm.planned_qd_rad_s))
+           for prefix, arm in trajectory.arms.items()]
+    sites = [arm.tool_site for arm in arms]
+    positions = np.stack([arm.tool_position_m for arm in arms], axis=1)
+    quaternions = np.stack([arm.tool_quaternion for arm in arms], axis=1)
+    for k, time_ns in enumerate(times_ns):
+        out += [(f"/{prefix}/joint_states", "sensor_msgs/msg/JointState", time_ns,
+                 cdr.joint_state(time_ns, arm.joints, arm.executed_q_rad[k],
+                                 arm.executed_qd_rad_s[k], arm.effort_nm[k]))
+                for prefix, arm in trajectory.arms.items()]
+        out += [(f"/{sensor}/wrench", "geometry_msgs/msg/WrenchStamped", time_ns,
+                 cdr.wrench_stamped(time_ns, frame, trajectory.force_n[sensor][k],
+                                    trajectory.torque_nm[sensor][k]))
+                for sensor, frame in trajectory.wrench_frames.items()]
+        out.append(("/tf", "tf2_msgs/msg/TFMessage", time_ns,
+                    cdr.tf_message(time_ns, WORLD_FRAME, sites, positions[k], quaternions[k])))
     return out
-
-
-def _transform(types: Any, header: Any, child: str, position_m: np.ndarray,
-               quaternion: np.ndarray) -> Any:
-    w, x, y, z = (float(c) for c in quaternion)
-    return types["geometry_msgs/msg/TransformStamped"](
-        header=header, child_frame_id=child, transform=types["geometry_msgs/msg/Transform"](
-            translation=types["geometry_msgs/msg/Vector3"](*(float(c) for c in position_m)),
-            rotation=types["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w)))
 
 
 def mcap_bytes(trajectory: EpisodeTrajectory) -> bytes:
@@ -210,13 +184,11 @@ def mcap_bytes(trajectory: EpisodeTrajectory) -> bytes:
     writer = Writer(out)
     writer.start(profile="ros2", library="musclecell")
     channels: dict[str, int] = {}
-    for topic, msgtype, time_s, message in _messages(trajectory, typestore.types):
+    for topic, msgtype, time_ns, data in _messages(trajectory):
         if topic not in channels:
             text = typestore.generate_msgdef(msgtype, ros_version=2)[0]
             schema = writer.register_schema(msgtype, "ros2msg", text.encode())
             channels[topic] = writer.register_channel(topic, "cdr", schema)
-        ns = round(time_s * 1e9)
-        writer.add_message(channels[topic], log_time=ns, publish_time=ns,
-                           data=bytes(typestore.serialize_cdr(message, msgtype)))
+        writer.add_message(channels[topic], log_time=time_ns, publish_time=time_ns, data=data)
     writer.finish()
     return out.getvalue()
