@@ -8,6 +8,7 @@ Each function returns one message's bytes, encapsulation header included.
 
 from __future__ import annotations
 
+import functools
 import struct
 from collections.abc import Sequence
 
@@ -75,6 +76,15 @@ class CdrWriter:
         self.time(time_ns)
         self.string(frame_id)
 
+    def extend(self, payload: bytes) -> None:
+        """Payload serialised before from the start of a message, written first here (so
+        that its alignment holds)."""
+        self._buffer += payload
+
+    def stamp(self, time_ns: int) -> None:
+        """Set the time of the message's header (its first field)."""
+        _TIME.pack_into(self._buffer, len(_HEADER), time_ns // 10**9, time_ns % 10**9)
+
     def bytes(self) -> bytes:
         """The message."""
         return bytes(self._buffer)
@@ -84,11 +94,20 @@ def joint_state(time_ns: int, names: Sequence[str], position: np.ndarray,
                 velocity: np.ndarray, effort: np.ndarray) -> bytes:
     """A ``sensor_msgs/msg/JointState`` (no frame)."""
     writer = CdrWriter()
-    writer.header(time_ns, "")
-    writer.strings(names)
+    writer.extend(_joint_state_start(tuple(names)))
+    writer.stamp(time_ns)
     for values in (position, velocity, effort):
         writer.doubles(values)
     return writer.bytes()
+
+
+@functools.lru_cache(maxsize=32)
+def _joint_state_start(names: tuple[str, ...]) -> bytes:
+    """A joint state's header (stamped 0) and names: the same in every message of an arm."""
+    writer = CdrWriter()
+    writer.header(0, "")
+    writer.strings(names)
+    return writer.bytes()[len(_HEADER):]
 
 
 def wrench_stamped(time_ns: int, frame_id: str, force: np.ndarray, torque: np.ndarray

@@ -128,7 +128,6 @@ class TrajectorySampler:
         self.joints = {prefix: tuple(arm_joint_names(prefix, arm)) for prefix, arm in ARMS.items()}
         names = [name for joints in self.joints.values() for name in joints]
         self._dofs = np.array([model.joint(name).dofadr[0] for name in names])
-        self._sites = {prefix: model.site(site).id for prefix, site in TOOL_SITES.items()}
         self._start_q = episode.commanded_q_rad.copy()
         self._rows: list[np.ndarray] = []
         self.elapsed_s = 0.0
@@ -156,15 +155,16 @@ class TrajectorySampler:
         """(n, 7 per tool) each tool site's position and quaternion at the executed joint
         positions (forward kinematics: after a step MuJoCo's site poses are those before
         its last integration, the joints' positions after it)."""
-        model = self.episode.sim.model
+        # The arms and tools alone (the IK's model: the scene's kinematics, without the meat).
+        model = self.episode.robot_model
         data = mujoco.MjData(model)
-        data.qpos[:] = self.episode.sim.data.qpos
-        poses = np.empty((len(executed_q), 7 * len(self._sites)))
+        sites = [model.site(name).id for name in TOOL_SITES.values()]
+        poses = np.empty((len(executed_q), 7 * len(sites)))
         quaternion = np.zeros(4)
         for k, q in enumerate(executed_q):
-            data.qpos[self.episode.scene_qpos] = q
+            data.qpos[self.episode.ik_qpos] = q
             mujoco.mj_kinematics(model, data)
-            for n, site in enumerate(self._sites.values()):
+            for n, site in enumerate(sites):
                 mujoco.mju_mat2Quat(quaternion, data.site_xmat[site])
                 quaternion *= np.sign(quaternion[0]) or 1.0  # one of the two: w >= 0
                 poses[k, 7 * n:7 * n + 7] = np.concatenate([data.site_xpos[site], quaternion])
