@@ -8,6 +8,7 @@ handler checks its outputs (:mod:`cell.outputs`) before it builds anything.
 from __future__ import annotations
 
 import argparse
+import time
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -127,9 +128,10 @@ def run_command(args: argparse.Namespace) -> int:
     scenario = load(args)
     episode = LoggedEpisode(scenario) if args.log else Episode(scenario)
     sampler = TrajectorySampler.attach(episode) if args.trajectory else None
+    start = time.perf_counter()
     summary = episode.run(rerun_path=args.rerun, progress=not args.quiet, view=view)
     if sampler is not None:
-        _write_trajectory(args.trajectory, episode, sampler, summary["timing"]["wall_time_s"])
+        _write_trajectory(args.trajectory, episode, sampler, time.perf_counter() - start)
     if args.out:
         write_json(args.out, summary)
     if isinstance(episode, LoggedEpisode):
@@ -144,10 +146,9 @@ def run_command(args: argparse.Namespace) -> int:
 
 def _write_trajectory(path: Path, episode: Episode, sampler: TrajectorySampler,
                       episode_wall_s: float) -> None:
-    """The trajectory file and its limits report; what writing them cost against the
-    episode's wall time (the sampling during it, the report and the files)."""
-    import time
-
+    """The trajectory file and its limits report; what writing them cost (the sampling
+    during the episode, the report and the files) against the episode's wall time (its run:
+    perception, plan and control loop)."""
     from cell.sim.trajectoryfiles import program_output, write_trajectory
 
     start = time.perf_counter()

@@ -97,7 +97,8 @@ def program_output(episode: Episode, sampler: TrajectorySampler, suffix: str
     file's content for the extension ``suffix``."""
     start = time.perf_counter()
     trajectory = sampler.trajectory()
-    report = limits_report(episode.sim.model, episode.sim.data.qpos, trajectory)
+    report = limits_report(episode.sim.model, episode.sim.data.qpos, trajectory,
+                           arms_model=episode.robot_model)
     content = trajectory_bytes(trajectory, suffix)
     cost_s = sampler.elapsed_s + time.perf_counter() - start
     return ProgramOutput(trajectory, report, content, cost_s)

@@ -63,16 +63,19 @@ def _obstacle_geoms(model: mujoco.MjModel) -> dict[str, np.ndarray]:
 
 
 def clearances(model: mujoco.MjModel, qpos: np.ndarray, trajectory: EpisodeTrajectory,
-               tolerance_m: float = CLEARANCE_TOLERANCE_M
+               tolerance_m: float = CLEARANCE_TOLERANCE_M,
+               arms_model: mujoco.MjModel | None = None
                ) -> dict[str, dict[str, dict[str, Any]]]:
     """Per arm and obstacle (the other arms, ``table``, ``fixture``): the smallest signed
     distance over the executed trajectory, m (to ``tolerance_m``), when it happened and
     between which geoms. ``qpos``: the scene's positions the arms are posed over (the other
-    bodies stay there)."""
+    bodies stay there); ``arms_model``: the arms and tools alone, with the scene's names and
+    kinematics (the IK's model), to pose them faster."""
     arms = list(trajectory.arms)
     groups = {arm: _arm_geoms(model, (arm, ARM_TOOLS[arm])) for arm in arms}
     groups.update(_obstacle_geoms(model))
-    poses = _GeomPoses(model, qpos, trajectory, np.concatenate(list(groups.values())))
+    poses = _GeomPoses(model, qpos, trajectory, np.concatenate(list(groups.values())),
+                       arms_model)
     best: dict[str, dict[str, dict[str, Any]]] = {arm: {} for arm in arms}
     for n, arm in enumerate(arms):
         for name in [*arms[n + 1:], *OBSTACLES]:
@@ -90,20 +93,27 @@ class _GeomPoses:
     distance between the steps where it is measured."""
 
     def __init__(self, model: mujoco.MjModel, qpos: np.ndarray, trajectory: EpisodeTrajectory,
-                 geoms: np.ndarray) -> None:
+                 geoms: np.ndarray, arms_model: mujoco.MjModel | None) -> None:
         self.model, self.time_s = model, trajectory.time_s
         self.data = mujoco.MjData(model)
         self.data.qpos[:] = qpos
-        qadr = [np.array([model.joint(j).qposadr[0] for j in arm.joints])
-                for arm in trajectory.arms.values()]
+        mujoco.mj_kinematics(model, self.data)
         self.column = {int(g): k for k, g in enumerate(geoms)}
-        self.xpos = np.empty((trajectory.steps, len(geoms), 3))
-        self.xmat = np.empty((trajectory.steps, len(geoms), 9))
+        self.xpos = np.repeat(self.data.geom_xpos[geoms][None], trajectory.steps, axis=0)
+        self.xmat = np.repeat(self.data.geom_xmat[geoms][None], trajectory.steps, axis=0)
+        # The moving geoms posed by the arms' own model where there is one (the same
+        # kinematics, without the meat's bodies: faster), else by the scene's.
+        kinematics = model if arms_model is None else arms_model
+        data = self.data if arms_model is None else mujoco.MjData(arms_model)
+        moving = [k for k, g in enumerate(geoms) if model.body_weldid[model.geom_bodyid[g]]]
+        ids = [kinematics.geom(model.geom(int(geoms[k])).name).id for k in moving]
+        qadr = [np.array([kinematics.joint(j).qposadr[0] for j in arm.joints])
+                for arm in trajectory.arms.values()]
         for k in range(trajectory.steps):
             for adr, arm in zip(qadr, trajectory.arms.values(), strict=True):
-                self.data.qpos[adr] = arm.executed_q_rad[k]
-            mujoco.mj_kinematics(model, self.data)
-            self.xpos[k], self.xmat[k] = self.data.geom_xpos[geoms], self.data.geom_xmat[geoms]
+                data.qpos[adr] = arm.executed_q_rad[k]
+            mujoco.mj_kinematics(kinematics, data)
+            self.xpos[k, moving], self.xmat[k, moving] = data.geom_xpos[ids], data.geom_xmat[ids]
         # A point of a geom moves at most its centre's step plus its bounding radius times
         # the rotation's step (Frobenius norm): summed from the first step on.
         step = (np.linalg.norm(np.diff(self.xpos, axis=0), axis=2)
@@ -163,12 +173,13 @@ def _joint_extremes(arm: ArmTrajectory, dt_s: float) -> dict[str, Any]:
 
 
 def limits_report(model: mujoco.MjModel, qpos: np.ndarray, trajectory: EpisodeTrajectory,
-                  settings: LimitSettings = LimitSettings()) -> dict[str, Any]:
+                  settings: LimitSettings = LimitSettings(),
+                  arms_model: mujoco.MjModel | None = None) -> dict[str, Any]:
     """The report (JSON-ready): per arm its joints' extremes and its clearances, and
     ``flags``, one line per limit broken (empty: the program holds). The arms carry no
     acceleration limits (their DH tables rate speeds only): accelerations are reported, not
-    flagged."""
-    clear = clearances(model, qpos, trajectory)
+    flagged. ``qpos`` and ``arms_model``: as :func:`clearances`."""
+    clear = clearances(model, qpos, trajectory, arms_model=arms_model)
     arms, flags = {}, []
     for prefix, arm in trajectory.arms.items():
         joints = _joint_extremes(arm, trajectory.control_dt_s)
