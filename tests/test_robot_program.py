@@ -86,6 +86,17 @@ def test_the_messages_are_serialised_as_rosbags_serialises_them(short: Path) -> 
             assert bytes(typestore.serialize_cdr(decoded, schema.name)) == message.data
 
 
+def test_the_schemas_are_rosbags_definitions(short: Path) -> None:
+    typestore = get_typestore(Stores.ROS2_HUMBLE)
+    with (short / "program.mcap").open("rb") as stream:
+        schemas = make_reader(stream).get_summary().schemas.values()
+    assert {schema.name for schema in schemas} == {
+        "trajectory_msgs/msg/JointTrajectory", "sensor_msgs/msg/JointState",
+        "geometry_msgs/msg/WrenchStamped", "tf2_msgs/msg/TFMessage"}
+    for schema in schemas:
+        assert schema.data.decode() == typestore.generate_msgdef(schema.name, ros_version=2)[0]
+
+
 def test_the_csv_holds_the_mcap_numbers(short: Path) -> None:
     messages = _mcap_messages(short / "program.mcap")
     table = np.genfromtxt(short / "program.csv", delimiter=",", names=True, deletechars="")

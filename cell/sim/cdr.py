@@ -3,7 +3,9 @@ and MCAP's ``cdr`` use), written directly: a robot program holds thousands of me
 few fixed shapes, and building each as an object for a generic serialiser would cost more than
 the episode can spare. ``tests/test_robot_program.py`` checks the bytes against ``rosbags``'.
 
-Each function returns one message's bytes, encapsulation header included.
+Each function returns one message's bytes, encapsulation header included; :func:`msgdef`
+gives a message type's definition as MCAP's ``ros2msg`` schemas hold it (so that writing
+needs no ``rosbags`` type store, whose loading alone costs a short episode's share).
 """
 
 from __future__ import annotations
@@ -13,6 +15,59 @@ import struct
 from collections.abc import Sequence
 
 import numpy as np
+
+#: The fields of each message type written, and of the types they hold (ROS 2 Humble's).
+_FIELDS = {
+    "builtin_interfaces/Time": ("int32 sec", "uint32 nanosec"),
+    "builtin_interfaces/Duration": ("int32 sec", "uint32 nanosec"),
+    "std_msgs/Header": ("builtin_interfaces/Time stamp", "string frame_id"),
+    "sensor_msgs/JointState": ("std_msgs/Header header", "string[] name",
+                               "float64[] position", "float64[] velocity", "float64[] effort"),
+    "trajectory_msgs/JointTrajectory": ("std_msgs/Header header", "string[] joint_names",
+                                        "trajectory_msgs/JointTrajectoryPoint[] points"),
+    "trajectory_msgs/JointTrajectoryPoint": (
+        "float64[] positions", "float64[] velocities", "float64[] accelerations",
+        "float64[] effort", "builtin_interfaces/Duration time_from_start"),
+    "geometry_msgs/WrenchStamped": ("std_msgs/Header header", "geometry_msgs/Wrench wrench"),
+    "geometry_msgs/Wrench": ("geometry_msgs/Vector3 force", "geometry_msgs/Vector3 torque"),
+    "geometry_msgs/Vector3": ("float64 x", "float64 y", "float64 z"),
+    "geometry_msgs/Quaternion": ("float64 x", "float64 y", "float64 z", "float64 w"),
+    "tf2_msgs/TFMessage": ("geometry_msgs/TransformStamped[] transforms",),
+    "geometry_msgs/TransformStamped": ("std_msgs/Header header", "string child_frame_id",
+                                       "geometry_msgs/Transform transform"),
+    "geometry_msgs/Transform": ("geometry_msgs/Vector3 translation",
+                                "geometry_msgs/Quaternion rotation"),
+}
+#: What separates the definitions of the types a message holds.
+_SEPARATOR = "=" * 80
+
+
+def msgdef(msgtype: str) -> str:
+    """The definition of ``msgtype`` (``sensor_msgs/msg/JointState``) in the ``ros2msg``
+    form: its fields, then each type it holds, depth first, once.
+
+    Example:
+        >>> msgdef("geometry_msgs/msg/Wrench").splitlines()[:2]
+        ['geometry_msgs/Vector3 force', 'geometry_msgs/Vector3 torque']
+        >>> msgdef("geometry_msgs/msg/Wrench").splitlines()[3]
+        'MSG: geometry_msgs/Vector3'
+    """
+    order: list[str] = []
+
+    def visit(name: str) -> None:
+        for field in _FIELDS[name]:
+            kind = field.split()[0].removesuffix("[]")
+            if kind in _FIELDS and kind not in order:
+                order.append(kind)
+                visit(kind)
+
+    top = msgtype.replace("/msg/", "/")
+    visit(top)
+    sections = ["\n".join(_FIELDS[top]) + "\n"]
+    sections += [f"{_SEPARATOR}\nMSG: {name}\n" + "\n".join(_FIELDS[name]) + "\n"
+                 for name in order]
+    return "".join(sections)
+
 
 #: CDR's encapsulation header: plain CDR, little-endian.
 _HEADER = b"\x00\x01\x00\x00"

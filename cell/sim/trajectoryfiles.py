@@ -66,7 +66,7 @@ def check_trajectory_path(path: Path) -> None:
         raise InputError(path, "--trajectory", f"must end in {' or '.join(TRAJECTORY_SUFFIXES)}"
                          f" (MCAP of ROS 2 messages, or CSV), got {path.suffix or 'none'!r}")
     if path.suffix == ".mcap":
-        require("rosbags", "ros", "writing ROS 2 messages as MCAP")
+        require("mcap", "ros", "writing ROS 2 messages as MCAP")
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,17 +178,14 @@ def mcap_bytes(trajectory: EpisodeTrajectory) -> bytes:
     """The trajectory as a bare MCAP file of ROS 2 messages (schemas ``ros2msg``, messages
     ``cdr``), in time order."""
     from mcap.writer import Writer
-    from rosbags.typesys import Stores, get_typestore
 
-    typestore = get_typestore(Stores.ROS2_HUMBLE)
     out = io.BytesIO()
     writer = Writer(out)
     writer.start(profile="ros2", library="musclecell")
     channels: dict[str, int] = {}
     for topic, msgtype, time_ns, data in _messages(trajectory):
         if topic not in channels:
-            text = typestore.generate_msgdef(msgtype, ros_version=2)[0]
-            schema = writer.register_schema(msgtype, "ros2msg", text.encode())
+            schema = writer.register_schema(msgtype, "ros2msg", cdr.msgdef(msgtype).encode())
             channels[topic] = writer.register_channel(topic, "cdr", schema)
         writer.add_message(channels[topic], log_time=time_ns, publish_time=time_ns, data=data)
     writer.finish()
