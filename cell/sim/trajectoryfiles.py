@@ -67,6 +67,7 @@ def check_trajectory_path(path: Path) -> None:
                          f" (MCAP of ROS 2 messages, or CSV), got {path.suffix or 'none'!r}")
     if path.suffix == ".mcap":
         require("mcap", "ros", "writing ROS 2 messages as MCAP")
+        import mcap.writer  # noqa: F401  loaded with the command, not after its episode
 
 
 @dataclass(frozen=True, eq=False)
