@@ -8,6 +8,10 @@ Entries (``value`` in ``unit``; ``peer`` and ``ratio`` = value / peer where a pe
 - ``episode_real_time_factor``: simulated over wall time of the scripted episode (no
   recording); with ``--quick`` the episode is cut short.
 - ``ik_ms_per_control_step``: one solve of the three-arm IK; peer: one Viper alone.
+- ``trajectory_s``: the wall time of what ``run --trajectory`` adds (sampling the arms and
+  the sensors at every control step, the limits report, the MCAP file's content); peer: the
+  episode's own wall time (its run: perception, plan, control loop), so ``ratio`` is the
+  share it adds.
 """
 
 from __future__ import annotations
@@ -27,6 +31,8 @@ from cell.robots.arms import build_arm
 from cell.robots.dh import VIPER_S1700D
 from cell.sim.episode import Episode
 from cell.sim.scenario import Scenario, load_scenario
+from cell.sim.trajectory import TrajectorySampler
+from cell.sim.trajectoryfiles import program_output
 from cell.tissue.material import ContinuumMaterial
 
 
@@ -59,6 +65,20 @@ def bench_episode(scenario: Scenario, quick: bool) -> dict[str, Any]:
     return {"value": summary["timing"]["real_time_factor"], "unit": "x real time",
             "sim_time_s": summary["result"]["sim_time_s"],
             "wall_time_s": summary["timing"]["wall_time_s"], "truncated": quick}
+
+
+def bench_trajectory(scenario: Scenario, quick: bool) -> dict[str, Any]:
+    if quick:
+        scenario = replace(scenario, end_s=3.0)
+    episode = Episode(scenario)
+    sampler = TrajectorySampler.attach(episode)
+    start = time.perf_counter()
+    episode.run()
+    wall_s = time.perf_counter() - start
+    output = program_output(episode, sampler, ".mcap")
+    return {"value": output.cost_s, "unit": "s", "peer": wall_s,
+            "peer_name": "the episode's own wall time", "ratio": output.cost_s / wall_s,
+            "control_steps": output.trajectory.steps, "truncated": quick}
 
 
 def bench_ik(scenario: Scenario, solves: int) -> dict[str, Any]:
@@ -99,6 +119,7 @@ def run_bench(scenario_path: str | Path, quick: bool = False) -> dict[str, Any]:
         "physics_us_per_node_step": bench_physics(scenario, 50 if quick else 300),
         "ik_ms_per_control_step": bench_ik(scenario, 50 if quick else 500),
         "episode_real_time_factor": bench_episode(scenario, quick),
+        "trajectory_s": bench_trajectory(scenario, quick),
     }
     return {
         "scenario": str(scenario_path),

@@ -7,6 +7,7 @@ What it measures and its summary: :mod:`cell.sim.summary`.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +26,8 @@ from cell.sim.assembly import (
     build_scene,
     grasp_point,
 )
-from cell.sim.recording import EpisodeRecorder
+from cell.sim.liveview import LiveView
+from cell.sim.recording import EpisodeRecorder, open_recording
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
 from cell.sim.score import CutScore
@@ -121,11 +123,18 @@ class Episode:
         self._solve_ready_poses()
         self._place_arms()
         self._control_steps = 0
+        self.step_observers: list[Callable[[], None]] = []  # called after each control step
         self._knife_tared = self._gripper_tared = self._grasped = False
         self._knife_load_n = np.zeros(3)  # the load on the blade at the last reading, world, N
         self._jaw_half_m = np.array([scenario.gripper.finger_width_m / 2,
                                      scenario.gripper.max_opening_m / 2,
                                      scenario.gripper.finger_length_m / 2])
+
+    @property
+    def commanded_q_rad(self) -> np.ndarray:
+        """The arms' joint commands of the last control step (before the first: the ready
+        poses), rad, in the order of :attr:`scene_qpos`."""
+        return self._ctrl_prev
 
     def _home_configuration(self) -> np.ndarray:
         q = self.robot_model.qpos0.copy()
@@ -170,21 +179,22 @@ class Episode:
         self.sim.forward()
         self._ctrl_prev = q.copy()
 
-    def run(self, rerun_path: str | Path | None = None, progress: bool = False
-            ) -> dict[str, Any]:
-        """Run the episode; returns the summary. Writes the Rerun file if a path is given.
+    def run(self, rerun_path: str | Path | None = None, progress: bool = False,
+            view: LiveView | None = None) -> dict[str, Any]:
+        """Run the episode; returns the summary. Writes the Rerun file if a path is given, and
+        streams the recording to a live ``view`` if one is given.
 
         Raises:
             DivergenceError: the physics blew up (nothing is written then).
         """
         scenario, model = self.scenario, self.sim.model
         rig = (CameraRig(model, CAMERA, scenario.camera.width_px, scenario.camera.height_px)
-               if scenario.perception.enabled or rerun_path is not None else nullcontext())
+               if scenario.perception.enabled or rerun_path or view else nullcontext())
         with rig as camera:
-            return self._run(camera, rerun_path, progress)
+            return self._run(camera, rerun_path, progress, view)
 
     def _run(self, rig: CameraRig | None, rerun_path: str | Path | None,
-             progress: bool) -> dict[str, Any]:
+             progress: bool, view: LiveView | None = None) -> dict[str, Any]:
         scenario, sim, ik = self.scenario, self.sim, self.ik
         data, model, scene = sim.data, sim.model, self.scene
         perceived = self.perceive(rig) if rig is not None and scenario.perception.enabled \
@@ -203,14 +213,8 @@ class Episode:
             held["gripper"] = ik.site_pose(GRASP_SITE)[0]
         if not scenario.cut.enabled:
             held["knife"] = ik.site_pose(KNIFE_TIP)[0]
-        recorder = None
-        if rerun_path is not None:
-            recorder = EpisodeRecorder(rerun_path, scene, f"{scenario.name}-{scenario.seed}")
-            recorder.log_planned_path(plan.cut_path_m)
-            if perceived is not None:
-                recorder.log_perception(perceived)
-                recorder.log_look(0, perceived.guideline.points_m, perceived.cloud_m,
-                                  plan.passes.cut_paths_m[0])
+        recorder = open_recording(rerun_path, view, scene, f"{scenario.name}-{scenario.seed}",
+                                  plan.cut_path_m, perceived, plan.passes.cut_paths_m[0])
         frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
         camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
                                            * self.control_dt_s)))
@@ -235,6 +239,8 @@ class Episode:
                 t = sim.time_s
                 tip = data.site_xpos[tip_site]
                 self._measure(trace, self._knife_tared, self._gripper_tared)
+                for observe in self.step_observers:
+                    observe()
                 if relooks is not None and relooks.due(t):
                     self._relook(relooks, rig, plan, recorder)
                 pass_index = plan.passes.pass_at(t)

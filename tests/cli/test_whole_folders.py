@@ -113,7 +113,8 @@ class FakeLoggedEpisode:
     def __init__(self, scenario: object) -> None:
         self.scenario = scenario
 
-    def run(self, rerun_path: Path | None, progress: bool) -> dict[str, Any]:
+    def run(self, rerun_path: Path | None, progress: bool, view: object = None
+            ) -> dict[str, Any]:
         return {"result": {"released_fraction": 0.0, "bindings": 0, "released_by_rule": {},
                            "gap_m": {"median": 0.0}, "knife_tracking_error_m": {"median": 0.0}},
                 "timing": {"real_time_factor": 1.0}}
