@@ -29,6 +29,9 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--log", type=Path, help="write the episode's separation log (sensors "
                      "over time, docs/logs.md) into this folder")
+    run.add_argument("--profile", action="store_true",
+                     help="print where the wall time goes, by part (docs/cli.md), and add "
+                     "it to the summary JSON as 'profile'")
     add_quiet(run)
     run.set_defaults(handler=run_command)
 
@@ -80,15 +83,19 @@ def run_command(args: argparse.Namespace) -> int:
     from cell.outputs import write_json
     from cell.sim.episode import Episode
     from cell.sim.episodelog import LoggedEpisode, write_log
+    from cell.sim.profiled import add_mujoco_stages, episode_profile, start_episode
 
     check_outputs([args.rerun and Output(args.rerun, "--rerun"),
                    args.out and Output(args.out, "--out"),
                    args.log and Output(args.log, "--log", folder=True, whole=True,
                                        marks=("log.toml",))],
                   [args.scenario])
-    scenario = load(args)
-    episode = LoggedEpisode(scenario) if args.log else Episode(scenario)
-    summary = episode.run(rerun_path=args.rerun, progress=not args.quiet)
+    with episode_profile(args.profile) as profile:
+        episode = start_episode(load(args), LoggedEpisode if args.log else Episode)
+        summary = episode.run(rerun_path=args.rerun, progress=not args.quiet)
+    if profile is not None:
+        add_mujoco_stages(profile, episode.sim.data)
+        summary["profile"] = profile.to_dict()
     if args.out:
         write_json(args.out, summary)
     if isinstance(episode, LoggedEpisode):
@@ -98,6 +105,8 @@ def run_command(args: argparse.Namespace) -> int:
           f"{result['released_by_rule']}, median gap {result['gap_m']['median'] * 1e3:.1f} mm, "
           f"knife tracking median {result['knife_tracking_error_m']['median'] * 1e3:.2f} mm, "
           f"real-time factor {summary['timing']['real_time_factor']:.3f}")
+    if profile is not None:
+        print(profile.table())
     return 0
 
 
