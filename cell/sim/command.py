@@ -47,6 +47,9 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--view-hold", type=float, metavar="S",
                      help="--view serve: keep serving S seconds after the episode (default: "
                      "until Ctrl-C)")
+    run.add_argument("--profile", action="store_true",
+                     help="print where the wall time goes, by part (docs/cli.md), and add "
+                     "it to the summary JSON as 'profile'")
     add_quiet(run)
     run.set_defaults(handler=run_command)
 
@@ -99,6 +102,7 @@ def run_command(args: argparse.Namespace) -> int:
     from cell.sim.episode import Episode
     from cell.sim.episodelog import LoggedEpisode, write_log
     from cell.sim.liveview import LiveView
+    from cell.sim.profiled import add_mujoco_stages, episode_profile, start_episode
     from cell.sim.trajectory import TrajectorySampler
     from cell.sim.trajectoryfiles import check_trajectory_path, limits_path
 
@@ -113,13 +117,16 @@ def run_command(args: argparse.Namespace) -> int:
                   [args.scenario])
     view = (LiveView(args.view, args.grpc_port, args.web_port, args.view_hold) if args.view
             else None)
-    scenario = load(args)
-    episode = LoggedEpisode(scenario) if args.log else Episode(scenario)
-    sampler = TrajectorySampler.attach(episode) if args.trajectory else None
-    start = time.perf_counter()
-    summary = episode.run(rerun_path=args.rerun, progress=not args.quiet, view=view)
+    with episode_profile(args.profile) as profile:
+        episode = start_episode(load(args), LoggedEpisode if args.log else Episode)
+        sampler = TrajectorySampler.attach(episode) if args.trajectory else None
+        start = time.perf_counter()
+        summary = episode.run(rerun_path=args.rerun, progress=not args.quiet, view=view)
     if sampler is not None:
         _write_trajectory(args.trajectory, episode, sampler, time.perf_counter() - start)
+    if profile is not None:
+        add_mujoco_stages(profile, episode.sim.data)
+        summary["profile"] = profile.to_dict()
     if args.out:
         write_json(args.out, summary)
     if isinstance(episode, LoggedEpisode):
@@ -129,6 +136,8 @@ def run_command(args: argparse.Namespace) -> int:
           f"{result['released_by_rule']}, median gap {result['gap_m']['median'] * 1e3:.1f} mm, "
           f"knife tracking median {result['knife_tracking_error_m']['median'] * 1e3:.2f} mm, "
           f"real-time factor {summary['timing']['real_time_factor']:.3f}")
+    if profile is not None:
+        print(profile.table())
     return 0
 
 

@@ -11,12 +11,13 @@ from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from cell.perception.interface import SeenInterface
 from cell.perception.pipeline import PerceivedPlan, generic_model, perceive
+from cell.profiling import timed
 from cell.progress import progress_bar
 from cell.robots.camera import CameraRig
 from cell.robots.names import ARMS, CAMERA, GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
@@ -26,8 +27,6 @@ from cell.sim.assembly import (
     build_scene,
     grasp_point,
 )
-from cell.sim.liveview import LiveView
-from cell.sim.recording import EpisodeRecorder, open_recording
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
 from cell.sim.score import CutScore
@@ -46,6 +45,10 @@ from controllers.ik import CellIK, arm_joint_names, pose
 from controllers.knife import CutWindow, PassPlan
 from controllers.steering import LeanSteering
 from controllers.trajectory import CartesianTrajectory
+
+if TYPE_CHECKING:  # Rerun is imported by the recorder only: its import is dear
+    from cell.sim.liveview import LiveView
+    from cell.sim.recording import EpisodeRecorder
 
 #: IK iterations that bring the arms from home to their ready poses before the episode starts.
 _READY_ITERATIONS = 200
@@ -195,6 +198,7 @@ class Episode:
 
     def _run(self, rig: CameraRig | None, rerun_path: str | Path | None,
              progress: bool, view: LiveView | None = None) -> dict[str, Any]:
+        """The episode's loop: long because it is where a control step's parts meet."""
         scenario, sim, ik = self.scenario, self.sim, self.ik
         data, model, scene = sim.data, sim.model, self.scene
         perceived = self.perceive(rig) if rig is not None and scenario.perception.enabled \
@@ -213,8 +217,12 @@ class Episode:
             held["gripper"] = ik.site_pose(GRASP_SITE)[0]
         if not scenario.cut.enabled:
             held["knife"] = ik.site_pose(KNIFE_TIP)[0]
-        recorder = open_recording(rerun_path, view, scene, f"{scenario.name}-{scenario.seed}",
-                                  plan.cut_path_m, perceived, plan.passes.cut_paths_m[0])
+        recorder = None
+        if rerun_path is not None or view is not None:
+            from cell.sim.recording import open_recording
+            recorder = open_recording(rerun_path, view, scene,
+                                      f"{scenario.name}-{scenario.seed}", plan.cut_path_m,
+                                      perceived, plan.passes.cut_paths_m[0])
         frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
         camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
                                            * self.control_dt_s)))
@@ -270,6 +278,7 @@ class Episode:
         return episode_summary(scenario, scene, sim, trace, score, plan.passes, wall_s,
                                perceived, relooks, steering)
 
+    @timed("planning")
     def plan(self, perceived: PerceivedPlan | None = None) -> EpisodePlan:
         """Plan the knife and the gripper from the arms' present IK poses (the ready poses
         before the first control step): along the perceived guideline and interface, or the
@@ -294,6 +303,7 @@ class Episode:
         end_s = scenario.end_s or max(knife_traj.end_s, schedule.pull_end_s) + 0.5
         return EpisodePlan(knife_traj, cut_path, window, pull_traj, schedule, end_s, passes)
 
+    @timed("IK and servos")  # the physics and the rules inside it timed as theirs
     def control_step(self, plan: EpisodePlan,
                      knife_target: tuple[np.ndarray, np.ndarray] | None,
                      grasp_target: tuple[np.ndarray, np.ndarray] | None,
@@ -349,6 +359,7 @@ class Episode:
         return sim.apply_release_rules(
             None if cutting is None else knife_s - plan.passes.windows_s[cutting].start_s)
 
+    @timed("perception")
     def perceive(self, rig: CameraRig) -> PerceivedPlan:
         """Look at the meat from the camera arm's pose and plan the cut (paper Sec. 5); the
         sensor noise follows the scenario's seed.
@@ -361,6 +372,7 @@ class Episode:
         return perceive(rig, self.sim.data, self.scene.mesh, self.generic,
                         self.scenario.perception, rng)
 
+    @timed("perception")
     def _relook(self, relooks: Relooks, rig: CameraRig, plan: EpisodePlan,
                 recorder: EpisodeRecorder | None) -> None:
         """The look after a pass: the interface estimate updated, the update and what it

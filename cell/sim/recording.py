@@ -20,6 +20,7 @@ import rerun as rr
 
 from cell.outputs import AtomicFile
 from cell.perception.pipeline import PerceivedPlan
+from cell.profiling import timed_methods
 from cell.robots.camera import CameraRig
 from cell.sim.assembly import Scene
 from cell.sim.liveview import LiveView
@@ -43,6 +44,7 @@ def _entity(body_name: str) -> str:
     return "world/cell/" + body_name.replace("/", ".")
 
 
+@timed_methods("recording")
 class EpisodeRecorder:
     """Writes one episode to a ``.rrd`` file, to a live viewer, or both; the file appears
     (atomically) at :meth:`close`.

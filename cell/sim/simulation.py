@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from cell.errors import MaterialError, ScenarioError
+from cell.profiling import part, timed
 from cell.robots.names import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM
 from cell.sim.assembly import Scene
 from cell.sim.divergence import FATAL_WARNINGS, check_state, fatal_warnings
@@ -98,10 +99,11 @@ class TissueSimulation:
         start = self.time_s
         for index in range(count):
             self._apply_forces()
-            if index < count - 1 or not sensors:
-                mujoco.mj_step(self.model, self.data)
-            else:
-                self._with_sensors(mujoco.mj_step)
+            with part("MuJoCo step"):
+                if index < count - 1 or not sensors:
+                    mujoco.mj_step(self.model, self.data)
+                else:
+                    self._with_sensors(mujoco.mj_step)
         self.check_divergence(start + count * self.model.opt.timestep)
 
     def forward(self) -> None:
@@ -119,6 +121,7 @@ class TissueSimulation:
     def _apply_forces(self) -> None:
         self.tissue.apply(self.data)
 
+    @timed("divergence check")
     def check_divergence(self, time_s: float | None = None) -> None:
         """Raise :class:`~cell.errors.DivergenceError` on NaN, a fatal MuJoCo warning since
         the last check or runaway tissue (:func:`~cell.sim.divergence.check_state`);
@@ -260,6 +263,7 @@ class Simulation(TissueSimulation):
         site = self._tool_sensor[name][0]
         return value - self.data.site_xmat[site].reshape(3, 3).T @ load
 
+    @timed("cutting terms")  # the tissue's parts inside it timed as theirs
     def _apply_forces(self) -> None:
         data = self.data
         blade_pos, blade_mat = data.geom_xpos[self._blade], data.geom_xmat[self._blade]
@@ -301,6 +305,7 @@ class Simulation(TissueSimulation):
                                 "materials are isotropic)")
         self.springs[muscle].set_fibre_direction(direction)
 
+    @timed("release rules")
     def apply_release_rules(self, knife_time_s: float | None = None
                             ) -> dict[ReleaseRule, np.ndarray]:
         """Release bindings by the scenario's rules; returns the indices released per rule.
@@ -340,6 +345,7 @@ class Simulation(TissueSimulation):
                 params.tearing_force_n or None)
         return released
 
+    @timed("sensing")
     def knife_load_n(self) -> dict[str, float]:
         """How the force on the knife splits, N (norms of world-frame vectors): ``bindings``
         hooked on the edge, ``flesh`` pushing on the knife (its flex contacts), the
@@ -369,6 +375,7 @@ class Simulation(TissueSimulation):
         self.grasped = scene.grasp_equalities[inside]
         return int(inside.sum())
 
+    @timed("sensing")
     def tare(self, *names: str) -> None:
         """Zero sensors (all by default) at the present load, such as a tool's own weight."""
         for name in names or tuple(self._sensor):
@@ -379,6 +386,7 @@ class Simulation(TissueSimulation):
         site = self._sensor_site[name]
         return self.data.site_xmat[site].reshape(3, 3) @ self.read(name)
 
+    @timed("sensing")
     def read(self, name: str, rng: np.random.Generator | None = None) -> np.ndarray:
         """A tared 3-vector sensor reading with the sensors' bias and noise: ``knife/force``,
         ``knife/torque``, ``gripper/force``, ``gripper/torque`` (N, N m, sensor frame) or

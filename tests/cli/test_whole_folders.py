@@ -123,6 +123,8 @@ class FakeLoggedEpisode:
 def _run(monkeypatch: pytest.MonkeyPatch, writer: Callable[..., Any]) -> list[str]:
     monkeypatch.setattr("cell.sim.command.load", lambda args: None)
     monkeypatch.setattr("cell.sim.episodelog.LoggedEpisode", FakeLoggedEpisode)
+    monkeypatch.setattr("cell.sim.profiled.start_episode",
+                        lambda scenario, kind: kind(scenario))
     monkeypatch.setattr("cell.sim.episodelog.write_log", writer)
     return ["run", str(PROJECT_ROOT / "scenarios" / "quick.toml"), "--log", "out", "--quiet"]
 

@@ -12,9 +12,11 @@ import mujoco
 import numpy as np
 import pytest
 
+from cell.bench.cell import contact_state, per_contact_load
 from cell.perception.params import PerceptionParams
 from cell.robots.names import GRASP_SITE, KNIFE_TIP
 from cell.sim.assembly import build_scene
+from cell.sim.dynamometer import contact_forces, contact_load
 from cell.sim.episode import TARE_LEAD_S, Episode
 from cell.sim.scenario import Scenario, SensorParams
 from cell.sim.simulation import Simulation
@@ -159,3 +161,28 @@ def test_the_gripper_reads_the_pull_of_the_grasped_shank() -> None:
     # The shank pulls the gripper, which pulls on the sensor: minus.
     assert np.linalg.norm(grasp) > 1.0
     assert np.linalg.norm(reading + grasp) < 0.1 * np.linalg.norm(grasp)
+
+
+def test_the_contact_loads_read_at_once_equal_mujocos_per_contact_forces() -> None:
+    # In the cut: the blade, the table and the fixture touch many flex vertices.
+    sim = contact_state(_coarse()).sim
+    model, data = sim.model, sim.data
+    count = data.ncon
+    assert count > 20
+    wrench = np.zeros(6)
+    expected = []
+    for i in range(count):
+        mujoco.mj_contactForce(model, data, i, wrench)
+        expected.append(wrench[:3].copy())
+    assert contact_forces(model, data, np.arange(count)) == pytest.approx(
+        np.array(expected), rel=1e-12, abs=1e-12)
+    knife = sim._tool_sensor["knife/force"][1]
+    on_knife = np.isin(model.geom_bodyid[np.maximum(data.contact.geom[:count], 0)], knife)
+    on_round = data.contact.flex[:count] == sim.dynamometer.round_flex
+    for on_object in (on_knife & (data.contact.geom[:count] >= 0), on_round):
+        assert (on_object[:, 0] != on_object[:, 1]).any()
+        point_m = data.xpos[1]
+        for load, reference in zip(contact_load(model, data, on_object, point_m),
+                                   per_contact_load(model, data, on_object, point_m),
+                                   strict=True):
+            assert load == pytest.approx(reference, rel=1e-12, abs=1e-12)
