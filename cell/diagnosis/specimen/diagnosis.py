@@ -65,7 +65,8 @@ from cell.diagnosis.engine.determined import (
     shown,
 )
 from cell.diagnosis.engine.outcome import Evidence, SearchOutcome, force_noise_n
-from cell.diagnosis.engine.search import Search, Swap, forward, second_start, unexplained
+from cell.diagnosis.engine.search import Search
+from cell.diagnosis.engine.selection import Swap, forward, second_start, unexplained
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.specimen.causes import (
     CAUSES,
@@ -104,7 +105,8 @@ class Diagnosis(SearchOutcome):
             (:mod:`cell.diagnosis.specimen.spread`).
         intervals: the extended model's held-out predictions with their 90 % intervals
             (:mod:`cell.diagnosis.specimen.intervals`).
-        swaps: what the search's second look tried (:func:`cell.diagnosis.engine.search.forward`).
+        swaps: what the search's second look tried
+            (:func:`cell.diagnosis.engine.selection.forward`).
 
     ``to_json()`` is the JSON that ``musclecell diagnose --out`` writes.
     """
