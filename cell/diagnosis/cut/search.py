@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 
 from cell.diagnosis.cut.causes import (
-    CUT_CAUSES,
     FACE_PRESSURE_PA,
     CutCandidate,
+    catalogue,
     cause_of,
     source_checks,
 )
@@ -67,9 +67,13 @@ class CutSearch(Search):
         ('blade_force_offset',)
     """
 
-    catalogue = CUT_CAUSES
     rules = Rules(offsets=("blade_force_offset",))
     fit_model = staticmethod(fit_best)
+
+    @property
+    def catalogue(self) -> tuple[str, ...]:  # type: ignore[override]
+        """The registered cut causes (:func:`cell.diagnosis.cut.causes.catalogue`)."""
+        return catalogue()
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,7 +114,7 @@ def _evidence(search: CutSearch, final: CutFit, order: list[str]) -> tuple[Evide
     for cause in order:
         kept = frozenset(c for c in final.model.causes if c != cause)
         without = search.fits.get(kept) or search.run([(final, cause)])[0]
-        own = {n: v for n, v in fitted.items() if cause_of(n) == cause}
+        own = {n: v for n, v in fitted.items() if cause_of(n, final.model) == cause}
         if cause == "blade_friction":
             own["face_friction"] = tuple(v / final.model.face_pressure_pa
                                          for v in own["face_shear_pa"])
@@ -152,7 +156,7 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
     search = CutSearch(problem, params, root)
     search.on_fit = on_fit
     baseline = search.run([(None, None)])[0]
-    candidates = search.run([(baseline, c) for c in CUT_CAUSES])
+    candidates = search.run([(baseline, c) for c in search.catalogue])
     current, steps, order = forward(search, baseline, candidates, noise)
     if unexplained(current, noise, params, problem.tests):
         current, steps, order = second_start(search, baseline, candidates, noise,

@@ -62,7 +62,8 @@ class Search:
         ('viscoelasticity', 'nonlinear_viscoelasticity')
     """
 
-    catalogue: ClassVar[tuple[str, ...]] = ()
+    #: The causes a step may add (a family may read it from its registry).
+    catalogue: tuple[str, ...] = ()
     exclusive: ClassVar[tuple[str, ...]] = ()
     rules: ClassVar[Rules] = Rules()
     #: How one model is fitted from a start (:data:`FitModel`).

@@ -20,7 +20,7 @@ import numpy as np
 from cell.diagnosis.engine.acceptance import Rules, Tests
 from cell.diagnosis.engine.fit import Fit, Start
 from cell.diagnosis.engine.search import Search
-from cell.diagnosis.specimen.causes import CAUSES, EXCLUSIVE, CandidateMaterial
+from cell.diagnosis.specimen.causes import EXCLUSIVE, CandidateMaterial, catalogue
 from cell.diagnosis.specimen.fitting import ModelFit, fit
 
 #: The load cell's offset: judged on the samples at rest.
@@ -63,10 +63,14 @@ class SpecimenSearch(Search):
         ('force_offset',)
     """
 
-    catalogue = CAUSES
     exclusive = EXCLUSIVE
     rules = Rules(offsets=(OFFSET,), judged=_judged)
     fit_model = staticmethod(fit)
+
+    @property
+    def catalogue(self) -> tuple[str, ...]:  # type: ignore[override]
+        """The registered causes (:func:`cell.diagnosis.specimen.causes.catalogue`)."""
+        return catalogue()
 
     def variants(self, model: CandidateMaterial, cause: str) -> list[CandidateMaterial]:
         """``model`` with ``cause`` added (a viscoelasticity replacing the other), with both
