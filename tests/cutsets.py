@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cell.diagnosis.cut.reduced import simulate_cut
+from cell.diagnosis.cut.reduced import reduced_cut_forces
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CuttingParams
 
@@ -21,7 +21,7 @@ def sawing_set(stiffness_n_m: float) -> tuple[Block, Blade, tuple[CutTest, ...]]
         t = np.linspace(0.0, 5.0, 300)
         edge = np.column_stack([0.03 + 0 * t, 0.1 + 0.015 * np.sin(2 * np.pi * t / period),
                                 0.032 - speed * t])
-        force = simulate_cut(CutTest("c", t, edge, edge), block, blade,
+        force = reduced_cut_forces(CutTest("c", t, edge, edge), block, blade,
                              CuttingParams(800.0)).total_n
         inside = edge[:, 2] < block.size_m[2]
         force[:, 1] -= stiffness_n_m * (edge[:, 1] - edge[0, 1]) * inside

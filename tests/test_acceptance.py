@@ -30,7 +30,7 @@ def _later_accepts(richer: ModelFit, poorer: ModelFit, tests: tuple[MechanicalTe
 def _fit(causes: tuple[str, ...], ramp_error_n: float, hold_error_n: float,
          bic: float) -> ModelFit:
     """A fit whose held-out predictions miss each test by the given constant, N."""
-    heldout = (TESTS[0].force_N + ramp_error_n, TESTS[1].force_N + hold_error_n)
+    heldout = (TESTS[0].force_n + ramp_error_n, TESTS[1].force_n + hold_error_n)
     rmse = float(np.sqrt((ramp_error_n**2 + hold_error_n**2) / 2.0))
     return ModelFit(CandidateMaterial(causes), np.zeros(0), np.zeros((0, 2)), 1e4, 0.0,
                     MassSpringMaterial(), rmse_n=rmse, heldout_rmse_n=rmse, bic=bic,

@@ -11,7 +11,7 @@ import pytest
 
 from cell.diagnosis.cut.causes import CUT_CAUSES, CutCandidate, linear_columns
 from cell.diagnosis.cut.fitting import CutProblem, best_layer_depth, fit_cut, solve_linear
-from cell.diagnosis.cut.reduced import simulate_cut
+from cell.diagnosis.cut.reduced import reduced_cut_forces
 from cell.diagnosis.cut.search import diagnose_cuts
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.sets import diagnose_set
@@ -52,7 +52,7 @@ def cut_set(truth: CuttingParams, offset_n: tuple[float, float, float] = (0.0, 0
                       _saw(0.004), _saw(0.008)]
     tests = []
     for k, (t, edge) in enumerate(paths):
-        force = simulate_cut(CutTest("truth", t, edge, edge), BLOCK, BLADE, truth).total_n
+        force = reduced_cut_forces(CutTest("truth", t, edge, edge), BLOCK, BLADE, truth).total_n
         force = force + np.asarray(offset_n) + rng.normal(0.0, 0.2, force.shape)
         tests.append(CutTest(f"cut{k}", t, edge, force))
     return tuple(tests)
@@ -88,7 +88,7 @@ def test_the_baseline_fit_finds_the_toughness() -> None:
 def _misfit_rss(problem: CutProblem, model: CutCandidate, shape: np.ndarray) -> float:
     """The least-squares misfit over every sample, the linear parameters solved unbounded."""
     columns = np.vstack([linear_columns(model, shape, k) for k in problem.kinematics])
-    measured = np.concatenate([t.force_N for t in problem.tests])
+    measured = np.concatenate([t.force_n for t in problem.tests])
     misfit = columns @ np.linalg.lstsq(columns, measured, rcond=None)[0] - measured
     return float(misfit @ misfit)
 

@@ -133,7 +133,7 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
     ``on_fit`` is called with 1 after each fit (progress).
 
     Example:
-        >>> from cell.diagnosis.cut.reduced import simulate_cut
+        >>> from cell.diagnosis.cut.reduced import reduced_cut_forces
         >>> from cell.tissue.cutmodel import CuttingParams
         >>> block = Block((0.06, 0.04, 0.03))
         >>> blade = Blade(0.12, 0.0015, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))
@@ -141,7 +141,7 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
         >>> tests = []
         >>> for k, speed in enumerate((0.004, 0.006, 0.008)):
         ...     edge = np.column_stack([0.03 + 0 * t, 0.02 + 0 * t, 0.032 - speed * t])
-        ...     force = simulate_cut(CutTest("c", t, edge, edge), block, blade,
+        ...     force = reduced_cut_forces(CutTest("c", t, edge, edge), block, blade,
         ...                          CuttingParams(800.0)).total_n + [0.0, 0.0, 1.5]
         ...     noisy = force + np.random.default_rng(k).normal(0.0, 0.05, force.shape)
         ...     tests.append(CutTest(f"c{k}", t, edge, noisy))

@@ -19,7 +19,7 @@ import numpy as np
 from cell.diagnosis.engine.fit import Fit
 from cell.diagnosis.engine.settings import DiagnosisParams
 
-#: The tests a fit is judged on: per test, its measured ``force_N`` and ``rest_samples``
+#: The tests a fit is judged on: per test, its measured ``force_n`` and ``rest_samples``
 #: (:class:`~cell.measure.specimens.MechanicalTest`,
 #: :class:`~cell.diagnosis.cut.fitting.CutSeries`).
 Tests = tuple[Any, ...]
@@ -38,7 +38,7 @@ def structure(fit: Fit, tests: Tests) -> float:
     """Lag-one autocorrelation of the held-out residuals, pooled over tests."""
     products, squares = 0.0, 0.0
     for predicted, test in zip(fit.heldout_force_n, tests, strict=True):
-        residual = predicted - test.force_N
+        residual = predicted - test.force_n
         residual = residual - residual.mean()
         products += float(residual[1:] @ residual[:-1])
         squares += float(residual @ residual)
@@ -71,7 +71,7 @@ class Rules:
 def _heldout_rmse_n(fit: Fit, tests: Tests,
                     judged: list[int]) -> float:
     """Held-out RMSE of ``fit`` over every sample of the ``judged`` tests, N."""
-    errors = np.concatenate([fit.heldout_force_n[i] - tests[i].force_N for i in judged])
+    errors = np.concatenate([fit.heldout_force_n[i] - tests[i].force_n for i in judged])
     return float(np.sqrt(np.mean(errors**2)))
 
 
@@ -97,7 +97,7 @@ def _scores_at_rest(richer: Fit, poorer: Fit, tests: Tests,
     judged = [i for i, samples in enumerate(rest) if len(samples)]
 
     def errors(fit: Fit) -> list[np.ndarray]:
-        return [fit.heldout_force_n[i][rest[i]] - tests[i].force_N[rest[i]] for i in judged]
+        return [fit.heldout_force_n[i][rest[i]] - tests[i].force_n[rest[i]] for i in judged]
 
     rich_errors, poor_errors = errors(richer), errors(poorer)
     rich, poor = (float(np.sqrt(np.mean(np.concatenate(e) ** 2)))

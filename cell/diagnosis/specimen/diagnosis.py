@@ -151,7 +151,7 @@ class Diagnosis(SearchOutcome):
 def noise_n(measurements: MeasurementSet) -> float:
     """Force noise of a set, N: the median over tests of a robust spread of the force's second
     differences (``sqrt(6)`` times the noise for white noise)."""
-    return force_noise_n([test.force_N for test in measurements.tests])
+    return force_noise_n([test.force_n for test in measurements.tests])
 
 
 def _time_range_s(measurements: MeasurementSet) -> tuple[float, float]:
@@ -193,7 +193,7 @@ def _evidence(search: Search, final: ModelFit, order: list[str]) -> tuple[Eviden
         evidence.append(Evidence(
             cause, final.heldout_rmse_n, without.heldout_rmse_n,
             improved_fraction(final, without, tests),
-            {names[i]: (float(final.shape[i]), *map(float, final.shape_ci95[i])) for i in own},
+            {names[i]: (float(final.shape[i]), *map(float, final.ci95[i])) for i in own},
             without))
     return tuple(evidence)
 

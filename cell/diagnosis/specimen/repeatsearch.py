@@ -92,6 +92,6 @@ def at_own_factors(fit: ModelFit, tests: tuple[MechanicalTest, ...],
         shift[group] = u[group] - u[group].mean()
     heldout = tuple(fit.offset_n + np.exp(s) * (h - fit.offset_n)
                     for s, h in zip(shift, fit.heldout_force_n, strict=True))
-    errors = np.concatenate([h - t.force_N for h, t in zip(heldout, tests, strict=True)])
+    errors = np.concatenate([h - t.force_n for h, t in zip(heldout, tests, strict=True)])
     return replace(fit, heldout_force_n=heldout,
                    heldout_rmse_n=float(np.sqrt(np.mean(errors**2))))
