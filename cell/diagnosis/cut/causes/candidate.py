@@ -41,8 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.diagnosis.cut.causes import REGISTRY, catalogue
 from cell.diagnosis.cut.causes.base import Parameter
+from cell.diagnosis.cut.causes.registry import REGISTRY, catalogue
 from cell.diagnosis.cut.reduced import CutKinematics
 from cell.errors import DiagnosisError
 from cell.tissue.cutmodel import CUT_CAUSES, CuttingParams, beef_cutting

@@ -50,8 +50,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from cell.diagnosis.specimen.causes import REGISTRY, catalogue
 from cell.diagnosis.specimen.causes.base import Parameter
+from cell.diagnosis.specimen.causes.registry import REGISTRY, catalogue
 from cell.errors import DiagnosisError
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.material import MassSpringMaterial
