@@ -52,12 +52,9 @@ def every_test(richer: Fit, poorer: Fit, tests: Tests) -> list[int]:
 
 @dataclass(frozen=True)
 class Rules:
-    """What a family of causes tells the acceptance.
-
-    Attributes:
-        offsets: the family's causes that are a sensor's offset, judged at rest
-            (:func:`_at_rest`).
-        judged: (richer, poorer, tests) -> the indices of the tests ``richer`` is judged on.
+    """What a family of causes tells the acceptance: its causes that are a sensor's offset,
+    judged at rest (:func:`_at_rest`), and which tests a richer model is judged on against a
+    poorer one, (richer, poorer, tests) -> indices.
 
     Example:
         >>> Rules(offsets=("blade_force_offset",)).judged is every_test
