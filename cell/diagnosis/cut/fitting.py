@@ -2,14 +2,16 @@
 
 The scheme of the uniaxial fits (:mod:`cell.diagnosis.specimen.fitting`) on the reduced model of a
 cut (:mod:`cell.diagnosis.cut.reduced`): ``scipy.optimize.least_squares`` searches the shape
-parameters of a :class:`~cell.diagnosis.cut.causes.CutCandidate` on thinned samples of every
+parameters of a :class:`~cell.diagnosis.cut.causes.candidate.CutCandidate` on thinned samples of
+every
 test, the linear ones (toughness per layer, the faces' shear stress, the sensor's offset) are
 solved in closed form at each step (bounded: toughness and friction not negative); held-out
 errors are leave-one-test-out, each test predicted at every sample by one damped Gauss-Newton
 step from the full fit on the other tests' rows of its Jacobian, the linear parameters solved
 on the other tests again, the step not taken when it fits them worse.
 
-A test's force is one series, channel after channel (:func:`~cell.diagnosis.cut.causes.flat`):
+A test's force is one series, channel after channel
+(:func:`~cell.diagnosis.cut.causes.candidate.flat`):
 :class:`CutSeries` carries it under the names that the acceptance of a cause reads
 (:mod:`cell.diagnosis.engine.acceptance`), so both kinds of test are judged by the same rules.
 """

@@ -72,7 +72,7 @@ class CutSearch(Search):
 
     @property
     def catalogue(self) -> tuple[str, ...]:  # type: ignore[override]
-        """The registered cut causes (:func:`cell.diagnosis.cut.causes.catalogue`)."""
+        """The registered cut causes (:func:`cell.diagnosis.cut.causes.registry.catalogue`)."""
         return catalogue()
 
 
@@ -81,7 +81,7 @@ class CutDiagnosis(SearchOutcome):
     """What :func:`diagnose_cuts` found: as :class:`~cell.diagnosis.specimen.diagnosis.Diagnosis`
     for the cut tests (``noise_n``, ``baseline``, ``candidates``, ``steps``, ``extended``,
     ``causes``, ``evidence``, ``params``); each cause's evidence is the uniaxial diagnosis's
-    :class:`~cell.diagnosis.specimen.diagnosis.Evidence`, its ``without`` a cut fit."""
+    :class:`~cell.diagnosis.engine.outcome.Evidence`, its ``without`` a cut fit."""
 
     noise_n: float
     baseline: CutFit
@@ -97,7 +97,8 @@ class CutDiagnosis(SearchOutcome):
     def to_json(self) -> dict[str, Any]:
         """The contract's JSON, plus the evidence of each cause (as the uniaxial
         diagnosis's), the fitted parameters checked against their sources' ranges
-        (:func:`~cell.diagnosis.cut.causes.source_checks`) and, where ``unexplained`` stands, the
+        (:func:`~cell.diagnosis.cut.causes.candidate.source_checks`) and, where ``unexplained``
+        stands, the
         residual's trends (the strongest first, :mod:`cell.diagnosis.cut.residuals`)."""
         return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence],
                 "source_ranges": source_checks(self.extended.params),

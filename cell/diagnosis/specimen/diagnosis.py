@@ -1,7 +1,8 @@
 """Diagnosis of a measurement set: where the simulation is wrong, the causes, the extended
 material, the gain on held-out tests, and the evidence for each cause.
 
-1. The baseline (:class:`~cell.diagnosis.specimen.causes.CandidateMaterial` with no cause: linear,
+1. The baseline (:class:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial` with no
+   cause: linear,
    isotropic, rate-independent springs) is fitted to every test
    (:mod:`cell.diagnosis.specimen.fitting`:
    each test simulated with the muscles' own spring law, errors measured leave-one-test-out).

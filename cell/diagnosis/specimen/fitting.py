@@ -1,6 +1,7 @@
 """Fitting one candidate material to a measurement set, and its error on held-out tests.
 
-A fit searches the shape parameters of a :class:`~cell.diagnosis.specimen.causes.CandidateMaterial`
+A fit searches the shape parameters of a
+:class:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial`
 with ``scipy.optimize.least_squares`` on up to ``fit_samples`` samples per test (picked evenly along
 time and displacement, turning points kept) and solves for E and the load cell's offset in
 closed form (the simulated force is linear in both). Each test is simulated by

@@ -69,7 +69,7 @@ class SpecimenSearch(Search):
 
     @property
     def catalogue(self) -> tuple[str, ...]:  # type: ignore[override]
-        """The registered causes (:func:`cell.diagnosis.specimen.causes.catalogue`)."""
+        """The registered causes (:func:`cell.diagnosis.specimen.causes.registry.catalogue`)."""
         return catalogue()
 
     def variants(self, model: CandidateMaterial, cause: str) -> list[CandidateMaterial]:
