@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cell.diagnosis.cut.reduced import simulate_cut
+from cell.diagnosis.cut.reduced import reduced_cut_forces
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.synthetic.specimen import write_hidden_effect_set
 from cell.tissue.cutmodel import CuttingParams
@@ -29,7 +29,7 @@ def sawing_set(stiffness_n_m: float) -> tuple[Block, Blade, tuple[CutTest, ...]]
         t = np.linspace(0.0, 5.0, 300)
         edge = np.column_stack([0.03 + 0 * t, 0.1 + 0.015 * np.sin(2 * np.pi * t / period),
                                 0.032 - speed * t])
-        force = simulate_cut(CutTest("c", t, edge, edge), block, blade,
+        force = reduced_cut_forces(CutTest("c", t, edge, edge), block, blade,
                              CuttingParams(800.0)).total_n
         inside = edge[:, 2] < block.size_m[2]
         force[:, 1] -= stiffness_n_m * (edge[:, 1] - edge[0, 1]) * inside
@@ -63,7 +63,8 @@ def cut_set(truth: CuttingParams, offset_n: tuple[float, float, float] = (0.0, 0
                       saw(0.004), saw(0.008)]
     tests = []
     for k, (t, edge) in enumerate(paths):
-        force = simulate_cut(CutTest("truth", t, edge, edge), BLOCK, BLADE, truth).total_n
+        force = reduced_cut_forces(CutTest("truth", t, edge, edge), BLOCK, BLADE,
+                                   truth).total_n
         force = force + np.asarray(offset_n) + rng.normal(0.0, 0.2, force.shape)
         tests.append(CutTest(f"cut{k}", t, edge, force))
     return tuple(tests)

@@ -27,6 +27,8 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.measure": BASE,
     "cell.perception": (*BASE, "cell.robots", "cell.tissue"),
     "cell.diagnosis": (*BASE, "cell.measure", *TISSUE_LAWS),
+    # The engine serves every family of causes and knows none of them.
+    "cell.diagnosis.engine": (*BASE, "cell.measure", *TISSUE_LAWS),
     "cell.robotlog": (*BASE, "cell.measure"),
     "controllers": (*BASE, "cell.robots", "cell.tissue", "cell.perception"),
     "cell.sim": _CELL,

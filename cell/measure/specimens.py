@@ -126,7 +126,7 @@ class MechanicalTest:
         angle_deg: angle between the fibres and the load axis, degrees (0 along, 90 across).
         time_s: (n,) time since the start of the test, s, non-decreasing.
         displacement_m: (n,) displacement of the top face along the load axis, m.
-        force_N: (n,) axial force on the top face, N.
+        force_n: (n,) axial force on the top face, N.
 
     Example:
         >>> t = np.array([0.0, 1.0, 2.0])
@@ -140,13 +140,19 @@ class MechanicalTest:
     angle_deg: float
     time_s: np.ndarray
     displacement_m: np.ndarray
-    force_N: np.ndarray
+    force_n: np.ndarray
 
     def __post_init__(self) -> None:
-        for name in ("time_s", "displacement_m", "force_N"):
+        for name in ("time_s", "displacement_m", "force_n"):
             array = np.array(getattr(self, name), dtype=float)
             array.setflags(write=False)
             object.__setattr__(self, name, array)
+
+    @property
+    def force_N(self) -> np.ndarray:
+        """The name of :attr:`force_n` in 0.1.0 (a cut test's is ``force_n``), for one
+        release."""
+        return self.force_n
 
     @property
     def duration_s(self) -> float:
@@ -170,7 +176,7 @@ class MechanicalTest:
 
     def stress_pa(self, specimen: Specimen) -> np.ndarray:
         """Nominal stress at the samples, Pa: force over the specimen's initial area."""
-        return self.force_N / specimen.area_m2
+        return self.force_n / specimen.area_m2
 
 
 @dataclass(frozen=True)
@@ -373,7 +379,7 @@ def _check_stress(path: Path, specimen: Specimen, tests: tuple[MechanicalTest, .
                              f"sample {row}: {STRESS_PA.refusal(float(stress[row]))} as "
                              f"stress on the {specimen.area_m2:g} m^2 of {SPECIMEN_FILE}'s "
                              "size_m")
-    peak = max(float(np.max(np.abs(test.force_N))) for test in tests)
+    peak = max(float(np.max(np.abs(test.force_n))) for test in tests)
     if peak / specimen.area_m2 < MEASURABLE_STRESS_PA:
         raise InputError(path, "column force_N",
                          f"the largest force, {peak:g} N, is a stress of "

@@ -21,22 +21,12 @@ from cell.profiling import timed
 from cell.progress import progress_bar
 from cell.robots.camera import CameraRig
 from cell.robots.names import ARMS, CAMERA, GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
-from cell.sim.assembly import (
-    Scene,
-    build_robot_spec,
-    build_scene,
-    grasp_point,
-)
+from cell.sim.assembly import Scene, build_robot_spec, build_scene, grasp_point
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
 from cell.sim.score import CutScore
 from cell.sim.simulation import Simulation
-from cell.sim.summary import (
-    EpisodeTrace,
-    episode_summary,
-    recording_scalars,
-    released_fraction,
-)
+from cell.sim.summary import EpisodeTrace, episode_summary, recording_scalars, released_fraction
 from cell.tissue.aponeurosis import ReleaseRule
 from controllers import gripper, knife
 from controllers.camera import view_pose

@@ -16,7 +16,7 @@ from cell.bench.diagnose_cuts import (
     parameter_error,
     reduced_vs_full,
 )
-from cell.diagnosis.cut.reduced import simulate_cut
+from cell.diagnosis.cut.reduced import reduced_cut_forces
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CUT_CAUSES, CuttingParams
 
@@ -63,7 +63,7 @@ def test_the_reduced_model_agrees_with_a_set_it_made() -> None:
     t = np.linspace(0.0, 5.0, 200)
     edge = np.column_stack([0.03 + 0 * t, 0.02 + 0 * t, 0.032 - 0.006 * t])
     cutting = CuttingParams(900.0, slicing_efficiency=1.0)
-    force = simulate_cut(CutTest("c", t, edge, edge), block, blade, cutting).total_n + 0.5
+    force = reduced_cut_forces(CutTest("c", t, edge, edge), block, blade, cutting).total_n + 0.5
     noisy = force + np.random.default_rng(0).normal(0.0, 0.1, force.shape)
     data = _Set(block, blade, (CutTest("c", t, edge, noisy),))
     assert reduced_vs_full(data, _Truth(cutting, (0.5, 0.5, 0.5), 0.1)) < 0.01

@@ -130,7 +130,7 @@ def test_a_mixed_set_reads_both_kinds_and_the_uniaxial_tests_as_alone(tmp_path: 
                                            _mixed_lines()))
     (test,), (cut,) = data.tests, data.cut_tests
     reference = alone.tests[0]
-    for name in ("time_s", "displacement_m", "force_N"):
+    for name in ("time_s", "displacement_m", "force_n"):
         np.testing.assert_array_equal(getattr(test, name), getattr(reference, name))
     assert data.specimen == alone.specimen
     assert cut.test_id == "p" and len(cut.time_s) == len(PRESS_ROWS)

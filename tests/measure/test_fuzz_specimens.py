@@ -61,7 +61,7 @@ def _check_set(files: tuple[str, str]) -> None:
         except MusclecellError:
             return
         for run in runs:
-            assert np.all(np.isfinite(run.force_N)), run.test_id
+            assert np.all(np.isfinite(run.force_n)), run.test_id
 
 
 test_measurement_sets, test_measurement_sets_slow = fuzz_tests(

@@ -99,7 +99,7 @@ def test_extra_columns_comments_uneven_samples_and_interleaved_tests(tmp_path: P
     a, b = data.tests
     assert (a.test_id, a.mode, a.angle_deg, b.test_id) == ("a", "relaxation", 45.0, "b")
     np.testing.assert_array_equal(a.time_s, [0.0, 0.1, 5.0, 5.0])
-    np.testing.assert_array_equal(b.force_N, [0.0, 0.01, 0.0])
+    np.testing.assert_array_equal(b.force_n, [0.0, 0.01, 0.0])
     assert data.specimen.rig == {}
 
 
@@ -241,7 +241,7 @@ def test_spreadsheet_csv_reads_like_the_plain_one(tmp_path: Path, text: str) -> 
     (folder / TESTS_FILE).write_bytes(text.encode("utf-8"))
     (test,) = load_measurement_set(folder).tests
     assert (test.test_id, test.mode, test.angle_deg) == ("a", "tension", 0.0)
-    for name in ("time_s", "displacement_m", "force_N"):
+    for name in ("time_s", "displacement_m", "force_n"):
         np.testing.assert_array_equal(getattr(test, name), getattr(plain, name))
 
 

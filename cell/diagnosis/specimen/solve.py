@@ -31,7 +31,7 @@ Example:
     >>> from cell.measure.specimens import load_measurement_set
     >>> data = load_measurement_set("assets/measured/beef_round_example")
     >>> run = simulate_test(data.test("t00"), data.specimen, MassSpringMaterial.isotropic(6e3))
-    >>> run.force_N.shape
+    >>> run.force_n.shape
     (250,)
 """
 
@@ -156,7 +156,7 @@ class SimulatedTest:
     Attributes:
         test_id: the measured test's id.
         time_s: (n,) the test's sample times, s.
-        force_N: (n,) simulated axial force on the top face at those times, N (+ pulls).
+        force_n: (n,) simulated axial force on the top face at those times, N (+ pulls).
         lateral_stretch: (n, 2) a and b of the deformation gradient (x and y stretch).
 
     Example:
@@ -166,14 +166,20 @@ class SimulatedTest:
         >>> test = MechanicalTest("t00", "tension", 0.0, t, 1e-5 * t, 0.0 * t)
         >>> cube = Specimen("cube", (0.01, 0.01, 0.01))
         >>> run = simulate_test(test, cube, MassSpringMaterial.isotropic(1e4))
-        >>> round(float(run.force_N[-1]), 4)  # 10 kPa at 1 % strain on 1 cm^2: 0.01 N
+        >>> round(float(run.force_n[-1]), 4)  # 10 kPa at 1 % strain on 1 cm^2: 0.01 N
         0.01
     """
 
     test_id: str
     time_s: np.ndarray
-    force_N: np.ndarray
+    force_n: np.ndarray
     lateral_stretch: np.ndarray
+
+    @property
+    def force_N(self) -> np.ndarray:
+        """The name of :attr:`force_n` in 0.1.0 (a cut test's is ``force_n``), for one
+        release."""
+        return self.force_n
 
 
 def simulate_test(
@@ -196,7 +202,7 @@ def simulate_test(
         >>> from cell.tissue.material import MassSpringMaterial
         >>> data = load_measurement_set("assets/measured/beef_round_example")
         >>> run = simulate_test(data.test("c00"), data.specimen, MassSpringMaterial.isotropic(6e3))
-        >>> run.force_N.shape
+        >>> run.force_n.shape
         (250,)
     """
     return simulate_tests((test,), specimen, material, lattice)[0]

@@ -226,7 +226,7 @@ def _typical_rivals(diagnosis: Diagnosis, problem: Problem, margin: float) -> li
     """Per cause the extended model lacks, that model with the cause at each of its typical
     magnitudes, where it fits the set within ``margin`` (N^2) of the extended model's MSE."""
     final = diagnosis.extended
-    measured = np.concatenate([t.force_N for t in problem.thinned])
+    measured = np.concatenate([t.force_n for t in problem.thinned])
     rivals = []
     for cause in (c for c in CAUSES if c in TYPICAL and c not in final.model.causes):
         model = _with_cause(final.model, cause)
@@ -258,7 +258,7 @@ def _forces(tests: list[MechanicalTest], specimen: Specimen, lattice: SpecimenLa
     """Each candidate test's predicted force with ``material``, N (None where it cannot run:
     the tests are run one by one then, to find which)."""
     try:
-        return [run.force_N + offset_n
+        return [run.force_n + offset_n
                 for run in simulate_tests(tests, specimen, material, lattice)]
     except MaterialError:
         return [None] * len(tests)
@@ -266,7 +266,7 @@ def _forces(tests: list[MechanicalTest], specimen: Specimen, lattice: SpecimenLa
         forces: list[np.ndarray | None] = []
         for test in tests:
             try:
-                forces.append(simulate_tests((test,), specimen, material, lattice)[0].force_N
+                forces.append(simulate_tests((test,), specimen, material, lattice)[0].force_n
                               + offset_n)
             except DivergenceError:
                 forces.append(None)

@@ -11,7 +11,7 @@ from cell.cuttest.run import edge_term_n
 from cell.cuttest.run import simulate_cut as simulate_full
 from cell.diagnosis.cut.causes import CutCandidate, source_checks
 from cell.diagnosis.cut.fitting import CutProblem, fit_cut
-from cell.diagnosis.cut.reduced import simulate_cut
+from cell.diagnosis.cut.reduced import reduced_cut_forces
 from cell.errors import InputError
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CuttingParams
@@ -45,7 +45,7 @@ def test_the_load_ramps_in_over_the_loading_depth_holds_at_rest_and_eases_off_ba
         ) -> None:
     test = _press_rest_back()
     loaded = CuttingParams(1000.0, loading_depth_m=0.004)
-    force = simulate_cut(test, BLOCK, BLADE, loaded).edge_n[:, 2]
+    force = reduced_cut_forces(test, BLOCK, BLADE, loaded).edge_n[:, 2]
     depth = test.depth_m(BLOCK)
     full = 1000.0 * 0.04
     at = [int(np.argmin(np.abs(depth - d))) for d in (0.002, 0.008)]
@@ -54,7 +54,7 @@ def test_the_load_ramps_in_over_the_loading_depth_holds_at_rest_and_eases_off_ba
     resting = (test.time_s > 2.5) & (test.time_s < 3.3)
     assert force[resting] == pytest.approx(full, rel=1e-6)  # the plain edge drops to 0
     assert force[-1] == pytest.approx(0.75 * full, rel=0.02)  # 1 mm of 4 mm backed out
-    plain = simulate_cut(test, BLOCK, BLADE, CuttingParams(1000.0)).edge_n[:, 2]
+    plain = reduced_cut_forces(test, BLOCK, BLADE, CuttingParams(1000.0)).edge_n[:, 2]
     assert plain[resting].max() == 0.0
 
 
@@ -63,7 +63,7 @@ def test_the_edge_friction_turns_with_the_stroke_through_zero_up_to_its_share_of
     test = _saw()
     rubbing = CuttingParams(1000.0, loading_depth_m=0.002, edge_friction=0.5,
                             edge_slip_m=0.002)
-    force = simulate_cut(test, BLOCK, BLADE, rubbing).edge_n
+    force = reduced_cut_forces(test, BLOCK, BLADE, rubbing).edge_n
     along, load = force[:, 1], force[:, 2]
     assert np.all(np.abs(along) <= 0.5 * load + 1e-9)
     moving = np.gradient(test.edge_m[:, 1], test.time_s)
@@ -83,7 +83,7 @@ def test_the_full_simulations_edge_term_is_the_reduced_models_in_a_box() -> None
     test = _saw()
     params = CuttingParams(800.0, slicing_efficiency=1.0, loading_depth_m=0.003,
                            edge_friction=0.6, edge_slip_m=0.002)
-    reduced = simulate_cut(test, BLOCK, BLADE, params).edge_n
+    reduced = reduced_cut_forces(test, BLOCK, BLADE, params).edge_n
     full = edge_term_n(test.time_s, test.edge_m, BLOCK, BLADE, params, UP)
     assert np.abs(full - reduced).max() <= 0.01 * np.abs(reduced).max()
 
@@ -92,7 +92,7 @@ def test_a_round_blocks_edge_length_is_the_chord_of_its_section() -> None:
     block = Block((0.04, 0.05, 0.05), section="round")
     t = np.linspace(0.0, 4.0, 401)
     test = _path(t, np.full_like(t, 0.025), 0.052 - 0.01 * t)
-    forces = simulate_cut(test, block, BLADE, CuttingParams(1000.0))
+    forces = reduced_cut_forces(test, block, BLADE, CuttingParams(1000.0))
     depth = test.depth_m(block)
     cutting = (depth > 0.005) & (depth < 0.035)
     chord = 2 * np.sqrt(np.clip(depth * (0.05 - depth), 0.0, None))
@@ -117,7 +117,7 @@ def test_a_fit_recovers_the_loading_and_the_edge_friction() -> None:
         saw = _saw(600)
         y = 0.02 + (saw.edge_m[:, 1] - 0.02) * stroke / 0.01
         path = _path(saw.time_s, y, saw.edge_m[:, 2])
-        force = simulate_cut(path, BLOCK, BLADE, truth).total_n
+        force = reduced_cut_forces(path, BLOCK, BLADE, truth).total_n
         tests.append(CutTest(f"s{k}", path.time_s, path.edge_m,
                              force + rng.normal(0.0, 0.05, force.shape)))
     problem = CutProblem.of(BLOCK, BLADE, tuple(tests), 64)

@@ -53,7 +53,7 @@ def test_the_baseline_fit_finds_the_toughness() -> None:
 def _misfit_rss(problem: CutProblem, model: CutCandidate, shape: np.ndarray) -> float:
     """The least-squares misfit over every sample, the linear parameters solved unbounded."""
     columns = np.vstack([linear_columns(model, shape, k) for k in problem.kinematics])
-    measured = np.concatenate([t.force_N for t in problem.tests])
+    measured = np.concatenate([t.force_n for t in problem.tests])
     misfit = columns @ np.linalg.lstsq(columns, measured, rcond=None)[0] - measured
     return float(misfit @ misfit)
 

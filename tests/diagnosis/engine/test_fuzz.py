@@ -66,12 +66,12 @@ def _thinned(folder: Path, case: GeneratedSet) -> Any:
     noise added."""
     measurements = load_measurement_set(folder)
     rng = np.random.default_rng(case.seed)
-    peak = max(float(np.abs(t.force_N).max()) for t in measurements.tests)
+    peak = max(float(np.abs(t.force_n).max()) for t in measurements.tests)
     tests = tuple(replace(t, time_s=t.time_s[::case.every],
                           displacement_m=t.displacement_m[::case.every],
-                          force_N=t.force_N[::case.every]
+                          force_n=t.force_n[::case.every]
                           + rng.normal(0.0, case.extra_noise * peak,
-                                       len(t.force_N[::case.every])))
+                                       len(t.force_n[::case.every])))
                   for t in measurements.tests)
     return replace(measurements, tests=tests)
 

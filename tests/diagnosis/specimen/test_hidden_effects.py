@@ -25,20 +25,20 @@ def _slope(test: MechanicalTest, data: MeasurementSet, low: float, high: float) 
     """|dF/de| fitted over the samples with low <= |strain| <= high."""
     strain = np.abs(test.strain(data.specimen))
     inside = (strain >= low) & (strain <= high)
-    return abs(float(np.polyfit(strain[inside], test.force_N[inside], 1)[0]))
+    return abs(float(np.polyfit(strain[inside], test.force_n[inside], 1)[0]))
 
 
 def _indicators(data: MeasurementSet) -> dict[str, float]:
     """One number per cause, read off the data the way a person would look for it."""
     tests = {t.test_id: t for t in data.tests}
-    peak = max(float(np.abs(t.force_N).max()) for t in data.tests)
-    at_zero = float(np.mean([t.force_N[:3].mean() for t in data.tests]))
+    peak = max(float(np.abs(t.force_n).max()) for t in data.tests)
+    at_zero = float(np.mean([t.force_n[:3].mean() for t in data.tests]))
     # Relaxation: fraction of the force (above the zero reading) lost over each hold (r00 holds
     # a smaller strain than r90).
     relaxed = {}
     for test_id in ("r00", "r90"):
         relax = tests[test_id]
-        hold = relax.force_N[relax.time_s >= 2.0]
+        hold = relax.force_n[relax.time_s >= 2.0]
         start = hold[:10].mean() - at_zero
         relaxed[test_id] = (start - (hold[-20:].mean() - at_zero)) / start
     # Cycles: force back at zero displacement after the first load, as a fraction of its peak.
@@ -47,9 +47,9 @@ def _indicators(data: MeasurementSet) -> dict[str, float]:
     third = len(strain) // 3
     top = int(np.argmax(strain[:third]))
     back = top + int(np.argmin(strain[top:top + third]))
-    level = cyclic.force_N[:5].mean()
-    residual = (cyclic.force_N[back - 2:back + 3].mean() - level) / (
-        cyclic.force_N[top - 2:top + 3].mean() - level)
+    level = cyclic.force_n[:5].mean()
+    residual = (cyclic.force_n[back - 2:back + 3].mean() - level) / (
+        cyclic.force_n[top - 2:top + 3].mean() - level)
     ramps = [t for t in data.tests if t.mode == "tension"]
     return {
         "force_offset": abs(at_zero) / peak,

@@ -1,4 +1,4 @@
-"""The starts of the search's fits (``cell/diagnosis/engine/search.py``): a load-cell offset added
+"""The starts of the search's fits (``cell/diagnosis/specimen/search.py``): a load-cell offset added
 to a model is also fitted with the model's compression terms back at their tension values, where
 an offset missing from the fit before had bent them."""
 
@@ -6,8 +6,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from cell.diagnosis.engine.search import _mirrored
 from cell.diagnosis.specimen.causes import CandidateMaterial
+from cell.diagnosis.specimen.search import _mirrored
 
 
 def test_the_compression_terms_restart_at_their_tension_twins() -> None:

@@ -55,7 +55,7 @@ def _cycle(angle_deg: float, amplitude: float, duration_s: float) -> MechanicalT
 
 def _secant_pa(test: MechanicalTest, material: MassSpringMaterial) -> float:
     run = simulate_test(test, CUBE, material)
-    return float(run.force_N[-1] / CUBE.area_m2 / test.strain(CUBE)[-1])
+    return float(run.force_n[-1] / CUBE.area_m2 / test.strain(CUBE)[-1])
 
 
 def test_mesh_spans_the_specimen_and_fibres_turn_in_the_xz_plane() -> None:
@@ -124,16 +124,16 @@ def test_a_compression_oblique_factor_acts_at_mid_angles_in_compression() -> Non
 def test_relaxation_under_a_hold_tends_to_g_infinity() -> None:
     material = replace(ISOTROPIC, relaxation_weights=(0.3, 0.2), relaxation_times_s=(0.5, 5.0))
     run = simulate_test(_ramp(0.0, 0.05, duration_s=0.01, hold_s=100.0), CUBE, material)
-    elastic = simulate_test(_ramp(0.0, 0.05), CUBE, ISOTROPIC).force_N[-1]
-    assert run.force_N[39] == pytest.approx(elastic, rel=0.01)  # a fast ramp: instantaneous
-    assert run.force_N[-1] == pytest.approx(0.5 * elastic, rel=0.01)
-    assert np.all(np.diff(run.force_N[40:]) < 0.0)
+    elastic = simulate_test(_ramp(0.0, 0.05), CUBE, ISOTROPIC).force_n[-1]
+    assert run.force_n[39] == pytest.approx(elastic, rel=0.01)  # a fast ramp: instantaneous
+    assert run.force_n[-1] == pytest.approx(0.5 * elastic, rel=0.01)
+    assert np.all(np.diff(run.force_n[40:]) < 0.0)
 
 
 def test_non_linear_relaxation_relaxes_a_share_that_depends_on_the_strain() -> None:
     def relaxed(material: MassSpringMaterial, strain: float) -> float:
         run = simulate_test(_ramp(0.0, strain, duration_s=0.01, hold_s=100.0), CUBE, material)
-        return 1.0 - run.force_N[-1] / run.force_N[39]
+        return 1.0 - run.force_n[-1] / run.force_n[39]
 
     linear = replace(ISOTROPIC, relaxation_weights=(0.3, 0.2), relaxation_times_s=(0.5, 5.0))
     shrinking = replace(linear, relaxation_strain_slope=-2.0)
@@ -156,9 +156,9 @@ def test_plasticity_leaves_a_permanent_set() -> None:
     material = replace(ISOTROPIC, yield_strain=0.02, hardening=0.2)
     run = simulate_test(_cycle(0.0, 0.08, 8.0), CUBE, material)
     elastic = simulate_test(_cycle(0.0, 0.08, 8.0), CUBE, ISOTROPIC)
-    assert run.force_N[40] < 0.6 * elastic.force_N[40]  # past yield, softer
-    assert run.force_N[-1] < -0.1 * run.force_N[40]  # back at zero displacement: pushed
-    assert elastic.force_N[-1] == pytest.approx(0.0, abs=1e-12)
+    assert run.force_n[40] < 0.6 * elastic.force_n[40]  # past yield, softer
+    assert run.force_n[-1] < -0.1 * run.force_n[40]  # back at zero displacement: pushed
+    assert elastic.force_n[-1] == pytest.approx(0.0, abs=1e-12)
 
 
 def test_a_collapsed_specimen_is_a_divergence_not_data() -> None:
@@ -171,8 +171,8 @@ def test_example_set_simulates() -> None:
     runs = simulate_set(data, ANISOTROPIC)
     assert [r.test_id for r in runs] == [t.test_id for t in data.tests]
     for run, test in zip(runs, data.tests, strict=True):
-        assert run.force_N.shape == test.force_N.shape
-        assert np.isfinite(run.force_N).all()
+        assert run.force_n.shape == test.force_n.shape
+        assert np.isfinite(run.force_n).all()
 
 
 # Each meshed reference run takes 10-60 s.
@@ -191,5 +191,5 @@ def test_quasi_static_lattice_is_within_two_percent_of_the_fine_slow_reference(
     fast = simulate_test(test, CUBE, material)
     reference = simulate_meshed(test, CUBE, material, REFERENCE)
     assert reference.inertia_ratio < 0.01
-    error = np.abs(fast.force_N - reference.force_N).max() / np.abs(reference.force_N).max()
+    error = np.abs(fast.force_n - reference.force_n).max() / np.abs(reference.force_n).max()
     assert error < 0.02

@@ -99,7 +99,7 @@ def test_an_ambiguous_set_lacks_its_evidence_and_takes_a_test_run_on_its_truth(
     again = load_measurement_set(tmp_path)
     assert len(again.tests) == len(data.tests) + 1
     added = again.test("next")
-    assert added.mode == "compression" and added.force_N.min() < 0.0
+    assert added.mode == "compression" and added.force_n.min() < 0.0
 
 
 def test_the_kinds_of_missing_evidence_come_in_turn() -> None:

@@ -1,5 +1,6 @@
-"""The catalogue of causes: each one a change to the mass-spring material, with the parameters
-a fit varies.
+"""The candidate material of a specimen diagnosis: the baseline springs plus causes of the
+catalogue (:mod:`cell.diagnosis.specimen.causes`, one module per cause), each a change to the
+mass-spring material with the parameters a fit varies.
 
 A :class:`CandidateMaterial` is the baseline (linear, isotropic, rate-independent springs of
 modulus E, their lattice's geometric stiffening compensated so that "linear" means a linear
@@ -45,24 +46,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
+from cell.diagnosis.specimen.causes.base import Parameter
+from cell.diagnosis.specimen.causes.registry import REGISTRY, catalogue
 from cell.errors import DiagnosisError
 from cell.tissue.curves import ModulusCurve
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.packedlaw import LATTICE_STIFFENING
 
-CAUSES = (
-    "strain_stiffening",
-    "anisotropy",
-    "viscoelasticity",
-    "nonlinear_viscoelasticity",
-    "tension_compression_asymmetry",
-    "plasticity",
-    "force_offset",
-)
 UNEXPLAINED = "unexplained"
 #: Each test another specimen, the specimens' material spread: a random effect on the fitted
 #: material, judged after the search between tests under equal conditions
@@ -70,7 +64,6 @@ UNEXPLAINED = "unexplained"
 SPECIMEN_VARIABILITY = "specimen_variability"
 #: Causes that one model never holds together: the second is the first made non-linear.
 EXCLUSIVE = ("viscoelasticity", "nonlinear_viscoelasticity")
-RELAXING = EXCLUSIVE
 Stiffening = Literal["exponential", "polynomial"]
 
 
@@ -112,19 +105,20 @@ class CandidateMaterial:
     reference_strain: float = 0.1
 
     def __post_init__(self) -> None:
-        unknown = set(self.causes) - set(CAUSES)
+        causes = catalogue()
+        unknown = set(self.causes) - set(causes)
         if unknown:
             raise DiagnosisError(None, "causes",
-                                 f"unknown causes {sorted(unknown)}; the catalogue is {CAUSES}")
+                                 f"unknown causes {sorted(unknown)}; the catalogue is {causes}")
         if set(EXCLUSIVE) <= set(self.causes):
             raise DiagnosisError(None, "causes", f"{EXCLUSIVE[0]} and {EXCLUSIVE[1]} exclude "
                                  "each other")
-        object.__setattr__(self, "causes", tuple(c for c in CAUSES if c in self.causes))
+        object.__setattr__(self, "causes", tuple(c for c in causes if c in self.causes))
 
     @property
     def relaxes(self) -> bool:
         """Whether the model has a relaxation function (either kind of viscoelasticity)."""
-        return any(c in self.causes for c in RELAXING)
+        return any(c in self.causes for c in EXCLUSIVE)
 
     @property
     def name(self) -> str:
@@ -144,68 +138,26 @@ class CandidateMaterial:
         return "force_offset" in self.causes
 
     @property
+    def parameters(self) -> tuple[Parameter, ...]:
+        """The shape parameters, each cause's in catalogue order, as its cause declares
+        them."""
+        return tuple(p for c in self.causes for p in REGISTRY[c].parameters(self))
+
+    @property
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the shape parameters, in vector order."""
-        names: list[str] = []
-        if "strain_stiffening" in self.causes:
-            names.append("stiffening_exponent" if self.stiffening == "exponential"
-                         else "stiffening_quadratic")
-            # Its own in compression: the lattice stiffens apart there, and one exponent
-            # would name an asymmetry in every stiffening set.
-            names.append(f"compression_{names[0]}")
-        if "anisotropy" in self.causes:
-            names += ["log_el_over_et", "oblique"] if self.oblique else ["log_el_over_et"]
-            names.append("log_el_over_et_compressed")
-            if self.oblique:
-                names.append("oblique_compressed")
-        if self.relaxes:
-            names.append("relaxed_fraction")
-            names += [f"relaxation_share_{k}" for k in range(self.relaxation_terms - 1)]
-            names += [f"log_relaxation_time_{k}" for k in range(self.relaxation_terms)]
-        if "nonlinear_viscoelasticity" in self.causes:
-            names.append("relaxed_fraction_slope")
-        if "tension_compression_asymmetry" in self.causes:
-            names += (["log_el_compression", "log_et_compression"]
-                      if self.compression_per_direction else ["log_compression"])
-        if "plasticity" in self.causes:
-            names += ["yield_strain", "hardening"]
-        return tuple(names)
+        return tuple(p.name for p in self.parameters)
 
     @property
     def initial(self) -> np.ndarray:
         """A starting point for the shape parameters."""
-        start = {"stiffening_exponent": 4.0, "stiffening_quadratic": 10.0,
-                 "yield_strain": 0.03, "hardening": 0.3, "oblique": 0.0,
-                 "oblique_compressed": 0.0,
-                 "relaxed_fraction_slope": 0.0, "relaxed_fraction": 0.3}
-        low, high = np.log10(self.time_range_s)
-        times = np.linspace(low, high, self.relaxation_terms + 2)[1:-1]
-        start.update({f"log_relaxation_time_{k}": float(t) for k, t in enumerate(times)})
-        start.update({f"relaxation_share_{k}": 1.0 / (self.relaxation_terms - k)
-                      for k in range(self.relaxation_terms - 1)})
-        return np.array([start.get(n.removeprefix("compression_"),
-                                   0.0 if n.startswith("log_") else 0.3)
-                         for n in self.parameter_names])
+        return np.array([p.initial for p in self.parameters])
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the shape parameters."""
-        limits = {"stiffening_exponent": (0.0, 40.0), "stiffening_quadratic": (0.0, 400.0),
-                  "log_el_over_et": (-1.6, 1.6), "oblique": (-0.8, 3.0),
-                  "oblique_compressed": (-0.8, 3.0),
-                  "log_el_over_et_compressed": (-1.6, 1.6),
-                  "log_el_compression": (-3.0, 3.0), "log_compression": (-3.0, 3.0),
-                  "log_et_compression": (-3.0, 3.0), "yield_strain": (0.002, 0.4),
-                  "hardening": (0.0, 0.95), "relaxed_fraction_slope": (-10.0, 10.0),
-                  "relaxed_fraction": (0.0, 0.98)}
-        low, high = np.log10(self.time_range_s)
-        limits.update({f"log_relaxation_time_{k}": (float(low), float(high))
-                       for k in range(self.relaxation_terms)})
-        limits.update({f"relaxation_share_{k}": (0.0, 1.0)
-                       for k in range(self.relaxation_terms - 1)})
-        pairs = [limits.get(n.removeprefix("compression_"), (0.0, 30.0))
-                 for n in self.parameter_names]
-        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+        parameters = self.parameters
+        return np.array([p.low for p in parameters]), np.array([p.high for p in parameters])
 
     def values(self, shape: np.ndarray) -> dict[str, float]:
         """The shape parameters by name."""
@@ -238,25 +190,17 @@ class CandidateMaterial:
                          * math.exp(value.get("log_el_compression", common)), squeezed)
             et_c = curve(modulus_pa / math.sqrt(ratio_c)
                          * math.exp(value.get("log_et_compression", common)), squeezed)
-        weights = _relaxation_weights(value, self.relaxation_terms) if self.relaxes else ()
-        times = tuple(10.0 ** value[n] for n in self.parameter_names
-                      if n.startswith("log_relaxation_time_"))
+        fields: dict[str, Any] = {}
+        for cause in self.causes:
+            fields.update(REGISTRY[cause].fields(value, self))
         return MassSpringMaterial(
             longitudinal=curve(el),
             transverse=curve(et),
             longitudinal_compression=el_c if asymmetric else None,
             transverse_compression=et_c if asymmetric else None,
             density_kg_m3=density_kg_m3,
-            relaxation_weights=tuple(weights),
-            relaxation_times_s=times,
-            relaxation_strain_slope=_strain_slope(value),
-            relaxation_reference_strain=self.reference_strain if "relaxed_fraction_slope"
-            in value else 0.0,
-            yield_strain=value.get("yield_strain", 0.0),
-            hardening=value.get("hardening", 0.0),
             geometric_compensation=LATTICE_STIFFENING,
-            oblique=value.get("oblique", 0.0),
-            oblique_compression=value.get("oblique_compressed"),
+            **fields,
         )
 
     def reported(self, shape: np.ndarray, modulus_pa: float,
@@ -291,21 +235,17 @@ class CandidateMaterial:
         return params
 
 
-def _relaxation_weights(value: dict[str, float], terms: int) -> tuple[float, ...]:
-    """g_k from the relaxed fraction and its shares (stick-breaking: term k takes share k of
-    what the terms before it left, the last term the rest)."""
-    left = value["relaxed_fraction"]
-    weights = []
-    for k in range(terms - 1):
-        weights.append(left * value[f"relaxation_share_{k}"])
-        left -= weights[-1]
-    return (*weights, left)
+def cause_of(name: str, model: CandidateMaterial) -> str:
+    """The cause of ``model`` that declares the shape parameter ``name``.
 
+    Raises:
+        DiagnosisError: no cause of ``model`` declares ``name``.
 
-def _strain_slope(value: dict[str, float]) -> float:
-    """The spring law's c from the fitted slope of the relaxed fraction per unit strain (the
-    fraction ``G (1 + c (|x| - x_r))`` has slope ``G c``); 0 when nothing relaxes."""
-    fraction = value.get("relaxed_fraction", 0.0)
-    if fraction <= 0.0:
-        return 0.0
-    return value.get("relaxed_fraction_slope", 0.0) / fraction
+    Example:
+        >>> cause_of("log_relaxation_time_1", CandidateMaterial(("viscoelasticity",)))
+        'viscoelasticity'
+    """
+    for cause in model.causes:
+        if any(p.name == name for p in REGISTRY[cause].parameters(model)):
+            return cause
+    raise DiagnosisError(None, "parameter", f"no cause of {model.name} declares {name!r}")

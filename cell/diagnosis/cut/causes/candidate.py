@@ -1,5 +1,6 @@
-"""The catalogue of causes of cut tests: each one a change to the cutting model (or the blade's
-sensor), with the parameters a fit varies.
+"""The cutting model of a cut diagnosis: the cut baseline plus causes of the cut catalogue
+(:mod:`cell.diagnosis.cut.causes`, one module per cause), each a change to the cutting model
+(or the blade's sensor) with the parameters a fit varies.
 
 A :class:`CutCandidate` is the cut baseline (a constant toughness G, the plain cut) plus
 some causes. The force on the blade is linear in G (per layer, with ``layered_toughness``), in
@@ -36,10 +37,12 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
+from cell.diagnosis.cut.causes.base import Parameter
+from cell.diagnosis.cut.causes.registry import REGISTRY, catalogue
 from cell.diagnosis.cut.reduced import CutKinematics
 from cell.errors import DiagnosisError
 from cell.tissue.cutmodel import CUT_CAUSES, CuttingParams, beef_cutting
@@ -60,7 +63,7 @@ class CutCandidate:
     """The cut baseline plus ``causes`` (module docstring).
 
     Attributes:
-        causes: causes of :data:`CUT_CAUSES`, in any order.
+        causes: causes of the catalogue (:data:`CUT_CAUSES` as it ships), in any order.
         reference_speed_m_s: v_ref of the rate factor (the set's typical edge speed), m/s.
         depth_m: the block's height, m: layer depths and the indentation lie within it.
         layers: layers of ``layered_toughness`` (one depth between each two).
@@ -81,13 +84,14 @@ class CutCandidate:
     face_pressure_pa: float = FACE_PRESSURE_PA
 
     def __post_init__(self) -> None:
-        unknown = set(self.causes) - set(CUT_CAUSES)
+        causes = catalogue()
+        unknown = set(self.causes) - set(causes)
         if unknown:
             raise DiagnosisError(None, "causes", f"unknown cut causes {sorted(unknown)}; the "
-                                 f"catalogue is {CUT_CAUSES}")
+                                 f"catalogue is {causes}")
         if self.layers < 2:
             raise DiagnosisError(None, "layers", f"must be >= 2, got {self.layers}")
-        object.__setattr__(self, "causes", tuple(c for c in CUT_CAUSES if c in self.causes))
+        object.__setattr__(self, "causes", tuple(c for c in causes if c in self.causes))
 
     @property
     def name(self) -> str:
@@ -100,56 +104,35 @@ class CutCandidate:
         return "blade_force_offset" in self.causes
 
     @property
+    def parameters(self) -> tuple[Parameter, ...]:
+        """The shape parameters, each cause's in catalogue order, as its cause declares
+        them."""
+        return tuple(p for c in self.causes for p in REGISTRY[c].parameters(self))
+
+    @property
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the shape parameters, in vector order."""
-        names = []
-        if "slicing" in self.causes:
-            names.append("slicing_efficiency")
-        if "rate_dependent_cutting" in self.causes:
-            names.append("rate_exponent")
-        if "indentation_stiffness" in self.causes:
-            names.append("indentation_depth_m")
-        if "layered_toughness" in self.causes:
-            names += [f"layer_depth_{k}_m" for k in range(self.layers - 1)]
-        if "edge_loading" in self.causes:
-            names.append("loading_depth_m")
-        if "edge_friction" in self.causes:
-            names.append("edge_slip_m")
-        return tuple(names)
+        return tuple(p.name for p in self.parameters)
 
     @property
     def linear_names(self) -> tuple[str, ...]:
-        """Names of the parameters solved in closed form, in column order."""
-        names = ([f"toughness_{k}_j_m2" for k in range(self.layers)]
-                 if "layered_toughness" in self.causes else ["toughness_j_m2"])
-        if "blade_friction" in self.causes:
-            names.append("face_shear_pa")
-        if "edge_friction" in self.causes:
-            names.append("edge_friction_j_m2")
-        if self.has_offset:
-            names += [f"offset_{a}_n" for a in _AXES]
-        return tuple(names)
+        """Names of the parameters solved in closed form, in column order: the toughness
+        (the first layer's, with layers) and the other layers', the other causes', a sensor's
+        offset last (:attr:`~cell.diagnosis.cut.causes.base.CutCause.column`)."""
+        own = ("toughness_0_j_m2",) if "layered_toughness" in self.causes else ("toughness_j_m2",)
+        causes = sorted(self.causes, key=lambda c: REGISTRY[c].column)
+        return own + tuple(n for c in causes for n in REGISTRY[c].linear(self))
 
     @property
     def initial(self) -> np.ndarray:
         """A starting point for the shape parameters."""
-        depths = {f"layer_depth_{k}_m": self.depth_m * (k + 1) / self.layers
-                  for k in range(self.layers - 1)}
-        start = {"slicing_efficiency": 1.0, "rate_exponent": 0.0,
-                 "indentation_depth_m": 0.1 * self.depth_m,
-                 "loading_depth_m": 0.1 * self.depth_m, "edge_slip_m": 0.002, **depths}
-        return np.array([start[n] for n in self.parameter_names])
+        return np.array([p.initial for p in self.parameters])
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the shape parameters."""
-        limits = {"slicing_efficiency": (0.0, 10.0), "rate_exponent": (-1.0, 1.0),
-                  "indentation_depth_m": (1e-5, 0.5 * self.depth_m),
-                  "loading_depth_m": (1e-5, 0.5 * self.depth_m),
-                  "edge_slip_m": (1e-5, 0.5 * self.depth_m)}
-        pairs = [limits.get(n, (0.02 * self.depth_m, 0.98 * self.depth_m))
-                 for n in self.parameter_names]
-        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+        parameters = self.parameters
+        return np.array([p.low for p in parameters]), np.array([p.high for p in parameters])
 
     def values(self, shape: np.ndarray) -> dict[str, float]:
         """The shape parameters by name."""
@@ -160,14 +143,11 @@ class CutCandidate:
         value = self.values(shape)
         depths = tuple(sorted(value[n] for n in self.parameter_names
                               if n.startswith("layer_depth_")))
-        unit = CuttingParams(1.0, slicing_efficiency=value.get("slicing_efficiency", 0.0),
-                             reference_speed_m_s=self.reference_speed_m_s,
-                             rate_exponent=value.get("rate_exponent", 0.0),
-                             indentation_depth_m=value.get("indentation_depth_m", 0.0),
-                             loading_depth_m=value.get("loading_depth_m", 0.0))
-        if "edge_slip_m" in value:
-            unit = replace(unit, edge_slip_m=value["edge_slip_m"])
-        return unit, depths
+        fields = {"slicing_efficiency": 0.0, "rate_exponent": 0.0, "indentation_depth_m": 0.0,
+                  "loading_depth_m": 0.0}
+        for cause in self.causes:
+            fields.update(REGISTRY[cause].fields(value))
+        return CuttingParams(1.0, reference_speed_m_s=self.reference_speed_m_s, **fields), depths
 
     def cutting(self, shape: np.ndarray, linear: np.ndarray) -> CuttingParams:
         """The cutting model of ``shape`` and the linear parameters ``linear`` (no offset:
@@ -249,26 +229,23 @@ def source_checks(params: dict[str, float]) -> list[dict[str, object]]:
     return checks
 
 
-def cause_of(name: str) -> str | None:
-    """The cause a fitted parameter (:attr:`CutCandidate.parameter_names`,
-    :attr:`CutCandidate.linear_names`) belongs to; None for the baseline's toughness.
+def cause_of(name: str, model: CutCandidate) -> str | None:
+    """The cause of ``model`` that declares the fitted parameter ``name``
+    (:attr:`CutCandidate.parameter_names`, :attr:`CutCandidate.linear_names`); None for the
+    baseline's toughness (the first layer's, with layers).
 
     Example:
-        >>> cause_of("toughness_1_j_m2"), cause_of("face_shear_pa"), cause_of("toughness_j_m2")
-        ('layered_toughness', 'blade_friction', None)
+        >>> model = CutCandidate(("blade_friction", "layered_toughness"))
+        >>> cause_of("toughness_1_j_m2", model), cause_of("face_shear_pa", model)
+        ('layered_toughness', 'blade_friction')
+        >>> cause_of("toughness_0_j_m2", model) is None
+        True
     """
-    owners = {"slicing_efficiency": "slicing", "rate_exponent": "rate_dependent_cutting",
-              "indentation_depth_m": "indentation_stiffness", "face_shear_pa": "blade_friction",
-              "loading_depth_m": "edge_loading", "edge_slip_m": "edge_friction",
-              "edge_friction_j_m2": "edge_friction"}
-    if name in owners:
-        return owners[name]
-    if name.startswith("offset_"):
-        return "blade_force_offset"
-    if name.startswith("layer_depth_") or (name.startswith("toughness_")
-                                            and name not in ("toughness_j_m2",
-                                                             "toughness_0_j_m2")):
-        return "layered_toughness"
+    for cause in model.causes:
+        declared = REGISTRY[cause]
+        if name in declared.linear(model) or any(p.name == name
+                                                 for p in declared.parameters(model)):
+            return cause
     return None
 
 
