@@ -199,7 +199,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             # Only the offsets stand when the world's causes do not lower the error of the logs
             # they were fitted to, or do but not of each log left out (the change does not
             # carry from one separation to the next): then they are named as dropped.
-            dropped = ({"causes": world, "heldout_rmse_N": rmse_n(left),
+            dropped = ({"causes": world, "params": magnitudes_json(fit["magnitudes"]),
+                        "heldout_rmse_N": rmse_n(left),
                         "without_N": rmse_n(without)} if fit["confirmed"] else None)
             world, left = [], without
             fit = {**start, "confirmed": False, **({"dropped": dropped} if dropped else {})}
