@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,13 +37,15 @@ from cell.logs.fit import (
     FORCE_CHANNELS,
     Rows,
     Step,
+    decorrelation_rows,
     forward_selection,
     heldout,
     logged_vector,
     rmse_n,
     solve,
 )
-from cell.logs.replays import Replayer, ReplayPool
+from cell.logs.outcome import EVIDENCE_ROWS, evidence_weight
+from cell.logs.replays import Progress, Replayer, ReplayPool
 from cell.logs.search import (
     OFFSET,
     Fit,
@@ -160,26 +161,26 @@ def _scored(entry: dict[str, Any]) -> dict[str, Any]:
 
 def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                   cluster: ReplayPool | None = None,
-                  on_replay: Callable[[int], object] | None = None) -> LogDiagnosis:
+                  progress: Progress | None = None) -> LogDiagnosis:
     """Diagnose ``batch`` (module docstring), its replays on ``params.workers`` processes
     here, or on ``cluster`` (an entered :class:`cell.scale.pool.RunPool` on a Ray cluster,
-    whose ``Workers`` then say how many run at a time); ``on_replay`` is called with 1 after
-    each replay (progress).
+    whose ``Workers`` then say how many run at a time); ``progress`` (a progress bar) counts
+    the replays done of those planned and names the round.
 
     Raises:
         DivergenceError: the lab's own world blew up in a replay.
         PoolError: a replay on ``cluster`` gave no result (its worker or node died).
     """
     params = params or LogDiagnosisParams()
-    measured, rows = logged_vector(batch.logs)
+    measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     names = [c for c in applicable(batch.scenarios[0])
              if params.causes is None or c in params.causes]
     workers = params.workers or os.cpu_count() or 1
     started, cpu_started = time.perf_counter(), time.process_time()
-    jobs = len(batch.logs) * (2 * len(names) + 1)
+    jobs = len(batch.logs) * (sum(len(CAUSES[c].probes(True)) for c in names) + 1)
     with Replayer(batch, min(workers, jobs), cluster) as replayer:
-        replayer.on_replay = on_replay
-        base, blocks = _screen(replayer, measured, names)
+        replayer.progress = progress
+        base, blocks = _screen(replayer, measured, rows, names)
         residual = measured - base
         blocks.update({OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})
         steps = forward_selection(residual, blocks, rows, params.min_heldout_gain,
@@ -198,7 +199,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             # Only the offsets stand when the world's causes do not lower the error of the logs
             # they were fitted to, or do but not of each log left out (the change does not
             # carry from one separation to the next): then they are named as dropped.
-            dropped = ({"causes": world, "heldout_rmse_N": rmse_n(left),
+            dropped = ({"causes": world, "params": magnitudes_json(fit["magnitudes"]),
+                        "heldout_rmse_N": rmse_n(left),
                         "without_N": rmse_n(without)} if fit["confirmed"] else None)
             world, left = [], without
             fit = {**start, "confirmed": False, **({"dropped": dropped} if dropped else {})}
@@ -217,6 +219,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                 "params": {**magnitudes_json(fit["magnitudes"]),
                            **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
                 "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
+                "evidence_weight_N": replayer.weight,
                 **{key: fit[key] for key in ("dropped", "second_look") if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
@@ -233,6 +236,7 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
     screening signatures, and whether its replays beat the lab's world by the gain asked."""
     if not world:
         return {**start, "confirmed": False}
+    replayer.round = "fit"
     jacobian = np.concatenate([blocks[c] for c in world], axis=1)
     fit = gauss_newton(replayer, measured, offsets, start, world, jacobian, params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
@@ -246,6 +250,7 @@ def _second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     """:func:`second_look` on a confirmed fit: the fit, the held-out residual and the steps
     of the causes it adds, kept only where the replays of each log left out confirm them
     too (else ``fit`` says what was tried)."""
+    replayer.round = "second look"
     selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
                                              offsets, params.min_heldout_gain,
                                              params.newton_steps)
@@ -276,16 +281,26 @@ def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str,
             "fit_cpu_s": cpu}
 
 
-def _screen(replayer: Replayer, measured: np.ndarray, names: list[str]
+def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str]
             ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """The baseline's simulated vector and each cause's signature (:func:`signatures`), from
-    one batch replay in the lab's world and one each way of every cause's screening step."""
-    base, *screened = replayer.batches([{}, *screening_worlds(names, {})])
+    one batch replay in the lab's world and one at each of every cause's probes, near and far
+    (:func:`screening_worlds`, ``wide``). The misfits beyond the forces are weighed by the
+    baseline's force residual (:func:`~cell.logs.outcome.evidence_weight`), from here on in
+    every replay."""
+    base, *screened = replayer.batches([{}, *screening_worlds(names, {}, wide=True)])
     if base is None:
         from cell.errors import DivergenceError
 
         raise DivergenceError(0.0, "a replay of the lab's own world blew up")
-    blocks = signatures(measured - base, base, names, screened)
+    force = measured - base
+    force[~rows.force] = 0.0
+    replayer.weight = evidence_weight(rmse_n(force[rows.force]),
+                                      decorrelation_rows(force, rows))
+    scale = np.where(rows.force, 1.0, replayer.weight)
+    base = base * scale
+    screened = [None if vector is None else vector * scale for vector in screened]
+    blocks = signatures(measured - base, base, names, screened, wide=True)
     return base, blocks
 
 

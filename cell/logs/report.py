@@ -17,6 +17,7 @@ from cell.diagnosis.engine.determined import NOT_DETERMINED, shown
 from cell.extras import require
 from cell.logs.causes import SENSOR_OFFSET, changed_world
 from cell.logs.fit import FORCE_CHANNELS, logged_vector
+from cell.logs.outcome import EVIDENCE_ROWS
 from cell.outputs import figure_png, write_atomic, write_json
 from cell.sim.scenario import Scenario
 from cell.sim.scenariotoml import resolved_tables, tables_toml
@@ -103,7 +104,7 @@ def write_log_diagnosis(folder: str | Path, batch: LogBatch, diagnosis: LogDiagn
 def _figures(folder: Path, batch: LogBatch, diagnosis: LogDiagnosis) -> list[Path]:
     from matplotlib.figure import Figure  # a figure off pyplot: headless, nothing to close
 
-    _, rows = logged_vector(batch.logs)
+    _, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     out = []
     for i, log in enumerate(batch.logs):
         figure = _draw_log(Figure(figsize=(9, 7), layout="constrained"), log, i, rows,

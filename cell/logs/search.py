@@ -40,25 +40,29 @@ def fixed(blocks: dict[str, np.ndarray]) -> frozenset[str]:
     return frozenset(name for name in blocks if name.startswith(OFFSET))
 
 
-#: The sides of a screening: its step one way and the other.
-_SIDES = (1.0, -1.0)
-
-
-def screening_worlds(names: list[str], at: dict[str, float]) -> list[dict[str, float]]:
+def screening_worlds(names: list[str], at: dict[str, float], wide: bool = False
+                     ) -> list[dict[str, float]]:
     """The worlds that screen each of ``names`` (not in ``at``) beside the magnitudes ``at``:
-    its screening step one way, then the other."""
-    return [{**at, c: side * CAUSES[c].step} for c in names for side in _SIDES]
+    one per probe of its (:meth:`~cell.logs.causes.cause.LogCause.probes`; ``wide``: the far
+    ones too, so that a big change is screened near its size, not only by a small step's
+    slope)."""
+    return [{**at, c: probe} for c in names for probe in CAUSES[c].probes(wide)]
 
 
 def signatures(residual: np.ndarray, reference: np.ndarray, names: list[str],
-               replayed: list[np.ndarray | None]) -> dict[str, np.ndarray]:
+               replayed: list[np.ndarray | None], wide: bool = False
+               ) -> dict[str, np.ndarray]:
     """Each of ``names``' signature (:func:`signature` on ``residual``) from the replays of
-    its :func:`screening_worlds`, their changes taken against the ``reference`` replay; a
-    cause whose replays both blew up has none."""
+    its :func:`screening_worlds` (``wide`` as there), their changes taken against the
+    ``reference`` replay; a cause whose replays all blew up has none."""
     blocks: dict[str, np.ndarray] = {}
-    for k, c in enumerate(names):
-        sides = [(side * CAUSES[c].step, None if vector is None else vector - reference)
-                 for side, vector in zip(_SIDES, replayed[2 * k:2 * k + 2], strict=True)]
+    start = 0
+    for c in names:
+        probes = CAUSES[c].probes(wide)
+        sides = [(probe, None if vector is None else vector - reference)
+                 for probe, vector in zip(probes, replayed[start:start + len(probes)],
+                                          strict=True)]
+        start += len(probes)
         column = signature(residual, sides)
         if column is not None:
             blocks[c] = column
@@ -169,6 +173,7 @@ def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: F
                     world: list[str], offsets: dict[str, np.ndarray]) -> np.ndarray:
     """Each log's residual in the world of ``world``'s causes fitted on the other logs (a
     Gauss-Newton step from the batch's fit on their rows), replayed."""
+    replayer.round = "held out"
     residual = measured - fit["simulated"]
     left = np.empty_like(measured)
     jobs, fits = [], []

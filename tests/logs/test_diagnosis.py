@@ -30,6 +30,7 @@ from cell.logs.fit import (
     simulated_vector,
     solve,
 )
+from cell.logs.outcome import EVIDENCE_ROWS
 from cell.logs.report import MATERIAL, SCENARIO, write_log_diagnosis
 from cell.sim.scenario import Scenario, load_scenario
 from cell.tissue.cutmodel import CuttingParams
@@ -162,7 +163,7 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
     quick = PROJECT_ROOT / "scenarios" / "quick.toml"
     logs = tuple(replace(wave_log(30), scenario=quick, name=f"log-{k}") for k in (1, 2))
     batch = LogBatch(logs, (load_scenario(quick),) * 2)
-    measured, _ = logged_vector(logs)
+    measured, _ = logged_vector(logs, EVIDENCE_ROWS)
     strength = magnitudes_json({"binding_strength": math.log(1.5),
                                 "binding_gradient": math.log(2.0)})
     evidence = [LogEvidence("binding_strength", 1.0, 1.8, 1.0, {}, None),

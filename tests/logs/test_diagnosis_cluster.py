@@ -17,6 +17,7 @@ from cell.cli import main
 from cell.errors import PoolError
 from cell.logs.batch import read_log_batch
 from cell.logs.replays import Replayer
+from cell.progress import progress_bar
 from cell.scale.pool import RunPool, Workers
 from cell.synthetic.logs import write_hidden_log_batch
 from tests.paths import PROJECT_ROOT
@@ -117,3 +118,17 @@ def test_a_replay_of_the_shipped_batch_is_the_replay_of_its_folder(tiny_batch: l
         (vector,) = replayer.run([(0, {})])
     with Replayer(batch, 1) as here:
         assert np.array_equal(vector, here.run([(0, {})])[0])
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_the_replays_show_done_of_planned_and_their_round_unless_quiet(
+        tiny_batch: list[str], quiet: bool, capsys: pytest.CaptureFixture[str]) -> None:
+    with (Replayer(read_log_batch(tiny_batch), 1) as replayer,
+          progress_bar("replay", quiet=quiet, total=0) as bar):
+        replayer.progress = bar
+        replayer.round = "held out"
+        replayer.run([(0, {}), (1, {})])
+    shown = capsys.readouterr().err
+    assert (shown == "") == quiet
+    if not quiet:
+        assert "held out" in shown and "2/2" in shown

@@ -15,6 +15,7 @@ import cell.logs.diagnosis as logdiagnosis
 from cell.logs.batch import LogBatch
 from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
 from cell.logs.fit import logged_vector
+from cell.logs.outcome import EVIDENCE_ROWS
 from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario
 
@@ -36,7 +37,8 @@ BATCH = LogBatch(tuple(_log(n, 0.1 * n) for n in (60, 50, 40)), (Scenario(),) * 
 
 class LinearWorld:
     """Replays of :data:`BATCH` in a world where each cause adds its own pattern times its
-    magnitude (times :meth:`response` of it), and the logs were measured at :attr:`truth`."""
+    magnitude (times :meth:`response` of it), and the logs were measured at :attr:`truth`;
+    the replays' outcomes and releases agree with the logs' (their entries are 0)."""
 
     truth: ClassVar[dict[str, float]] = {"tearing_threshold": TRUE_MAGNITUDE}
 
@@ -44,10 +46,13 @@ class LinearWorld:
         rng = np.random.default_rng(0)
         self.folders = [str(log.folder) for log in batch.logs]
         self.count, self.wall_s, self.cpu_s, self.in_process = 0, 0.0, 0.0, True
-        measured = [logged_vector([log])[0] for log in batch.logs]
-        self.patterns = {c: [rng.normal(size=m.size) for m in measured] for c in CAUSES}
-        self.base = [m - self.effect(self.truth, i) - 0.01 * rng.normal(size=m.size)
-                     for i, m in enumerate(measured)]
+        self.weight, self.progress, self.round = 1.0, None, ""
+        measured = [logged_vector([log], EVIDENCE_ROWS)[0] for log in batch.logs]
+        forces = [np.arange(m.size) < m.size - EVIDENCE_ROWS for m in measured]
+        pairs = list(zip(measured, forces, strict=True))
+        self.patterns = {c: [rng.normal(size=m.size) * f for m, f in pairs] for c in CAUSES}
+        self.base = [m - self.effect(self.truth, i) - 0.01 * rng.normal(size=m.size) * f
+                     for i, (m, f) in enumerate(pairs)]
 
     @staticmethod
     def response(magnitude: float) -> float:

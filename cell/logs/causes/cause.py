@@ -20,6 +20,10 @@ from cell.sim.scenario import Scenario
 #: The largest magnitude the fit moves a cause to (a factor of ``exp(1.5)``, about 4.5, or
 #: 1.5 rad): the default of :attr:`LogCause.bounds`.
 MAX_MAGNITUDE = 1.5
+#: The share of each bound a wide probe reaches (:meth:`LogCause.probes`): a factor of about
+#: 2.5 or 0.4 at the default bounds, where a threshold halved or a stiffness 2.5x shows as it
+#: is, not as a small step's slope.
+WIDE_SHARE = 0.6
 #: The natural log of the largest float: ``math.exp`` of more raises.
 _LARGEST_LOG = math.log(sys.float_info.max)
 
@@ -53,6 +57,16 @@ class LogCause:
     table: Literal["logs", "cut"] = "logs"
     typical: tuple[float, float] = (1.3, 2.0)
     bounds: tuple[float, float] = (-MAX_MAGNITUDE, MAX_MAGNITUDE)
+
+    def probes(self, wide: bool) -> tuple[float, ...]:
+        """The magnitudes its screening replays: its :attr:`step` one way and the other, and,
+        ``wide``, :data:`WIDE_SHARE` of each bound (where that is beyond the step)."""
+        small = (self.step, -self.step)
+        if not wide:
+            return small
+        far = tuple(WIDE_SHARE * b for b in (self.bounds[1], self.bounds[0])
+                    if abs(WIDE_SHARE * b) > self.step)
+        return small + far
 
     def applies(self, scenario: Scenario) -> bool:
         """Whether the cause changes anything in ``scenario``'s world (every world: True)."""
