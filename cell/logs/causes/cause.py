@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import sys
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -29,7 +30,7 @@ _LARGEST_LOG = math.log(sys.float_info.max)
 
 
 @dataclass(frozen=True)
-class LogCause:
+class LogCause(ABC):
     """One cause of the catalogue: a subclass says how it changes the world
     (:meth:`change`) and where it can (:meth:`applies`).
 
@@ -72,9 +73,9 @@ class LogCause:
         """Whether the cause changes anything in ``scenario``'s world (every world: True)."""
         return True
 
+    @abstractmethod
     def change(self, scenario: Scenario, magnitude: float) -> Scenario:
         """``scenario`` with the cause at ``magnitude``: every subclass says how."""
-        raise NotImplementedError(f"{type(self).__name__}.change")
 
     def value(self, magnitude: float) -> float:
         """What a user reads: the factor ``exp(m)`` (infinite past a float's range), or the
