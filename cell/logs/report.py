@@ -6,7 +6,6 @@ the ``report`` extra, matplotlib).
 
 from __future__ import annotations
 
-from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -15,13 +14,12 @@ import numpy as np
 from cell.config import read_toml
 from cell.diagnosis.engine.determined import NOT_DETERMINED, shown
 from cell.extras import require
-from cell.logs.causes import SENSOR_OFFSET, changed_world
+from cell.logs.causes import CAUSES, SENSOR_OFFSET, changed_keys, changed_world, scenario_keys
 from cell.logs.fit import FORCE_CHANNELS, logged_vector
 from cell.logs.outcome import EVIDENCE_ROWS
 from cell.outputs import figure_png, write_atomic, write_json
 from cell.sim.scenario import Scenario
 from cell.sim.scenariotoml import resolved_tables, tables_toml
-from cell.tissue.material import MassSpringMaterial
 from cell.tissue.materialfile import material_to_toml
 
 if TYPE_CHECKING:
@@ -36,49 +34,32 @@ _HEADER = ("The extended world of a batch diagnosis of separation logs (musclece
 
 
 def write_extended(folder: Path, batch: LogBatch, diagnosis: LogDiagnosis) -> list[Path]:
-    """The extended material (where it is a mass-spring one) and scenario (the first log's,
-    with the causes' changes), into ``folder``."""
-    belief = batch.scenarios[0]
+    """The extended material and scenario (the first log's, with the causes' changes), into
+    ``folder``."""
     magnitudes = {name: value["magnitude"]
                   for name, value in diagnosis.extended["params"].items()
                   if value.get("magnitude") is not None}
+    not_keys = [name for name in diagnosis.extended["params"] if name == SENSOR_OFFSET]
+    return write_extended_world(folder, batch.logs[0].scenario, batch.scenarios[0], magnitudes,
+                                not_keys)
+
+
+def write_extended_world(folder: Path, scenario_file: Path, belief: Scenario,
+                         magnitudes: dict[str, float], not_keys: list[str]) -> list[Path]:
+    """``scenario_file`` (loaded as ``belief``) with the world causes of ``magnitudes``
+    applied, as ``extended-scenario.toml`` and its material (either kind) as
+    ``extended-material.toml``: loaded, the scenario is the world the causes made. The causes
+    of ``not_keys`` have no scenario key and are named in the scenario's header."""
     world = changed_world(belief, magnitudes)
-    raw = resolved_tables(read_toml(batch.logs[0].scenario), belief)
+    raw = resolved_tables(read_toml(scenario_file), belief)
     for table, changed in changed_keys(belief, world).items():
         raw[table] = {**raw.get(table, {}), **changed}
-    written = []
-    if isinstance(world.material, MassSpringMaterial):
-        written.append(write_atomic(folder / MATERIAL,
-                                    material_to_toml(world.material, _HEADER)))
-        raw["material"] = {"file": MATERIAL}
+    written = [write_atomic(folder / MATERIAL, material_to_toml(world.material, _HEADER))]
+    raw["material"] = {"file": MATERIAL}
     header = "\n".join([_HEADER, *(f"Not in a scenario's keys: {name} (see diagnosis.json)"
-                                   for name in diagnosis.extended["params"]
-                                   if name == SENSOR_OFFSET)])
+                                   for name in not_keys)])
     written.append(write_atomic(folder / SCENARIO, tables_toml(raw, header)))
     return written
-
-
-def changed_keys(belief: Scenario, world: Scenario) -> dict[str, dict[str, Any]]:
-    """The scenario's tables (but the material, written whole) and their keys whose values
-    differ in ``world`` from ``belief``: what a cause's change of the world writes into the
-    extended scenario.
-
-    Example:
-        >>> from dataclasses import replace
-        >>> belief = Scenario()
-        >>> world = replace(belief, aponeurosis=replace(belief.aponeurosis,
-        ...                                             toughness_gradient=0.5))
-        >>> changed_keys(belief, world)
-        {'aponeurosis': {'toughness_gradient': 0.5}}
-    """
-    out: dict[str, dict[str, Any]] = {}
-    for table in fields(belief):
-        before, after = getattr(belief, table.name), getattr(world, table.name)
-        if table.name == "material" or not is_dataclass(before) or before == after:
-            continue
-        out[table.name] = {key.name: getattr(after, key.name) for key in fields(before)
-                           if getattr(after, key.name) != getattr(before, key.name)}
-    return out
 
 
 def write_log_diagnosis(folder: str | Path, batch: LogBatch, diagnosis: LogDiagnosis,
@@ -97,7 +78,8 @@ def write_log_diagnosis(folder: str | Path, batch: LogBatch, diagnosis: LogDiagn
     written += write_extended(folder, batch, diagnosis)
     figures = _figures(folder, batch, diagnosis) if plots else []
     written += figures
-    written.append(write_atomic(folder / "report.md", _markdown(diagnosis, figures)))
+    written.append(write_atomic(folder / "report.md",
+                                _markdown(diagnosis, figures, batch.scenarios[0])))
     return written
 
 
@@ -134,7 +116,7 @@ def _draw_log(figure: Figure, log: Any, index: int, rows: Any,
     return figure
 
 
-def _markdown(diagnosis: LogDiagnosis, figures: list[Path]) -> str:
+def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) -> str:
     data = diagnosis.to_json()
     causes = ", ".join(data["causes"]) or "none: the lab's world explains the logs"
     lines = ["# Diagnosis of a batch of separation logs", "",
@@ -152,6 +134,9 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path]) -> str:
     lines += ["", "Extended world: " + ", ".join(
         f"{k} ({_short(v)})" for k, v in data["extended"]["params"].items()) + "." if
         data["extended"]["params"] else "Extended world: the lab's.", ""]
+    keys = [f"- {name} changes {', '.join(f'`{key}`' for key in scenario_keys(name, belief))}"
+            f" ({SCENARIO}, {MATERIAL})" for name in data["extended"]["params"] if name in CAUSES]
+    lines += [*keys, ""] if keys else []
     for e in data["evidence"]:
         name = f"{e['cause']} ({e['channel']})" if "channel" in e else e["cause"]
         lines.append(f"- {name}: held-out {shown(e['heldout_rmse_with_N'], '.3f')} N with it, "

@@ -21,6 +21,7 @@ form (:mod:`cell.logs.fit`), without a replay.
 
 from __future__ import annotations
 
+from dataclasses import fields, is_dataclass
 from importlib import import_module
 from typing import Any
 
@@ -79,6 +80,56 @@ def changed_world(scenario: Scenario, magnitudes: dict[str, float]) -> Scenario:
     for name, magnitude in magnitudes.items():
         scenario = CAUSES[name].change(scenario, magnitude)
     return scenario
+
+
+def changed_keys(belief: Scenario, world: Scenario) -> dict[str, dict[str, Any]]:
+    """The scenario's tables (but the material, a file of its own) and their keys whose values
+    differ in ``world`` from ``belief``: what a cause's change of the world writes into the
+    extended scenario.
+
+    Example:
+        >>> from dataclasses import replace
+        >>> belief = Scenario()
+        >>> world = replace(belief, aponeurosis=replace(belief.aponeurosis,
+        ...                                             toughness_gradient=0.5))
+        >>> changed_keys(belief, world)
+        {'aponeurosis': {'toughness_gradient': 0.5}}
+    """
+    out: dict[str, dict[str, Any]] = {}
+    for table in fields(belief):
+        before, after = getattr(belief, table.name), getattr(world, table.name)
+        if table.name == "material" or not is_dataclass(before) or before == after:
+            continue
+        out[table.name] = {key.name: getattr(after, key.name) for key in fields(before)
+                           if getattr(after, key.name) != getattr(before, key.name)}
+    return out
+
+
+def scenario_keys(name: str, scenario: Scenario) -> tuple[str, ...]:
+    """The dotted keys cause ``name`` changes in ``scenario``'s world (at its screening
+    step): a scenario table's keys, or ``material.<key>`` for the material file's.
+
+    Example:
+        >>> scenario_keys("blade_friction", Scenario())
+        ('material.cutting.face_friction',)
+    """
+    cause = CAUSES[name]
+    world = cause.change(scenario, cause.step)
+    keys = [f"{table}.{key}" for table, changed in changed_keys(scenario, world).items()
+            for key in changed]
+    keys += _changed_fields("material", scenario.material, world.material)
+    return tuple(sorted(keys))
+
+
+def _changed_fields(prefix: str, before: Any, after: Any) -> list[str]:
+    """The dotted names of the fields of two like dataclasses that differ, nested ones
+    spelt down to their own fields."""
+    if before == after:
+        return []
+    if type(before) is not type(after) or not is_dataclass(before):
+        return [prefix]
+    return [name for item in fields(before) for name in _changed_fields(
+        f"{prefix}.{item.name}", getattr(before, item.name), getattr(after, item.name))]
 
 
 def magnitudes_json(magnitudes: dict[str, float]) -> dict[str, dict[str, Any]]:
