@@ -18,6 +18,10 @@ Entries (``value`` in ``unit``; ``peer`` and ``ratio`` = value / peer where a pe
 - ``contact_load_us``: the load of the flex contacts on the knife and on the round (as the
   tools' sensors and the dynamometer read them), read at once from MuJoCo's contact
   arrays, at a state in the cut; peer: the same contacts one ``mj_contactForce`` call each.
+- ``episode_growth_exponent``: how the episode's wall time (build and run, no recording)
+  grows with the tissue's nodes: the slope of log wall time on log nodes over the same
+  scenario meshed at about :data:`GROWTH_NODES` nodes (finer cells); ``runs`` has each
+  mesh's nodes, bindings and wall time, ``bindings_exponent`` the bindings' growth likewise.
 """
 
 from __future__ import annotations
@@ -75,6 +79,36 @@ def bench_episode(scenario: Scenario, quick: bool) -> dict[str, Any]:
     return {"value": summary["timing"]["real_time_factor"], "unit": "x real time",
             "sim_time_s": summary["result"]["sim_time_s"],
             "wall_time_s": summary["timing"]["wall_time_s"], "truncated": quick}
+
+
+#: The node counts the growth entry aims its meshes at.
+GROWTH_NODES = (500, 1000, 2000, 4000)
+
+
+def bench_growth(scenario: Scenario, quick: bool) -> dict[str, Any]:
+    if quick:
+        scenario = replace(scenario, end_s=3.0)
+    nodes_here = Episode(scenario).sim.scene.node_count
+    runs = []
+    for target in GROWTH_NODES:
+        cell_size_m, nodes = scenario.tissue.cell_size_m, nodes_here
+        for _ in range(2):  # nodes go about as the inverse cube of the cell size; once more
+            cell_size_m *= (nodes / target) ** (1.0 / 3.0)
+            meshed = replace(scenario, tissue=replace(scenario.tissue, cell_size_m=cell_size_m))
+            start = time.perf_counter()
+            episode = Episode(meshed)
+            nodes = episode.sim.scene.node_count
+        episode.run()
+        runs.append({"cell_size_m": cell_size_m, "nodes": episode.sim.scene.node_count,
+                     "bindings": len(episode.sim.scene.aponeurosis),
+                     "wall_time_s": time.perf_counter() - start})
+    log_nodes = np.log([run["nodes"] for run in runs])
+
+    def exponent(key: str) -> float:
+        return float(np.polyfit(log_nodes, np.log([run[key] for run in runs]), 1)[0])
+
+    return {"value": exponent("wall_time_s"), "unit": "d log wall time / d log nodes",
+            "bindings_exponent": exponent("bindings"), "runs": runs, "truncated": quick}
 
 
 def bench_trajectory(scenario: Scenario, quick: bool) -> dict[str, Any]:
@@ -195,6 +229,7 @@ def run_bench(scenario_path: str | Path, quick: bool = False) -> dict[str, Any]:
         "trajectory_s": bench_trajectory(scenario, quick),
         "episode_stepping_share": bench_profile(scenario, quick),
         "contact_load_us": bench_contacts(scenario, 200 if quick else 2000),
+        "episode_growth_exponent": bench_growth(scenario, quick),
     }
     return {
         "scenario": str(scenario_path),
