@@ -1,6 +1,7 @@
 """A whole cell's robot log comes in as a separation log: a log the cell wrote, re-written as a
 robot records it (a ROS 2 bag, a bare MCAP file: each sensor's wrench and pose, the grasp) and
-imported back, equals the original channel by channel, and replays as it does."""
+imported back, equals the original channel by channel, replays as it does and is diagnosed as
+it is."""
 
 from __future__ import annotations
 
@@ -112,3 +113,32 @@ def _numbers(value: object) -> list[float]:
     if value is None:
         return [float("nan")]
     return [float(value)] if isinstance(value, int | float) else []
+
+
+def test_imported_cell_logs_are_diagnosed_as_the_originals(tmp_path: Path) -> None:
+    originals, imported = [], []
+    for seed in (0, 1):
+        scenario = load_scenario(QUICK)
+        scenario = replace(scenario, seed=seed, end_s=0.3,
+                           perception=replace(scenario.perception, enabled=False))
+        episode = LoggedEpisode(scenario)
+        episode.run()
+        folder = tmp_path / f"cell-{seed}"
+        folder.mkdir()
+        shutil.copy(QUICK, folder / "scenario.toml")
+        log = write_log(folder / "log", episode, folder / "scenario.toml")
+        mapping = folder / "cell.toml"
+        mapping.write_text(_with_the_logs_tables(log).replace("seed = 0", f"seed = {seed}"))
+        source = write_mcap(CellRobotLog(read_log(log).channels), folder / "run.mcap")
+        assert main(["import", str(mapping), str(source), "--out", str(folder / "in")]) == 0
+        originals.append(str(log))
+        imported.append(str(folder / "in"))
+    common = ["--no-plots", "--causes", "tissue_stiffness", "--workers", "1", "-q"]
+    for logs, out in ((originals, "a"), (imported, "b")):
+        assert main(["diagnose-logs", *logs, "--out", str(tmp_path / out), *common]) == 0
+    first, second = (json.loads((tmp_path / out / "diagnosis.json").read_text())
+                     for out in "ab")
+    for result in (first, second):
+        del result["logs"], result["timing"]
+    assert _numbers(first) == pytest.approx(_numbers(second), rel=1e-9, abs=1e-12, nan_ok=True)
+    assert _shape(first) == _shape(second)
