@@ -298,6 +298,7 @@ class Episode:
                      knife_target: tuple[np.ndarray, np.ndarray] | None,
                      grasp_target: tuple[np.ndarray, np.ndarray] | None,
                      knife_plan_s: float | None = None,
+                     command_q_rad: np.ndarray | None = None,
                      ) -> dict[ReleaseRule, np.ndarray]:
         """One control step: IK toward the tool targets (position m, rotation; None keeps the
         last target), the joint controls ramped over the physics steps, then the plan's
@@ -305,7 +306,9 @@ class Episode:
         ``knife_plan_s`` is the plan's time the knife target is at (None: the step's own
         time, for a knife on the plan's clock): whether the knife cuts, and how far into its
         cutting-force curve, follow the knife, so that a knife slower or faster than its
-        plan cuts for as long as it is in its cut.
+        plan cuts for as long as it is in its cut. ``command_q_rad`` (the arms' joint
+        commands, rad, in the order of :attr:`scene_qpos`) replaces the IK: a program played
+        open-loop.
 
         Returns:
             The bindings released in this step, by rule.
@@ -322,7 +325,8 @@ class Episode:
             self.ik.knife.set_target(pose(*knife_target))
         if grasp_target is not None:
             self.ik.grasp.set_target(pose(*grasp_target))
-        ctrl_next = self.ik.solve(self.control_dt_s)[self.ik_qpos]
+        ctrl_next = (self.ik.solve(self.control_dt_s)[self.ik_qpos] if command_q_rad is None
+                     else np.asarray(command_q_rad, dtype=float))
         if scenario.pull.enabled and t_next >= schedule.close_s:
             data.ctrl[self.fingers] = 0.0
         ctrl_prev = self._ctrl_prev

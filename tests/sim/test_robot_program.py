@@ -1,7 +1,8 @@
 """Robot programs out (``musclecell run --trajectory``): the arms' planned and executed joint
 trajectories, tool poses and wrenches as MCAP of ROS 2 messages or as CSV, read back by the
-``mcap`` reader and by ``rosbags``; the tool path replayed from the joint states; the limits
-report beside them."""
+``mcap`` reader and by ``rosbags``; the tool path replayed from the joint states, and again
+when the program's commands are played open-loop through the servos; the limits report beside
+them."""
 
 from __future__ import annotations
 
@@ -17,8 +18,11 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
 from cell.cli import main
+from cell.errors import MissingTopicError, RobotLogError, ScenarioError
+from cell.robotlog.program import read_program
 from cell.sim.assembly import build_scene
 from cell.sim.episode import Episode
+from cell.sim.programreplay import play_program
 from cell.sim.scenario import load_scenario
 from cell.sim.trajectory import EpisodeTrajectory, TrajectorySampler
 from cell.sim.trajectorylimits import limits_report
@@ -141,6 +145,33 @@ def test_the_joint_states_replayed_give_the_tool_path(short: Path) -> None:
     assert _tool_path_error_m(short / "short.toml", short / "program.mcap") < 0.5e-3
 
 
+def _played_error_m(scenario_path: Path, program: Path, mcap: Path) -> float:
+    """The largest distance between the knife tip's logged path (the MCAP's ``/tf``) and the
+    one the program's commands give when played open-loop through the servos, m."""
+    played = play_program(load_scenario(scenario_path), read_program(program, ARMS))
+    logged = np.array([[t.transform.translation.x, t.transform.translation.y,
+                        t.transform.translation.z]
+                       for frame in _mcap_messages(mcap)["/tf"] for t in frame.transforms
+                       if t.child_frame_id == "knife/tip"])
+    return float(np.linalg.norm(played.arms["knife_arm"].tool_position_m - logged,
+                                axis=1).max())
+
+
+@pytest.mark.parametrize("form", ["program.mcap", "program.csv"])
+def test_the_program_played_open_loop_gives_the_tool_path(short: Path, form: str) -> None:
+    assert _played_error_m(short / "short.toml", short / form, short / "program.mcap") < 0.5e-3
+
+
+def test_a_program_without_an_arm_is_named(short: Path, tmp_path: Path) -> None:
+    with pytest.raises(MissingTopicError, match="/robot_arm/joint_trajectory"):
+        read_program(short / "program.mcap", ["robot_arm"])
+    with pytest.raises(RobotLogError, match="robot_arm"):
+        read_program(short / "program.csv", ["robot_arm"])
+    with pytest.raises(ScenarioError, match="no commands for the joints"):
+        play_program(load_scenario(short / "short.toml"),
+                     read_program(short / "program.csv", ARMS[:2]))
+
+
 def test_the_limits_report_holds_and_names_each_arm(short: Path) -> None:
     report = json.loads((short / "program.limits.json").read_text())
     assert report["holds"] and report["flags"] == []
@@ -193,5 +224,6 @@ def test_the_default_episode_program_replays_and_holds(tmp_path: Path) -> None:
     default = PROJECT_ROOT / "scenarios" / "default.toml"
     mcap = _run(default, tmp_path / "default.mcap")
     assert _tool_path_error_m(default, mcap) < 0.5e-3
+    assert _played_error_m(default, mcap, mcap) < 0.5e-3
     report = json.loads((tmp_path / "default.limits.json").read_text())
     assert report["holds"], report["flags"]
