@@ -7,6 +7,9 @@ from pathlib import Path
 
 import pytest
 
+#: A worker that crashes at its exit fails the run (tests/workerexit.py).
+pytest_plugins = ["tests.workerexit"]
+
 
 @pytest.fixture
 def cluster(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Iterator[str]:

@@ -1,0 +1,44 @@
+"""A pytest plugin (tests/conftest.py loads it): with pytest-xdist, each worker process exits
+after the run, and a worker that crashes then (a segmentation fault at interpreter exit, as
+issue 53 saw one run in nine do before the suite ran on workers) would leave the run green.
+The controller reads each worker's exit status once they are down and fails the run on a
+crash, naming the worker and the signal."""
+
+from __future__ import annotations
+
+import signal
+import sys
+from collections.abc import Generator
+from typing import Any
+
+import pytest
+
+#: The run's exit status when a worker crashed after it (pytest's "internal error").
+WORKER_CRASHED = pytest.ExitCode.INTERNAL_ERROR
+
+
+def _exit_status(gateway: Any) -> int | None:
+    # execnet keeps a local worker's process as its gateway's io's ``popen``.
+    popen = getattr(getattr(gateway, "_io", None), "popen", None)
+    if popen is None:
+        raise RuntimeError(f"cannot read the exit status of xdist worker {gateway.id}: "
+                           "execnet keeps it elsewhere now (tests/workerexit.py)")
+    return popen.returncode
+
+
+def _described(code: int) -> str:
+    return f"signal {signal.Signals(-code).name}" if code < 0 else f"status {code}"
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_sessionfinish(session: pytest.Session) -> Generator[None, None, None]:
+    dsession = session.config.pluginmanager.getplugin("dsession")
+    manager = getattr(dsession, "nodemanager", None)
+    workers = list(manager.group) if manager is not None else []
+    yield  # xdist's own hook stops the workers and waits for them
+    crashed = {gateway.id: code for gateway in workers
+               if (code := _exit_status(gateway)) not in (0, None)}
+    if crashed:
+        sys.stderr.write("xdist workers exited badly after the run: " + ", ".join(
+            f"{name} ({_described(code)})" for name, code in crashed.items()) + "\n")
+        session.exitstatus = WORKER_CRASHED
