@@ -146,15 +146,17 @@ def own_specimen(table: CsvTable, test_id: str, rows: Sequence[int]
         InputError: a name or size that changes within the test, some of the three sizes
             given but not all, a size that is not a number or not a plausible length.
     """
-    names = {table.cells.get("specimen", [""] * len(table.lines))[row] for row in rows}
-    if len(names) > 1:
-        raise InputError(table.path, table.where(rows[0], "specimen"), f"test {test_id!r} "
-                         f"names more than one specimen: {', '.join(sorted(names))}")
+    names = [table.cells.get("specimen", [""] * len(table.lines))[row] for row in rows]
+    changed = next((i for i, name in enumerate(names) if name != names[0]), None)
+    if changed is not None:
+        raise InputError(table.path, table.where(rows[changed], "specimen"), f"test "
+                         f"{test_id!r} names more than one specimen: {names[0]!r}, "
+                         f"{names[changed]!r}")
     cells = [[table.cells.get(column, [""] * len(table.lines))[row] for row in rows]
              for column in SPECIMEN_COLUMNS[1:]]
     given = [any(column) for column in cells]
     if not any(given):
-        return names.pop(), None
+        return names[0], None
     sizes = []
     for column, values in zip(SPECIMEN_COLUMNS[1:], cells, strict=True):
         missing = next((i for i, cell in enumerate(values) if not cell), None)
@@ -165,4 +167,4 @@ def own_specimen(table: CsvTable, test_id: str, rows: Sequence[int]
         numbers = CsvTable(table.path, tuple(table.lines[row] for row in rows),
                            {column: values}).numbers(column, LENGTH_M.refusal)
         sizes.append(constant(table, column, numbers, test_id, rows, "m"))
-    return names.pop(), (sizes[0], sizes[1], sizes[2])
+    return names[0], (sizes[0], sizes[1], sizes[2])
