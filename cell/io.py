@@ -134,6 +134,7 @@ class CsvTable:
         lines: the file's line number (from 1) of each row.
         cells: per column asked for (and optional column the file has), the cell text of
             each row, blanks stripped.
+        header: every column the file has, in its order.
 
     Example:
         >>> table = read_csv("assets/cutting_force/boning_knife_synthetic.csv", ["time_s"])
@@ -144,6 +145,7 @@ class CsvTable:
     path: Path
     lines: tuple[int, ...]
     cells: dict[str, list[str]]
+    header: tuple[str, ...] = ()
 
     def where(self, row: int, column: str) -> str:
         """The field of a cell, as errors name it: ``line N, column C``."""
@@ -209,4 +211,4 @@ def read_csv(path: str | Path, columns: Sequence[str], optional: Sequence[str] =
                            f"missing value: the row has {len(row)} fields")
         for name, col in index.items():
             cells[name].append(row[col].strip())
-    return CsvTable(path, tuple(n for n, _ in numbered[1:]), cells)
+    return CsvTable(path, tuple(n for n, _ in numbered[1:]), cells, tuple(names))

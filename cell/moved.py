@@ -3,7 +3,10 @@ under their old names for one release, with a :class:`DeprecationWarning` (the C
 lists them).
 
 An old name is the new module itself (``cell.rheology.measured`` is
-``cell.measure.specimens``), so its state and classes are shared, never copied.
+``cell.measure.specimens``), so its state and classes are shared, never copied. An old module
+whose names went to two new ones (``cell.rheology.search``: the search to
+``cell.diagnosis.engine.search``, the selection to ``cell.diagnosis.engine.selection``) is a
+module that looks each name up in them, in order.
 
 Example:
     >>> import warnings
@@ -23,14 +26,16 @@ import sys
 import types
 import warnings
 
-#: Old module name -> new module name.
-MOVED: dict[str, str] = {
+#: Old module name -> new module name, or the new modules its names went to.
+MOVED: dict[str, str | tuple[str, ...]] = {
     "cell.rheology.acceptance": "cell.diagnosis.engine.acceptance",
-    "cell.rheology.search": "cell.diagnosis.engine.search",
+    "cell.rheology.search": ("cell.diagnosis.engine.search",
+                             "cell.diagnosis.engine.selection"),
     "cell.rheology.settings": "cell.diagnosis.engine.settings",
     "cell.determined": "cell.diagnosis.engine.determined",
     "cell.rheology.causeplots": "cell.diagnosis.specimen.plots",
-    "cell.rheology.causes": "cell.diagnosis.specimen.causes",
+    "cell.rheology.causes": ("cell.diagnosis.specimen.causes",
+                             "cell.diagnosis.specimen.causes.candidate"),
     "cell.rheology.diagnosis": "cell.diagnosis.specimen.diagnosis",
     "cell.rheology.fitting": "cell.diagnosis.specimen.fitting",
     "cell.rheology.intervals": "cell.diagnosis.specimen.intervals",
@@ -69,7 +74,7 @@ MOVED: dict[str, str] = {
     "cell.sim.logfit": "cell.logs.fit",
     "cell.sim.logreplays": "cell.logs.replays",
     "cell.sim.logreport": "cell.logs.report",
-    "cell.sim.logsearch": "cell.logs.search",
+    "cell.sim.logsearch": ("cell.logs.search", "cell.logs.causes"),
     "cell.sim.replay": "cell.logs.replay",
 }
 #: Old packages that hold nothing of their own any more.
@@ -91,9 +96,12 @@ class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> types.ModuleType:
         if spec.name in _EMPTIED:
             return types.ModuleType(spec.name, "Moved: see cell.moved.")
-        warnings.warn(f"{spec.name} moved to {MOVED[spec.name]}; the old name goes in the "
-                      "next release", DeprecationWarning, stacklevel=2)
-        module = importlib.import_module(MOVED[spec.name])
+        new = MOVED[spec.name]
+        warnings.warn(f"{spec.name} moved to {' and '.join(_names(new))}; the old name goes "
+                      "in the next release", DeprecationWarning, stacklevel=2)
+        if isinstance(new, tuple):
+            return _lookup_module(spec.name, [importlib.import_module(name) for name in new])
+        module = importlib.import_module(new)
         self._own_specs[spec.name] = module.__spec__
         return module
 
@@ -102,6 +110,25 @@ class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         own = self._own_specs.pop(module.__spec__.name, None)
         if own is not None:
             module.__spec__ = own
+
+
+def _names(new: str | tuple[str, ...]) -> tuple[str, ...]:
+    return new if isinstance(new, tuple) else (new,)
+
+
+def _lookup_module(name: str, modules: list[types.ModuleType]) -> types.ModuleType:
+    """A module named ``name`` whose attributes are those of ``modules``, first found first."""
+    sources = ", ".join(source.__name__ for source in modules)
+    module = types.ModuleType(name, f"Moved: its names are in {sources}.")
+
+    def lookup(attribute: str) -> object:
+        for source in modules:
+            if hasattr(source, attribute):
+                return getattr(source, attribute)
+        raise AttributeError(f"module {name!r} has no attribute {attribute!r}")
+
+    module.__getattr__ = lookup  # type: ignore[method-assign]  # PEP 562
+    return module
 
 
 def install() -> None:

@@ -29,7 +29,7 @@ from envs.observation import OBSERVATION_BOUND, OBSERVATION_NAMES, Sensing, obse
 from envs.options import apply_options, knife_pace, merge_options
 from envs.params import ActionLimits, RewardParams, TaskParams
 from envs.randomization import Randomization, check_ranges, load_randomization
-from envs.render import CellRenderer
+from envs.render import RENDER_MODES, CellRenderer, CellWindow, check_render
 from envs.reward import reward_terms
 from envs.settings import TIME_MARGIN_S, parameters, task_scenario
 
@@ -49,7 +49,7 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
         True
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 50}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": list(RENDER_MODES), "render_fps": 50}
 
     def __init__(self, scenario: Scenario | None = None,
                  cell_size_m: float | None = None, perception: bool = False,
@@ -60,12 +60,11 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
                  render_mode: str | None = None, randomize: bool = True,
                  randomization: str | Path | Randomization | None = None,
                  task: TaskParams | Mapping[str, Any] | None = None,
-                 timeout_terminates: bool = False) -> None:
+                 timeout_terminates: bool = False, width: int = 320, height: int = 240
+                 ) -> None:
         if driven not in ("both", "knife", "pull"):
             raise InputError(None, "driven", f"must be both, knife or pull, got {driven!r}")
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise InputError(None, "render_mode", f"must be None or rgb_array, got "
-                             f"{render_mode!r}")
+        check_render(render_mode, width, height)
         if time_limit_s is not None and not time_limit_s > 0:
             raise InputError(None, "time_limit_s", f"must be > 0, got {time_limit_s}")
         if not isinstance(timeout_terminates, bool):
@@ -95,6 +94,7 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
         self.timeout_terminates = timeout_terminates
         self.driven = driven
         self.render_mode = render_mode
+        self.width, self.height = width, height
         self._drives_knife = driven in ("both", "knife")
         self._drives_pull = driven in ("both", "pull")
         dims = KNIFE_DIMS * self._drives_knife + PULL_DIMS * self._drives_pull
@@ -106,7 +106,7 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
         self.plan: EpisodePlan | None = None
         self.world: dict[str, Any] = {}
         self.redraws: list[str] = []
-        self._renderer: CellRenderer | None = None
+        self._renderer: CellRenderer | CellWindow | None = None
 
     def _start(self, scenario: Scenario) -> None:
         """Build the cell of ``scenario``, plan, play the approach (a divergence in it ends the
@@ -207,6 +207,8 @@ class SeparationCore(gym.Env[np.ndarray, np.ndarray]):
             terms["timeout"] = -self.reward_params.timeout
             # The same reward either way: only the episode's end is flagged otherwise.
             terminated, truncated = self.timeout_terminates, not self.timeout_terminates
+        if self.render_mode == "human":
+            self.render()
         return self._obs, float(sum(terms.values())), terminated, truncated, self._info(terms)
 
     def _checked(self, action: Any) -> np.ndarray:

@@ -44,7 +44,7 @@ CURRENT_IDS = ("musclecell/MuscleSeparation-v2", "musclecell/Cut-v2", "musclecel
                "musclecell/Steer-v2")
 #: Gymnasium's step bound of every id (``env.spec.max_episode_steps``, its ``TimeLimit``):
 #: 50 s of 20 ms control steps, above every default time limit of the default randomisation
-#: (``tests/test_envs.py`` checks the longest: ``Pull``'s slowest scripted knife on the
+#: (``tests/envs/test_envs.py`` checks the longest: ``Pull``'s slowest scripted knife on the
 #: longest meat), so the env's own time limit ends an episode first; a ``time_limit_s``
 #: beyond it needs ``gymnasium.make(..., max_episode_steps=...)`` as well.
 MAX_EPISODE_STEPS = 2500

@@ -13,7 +13,7 @@ from cell.errors import InputError, MusclecellError
 from envs.core import SeparationCore
 from envs.options import apply_options, merge_options
 from envs.randomization import draw
-from envs.render import CellRenderer
+from envs.render import CellRenderer, CellWindow
 from envs.settings import MAX_DRAWS
 
 
@@ -162,7 +162,9 @@ class MuscleSeparationEnv(SeparationCore):
         timeout_terminates: the time limit under ``task.cycle_time_fails`` ends the episode
             as a termination (True, as before this release) or a truncation (False).
         driven: ``"both"``, ``"knife"`` or ``"pull"``.
-        render_mode: None or ``"rgb_array"`` (the camera arm's view beside an overview).
+        render_mode: None, ``"rgb_array"`` (the camera arm's view beside an overview) or
+            ``"human"`` (MuJoCo's viewer in a window, following each step; needs a display).
+        width, height: the size of each of the two ``rgb_array`` views, px.
 
     ``reset(seed=None, options=None)``: ``options`` holds variations of
     :mod:`envs.options` for this episode and ``"randomize"`` (False: the nominal world).
@@ -219,6 +221,8 @@ class MuscleSeparationEnv(SeparationCore):
             if last or not self.diverged:
                 break
             self.redraws.append(self._divergence)
+        if self.render_mode == "human":
+            self.render()
         return self._obs, self._info({})
 
     def scripted_action(self) -> np.ndarray:
@@ -237,13 +241,16 @@ class MuscleSeparationEnv(SeparationCore):
         return np.clip(np.concatenate(parts), -1.0, 1.0).astype(np.float32)
 
     def render(self) -> np.ndarray | None:
-        """The LWR camera's view beside a fixed overview, (240, 640, 3) uint8, in
-        ``rgb_array`` mode."""
-        if self.render_mode != "rgb_array" or self.episode is None:
+        """In ``rgb_array`` mode the LWR camera's view beside a fixed overview, (height,
+        2 width, 3) uint8; in ``human`` mode the window shows the present step (None)."""
+        if self.render_mode is None or self.episode is None:
             return None
+        sim = self.episode.sim
+        if self._renderer is None and self.render_mode == "human":
+            self._renderer = CellWindow(sim.model, sim.data)
         if self._renderer is None:
             scenario = self.episode.scenario
             look_at = np.array([scenario.layout.meat_x_m, 0.0,
                                 scenario.layout.table_height_m + 0.05])
-            self._renderer = CellRenderer(self.episode.sim.model, look_at)
-        return self._renderer.render(self.episode.sim.data)
+            self._renderer = CellRenderer(sim.model, look_at, self.width, self.height)
+        return self._renderer.render(sim.data)

@@ -2,7 +2,7 @@
 cut and the pull they plan, the resolution they train at, and what each task asks.
 
 A change of any value here changes the envs' behaviour: it needs a new env version (see
-``tests/test_env_versions.py``, which pins them).
+``tests/envs/test_versions.py``, which pins them).
 
 Example:
     >>> scenario = task_scenario()

@@ -11,4 +11,5 @@ trap 'rm -rf "$site"' EXIT
 sphinx-build -W --keep-going -q -b html docs "$site"
 # tests/test_docs.py checks this build's API reference instead of building the site again.
 export MUSCLECELL_DOCS_SITE="$site"
-python -m pytest "$@"
+# One test process per core (pytest-xdist): the tests share nothing but the read-only tree.
+python -m pytest -n auto "$@"

@@ -9,6 +9,8 @@ The property every reader must keep: whatever the input, it returns or raises a
 from __future__ import annotations
 
 import contextlib
+import csv
+import io
 import math
 import tempfile
 from collections.abc import Callable
@@ -166,3 +168,38 @@ def scratch() -> tempfile.TemporaryDirectory[str]:
     """A temporary folder for one example (Hypothesis runs many per test, so no
     ``tmp_path``)."""
     return tempfile.TemporaryDirectory(prefix="musclecell-fuzz-")
+
+
+def cells() -> st.SearchStrategy[str]:
+    """A CSV cell: a number as text (plausible, nasty, any), a word, or nothing."""
+    return st.one_of(numbers().map(repr), st.sampled_from([repr(v) for v in NASTY_FLOATS]),
+                     st.sampled_from(["", "nan", "1e", "x"]))
+
+
+@st.composite
+def tables(draw: st.DrawFn, columns: tuple[str, ...], special: dict[str, Any],
+           time_column: str) -> str:
+    """CSV text with a header of ``columns`` (rarely one dropped, a stray added, shuffled),
+    rows of cells (``special``: column -> strategy of cells; times mostly increase), blank
+    and comment lines."""
+    header = draw(st.permutations(list(columns)))
+    if draw(mostly(st.just(False), st.just(True))):
+        header = header[:-1]
+    if draw(mostly(st.just(False), st.just(True), 5)):
+        header = [*header, "note"]
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(header)
+    step = draw(st.sampled_from([0.01, 0.5, 30.0]))
+    for index in range(draw(st.integers(0, 12))):
+        line = draw(mostly(st.just("row"), st.sampled_from(["blank", "comment", "short"])))
+        if line == "blank":
+            text.write("\n")
+        elif line == "comment":
+            text.write("# a comment\n")
+        else:
+            row = [draw(mostly(st.just(repr(index * step)), cells(), 50))
+                   if name == time_column else draw(special.get(name, cells()))
+                   for name in header]
+            writer.writerow(row[:-1] if line == "short" else row)
+    return text.getvalue()

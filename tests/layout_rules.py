@@ -15,7 +15,7 @@ from pathlib import Path
 #: The project's packages that the rules know, bottom layer first.
 BASE = ("cell.errors", "cell.io", "cell.folders", "cell.outputs", "cell.config",
         "cell.collision", "cell.polyline", "cell.memory", "cell.assets", "cell.scenarios",
-        "cell.extras", "cell.options", "cell.progress", "cell.moved")
+        "cell.extras", "cell.options", "cell.progress", "cell.profiling", "cell.moved")
 #: The MuJoCo-free part of the tissue that a diagnosis simulates with.
 TISSUE_LAWS = ("cell.tissue.curves", "cell.tissue.material", "cell.tissue.materialfile",
                "cell.tissue.cutmodel", "cell.tissue.edgestate", "cell.tissue.springlaw",
@@ -27,6 +27,8 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "cell.measure": BASE,
     "cell.perception": (*BASE, "cell.robots", "cell.tissue"),
     "cell.diagnosis": (*BASE, "cell.measure", *TISSUE_LAWS),
+    # The engine serves every family of causes and knows none of them.
+    "cell.diagnosis.engine": (*BASE, "cell.measure", *TISSUE_LAWS),
     "cell.robotlog": (*BASE, "cell.measure"),
     "controllers": (*BASE, "cell.robots", "cell.tissue", "cell.perception"),
     "cell.sim": _CELL,

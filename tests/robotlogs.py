@@ -1,6 +1,7 @@
-"""Small robot logs of one cut, written by the tests in each form ROS records: ``rostopic echo
--p`` dumps, a ROS 1 bag, ROS 2 bags (SQLite and MCAP storage) and a bare MCAP file, all of the
-same messages (a wrench and a position, each at its own uneven rate)."""
+"""Small robot logs written by the tests in each form ROS records: ``rostopic echo -p`` dumps, a
+ROS 1 bag, ROS 2 bags (SQLite and MCAP storage) and a bare MCAP file, all of the same messages:
+one cut (a wrench and a position, each at its own uneven rate), or a whole cell's separation
+log (each sensor's wrench, pose and grasp)."""
 
 from __future__ import annotations
 
@@ -33,9 +34,31 @@ edge_length_m = 0.2
 thickness_m = 0.002
 edge_angle_deg = 20.0
 """
+CELL_MAPPING_TOML = """
+[log]
+scenario = "scenario.toml"
+seed = 0
+time_zero_s = 1588763858.0
+
+[channels.knife]
+wrench = "/knife/wrench"
+pose = "/knife/pose"
+
+[channels.gripper]
+wrench = "/gripper/wrench"
+pose = "/gripper/pose"
+grasp = "/gripper/grasp"
+
+[channels.fixture]
+wrench = "/fixture/wrench"
+torque = false
+"""
 WRENCH_TYPE, POSITION_TYPE = "geometry_msgs/msg/WrenchStamped", "geometry_msgs/msg/Vector3Stamped"
+POSE_TYPE, GRASP_TYPE = "geometry_msgs/msg/PoseStamped", "std_msgs/msg/Float64"
 #: The epoch time of the first message, ns: large, as real stamps are.
 START_NS = 1_588_763_858_930_413_213
+#: The epoch time of a whole cell's episode start, ns (the mapping's ``time_zero_s``).
+CELL_START_NS = 1_588_763_858_000_000_000
 
 
 @dataclass(frozen=True)
@@ -91,32 +114,78 @@ def _numbers(values: np.ndarray) -> str:
     return ",".join(repr(float(v)) for v in values)
 
 
+def _header(types: dict, time_ns: int, frame: str) -> object:
+    stamp = types["builtin_interfaces/msg/Time"](sec=int(time_ns // 10**9),
+                                                  nanosec=int(time_ns % 10**9))
+    seq = {"seq": 0} if "seq" in types["std_msgs/msg/Header"].__dataclass_fields__ else {}
+    return types["std_msgs/msg/Header"](**seq, stamp=stamp, frame_id=frame)
+
+
+def _wrench(types: dict, time_ns: int, frame: str, force: np.ndarray,
+            torque: np.ndarray) -> object:
+    vector = types["geometry_msgs/msg/Vector3"]
+    return types[WRENCH_TYPE](header=_header(types, time_ns, frame),
+                              wrench=types["geometry_msgs/msg/Wrench"](
+                                  force=vector(x=force[0], y=force[1], z=force[2]),
+                                  torque=vector(x=torque[0], y=torque[1], z=torque[2])))
+
+
 def _messages(log: CutLog, typestore: object) -> list[tuple[str, str, int, object]]:
     """(topic, type, record time, message) of every message, in time order."""
     types = typestore.types
-    header_fields = types["std_msgs/msg/Header"].__dataclass_fields__
-
-    def header(time_ns: int, frame: str) -> object:
-        stamp = types["builtin_interfaces/msg/Time"](sec=int(time_ns // 10**9),
-                                                      nanosec=int(time_ns % 10**9))
-        seq = {"seq": 0} if "seq" in header_fields else {}
-        return types["std_msgs/msg/Header"](**seq, stamp=stamp, frame_id=frame)
-
     vector = types["geometry_msgs/msg/Vector3"]
-    found = [("/ft/wrench", WRENCH_TYPE, int(t), types[WRENCH_TYPE](
-        header=header(int(t), log.frame), wrench=types["geometry_msgs/msg/Wrench"](
-            force=vector(x=f[0], y=f[1], z=f[2]), torque=vector(x=0.0, y=0.0, z=0.0))))
-        for t, f in zip(log.wrench_ns, log.force_n, strict=True)]
+    found = [("/ft/wrench", WRENCH_TYPE, int(t), _wrench(types, int(t), log.frame, f,
+                                                         np.zeros(3)))
+             for t, f in zip(log.wrench_ns, log.force_n, strict=True)]
     found += [("/tool/position", POSITION_TYPE, int(t), types[POSITION_TYPE](
-        header=header(int(t), log.position_frame), vector=vector(x=p[0], y=p[1], z=p[2])))
+        header=_header(types, int(t), log.position_frame), vector=vector(x=p[0], y=p[1],
+                                                                         z=p[2])))
         for t, p in zip(log.position_ns, log.position_m, strict=True)]
     return sorted(found, key=lambda item: item[2])
 
 
-def _write_bag(log: CutLog, writer: object, typestore: object, serialize: object) -> None:
+@dataclass(frozen=True)
+class CellRobotLog:
+    """A whole cell's separation log as a robot would record it (:data:`CELL_MAPPING_TOML`):
+    per channel a ``WrenchStamped`` (``/<channel>/wrench``), for the knife and the gripper a
+    ``PoseStamped`` (``/<channel>/pose``, the world frame), for the gripper a ``Float64``
+    grasp (``/gripper/grasp``); stamps from :data:`CELL_START_NS`, the episode's start."""
+
+    channels: dict
+
+    def messages(self, typestore: object) -> list[tuple[str, str, int, object]]:
+        """(topic, type, record time, message) of every message, in time order."""
+        types = typestore.types
+        point, quaternion = types["geometry_msgs/msg/Point"], types["geometry_msgs/msg/Quaternion"]
+        found = []
+        for name, channel in self.channels.items():
+            times = [CELL_START_NS + round(t * 1e9) for t in channel.time_s]
+            torque = channel.torque_nm if channel.torque_nm is not None \
+                else np.zeros_like(channel.force_n)
+            found += [(f"/{name}/wrench", WRENCH_TYPE, t, _wrench(types, t, name, f, m))
+                      for t, f, m in zip(times, channel.force_n, torque, strict=True)]
+            if channel.position_m is not None:
+                found += [(f"/{name}/pose", POSE_TYPE, t, types[POSE_TYPE](
+                    header=_header(types, t, "world"), pose=types["geometry_msgs/msg/Pose"](
+                        position=point(x=p[0], y=p[1], z=p[2]),
+                        orientation=quaternion(w=q[0], x=q[1], y=q[2], z=q[3]))))
+                    for t, p, q in zip(times, channel.position_m, channel.quaternion,
+                                       strict=True)]
+            if channel.grasp is not None:
+                found += [(f"/{name}/grasp", GRASP_TYPE, t, types[GRASP_TYPE](data=float(g)))
+                          for t, g in zip(times, channel.grasp, strict=True)]
+        return sorted(found, key=lambda item: item[2])
+
+
+def _all(log: CutLog | CellRobotLog, typestore: object) -> list[tuple[str, str, int, object]]:
+    return log.messages(typestore) if isinstance(log, CellRobotLog) else _messages(log, typestore)
+
+
+def _write_bag(log: CutLog | CellRobotLog, writer: object, typestore: object,
+               serialize: object) -> None:
     """Every message of ``log`` into an open bag ``writer``, a connection a topic."""
     connections = {}
-    for topic, msgtype, time_ns, message in _messages(log, typestore):
+    for topic, msgtype, time_ns, message in _all(log, typestore):
         if topic not in connections:
             connections[topic] = writer.add_connection(topic, msgtype, typestore=typestore)
         writer.write(connections[topic], time_ns + 150, serialize(message, msgtype))
@@ -133,7 +202,7 @@ def write_ros1_bag(log: CutLog, path: Path) -> Path:
     return path
 
 
-def write_ros2_bag(log: CutLog, path: Path, storage: str = "sqlite3") -> Path:
+def write_ros2_bag(log: CutLog | CellRobotLog, path: Path, storage: str = "sqlite3") -> Path:
     """A ROS 2 bag's folder, in SQLite (``sqlite3``) or MCAP (``mcap``) storage."""
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
@@ -145,7 +214,7 @@ def write_ros2_bag(log: CutLog, path: Path, storage: str = "sqlite3") -> Path:
     return path
 
 
-def write_mcap(log: CutLog, path: Path) -> Path:
+def write_mcap(log: CutLog | CellRobotLog, path: Path) -> Path:
     """A bare MCAP file of ROS 2 messages (schemas ``ros2msg``, messages ``cdr``)."""
     from mcap.writer import Writer
     from rosbags.typesys import Stores, get_typestore
@@ -155,7 +224,7 @@ def write_mcap(log: CutLog, path: Path) -> Path:
         writer = Writer(stream)
         writer.start(profile="ros2", library="musclecell tests")
         channels = {}
-        for topic, msgtype, time_ns, message in _messages(log, typestore):
+        for topic, msgtype, time_ns, message in _all(log, typestore):
             if topic not in channels:
                 text = typestore.generate_msgdef(msgtype, ros_version=2)[0]
                 schema = writer.register_schema(msgtype, "ros2msg", text.encode())

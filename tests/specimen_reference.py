@@ -40,7 +40,7 @@ Example:
     >>> from cell.tissue.material import MassSpringMaterial
     >>> data = load_measurement_set("assets/measured/beef_round_example")
     >>> run = simulate_meshed(data.test("t00"), data.specimen, MassSpringMaterial.isotropic(6e3))
-    >>> run.force_N.shape, run.inertia_ratio < 0.01
+    >>> run.force_n.shape, run.inertia_ratio < 0.01
     ((250,), True)
 """
 
@@ -115,7 +115,7 @@ class MeshedRun:
     Attributes:
         test_id: the measured test's id.
         time_s: (n,) the test's sample times, s.
-        force_N: (n,) simulated axial force on the top face at those times, N (+ pulls).
+        force_n: (n,) simulated axial force on the top face at those times, N (+ pulls).
         mass_scale: simulated specimen mass over its real mass.
         timestep_s: simulation step, s.
         steps: number of steps taken.
@@ -129,7 +129,7 @@ class MeshedRun:
 
     test_id: str
     time_s: np.ndarray
-    force_N: np.ndarray
+    force_n: np.ndarray
     mass_scale: float
     timestep_s: float
     steps: int
@@ -322,7 +322,7 @@ def simulate_meshed(
     return MeshedRun(
         test_id=test.test_id,
         time_s=test.time_s,
-        force_N=np.interp(time, grid[:-1], force),
+        force_n=np.interp(time, grid[:-1], force),
         mass_scale=mass_scale,
         timestep_s=timestep,
         steps=steps,

@@ -41,6 +41,23 @@ def test_an_upward_import_is_caught(tmp_path: Path) -> None:
     ]
 
 
+def test_the_engine_knows_no_family_of_causes(tmp_path: Path) -> None:
+    engine = tmp_path / "cell" / "diagnosis" / "engine"
+    engine.mkdir(parents=True)
+    (engine / "new_rule.py").write_text(
+        "from cell.diagnosis.specimen.causes import CAUSES\n"
+        "from cell.diagnosis.engine.statistics import bic\n")
+    (tmp_path / "cell" / "diagnosis" / "cut").mkdir()
+    (tmp_path / "cell" / "diagnosis" / "cut" / "search.py").write_text(
+        "from cell.diagnosis.engine.search import Search\n")
+    assert sorted(str(v) for v in import_violations(tmp_path)) == [
+        "cell/diagnosis/engine/new_rule.py:1: cell.diagnosis.engine.new_rule "
+        "(cell.diagnosis.engine) imports cell.diagnosis.specimen.causes",
+        "cell/diagnosis/engine/new_rule.py:1: cell.diagnosis.engine.new_rule "
+        "(cell.diagnosis.engine) imports cell.diagnosis.specimen.causes.CAUSES",
+    ]
+
+
 def test_no_import_circle() -> None:
     assert [str(v) for v in import_cycles(PROJECT_ROOT)] == []
 

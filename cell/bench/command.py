@@ -137,8 +137,7 @@ def _cell(args: argparse.Namespace, json_path: Path, scenario: Path) -> int:
 
     report = run_bench(scenario, quick=args.quick)
     write_json(json_path, report)
-    for name, entry in report["entries"].items():
-        print(f"{name}: {entry['value']:.4g} {entry['unit']}")
+    _print_entries(report["entries"])
     print(f"wrote {json_path}")
     return 0
 

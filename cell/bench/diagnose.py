@@ -218,7 +218,7 @@ def run_diagnose_bench(seeds: Sequence[int], workers: int | None = None,
     """
     check_request(seeds, kind, KINDS, including)
     from cell.diagnosis.engine.settings import DiagnosisParams
-    from cell.diagnosis.specimen.diagnosis import CAUSES
+    from cell.diagnosis.specimen.causes import CAUSES
 
     params = DiagnosisParams() if workers is None else DiagnosisParams(workers=workers)
     sets: list[dict[str, Any]] = []

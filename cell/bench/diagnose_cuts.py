@@ -113,11 +113,11 @@ def parameter_error(cause: str, truth: Any, fitted: CuttingParams,
 def reduced_vs_full(data: Any, truth: Any) -> float:
     """The reduced model's RMSE against the full simulation's force (the measured one, its
     noise taken out), over the set's peak force."""
-    from cell.diagnosis.cut.reduced import simulate_cut
+    from cell.diagnosis.cut.reduced import reduced_cut_forces
 
     errors, peak = [], 0.0
     for test in data.cut_tests:
-        predicted = (simulate_cut(test, data.block, data.blade, truth.cutting).total_n
+        predicted = (reduced_cut_forces(test, data.block, data.blade, truth.cutting).total_n
                      + np.asarray(truth.offset_n))
         errors.append((predicted - test.force_n).ravel())
         peak = max(peak, float(np.abs(test.force_n).max()))

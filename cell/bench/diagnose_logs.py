@@ -6,7 +6,8 @@ Each batch is drawn by the project's generator (:func:`~cell.synthetic.logs.writ
 three separations of drawn meat shapes on ``scenarios/quick.toml``, one or two hidden changes of
 the world, sensor noise) with a seed the tests never use, read back as one batch and diagnosed.
 Two kinds (:data:`KINDS`): ``single`` cycles through the log cause table of docs/logs.md
-(:data:`LOG_TABLE`) and none; ``pairs`` through every pair of it. The ``--quick`` form
+(:func:`log_table`, read from the causes' registry) and none; ``pairs`` through every pair of
+it. The ``--quick`` form
 (:meth:`LogBenchParams.quick`) cuts every episode short, for iteration only: its figures are no
 acceptance figures.
 
@@ -40,6 +41,7 @@ from cell.bench.diagnose import (
     fraction,
     time_summary,
 )
+from cell.logs.causes import SENSOR_OFFSET, table_causes
 from cell.sim.examples import SCENARIOS
 
 if TYPE_CHECKING:
@@ -47,11 +49,6 @@ if TYPE_CHECKING:
 
 Kind = Literal["single", "pairs"]
 KINDS: tuple[Kind, ...] = ("single", "pairs")
-#: The log cause table (docs/logs.md); the generator's ``blade_friction`` is a cause of the
-#: cut cause table (docs/measured-data.md), benched by ``--cut``.
-LOG_TABLE = ("binding_strength", "binding_gradient", "tearing_threshold", "tissue_stiffness",
-             "fibre_direction", "sensor_offset")
-PAIRS = tuple(itertools.combinations(LOG_TABLE, 2))
 #: The first seed of each kind. The tests use seeds below 100; the diagnosis of logs is tuned
 #: on the seeds of :data:`TUNING_SEEDS`, never on these.
 FIRST_SEED: dict[str, int] = {"single": 70_000, "pairs": 71_000}
@@ -100,6 +97,18 @@ def bench_seeds(count: int, kind: Kind = "single") -> list[int]:
     return [FIRST_SEED[kind] + i for i in range(count)]
 
 
+def log_table() -> tuple[str, ...]:
+    """The log cause table (docs/logs.md): the registry's causes of it
+    (:func:`~cell.logs.causes.table_causes`) and ``sensor_offset``; a cause of the cut cause
+    table (docs/measured-data.md, ``blade_friction``) is benched by ``--cut``."""
+    return table_causes("logs")
+
+
+def log_pairs() -> tuple[tuple[str, str], ...]:
+    """Every pair of the log cause table, the ``pairs`` kind's batches."""
+    return tuple(itertools.combinations(log_table(), 2))
+
+
 def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
     """The causes hidden in the batch of ``seed``: the log table in turn, then none three
     times (single: 17 batches hold each cause twice and none five times, the acceptance's
@@ -109,8 +118,8 @@ def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
         >>> hidden(70_000, "single"), hidden(70_008, "single"), hidden(70_009, "single")
         (('binding_strength',), (), ('binding_strength',))
     """
-    return cycled_causes(seed - FIRST_SEED[kind], LOG_TABLE, NONES_PER_CYCLE,
-                         PAIRS if kind == "pairs" else None)
+    return cycled_causes(seed - FIRST_SEED[kind], log_table(), NONES_PER_CYCLE,
+                         log_pairs() if kind == "pairs" else None)
 
 
 def magnitude_error(cause: str, truth: Mapping[str, Any], offset_channel: str,
@@ -133,7 +142,7 @@ def magnitude_error(cause: str, truth: Mapping[str, Any], offset_channel: str,
     """
     if cause not in fitted:
         return math.inf
-    if cause == "sensor_offset":
+    if cause == SENSOR_OFFSET:
         found = fitted[cause].get(offset_channel)
         expected = truth[cause]
         if found is None:

@@ -60,7 +60,8 @@ def spread_sd(seed: int) -> float:
 def run_one(folder: Path, seed: int, kind: str, workers: int) -> dict[str, Any]:
     """Write, read and diagnose the set of ``seed`` and ``kind``: its row of the bench."""
     from cell.diagnosis.engine.settings import DiagnosisParams
-    from cell.diagnosis.specimen.diagnosis import CAUSES, diagnose
+    from cell.diagnosis.specimen.causes import CAUSES
+    from cell.diagnosis.specimen.diagnosis import diagnose
     from cell.measure.specimens import load_measurement_set
 
     effects = hidden(seed, "single")

@@ -153,7 +153,7 @@ def run_tissue_bench(params: TissueBenchParams | None = None,
     """Run every tissue model and both peers at every size; returns the JSON-ready report
     (module docstring). ``progress`` receives a line per finished part.
 
-    ``tests/test_bench_tissue.py`` runs it with :meth:`TissueBenchParams.quick`.
+    ``tests/bench/test_tissue.py`` runs it with :meth:`TissueBenchParams.quick`.
     """
     params = TissueBenchParams() if params is None else params
     say = progress or (lambda line: None)
@@ -221,7 +221,7 @@ def _ms(seconds: float | None) -> str:
 
 def markdown_report(report: dict[str, Any]) -> str:
     """The report of :func:`run_tissue_bench` as Markdown tables (its rows are checked in
-    ``tests/test_bench_tissue.py``)."""
+    ``tests/bench/test_tissue.py``)."""
     lines = [
         "# musclecell bench tissue",
         "",

@@ -87,8 +87,8 @@ def diagnose_logs_command(args: argparse.Namespace,
     from cell.progress import progress_bar
 
     with (cluster or nullcontext() as pool,
-          progress_bar("replay", quiet=args.quiet, desc="diagnose-logs") as bar):
-        diagnosis = diagnose_logs(batch, params, pool, bar.update)
+          progress_bar("replay", quiet=args.quiet, total=0) as bar):
+        diagnosis = diagnose_logs(batch, params, pool, bar)
     write_folder(args.out, lambda folder: write_log_diagnosis(folder, batch, diagnosis,
                                                               plots=not args.no_plots))
     data = diagnosis.to_json()

@@ -23,26 +23,29 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from cell.diagnosis.engine.determined import NOT_PREDICTED, determined, determined_each
+from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
+from cell.diagnosis.engine.outcome import force_noise_n
 from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
+from cell.logs.evidence import LogEvidence, log_evidence
 from cell.logs.fit import (
     FORCE_CHANNELS,
     Rows,
     Step,
+    decorrelation_rows,
     forward_selection,
     heldout,
     logged_vector,
     rmse_n,
     solve,
 )
-from cell.logs.replays import Replayer, ReplayPool
+from cell.logs.outcome import EVIDENCE_ROWS, evidence_weight
+from cell.logs.replays import Progress, Replayer, ReplayPool
 from cell.logs.search import (
     OFFSET,
     Fit,
@@ -91,14 +94,17 @@ class LogDiagnosis:
         candidates: every cause screened, with its linearised fit.
         extended: the magnitudes and offsets of the extended world, and its RMSE.
         heldout_rmse_n: baseline and extended RMSE of the logs left out, N.
-        evidence: per named cause, the held-out RMSE with and without it.
+        evidence: per named cause (an offset per channel), the held-out RMSE with and
+            without it (:class:`~cell.logs.evidence.LogEvidence`).
         steps: the forward selection's steps.
         simulated: the simulated vectors of the baseline and the extended world.
         timing: replays, their wall and CPU time, and the fits' (the rest's), s.
+        noise_n: the logged force channels' noise (the engine's
+            :func:`~cell.diagnosis.engine.outcome.force_noise_n`), N.
 
     Example:
         >>> LogDiagnosis(["a", "b"], [2.0, 2.0], [], [], {}, {"baseline": 2.0, "extended": 1.5},
-        ...              {}, [], {}, {}).gain
+        ...              [], [], {}, {}).gain
         0.25
     """
 
@@ -108,10 +114,11 @@ class LogDiagnosis:
     candidates: list[dict[str, Any]]
     extended: dict[str, Any]
     heldout_rmse_n: dict[str, float]
-    evidence: dict[str, dict[str, Any]]
+    evidence: list[LogEvidence]
     steps: list[dict[str, Any]]
     simulated: dict[str, np.ndarray] = field(repr=False)
     timing: dict[str, float]
+    noise_n: float = 0.0
 
     @property
     def gain(self) -> float:
@@ -120,8 +127,13 @@ class LogDiagnosis:
         return 1.0 - self.heldout_rmse_n["extended"] / base if base > 0 else 0.0
 
     def to_json(self) -> dict[str, Any]:
-        """The contract (docs/diagnosis.md) with the logs' evidence; a score the replays do
-        not determine ``null`` with its reason (:mod:`cell.diagnosis.engine.determined`)."""
+        """The search outcome's JSON shape of every diagnosis
+        (:meth:`cell.diagnosis.engine.outcome.SearchOutcome.to_json`: ``baseline``,
+        ``causes``, ``candidates``, ``extended``, ``gain``, ``noise_N``, ``steps``,
+        ``second_look``, ``evidence``) with the logs' own keys (``logs``, ``timing``; a step's
+        ``added`` and ``round``); a score the replays do not determine ``null`` with its
+        reason (:mod:`cell.diagnosis.engine.determined`)."""
+        tried = self.extended.get("second_look")
         return {"logs": self.logs,
                 "baseline": {"model": "the logs' scenarios as the lab believes them",
                              "params": {}, **determined("rmse_N", self.baseline_rmse_n),
@@ -130,10 +142,10 @@ class LogDiagnosis:
                 "candidates": [_scored(c) for c in self.candidates],
                 "extended": _scored({**self.extended,
                                      "heldout_rmse_N": self.heldout_rmse_n["extended"]}),
-                "evidence": {name: determined_each(e, NOT_PREDICTED)
-                             for name, e in self.evidence.items()},
+                **_score("gain", self.gain), "noise_N": self.noise_n,
                 "steps": [_scored(s) for s in self.steps],
-                **_score("gain", self.gain), "timing": self.timing}
+                "second_look": [] if tried is None else [tried],
+                "evidence": [e.to_json() for e in self.evidence], "timing": self.timing}
 
 
 def _score(name: str, value: float) -> dict[str, Any]:
@@ -149,26 +161,26 @@ def _scored(entry: dict[str, Any]) -> dict[str, Any]:
 
 def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                   cluster: ReplayPool | None = None,
-                  on_replay: Callable[[int], object] | None = None) -> LogDiagnosis:
+                  progress: Progress | None = None) -> LogDiagnosis:
     """Diagnose ``batch`` (module docstring), its replays on ``params.workers`` processes
     here, or on ``cluster`` (an entered :class:`cell.scale.pool.RunPool` on a Ray cluster,
-    whose ``Workers`` then say how many run at a time); ``on_replay`` is called with 1 after
-    each replay (progress).
+    whose ``Workers`` then say how many run at a time); ``progress`` (a progress bar) counts
+    the replays done of those planned and names the round.
 
     Raises:
         DivergenceError: the lab's own world blew up in a replay.
         PoolError: a replay on ``cluster`` gave no result (its worker or node died).
     """
     params = params or LogDiagnosisParams()
-    measured, rows = logged_vector(batch.logs)
+    measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     names = [c for c in applicable(batch.scenarios[0])
              if params.causes is None or c in params.causes]
     workers = params.workers or os.cpu_count() or 1
     started, cpu_started = time.perf_counter(), time.process_time()
-    jobs = len(batch.logs) * (2 * len(names) + 1)
+    jobs = len(batch.logs) * (sum(len(CAUSES[c].probes(True)) for c in names) + 1)
     with Replayer(batch, min(workers, jobs), cluster) as replayer:
-        replayer.on_replay = on_replay
-        base, blocks = _screen(replayer, measured, names)
+        replayer.progress = progress
+        base, blocks = _screen(replayer, measured, rows, names)
         residual = measured - base
         blocks.update({OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})
         steps = forward_selection(residual, blocks, rows, params.min_heldout_gain,
@@ -187,7 +199,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             # Only the offsets stand when the world's causes do not lower the error of the logs
             # they were fitted to, or do but not of each log left out (the change does not
             # carry from one separation to the next): then they are named as dropped.
-            dropped = ({"causes": world, "heldout_rmse_N": rmse_n(left),
+            dropped = ({"causes": world, "params": magnitudes_json(fit["magnitudes"]),
+                        "heldout_rmse_N": rmse_n(left),
                         "without_N": rmse_n(without)} if fit["confirmed"] else None)
             world, left = [], without
             fit = {**start, "confirmed": False, **({"dropped": dropped} if dropped else {})}
@@ -196,9 +209,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                                              [c for c in names if c in blocks], offsets, params)
             added = [step.added for step in second]
             world, chosen = world + added, chosen + added
-    steps_json = [{"added": s.added, "information": s.information,
-                   "heldout_rmse_N": s.heldout_rmse_n, "round": round_}
-                  for round_, part in ((1, steps), (2, second)) for s in part]
+    steps_json = _steps_json(steps, second)
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
     heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
@@ -208,14 +219,14 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                 "params": {**magnitudes_json(fit["magnitudes"]),
                            **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
                 "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
+                "evidence_weight_N": replayer.weight,
                 **{key: fit[key] for key in ("dropped", "second_look") if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
         _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
-        _evidence(residual, blocks, rows, chosen, left),
-        steps_json, {"baseline": base, "extended": fit["simulated"],
-                           "measured": measured},
-        _timing(replayer, started, cpu_started))
+        log_evidence(residual, blocks, rows, chosen, left),
+        steps_json, {"baseline": base, "extended": fit["simulated"], "measured": measured},
+        _timing(replayer, started, cpu_started), _noise_n(batch))
 
 
 def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
@@ -225,6 +236,7 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
     screening signatures, and whether its replays beat the lab's world by the gain asked."""
     if not world:
         return {**start, "confirmed": False}
+    replayer.round = "fit"
     jacobian = np.concatenate([blocks[c] for c in world], axis=1)
     fit = gauss_newton(replayer, measured, offsets, start, world, jacobian, params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
@@ -238,6 +250,7 @@ def _second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     """:func:`second_look` on a confirmed fit: the fit, the held-out residual and the steps
     of the causes it adds, kept only where the replays of each log left out confirm them
     too (else ``fit`` says what was tried)."""
+    replayer.round = "second look"
     selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
                                              offsets, params.min_heldout_gain,
                                              params.newton_steps)
@@ -268,16 +281,26 @@ def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str,
             "fit_cpu_s": cpu}
 
 
-def _screen(replayer: Replayer, measured: np.ndarray, names: list[str]
+def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str]
             ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """The baseline's simulated vector and each cause's signature (:func:`signatures`), from
-    one batch replay in the lab's world and one each way of every cause's screening step."""
-    base, *screened = replayer.batches([{}, *screening_worlds(names, {})])
+    one batch replay in the lab's world and one at each of every cause's probes, near and far
+    (:func:`screening_worlds`, ``wide``). The misfits beyond the forces are weighed by the
+    baseline's force residual (:func:`~cell.logs.outcome.evidence_weight`), from here on in
+    every replay."""
+    base, *screened = replayer.batches([{}, *screening_worlds(names, {}, wide=True)])
     if base is None:
         from cell.errors import DivergenceError
 
         raise DivergenceError(0.0, "a replay of the lab's own world blew up")
-    blocks = signatures(measured - base, base, names, screened)
+    force = measured - base
+    force[~rows.force] = 0.0
+    replayer.weight = evidence_weight(rmse_n(force[rows.force]),
+                                      decorrelation_rows(force, rows))
+    scale = np.where(rows.force, 1.0, replayer.weight)
+    base = base * scale
+    screened = [None if vector is None else vector * scale for vector in screened]
+    blocks = signatures(measured - base, base, names, screened, wide=True)
     return base, blocks
 
 
@@ -308,16 +331,21 @@ def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
     return out
 
 
-def _evidence(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
-              chosen: list[str], left: np.ndarray) -> dict[str, dict[str, Any]]:
-    """Per named block, the held-out RMSE of the logs with the extended world (replayed) and
-    without the block (linearised), and the share of the logs it improves."""
-    out = {}
-    for name in chosen:
-        others = {c: blocks[c] for c in chosen if c != name}
-        without = heldout(residual, others, rows, fixed(others))
-        logs = np.unique(rows.log)
-        better = [rmse_n(left[rows.log == i]) < rmse_n(without[rows.log == i]) for i in logs]
-        out[name] = {"heldout_rmse_N": rmse_n(left), "without_heldout_rmse_N": rmse_n(without),
-                     "logs_improved_share": float(np.mean(better))}
+def _steps_json(first: list[Step], second: list[Step]) -> list[dict[str, Any]]:
+    """The selection's steps (the first round's, then the second look's) as the engine's
+    ``steps`` (``causes``: the blocks in the model after the step) with the block ``added``
+    and the ``round``."""
+    out, causes = [], []
+    for round_, part in ((1, first), (2, second)):
+        for step in part:
+            causes = [*causes, step.added] if step.added else causes
+            out.append({"causes": causes, "added": step.added, "information": step.information,
+                        "heldout_rmse_N": step.heldout_rmse_n, "round": round_})
     return out
+
+
+def _noise_n(batch: LogBatch) -> float:
+    """The force noise of the logged channels, each component of each channel of each log a
+    series (:func:`~cell.diagnosis.engine.outcome.force_noise_n`), N."""
+    return force_noise_n(log.channels[name].force_n[:, k] for log in batch.logs
+                         for name in FORCE_CHANNELS for k in range(3))

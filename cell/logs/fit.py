@@ -19,10 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell.diagnosis.engine.statistics import bic
-from cell.measure.logs import Channel, SeparationLog
+from cell.measure.logs import CHANNELS, Channel, SeparationLog
 
-#: The force channels compared and fitted (``heldout_rmse_N`` is over these).
-FORCE_CHANNELS = ("knife", "gripper", "fixture")
+#: The force channels compared and fitted (``heldout_rmse_N`` is over these): every channel
+#: of the log format (:data:`~cell.measure.logs.CHANNELS`).
+FORCE_CHANNELS = tuple(CHANNELS)
 
 
 @dataclass(frozen=True)
@@ -36,6 +37,9 @@ class Rows:
         resting: (n,) whether it was sampled before its sensor's tare and the knife's first
             cut (None: all).
 
+    An entry on the channel index ``len(FORCE_CHANNELS)`` is a misfit beyond the forces (a
+    count or an event, :mod:`cell.logs.outcome`).
+
     Example:
         >>> rows = Rows(np.zeros(6, int), np.array([0, 0, 0, 2, 2, 2]), np.tile([0, 1, 2], 2))
         >>> rows.offset_columns("fixture")[:, 0].tolist()
@@ -46,6 +50,11 @@ class Rows:
     channel: np.ndarray
     axis: np.ndarray
     resting: np.ndarray | None = None
+
+    @property
+    def force(self) -> np.ndarray:
+        """(n,) whether each entry is a force sample's component."""
+        return self.channel < len(FORCE_CHANNELS)
 
     def offset_columns(self, channel: str) -> np.ndarray:
         """The three columns of a constant offset of ``channel`` (N, its frame)."""
@@ -65,8 +74,12 @@ class Rows:
         return columns @ fitted["offset"][:, None]
 
 
-def logged_vector(logs: Sequence[SeparationLog]) -> tuple[np.ndarray, Rows]:
-    """The batch's logged force channels as one vector, and where each entry lies."""
+def logged_vector(logs: Sequence[SeparationLog], evidence: int = 0
+                  ) -> tuple[np.ndarray, Rows]:
+    """The batch's logged force channels as one vector, and where each entry lies; with
+    ``evidence``, that many entries after each log's channels (on the channel index
+    ``len(FORCE_CHANNELS)``, 0: the log is their reference), where a replay's misfits beyond
+    the forces go (:mod:`cell.logs.outcome`)."""
     parts, log_index, channel_index, axis_index, resting = [], [], [], [], []
     for i, log in enumerate(logs):
         first_cut = log.cut_windows_s[0][0] if log.cut_windows_s else np.inf
@@ -78,6 +91,11 @@ def logged_vector(logs: Sequence[SeparationLog]) -> tuple[np.ndarray, Rows]:
             axis_index.append(np.tile([0, 1, 2], len(force)))
             until = min(first_cut, log.sensors.get(f"{name}_tare_s", np.inf))
             resting.append(np.repeat(log.channels[name].time_s < until, 3))
+        parts.append(np.zeros(evidence))
+        log_index.append(np.full(evidence, i))
+        channel_index.append(np.full(evidence, len(FORCE_CHANNELS)))
+        axis_index.append(np.zeros(evidence, int))
+        resting.append(np.zeros(evidence, bool))
     rows = Rows(*(np.concatenate(a) for a in (log_index, channel_index, axis_index, resting)))
     return np.concatenate(parts), rows
 

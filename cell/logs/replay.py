@@ -6,7 +6,6 @@ pull-off) and over time.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -15,7 +14,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from cell.logs.batch import log_scenario
-from cell.measure.logs import Channel, SeparationLog
+from cell.measure.logs import CHANNELS, Channel, SeparationLog
 from cell.progress import progress_bar
 from cell.robots.names import GRASP_SITE, KNIFE_TIP
 from cell.sim.episode import TARE_LEAD_S, Episode, EpisodePlan
@@ -24,10 +23,10 @@ from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import ReleaseRule
 from controllers.knife import CutWindow
 
-#: The compared channels: name -> (log channel, torque or force).
-COMPARED = {"knife_force": ("knife", False), "knife_torque": ("knife", True),
-            "gripper_force": ("gripper", False), "gripper_torque": ("gripper", True),
-            "fixture_force": ("fixture", False)}
+#: The compared channels: name -> (log channel, torque or force): every channel's force, and
+#: the torque of those with a pose (:data:`~cell.measure.logs.CHANNELS`).
+COMPARED = {f"{stem}_{kind}": (stem, kind == "torque") for stem, pose in CHANNELS.items()
+            for kind in (("force", "torque") if pose else ("force",))}
 PHASES = ("approach", "cut", "pull_off")
 #: The random stream of the seed the replay's sensor noise draws from: not the log's
 #: (:data:`~cell.sim.episodelog.LOG_STREAM`), so that a replay of the cell's own log does not
@@ -161,10 +160,9 @@ def _replay_plan(plan: EpisodePlan, log: SeparationLog, control_dt_s: float) -> 
 
 
 def replay(log: SeparationLog, scenario: Scenario | None = None,
-           adjust: Callable[[Episode], None] | None = None, progress: bool = False) -> Replay:
+           progress: bool = False) -> Replay:
     """Replay ``log`` (:mod:`cell.logs.replay`) in its scenario, or in ``scenario`` (a changed
-    world: the batch diagnosis), ``adjust`` applied to the episode before it starts; with
-    ``progress``, a bar of the log's seconds on stderr.
+    world: the batch diagnosis); with ``progress``, a bar of the log's seconds on stderr.
 
     Raises:
         ScenarioError: the log's scenario file is bad.
@@ -173,8 +171,6 @@ def replay(log: SeparationLog, scenario: Scenario | None = None,
     scenario = log_scenario(log) if scenario is None else scenario
     scenario = replace(scenario, perception=replace(scenario.perception, enabled=False))
     episode = Episode(scenario)
-    if adjust is not None:
-        adjust(episode)
     knife, gripper = log.channels["knife"], log.channels["gripper"]
     offsets = (_offset(episode, "knife/force", KNIFE_TIP),
                _offset(episode, "gripper/force", GRASP_SITE))

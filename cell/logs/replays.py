@@ -21,13 +21,27 @@ import numpy as np
 
 from cell.errors import DivergenceError, PoolError
 from cell.logs.batch import LogBatch, log_scenario
-from cell.logs.causes import changed_world, episode_adjustment
+from cell.logs.causes import changed_world
 from cell.logs.fit import simulated_vector
+from cell.logs.outcome import EVIDENCE_ROWS, evidence_misfits
 from cell.measure.logs import SeparationLog, read_log
 from cell.sim.scenario import Scenario
 
 #: A world as a task carries it: the causes' magnitudes, sorted by cause.
 Magnitudes = tuple[tuple[str, float], ...]
+
+
+class Progress(Protocol):
+    """What the replays report to: a :func:`cell.progress.progress_bar` (its ``total`` grows
+    by each batch of replays planned, its description names the round)."""
+
+    total: float | None
+
+    def update(self, n: float = 1) -> bool | None:
+        """``n`` replays done."""
+
+    def set_description(self, desc: str | None = None, refresh: bool | None = True) -> None:
+        """The round under way."""
 
 
 class ReplayPool(Protocol):
@@ -45,15 +59,19 @@ class ReplayPool(Protocol):
 def _replayed(log: SeparationLog, scenario: Scenario, magnitudes: dict[str, float],
               started: float) -> tuple[np.ndarray | None, float]:
     """``log`` replayed in ``scenario`` changed by ``magnitudes``: its simulated vector (None
-    where the physics blew up) and the CPU time since ``started`` (``time.process_time``), s."""
+    where the physics blew up), its force channels then its misfits beyond them
+    (:func:`~cell.logs.outcome.evidence_misfits`, unweighed), and the CPU time since
+    ``started`` (``time.process_time``), s."""
     from cell.logs.replay import replay
 
     world = changed_world(scenario, magnitudes)
     try:
-        result = replay(log, world, episode_adjustment(magnitudes))
+        result = replay(log, world)
     except DivergenceError:
         return None, time.process_time() - started
-    return simulated_vector(log, result.simulated), time.process_time() - started
+    vector = np.concatenate([simulated_vector(log, result.simulated),
+                             evidence_misfits(log, result.simulated, result.released)])
+    return vector, time.process_time() - started
 
 
 def _replay_task(task: tuple[str, Magnitudes]) -> tuple[np.ndarray | None, float]:
@@ -81,7 +99,8 @@ def _one_thread() -> None:
 class Replayer:
     """Replays a batch's logs in changed worlds, side by side on ``workers`` processes (one:
     in this process) or, given ``cluster``, on that pool's Ray cluster; counting them, their
-    wall time and their CPU time (the workers').
+    wall time and their CPU time (the workers'). Each log's misfits beyond the forces come
+    times :attr:`weight` (:func:`~cell.logs.outcome.evidence_weight`).
 
     Example:
         >>> Replayer(LogBatch((), ()), 1).count
@@ -93,8 +112,12 @@ class Replayer:
         self.batch = batch
         self.folders = [str(log.folder) for log in batch.logs]
         self.count, self.wall_s, self.cpu_s = 0, 0.0, 0.0
-        #: Called with 1 after each replay (a progress bar's ``update``), or None.
-        self.on_replay: Callable[[int], object] | None = None
+        #: The weight of the misfits beyond the forces (N a noise width).
+        self.weight = 1.0
+        #: Where the replays done and planned show (a progress bar), or None.
+        self.progress: Progress | None = None
+        #: The round the replays are of (the progress bar's description).
+        self.round = "screening"
         self._cluster = cluster
         self._shipped: Any = None
         self._pool = (ProcessPoolExecutor(workers, mp_context=get_context("spawn"),
@@ -116,6 +139,7 @@ class Replayer:
             PoolError: on a cluster, a replay that came back without a result (its worker or
                 node died, or it failed otherwise).
         """
+        self._planned(len(jobs))
         if self._cluster is not None:
             return self._on_cluster(self._cluster, jobs)
         tasks = [(self.folders[i], tuple(sorted(m.items()))) for i, m in jobs]
@@ -128,9 +152,14 @@ class Replayer:
             self._replayed()
         return self._counted(results, started)
 
+    def _planned(self, jobs: int) -> None:
+        if self.progress is not None:
+            self.progress.total = (self.progress.total or 0) + jobs
+            self.progress.set_description(self.round)
+
     def _replayed(self) -> None:
-        if self.on_replay is not None:
-            self.on_replay(1)
+        if self.progress is not None:
+            self.progress.update(1)
 
     def _on_cluster(self, cluster: ReplayPool, jobs: Sequence[tuple[int, dict[str, float]]]
                     ) -> list[np.ndarray | None]:
@@ -157,7 +186,14 @@ class Replayer:
         self.count += len(results)
         self.wall_s += time.perf_counter() - started
         self.cpu_s += sum(cpu for _, cpu in results)
-        return [vector for vector, _ in results]
+        return [None if vector is None else self.weighed(vector) for vector, _ in results]
+
+    def weighed(self, vector: np.ndarray) -> np.ndarray:
+        """One log's replayed vector with its misfits beyond the forces times
+        :attr:`weight`."""
+        out = vector.copy()
+        out[-EVIDENCE_ROWS:] *= self.weight
+        return out
 
     @property
     def in_process(self) -> bool:

@@ -14,11 +14,12 @@ import numpy as np
 from cell.config import read_toml
 from cell.diagnosis.engine.determined import NOT_DETERMINED, shown
 from cell.extras import require
-from cell.logs.causes import SENSOR_OFFSET, changed_world
+from cell.logs.causes import CAUSES, SENSOR_OFFSET, changed_keys, changed_world, scenario_keys
 from cell.logs.fit import FORCE_CHANNELS, logged_vector
+from cell.logs.outcome import EVIDENCE_ROWS
 from cell.outputs import figure_png, write_atomic, write_json
+from cell.sim.scenario import Scenario
 from cell.sim.scenariotoml import resolved_tables, tables_toml
-from cell.tissue.material import MassSpringMaterial
 from cell.tissue.materialfile import material_to_toml
 
 if TYPE_CHECKING:
@@ -28,33 +29,35 @@ if TYPE_CHECKING:
     from cell.logs.diagnosis import LogDiagnosis
 
 MATERIAL, SCENARIO = "extended-material.toml", "extended-scenario.toml"
-#: The aponeurosis keys the world causes change.
-_APONEUROSIS = ("toughness_j_m2", "stiffness_n_m", "tearing_stretch_m", "tearing_force_n")
 _HEADER = ("The extended world of a batch diagnosis of separation logs (musclecell "
            "diagnose-logs):\nthe first log's scenario with the causes' changes.")
 
 
 def write_extended(folder: Path, batch: LogBatch, diagnosis: LogDiagnosis) -> list[Path]:
-    """The extended material (where it is a mass-spring one) and scenario (the first log's,
-    with the causes' changes), into ``folder``."""
-    belief = batch.scenarios[0]
+    """The extended material and scenario (the first log's, with the causes' changes), into
+    ``folder``."""
     magnitudes = {name: value["magnitude"]
                   for name, value in diagnosis.extended["params"].items()
                   if value.get("magnitude") is not None}
+    not_keys = [name for name in diagnosis.extended["params"] if name == SENSOR_OFFSET]
+    return write_extended_world(folder, batch.logs[0].scenario, batch.scenarios[0], magnitudes,
+                                not_keys)
+
+
+def write_extended_world(folder: Path, scenario_file: Path, belief: Scenario,
+                         magnitudes: dict[str, float], not_keys: list[str]) -> list[Path]:
+    """``scenario_file`` (loaded as ``belief``) with the world causes of ``magnitudes``
+    applied, as ``extended-scenario.toml`` and its material (either kind) as
+    ``extended-material.toml``: loaded, the scenario is the world the causes made. The causes
+    of ``not_keys`` have no scenario key and are named in the scenario's header."""
     world = changed_world(belief, magnitudes)
-    raw = resolved_tables(read_toml(batch.logs[0].scenario), belief)
-    raw["aponeurosis"] = {**raw.get("aponeurosis", {}),
-                          **{key: getattr(world.aponeurosis, key) for key in _APONEUROSIS
-                             if getattr(world.aponeurosis, key)
-                             != getattr(belief.aponeurosis, key)}}
-    written = []
-    if isinstance(world.material, MassSpringMaterial):
-        written.append(write_atomic(folder / MATERIAL,
-                                    material_to_toml(world.material, _HEADER)))
-        raw["material"] = {"file": MATERIAL}
+    raw = resolved_tables(read_toml(scenario_file), belief)
+    for table, changed in changed_keys(belief, world).items():
+        raw[table] = {**raw.get(table, {}), **changed}
+    written = [write_atomic(folder / MATERIAL, material_to_toml(world.material, _HEADER))]
+    raw["material"] = {"file": MATERIAL}
     header = "\n".join([_HEADER, *(f"Not in a scenario's keys: {name} (see diagnosis.json)"
-                                   for name in diagnosis.extended["params"]
-                                   if name in ("binding_gradient", SENSOR_OFFSET))])
+                                   for name in not_keys)])
     written.append(write_atomic(folder / SCENARIO, tables_toml(raw, header)))
     return written
 
@@ -75,14 +78,15 @@ def write_log_diagnosis(folder: str | Path, batch: LogBatch, diagnosis: LogDiagn
     written += write_extended(folder, batch, diagnosis)
     figures = _figures(folder, batch, diagnosis) if plots else []
     written += figures
-    written.append(write_atomic(folder / "report.md", _markdown(diagnosis, figures)))
+    written.append(write_atomic(folder / "report.md",
+                                _markdown(diagnosis, figures, batch.scenarios[0])))
     return written
 
 
 def _figures(folder: Path, batch: LogBatch, diagnosis: LogDiagnosis) -> list[Path]:
     from matplotlib.figure import Figure  # a figure off pyplot: headless, nothing to close
 
-    _, rows = logged_vector(batch.logs)
+    _, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     out = []
     for i, log in enumerate(batch.logs):
         figure = _draw_log(Figure(figsize=(9, 7), layout="constrained"), log, i, rows,
@@ -112,7 +116,7 @@ def _draw_log(figure: Figure, log: Any, index: int, rows: Any,
     return figure
 
 
-def _markdown(diagnosis: LogDiagnosis, figures: list[Path]) -> str:
+def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) -> str:
     data = diagnosis.to_json()
     causes = ", ".join(data["causes"]) or "none: the lab's world explains the logs"
     lines = ["# Diagnosis of a batch of separation logs", "",
@@ -130,11 +134,14 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path]) -> str:
     lines += ["", "Extended world: " + ", ".join(
         f"{k} ({_short(v)})" for k, v in data["extended"]["params"].items()) + "." if
         data["extended"]["params"] else "Extended world: the lab's.", ""]
-    for name, e in data["evidence"].items():
-        lines.append(f"- {name}: held-out {shown(e['heldout_rmse_N'], '.3f')} N with it, "
-                     f"{shown(e['without_heldout_rmse_N'], '.3f')} N without (linearised); "
-                     "improves "
-                     f"{e['logs_improved_share']:.0%} of the logs")
+    keys = [f"- {name} changes {', '.join(f'`{key}`' for key in scenario_keys(name, belief))}"
+            f" ({SCENARIO}, {MATERIAL})" for name in data["extended"]["params"] if name in CAUSES]
+    lines += [*keys, ""] if keys else []
+    for e in data["evidence"]:
+        name = f"{e['cause']} ({e['channel']})" if "channel" in e else e["cause"]
+        lines.append(f"- {name}: held-out {shown(e['heldout_rmse_with_N'], '.3f')} N with it, "
+                     f"{shown(e['heldout_rmse_without_N'], '.3f')} N without (linearised); "
+                     f"improves {e['improved_fraction']:.0%} of the logs")
     t = data["timing"]
     lines += ["", f"{t['replays']} replays, {t['replay_wall_s']:.0f} s; the fits "
               f"{t['fit_s']:.1f} s.", ""]

@@ -18,9 +18,6 @@ from cell.logs.causes import CAUSES, SENSOR_OFFSET
 from cell.logs.fit import Rows, Step, broyden, forward_selection, rmse_n, signature, solve
 from cell.logs.replays import Replayer
 
-#: The largest magnitude a Gauss-Newton step may reach (a factor of about 4.5, or 86 deg):
-#: beyond it the cell is another cell, and its physics may not hold.
-MAX_MAGNITUDE = 1.5
 #: The line search's factor on the fitted magnitudes (:func:`stretch`) and its most replays
 #: (each search's).
 STRETCH = 1.3
@@ -30,30 +27,42 @@ OFFSET = SENSOR_OFFSET + ":"
 Fit = dict[str, Any]
 
 
+def bounded(world: list[str], magnitudes: np.ndarray) -> np.ndarray:
+    """``magnitudes`` of ``world``'s causes within each cause's bounds
+    (:attr:`~cell.logs.causes.cause.LogCause.bounds`: beyond them the cell is another cell,
+    and its physics may not hold)."""
+    low, high = np.array([CAUSES[c].bounds for c in world], dtype=float).reshape(-1, 2).T
+    return np.clip(magnitudes, low, high)
+
+
 def fixed(blocks: dict[str, np.ndarray]) -> frozenset[str]:
     """The offsets among ``blocks``: fitted at rest, taken whole."""
     return frozenset(name for name in blocks if name.startswith(OFFSET))
 
 
-#: The sides of a screening: its step one way and the other.
-_SIDES = (1.0, -1.0)
-
-
-def screening_worlds(names: list[str], at: dict[str, float]) -> list[dict[str, float]]:
+def screening_worlds(names: list[str], at: dict[str, float], wide: bool = False
+                     ) -> list[dict[str, float]]:
     """The worlds that screen each of ``names`` (not in ``at``) beside the magnitudes ``at``:
-    its screening step one way, then the other."""
-    return [{**at, c: side * CAUSES[c].step} for c in names for side in _SIDES]
+    one per probe of its (:meth:`~cell.logs.causes.cause.LogCause.probes`; ``wide``: the far
+    ones too, so that a big change is screened near its size, not only by a small step's
+    slope)."""
+    return [{**at, c: probe} for c in names for probe in CAUSES[c].probes(wide)]
 
 
 def signatures(residual: np.ndarray, reference: np.ndarray, names: list[str],
-               replayed: list[np.ndarray | None]) -> dict[str, np.ndarray]:
+               replayed: list[np.ndarray | None], wide: bool = False
+               ) -> dict[str, np.ndarray]:
     """Each of ``names``' signature (:func:`signature` on ``residual``) from the replays of
-    its :func:`screening_worlds`, their changes taken against the ``reference`` replay; a
-    cause whose replays both blew up has none."""
+    its :func:`screening_worlds` (``wide`` as there), their changes taken against the
+    ``reference`` replay; a cause whose replays all blew up has none."""
     blocks: dict[str, np.ndarray] = {}
-    for k, c in enumerate(names):
-        sides = [(side * CAUSES[c].step, None if vector is None else vector - reference)
-                 for side, vector in zip(_SIDES, replayed[2 * k:2 * k + 2], strict=True)]
+    start = 0
+    for c in names:
+        probes = CAUSES[c].probes(wide)
+        sides = [(probe, None if vector is None else vector - reference)
+                 for probe, vector in zip(probes, replayed[start:start + len(probes)],
+                                          strict=True)]
+        start += len(probes)
         column = signature(residual, sides)
         if column is not None:
             blocks[c] = column
@@ -78,7 +87,7 @@ def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
     for _ in range(steps + 1):
         fitted, _ = solve(measured - simulated, {"world": jacobian, **offsets}, None,
                           fixed(offsets))
-        target = np.clip(magnitudes + fitted["world"], -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        target = bounded(world, magnitudes + fitted["world"])
         at = dict(zip(world, target.tolist(), strict=True))
         (replayed,) = replayer.batches([at])
         if replayed is None:
@@ -113,8 +122,7 @@ def _line_search(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
     start = np.array([best["magnitudes"][c] for c in world])
     scale, factor = 1.0, STRETCH
     for _ in range(STRETCH_REPLAYS):
-        trial = np.clip(np.where(scaled, start * scale * factor, start),
-                        -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        trial = bounded(world, np.where(scaled, start * scale * factor, start))
         at = dict(zip(world, trial.tolist(), strict=True))
         (replayed,) = replayer.batches([at])
         better = False
@@ -165,6 +173,7 @@ def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: F
                     world: list[str], offsets: dict[str, np.ndarray]) -> np.ndarray:
     """Each log's residual in the world of ``world``'s causes fitted on the other logs (a
     Gauss-Newton step from the batch's fit on their rows), replayed."""
+    replayer.round = "held out"
     residual = measured - fit["simulated"]
     left = np.empty_like(measured)
     jobs, fits = [], []
@@ -172,8 +181,8 @@ def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: F
         others = rows.log != i
         fitted, _ = solve(residual, {"world": fit["jacobian"], **offsets}, others,
                           fixed(offsets))
-        moved = np.clip(np.array([fit["magnitudes"][c] for c in world]) + fitted["world"],
-                        -MAX_MAGNITUDE, MAX_MAGNITUDE)
+        moved = bounded(world, np.array([fit["magnitudes"][c] for c in world])
+                        + fitted["world"])
         jobs.append((i, dict(zip(world, moved.tolist(), strict=True))))
         fits.append(fitted)
     for i, (vector, fitted) in enumerate(zip(replayer.run(jobs), fits, strict=True)):

@@ -31,7 +31,10 @@ from cell.io import CsvTable, read_csv
 POSE = ("x_m", "y_m", "z_m", "qw", "qx", "qy", "qz")
 FORCE = ("force_x_N", "force_y_N", "force_z_N")
 TORQUE = ("torque_x_Nm", "torque_y_Nm", "torque_z_Nm")
-#: The channels of a log: file stem -> whether it carries a pose.
+#: The channels of a log: file stem -> whether it carries a pose. The one list of them: the
+#: reader, the writer (:mod:`cell.sim.episodelog`), the replay's comparison, the diagnosis's
+#: force vector and the hidden offsets of the synthetic batches read it (each channel is also
+#: a sensor of the cell: ``<stem>/force`` in its model).
 CHANNELS = {"knife": True, "gripper": True, "fixture": False}
 #: How far a quaternion's norm may be off 1 (the four decimals a log may be written with).
 QUATERNION_TOLERANCE = 1e-3
@@ -239,12 +242,12 @@ def channel_rows(channel: Channel) -> tuple[list[str], list[dict[str, float]]]:
     return columns, rows
 
 
-def log_toml(name: str, scenario: str, seed: int, sensors: dict[str, float],
+def log_toml(name: str, scenario: str, seed: int | None, sensors: dict[str, float],
              cut_windows_s: tuple[tuple[float, float], ...], outcome: dict[str, int]) -> str:
-    """The text of a ``log.toml``."""
+    """The text of a ``log.toml`` (``seed`` None: the scenario's own, no ``seed`` key)."""
     quoted = lambda text: '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'  # noqa: E731
     lines = ["[log]", f"name = {quoted(name)}", f"scenario = {quoted(scenario)}",
-             f"seed = {seed}",
+             *([] if seed is None else [f"seed = {seed}"]),
              "# Poses are of each sensor's frame, in the cell's world frame (m, unit "
              "quaternion w x y z);",
              "# forces and torques are those the meat exerts on the sensor, in its frame "

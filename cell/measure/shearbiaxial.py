@@ -76,8 +76,8 @@ class ShearTest(OwnSize):
         shear_plane: one of :data:`SHEAR_PLANES`: the tissue's axes along z and x.
         time_s: (n,) time since the start of the test, s.
         displacement_m: (n,) the top plate's displacement along x, m.
-        force_N: (n,) the force on the top plate along x, N.
-        normal_force_N: (n,) the force on it along z, N (+ pulls), None when not measured.
+        force_n: (n,) the force on the top plate along x, N.
+        normal_force_n: (n,) the force on it along z, N (+ pulls), None when not measured.
         specimen_id: the test's specimen, ``""`` when the set does not say.
         size_m: the specimen's own edge lengths along x, y, z, m; None for the set's.
 
@@ -93,8 +93,8 @@ class ShearTest(OwnSize):
     shear_plane: ShearPlane
     time_s: np.ndarray
     displacement_m: np.ndarray
-    force_N: np.ndarray
-    normal_force_N: np.ndarray | None = None
+    force_n: np.ndarray
+    normal_force_n: np.ndarray | None = None
     specimen_id: str = ""
     size_m: tuple[float, float, float] | None = None
 
@@ -102,7 +102,7 @@ class ShearTest(OwnSize):
         if self.shear_plane not in SHEAR_PLANES:
             raise InputError(None, "shear_plane", f"must be one of {', '.join(SHEAR_PLANES)}, "
                              f"got {self.shear_plane!r}")
-        for name in ("time_s", "displacement_m", "force_N", "normal_force_N"):
+        for name in ("time_s", "displacement_m", "force_n", "normal_force_n"):
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _frozen(getattr(self, name)))
 
@@ -118,7 +118,7 @@ class ShearTest(OwnSize):
     def loads(self, size_m: Sequence[float]) -> Loads:
         """The measured forces by column, each with the plates' area (x by y)."""
         area = size_m[0] * size_m[1]
-        forces = {"force_N": self.force_N, "normal_force_N": self.normal_force_N}
+        forces = {"force_N": self.force_n, "normal_force_N": self.normal_force_n}
         return {name: (force, area) for name, force in forces.items() if force is not None}
 
 
@@ -133,8 +133,8 @@ class BiaxialTest(OwnSize):
         time_s: (n,) time since the start of the test, s.
         displacement_m: (n,) the z edges' displacement along z, m (+ extends).
         displacement_x_m: (n,) the x edges' displacement along x, m (+ extends).
-        force_N: (n,) the force on the z edges along z, N (+ pulls).
-        force_x_N: (n,) the force on the x edges along x, N (+ pulls).
+        force_n: (n,) the force on the z edges along z, N (+ pulls).
+        force_x_n: (n,) the force on the x edges along x, N (+ pulls).
         specimen_id: the test's specimen, ``""`` when the set does not say.
         size_m: the specimen's own edge lengths along x, y, z, m; None for the set's.
 
@@ -151,13 +151,13 @@ class BiaxialTest(OwnSize):
     time_s: np.ndarray
     displacement_m: np.ndarray
     displacement_x_m: np.ndarray
-    force_N: np.ndarray
-    force_x_N: np.ndarray
+    force_n: np.ndarray
+    force_x_n: np.ndarray
     specimen_id: str = ""
     size_m: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        for name in ("time_s", "displacement_m", "displacement_x_m", "force_N", "force_x_N"):
+        for name in ("time_s", "displacement_m", "displacement_x_m", "force_n", "force_x_n"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
 
     def strains(self, size_m: Sequence[float]) -> np.ndarray:
@@ -168,8 +168,8 @@ class BiaxialTest(OwnSize):
     def loads(self, size_m: Sequence[float]) -> Loads:
         """The measured forces by column, each with its edges' area (x by y for z, y by z
         for x)."""
-        return {"force_N": (self.force_N, size_m[0] * size_m[1]),
-                "force_x_N": (self.force_x_N, size_m[1] * size_m[2])}
+        return {"force_N": (self.force_n, size_m[0] * size_m[1]),
+                "force_x_N": (self.force_x_n, size_m[1] * size_m[2])}
 
 
 def read_shear_tests(table: CsvTable, groups: dict[str, list[int]]) -> tuple[ShearTest, ...]:

@@ -146,7 +146,7 @@ class MechanicalTest(OwnSize):
         angle_deg: angle between the fibres and the load axis, degrees (0 along, 90 across).
         time_s: (n,) time since the start of the test, s, non-decreasing.
         displacement_m: (n,) displacement of the top face along the load axis, m.
-        force_N: (n,) axial force on the top face, N.
+        force_n: (n,) axial force on the top face, N.
         specimen_id: the test's specimen, ``""`` when the set does not say.
         size_m: the specimen's own edge lengths along x, y, z, m; None for the set's.
 
@@ -162,15 +162,20 @@ class MechanicalTest(OwnSize):
     angle_deg: float
     time_s: np.ndarray
     displacement_m: np.ndarray
-    force_N: np.ndarray
+    force_n: np.ndarray
     specimen_id: str = ""
     size_m: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        for name in ("time_s", "displacement_m", "force_N"):
+        for name in ("time_s", "displacement_m", "force_n"):
             array = np.array(getattr(self, name), dtype=float)
             array.setflags(write=False)
             object.__setattr__(self, name, array)
+
+    @property
+    def force_N(self) -> np.ndarray:
+        """0.1.0's name of :attr:`force_n` (as on a cut test), kept for one release."""
+        return self.force_n
 
     @property
     def duration_s(self) -> float:
@@ -199,11 +204,11 @@ class MechanicalTest(OwnSize):
 
     def stress_pa(self, specimen: Specimen) -> np.ndarray:
         """Nominal stress at the samples, Pa: force over the initial area."""
-        return self.force_N / self.area_m2(specimen)
+        return self.force_n / self.area_m2(specimen)
 
     def loads(self, size_m: tuple[float, float, float]) -> Loads:
         """The measured force by column, with the area it acts on, m^2."""
-        return {"force_N": (self.force_N, size_m[0] * size_m[1])}
+        return {"force_N": (self.force_n, size_m[0] * size_m[1])}
 
 
 @dataclass(frozen=True)
@@ -237,11 +242,7 @@ class MeasurementSet:
     biaxial_tests: tuple[BiaxialTest, ...] = ()
 
     def test(self, test_id: str) -> MechanicalTest:
-        """The test named ``test_id``.
-
-        Raises:
-            KeyError: no such test.
-        """
+        """The test named ``test_id`` (KeyError: no such test)."""
         for test in self.tests:
             if test.test_id == test_id:
                 return test
@@ -350,9 +351,7 @@ def load_measurement_set(folder: str | Path) -> MeasurementSet:
             folder is a missing file, a file where the folder should be is refused; no
             ``[specimen]`` where the set holds uniaxial, shear or biaxial tests; the shear
             and biaxial tests' own faults (:mod:`cell.measure.shearbiaxial`).
-        CutTestError: bad ``[block]``, ``[blade]`` or cut rows
-            (:func:`cell.measure.cuts.read_cut_tables`,
-            :func:`cell.measure.cuts.read_cut_tests`).
+        CutTestError: bad ``[block]``, ``[blade]`` or cut rows (:mod:`cell.measure.cuts`).
 
     Example:
         >>> len(load_measurement_set("assets/measured/beef_round_example").tests)

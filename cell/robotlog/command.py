@@ -1,4 +1,5 @@
-"""``musclecell import``: robot logs of cuts into a measurement set (docs/robot-logs.md).
+"""``musclecell import``: robot logs of cuts into a measurement set, or a whole cell's robot
+log into a separation log, as the mapping file says (docs/robot-logs.md).
 
 Light at import (no MuJoCo, no ROS reader): the handler imports the rest.
 """
@@ -15,30 +16,48 @@ from cell.outputs import Output, check_outputs
 def add_import(commands: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """The ``import`` subcommand; returns its parser."""
     parser = commands.add_parser(
-        "import", help="turn robot logs of cuts (rostopic dumps, ROS 1/2 bags, MCAP) into a "
-        "cut-test set, one test per log, as a mapping file says")
+        "import", help="turn robot logs (rostopic dumps, ROS 1/2 bags, MCAP) into a cut-test "
+        "set, one test per log, or a whole cell's log into a separation log, as a mapping "
+        "file says")
     parser.add_argument("mapping", type=Path,
-                        help="the mapping file (TOML): topics, frames, block and blade")
+                        help="the mapping file (TOML): a cut's topics, frames, block and blade; "
+                        "or, with [channels], a whole cell's sensors")
     parser.add_argument("logs", type=Path, nargs="+",
-                        help="one log per cut: a folder of rostopic echo -p dumps, a ROS 2 "
-                        "bag's folder, a .bag or a .mcap file")
+                        help="one log per cut or per episode: a folder of rostopic echo -p "
+                        "dumps, a ROS 2 bag's folder, a .bag or a .mcap file")
     parser.add_argument("--out", "-o", type=Path, required=True,
-                        help="the set's folder to write (specimen.toml and tests.csv)")
+                        help="the folder to write: the set (specimen.toml and tests.csv), or "
+                        "the separation log (several logs: a folder each in it)")
     parser.set_defaults(handler=import_command, uses_mujoco=False)
     return parser
 
 
 def import_command(args: argparse.Namespace) -> int:
-    """``musclecell import MAPPING LOG... --out SET``: the output checked, the mapping read,
-    every log converted, then the set written whole."""
+    """``musclecell import MAPPING LOG... --out FOLDER``: the output checked, the mapping
+    read, every log converted, then the set or the logs written whole."""
+    from cell.config import read_toml
+    from cell.errors import MappingError
     from cell.measure.specimens import SPECIMEN_FILE, TESTS_FILE
-    from cell.robotlog.cutlog import import_cut_set
-    from cell.robotlog.mapping import read_mapping
+    from cell.robotlog.cellmapping import cell_mapping_from_toml, is_cell_mapping
 
-    check_outputs([Output(args.out, "--out", folder=True, whole=True,
-                          marks=(SPECIMEN_FILE, TESTS_FILE))], [args.mapping, *args.logs])
-    mapping = read_mapping(args.mapping)
-    folder = import_cut_set(mapping, args.logs, args.out)
+    raw = read_toml(args.mapping, MappingError)
+    whole_cell = is_cell_mapping(raw)
+    marks = ("log.toml",) if whole_cell and len(args.logs) == 1 else (
+        () if whole_cell else (SPECIMEN_FILE, TESTS_FILE))
+    check_outputs([Output(args.out, "--out", folder=True, whole=True, marks=marks)],
+                  [args.mapping, *args.logs])
+    if whole_cell:
+        from cell.robotlog.celllog import import_cell_logs
+
+        folder = import_cell_logs(cell_mapping_from_toml(raw, args.mapping), args.logs,
+                                  args.out)
+        print(f"musclecell import: {len(args.logs)} separation log"
+              f"{'s' if len(args.logs) > 1 else ''} written to {folder}", file=sys.stderr)
+        return 0
+    from cell.robotlog.cutlog import import_cut_set
+    from cell.robotlog.mapping import mapping_from_toml
+
+    folder = import_cut_set(mapping_from_toml(raw, args.mapping), args.logs, args.out)
     print(f"musclecell import: {len(args.logs)} cut tests written to {folder}",
           file=sys.stderr)
     return 0

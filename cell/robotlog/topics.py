@@ -162,9 +162,11 @@ def _series(source: Path, topic: str, recorded_ns: list[int], rows: list[dict[st
 def _flattened(message: Any, prefix: str = "") -> Iterator[tuple[str, float | int | str]]:
     """``(name, value)`` of every number and string in a deserialised message, named as
     ``rostopic echo -p`` names them; a time (``sec`` and ``nanosec``) as one integer in ns."""
-    names = getattr(message, "__dataclass_fields__", None)
-    if names is None:
+    fields = getattr(message, "__dataclass_fields__", None)
+    if fields is None:
         return
+    # rosbags keeps the message's type name as a field (``__msgtype__``): not data.
+    names = [name for name in fields if not name.startswith("__")]
     if set(names) == {"sec", "nanosec"}:
         yield prefix.rstrip("."), int(message.sec) * 10**9 + int(message.nanosec)
         return

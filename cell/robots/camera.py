@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from cell.errors import PerceptionError
+from cell.profiling import timed
 
 
 class CameraRig:
@@ -28,6 +29,7 @@ class CameraRig:
         ((48, 64), 0.99)
     """
 
+    @timed("perception")  # the renderer's GL context
     def __init__(self, model: mujoco.MjModel, camera: str, width_px: int,
                  height_px: int) -> None:
         self.model = model

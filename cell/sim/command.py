@@ -8,6 +8,7 @@ handler checks its outputs (:mod:`cell.outputs`) before it builds anything.
 from __future__ import annotations
 
 import argparse
+import time
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -17,7 +18,9 @@ from cell.options import add_out, add_quiet, moved_positional
 from cell.outputs import Output, check_outputs
 
 if TYPE_CHECKING:
+    from cell.sim.episode import Episode
     from cell.sim.scenario import Scenario
+    from cell.sim.trajectory import TrajectorySampler
 
 
 def add_simulation(commands: argparse._SubParsersAction) -> None:
@@ -29,6 +32,24 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--log", type=Path, help="write the episode's separation log (sensors "
                      "over time, docs/logs.md) into this folder")
+    run.add_argument("--trajectory", type=Path, metavar="FILE",
+                     help="write the arms' planned and executed joint trajectories, tool poses "
+                     "and wrenches here: .mcap (ROS 2 messages) or .csv; and their limits "
+                     "report beside it (FILE's stem + .limits.json)")
+    run.add_argument("--view", nargs="?", const="auto", choices=("auto", "spawn", "serve"),
+                     help="show the recording live in Rerun's viewer as the episode runs: "
+                     "spawn the viewer (a display), serve it to a browser (none), or auto "
+                     "(the default of a bare --view: spawn where there is a display)")
+    run.add_argument("--grpc-port", type=int, default=9876,
+                     help="--view: the port the recording streams on (default 9876)")
+    run.add_argument("--web-port", type=int, default=9090,
+                     help="--view serve: the web viewer's port (default 9090)")
+    run.add_argument("--view-hold", type=float, metavar="S",
+                     help="--view serve: keep serving S seconds after the episode (default: "
+                     "until Ctrl-C)")
+    run.add_argument("--profile", action="store_true",
+                     help="print where the wall time goes, by part (docs/cli.md), and add "
+                     "it to the summary JSON as 'profile'")
     add_quiet(run)
     run.set_defaults(handler=run_command)
 
@@ -80,15 +101,32 @@ def run_command(args: argparse.Namespace) -> int:
     from cell.outputs import write_json
     from cell.sim.episode import Episode
     from cell.sim.episodelog import LoggedEpisode, write_log
+    from cell.sim.liveview import LiveView
+    from cell.sim.profiled import add_mujoco_stages, episode_profile, start_episode
+    from cell.sim.trajectory import TrajectorySampler
+    from cell.sim.trajectoryfiles import check_trajectory_path, limits_path
 
+    if args.trajectory:
+        check_trajectory_path(args.trajectory)
     check_outputs([args.rerun and Output(args.rerun, "--rerun"),
                    args.out and Output(args.out, "--out"),
+                   args.trajectory and Output(args.trajectory, "--trajectory"),
+                   args.trajectory and Output(limits_path(args.trajectory), "--trajectory"),
                    args.log and Output(args.log, "--log", folder=True, whole=True,
                                        marks=("log.toml",))],
                   [args.scenario])
-    scenario = load(args)
-    episode = LoggedEpisode(scenario) if args.log else Episode(scenario)
-    summary = episode.run(rerun_path=args.rerun, progress=not args.quiet)
+    view = (LiveView(args.view, args.grpc_port, args.web_port, args.view_hold) if args.view
+            else None)
+    with episode_profile(args.profile) as profile:
+        episode = start_episode(load(args), LoggedEpisode if args.log else Episode)
+        sampler = TrajectorySampler.attach(episode) if args.trajectory else None
+        start = time.perf_counter()
+        summary = episode.run(rerun_path=args.rerun, progress=not args.quiet, view=view)
+    if sampler is not None:
+        _write_trajectory(args.trajectory, episode, sampler, time.perf_counter() - start)
+    if profile is not None:
+        add_mujoco_stages(profile, episode.sim.data)
+        summary["profile"] = profile.to_dict()
     if args.out:
         write_json(args.out, summary)
     if isinstance(episode, LoggedEpisode):
@@ -98,7 +136,27 @@ def run_command(args: argparse.Namespace) -> int:
           f"{result['released_by_rule']}, median gap {result['gap_m']['median'] * 1e3:.1f} mm, "
           f"knife tracking median {result['knife_tracking_error_m']['median'] * 1e3:.2f} mm, "
           f"real-time factor {summary['timing']['real_time_factor']:.3f}")
+    if profile is not None:
+        print(profile.table())
     return 0
+
+
+def _write_trajectory(path: Path, episode: Episode, sampler: TrajectorySampler,
+                      episode_wall_s: float) -> None:
+    """The trajectory file and its limits report; what writing them cost (the sampling
+    during the episode, the report and the files) against the episode's wall time (its run:
+    perception, plan and control loop)."""
+    from cell.sim.trajectoryfiles import program_output, write_trajectory
+
+    start = time.perf_counter()
+    output = program_output(episode, sampler, path.suffix)
+    write_trajectory(path, output)
+    cost_s = sampler.elapsed_s + time.perf_counter() - start
+    report = output.report
+    verdict = ("the limits hold" if report["holds"]
+               else f"{len(report['flags'])} limits broken: {'; '.join(report['flags'])}")
+    print(f"wrote {path} ({output.trajectory.steps} control steps; {verdict}); the trajectory "
+          f"took {cost_s / episode_wall_s:.1%} of the episode's wall time")
 
 
 def plan_command(args: argparse.Namespace) -> int:

@@ -7,35 +7,26 @@ What it measures and its summary: :mod:`cell.sim.summary`.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from cell.perception.interface import SeenInterface
 from cell.perception.pipeline import PerceivedPlan, generic_model, perceive
+from cell.profiling import timed
 from cell.progress import progress_bar
 from cell.robots.camera import CameraRig
 from cell.robots.names import ARMS, CAMERA, GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
-from cell.sim.assembly import (
-    Scene,
-    build_robot_spec,
-    build_scene,
-    grasp_point,
-)
-from cell.sim.recording import EpisodeRecorder
+from cell.sim.assembly import Scene, build_robot_spec, build_scene, grasp_point
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
 from cell.sim.score import CutScore
 from cell.sim.simulation import Simulation
-from cell.sim.summary import (
-    EpisodeTrace,
-    episode_summary,
-    recording_scalars,
-    released_fraction,
-)
+from cell.sim.summary import EpisodeTrace, episode_summary, recording_scalars, released_fraction
 from cell.tissue.aponeurosis import ReleaseRule
 from controllers import gripper, knife
 from controllers.camera import view_pose
@@ -44,6 +35,10 @@ from controllers.ik import CellIK, arm_joint_names, pose
 from controllers.knife import CutWindow, PassPlan
 from controllers.steering import LeanSteering
 from controllers.trajectory import CartesianTrajectory
+
+if TYPE_CHECKING:  # Rerun is imported by the recorder only: its import is dear
+    from cell.sim.liveview import LiveView
+    from cell.sim.recording import EpisodeRecorder
 
 #: IK iterations that bring the arms from home to their ready poses before the episode starts.
 _READY_ITERATIONS = 200
@@ -121,11 +116,18 @@ class Episode:
         self._solve_ready_poses()
         self._place_arms()
         self._control_steps = 0
+        self.step_observers: list[Callable[[], None]] = []  # called after each control step
         self._knife_tared = self._gripper_tared = self._grasped = False
         self._knife_load_n = np.zeros(3)  # the load on the blade at the last reading, world, N
         self._jaw_half_m = np.array([scenario.gripper.finger_width_m / 2,
                                      scenario.gripper.max_opening_m / 2,
                                      scenario.gripper.finger_length_m / 2])
+
+    @property
+    def commanded_q_rad(self) -> np.ndarray:
+        """The arms' joint commands of the last control step (before the first: the ready
+        poses), rad, in the order of :attr:`scene_qpos`."""
+        return self._ctrl_prev
 
     def _home_configuration(self) -> np.ndarray:
         q = self.robot_model.qpos0.copy()
@@ -170,21 +172,23 @@ class Episode:
         self.sim.forward()
         self._ctrl_prev = q.copy()
 
-    def run(self, rerun_path: str | Path | None = None, progress: bool = False
-            ) -> dict[str, Any]:
-        """Run the episode; returns the summary. Writes the Rerun file if a path is given.
+    def run(self, rerun_path: str | Path | None = None, progress: bool = False,
+            view: LiveView | None = None) -> dict[str, Any]:
+        """Run the episode; returns the summary. Writes the Rerun file if a path is given, and
+        streams the recording to a live ``view`` if one is given.
 
         Raises:
             DivergenceError: the physics blew up (nothing is written then).
         """
         scenario, model = self.scenario, self.sim.model
         rig = (CameraRig(model, CAMERA, scenario.camera.width_px, scenario.camera.height_px)
-               if scenario.perception.enabled or rerun_path is not None else nullcontext())
+               if scenario.perception.enabled or rerun_path or view else nullcontext())
         with rig as camera:
-            return self._run(camera, rerun_path, progress)
+            return self._run(camera, rerun_path, progress, view)
 
     def _run(self, rig: CameraRig | None, rerun_path: str | Path | None,
-             progress: bool) -> dict[str, Any]:
+             progress: bool, view: LiveView | None = None) -> dict[str, Any]:
+        """The episode's loop: long because it is where a control step's parts meet."""
         scenario, sim, ik = self.scenario, self.sim, self.ik
         data, model, scene = sim.data, sim.model, self.scene
         perceived = self.perceive(rig) if rig is not None and scenario.perception.enabled \
@@ -204,13 +208,11 @@ class Episode:
         if not scenario.cut.enabled:
             held["knife"] = ik.site_pose(KNIFE_TIP)[0]
         recorder = None
-        if rerun_path is not None:
-            recorder = EpisodeRecorder(rerun_path, scene, f"{scenario.name}-{scenario.seed}")
-            recorder.log_planned_path(plan.cut_path_m)
-            if perceived is not None:
-                recorder.log_perception(perceived)
-                recorder.log_look(0, perceived.guideline.points_m, perceived.cloud_m,
-                                  plan.passes.cut_paths_m[0])
+        if rerun_path is not None or view is not None:
+            from cell.sim.recording import open_recording
+            recorder = open_recording(rerun_path, view, scene,
+                                      f"{scenario.name}-{scenario.seed}", plan.cut_path_m,
+                                      perceived, plan.passes.cut_paths_m[0])
         frame_every = max(1, round(1.0 / (scenario.recording.rate_hz * self.control_dt_s)))
         camera_every = max(1, round(1.0 / (scenario.recording.camera_rate_hz
                                            * self.control_dt_s)))
@@ -235,6 +237,8 @@ class Episode:
                 t = sim.time_s
                 tip = data.site_xpos[tip_site]
                 self._measure(trace, self._knife_tared, self._gripper_tared)
+                for observe in self.step_observers:
+                    observe()
                 if relooks is not None and relooks.due(t):
                     self._relook(relooks, rig, plan, recorder)
                 pass_index = plan.passes.pass_at(t)
@@ -264,6 +268,7 @@ class Episode:
         return episode_summary(scenario, scene, sim, trace, score, plan.passes, wall_s,
                                perceived, relooks, steering)
 
+    @timed("planning")
     def plan(self, perceived: PerceivedPlan | None = None) -> EpisodePlan:
         """Plan the knife and the gripper from the arms' present IK poses (the ready poses
         before the first control step): along the perceived guideline and interface, or the
@@ -288,10 +293,12 @@ class Episode:
         end_s = scenario.end_s or max(knife_traj.end_s, schedule.pull_end_s) + 0.5
         return EpisodePlan(knife_traj, cut_path, window, pull_traj, schedule, end_s, passes)
 
+    @timed("IK and servos")  # the physics and the rules inside it timed as theirs
     def control_step(self, plan: EpisodePlan,
                      knife_target: tuple[np.ndarray, np.ndarray] | None,
                      grasp_target: tuple[np.ndarray, np.ndarray] | None,
                      knife_plan_s: float | None = None,
+                     command_q_rad: np.ndarray | None = None,
                      ) -> dict[ReleaseRule, np.ndarray]:
         """One control step: IK toward the tool targets (position m, rotation; None keeps the
         last target), the joint controls ramped over the physics steps, then the plan's
@@ -299,7 +306,9 @@ class Episode:
         ``knife_plan_s`` is the plan's time the knife target is at (None: the step's own
         time, for a knife on the plan's clock): whether the knife cuts, and how far into its
         cutting-force curve, follow the knife, so that a knife slower or faster than its
-        plan cuts for as long as it is in its cut.
+        plan cuts for as long as it is in its cut. ``command_q_rad`` (the arms' joint
+        commands, rad, in the order of :attr:`scene_qpos`) replaces the IK: a program played
+        open-loop.
 
         Returns:
             The bindings released in this step, by rule.
@@ -316,7 +325,8 @@ class Episode:
             self.ik.knife.set_target(pose(*knife_target))
         if grasp_target is not None:
             self.ik.grasp.set_target(pose(*grasp_target))
-        ctrl_next = self.ik.solve(self.control_dt_s)[self.ik_qpos]
+        ctrl_next = (self.ik.solve(self.control_dt_s)[self.ik_qpos] if command_q_rad is None
+                     else np.asarray(command_q_rad, dtype=float))
         if scenario.pull.enabled and t_next >= schedule.close_s:
             data.ctrl[self.fingers] = 0.0
         ctrl_prev = self._ctrl_prev
@@ -343,6 +353,7 @@ class Episode:
         return sim.apply_release_rules(
             None if cutting is None else knife_s - plan.passes.windows_s[cutting].start_s)
 
+    @timed("perception")
     def perceive(self, rig: CameraRig) -> PerceivedPlan:
         """Look at the meat from the camera arm's pose and plan the cut (paper Sec. 5); the
         sensor noise follows the scenario's seed.
@@ -355,6 +366,7 @@ class Episode:
         return perceive(rig, self.sim.data, self.scene.mesh, self.generic,
                         self.scenario.perception, rng)
 
+    @timed("perception")
     def _relook(self, relooks: Relooks, rig: CameraRig, plan: EpisodePlan,
                 recorder: EpisodeRecorder | None) -> None:
         """The look after a pass: the interface estimate updated, the update and what it

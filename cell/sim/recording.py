@@ -20,8 +20,10 @@ import rerun as rr
 
 from cell.outputs import AtomicFile
 from cell.perception.pipeline import PerceivedPlan
+from cell.profiling import timed_methods
 from cell.robots.camera import CameraRig
 from cell.sim.assembly import Scene
+from cell.sim.liveview import LiveView
 
 _RELEASE_COLOURS = {"knife": [255, 200, 0], "tearing": [255, 60, 200],
                     "force": [60, 200, 255]}
@@ -42,16 +44,19 @@ def _entity(body_name: str) -> str:
     return "world/cell/" + body_name.replace("/", ".")
 
 
+@timed_methods("recording")
 class EpisodeRecorder:
-    """Writes one episode to a ``.rrd`` file; the file appears (atomically) at :meth:`close`.
+    """Writes one episode to a ``.rrd`` file, to a live viewer, or both; the file appears
+    (atomically) at :meth:`close`.
 
     The recording streams to a temporary file beside it (:class:`~cell.outputs.AtomicFile`), so that
     a long episode does not grow in memory and a failed one (:meth:`abort`) leaves no file.
 
     Args:
-        path: the ``.rrd`` file to write.
+        path: the ``.rrd`` file to write (None: none, only the live view).
         scene: the compiled cell.
         recording_id: fixed id, so that the same seed gives the same recording identity.
+        view: the live view to stream to as well (:class:`~cell.sim.liveview.LiveView`).
 
     Example:
         >>> import tempfile
@@ -67,14 +72,16 @@ class EpisodeRecorder:
         True
     """
 
-    def __init__(self, path: str | Path, scene: Scene, recording_id: str) -> None:
-        self.path = Path(path)
+    def __init__(self, path: str | Path | None, scene: Scene, recording_id: str,
+                 view: LiveView | None = None) -> None:
         self.scene = scene
         self.model = scene.model
+        self.view = view
         rid = uuid.uuid5(uuid.NAMESPACE_URL, f"musclecell/{recording_id}")
         self.stream = rr.RecordingStream("musclecell", recording_id=rid)
-        self._file = AtomicFile(self.path)
-        self.stream.save(self._file.temporary)
+        self._file = None if path is None else AtomicFile(Path(path))
+        sinks = [] if self._file is None else [rr.FileSink(str(self._file.temporary))]
+        self.stream.set_sinks(*sinks, *(view.sinks() if view is not None else []))
         tissue = set(scene.round_bodies.tolist()) | set(scene.shank_bodies.tolist())
         self._bodies = [b for b in range(1, self.model.nbody)
                         if b not in tissue and self.model.body_geomnum[b] > 0]
@@ -203,13 +210,37 @@ class EpisodeRecorder:
         s.log("world/camera/rgb", rr.Image(rig.rgb(data)))
         s.log("world/camera/depth", rr.DepthImage(rig.depth(data), meter=1.0))
 
-    def close(self) -> Path:
-        """Flush and move the recording into place."""
+    def close(self) -> Path | None:
+        """Flush, hold a served live view (:meth:`LiveView.hold`), and move the recording into
+        place (None: no file)."""
         self.stream.flush()
+        if self.view is not None:
+            try:
+                self.view.hold()
+            except BaseException:
+                self.abort()
+                raise
         self.stream.disconnect()
-        return self._file.commit()
+        return None if self._file is None else self._file.commit()
 
     def abort(self) -> None:
         """Drop the partial recording (the episode failed)."""
         self.stream.disconnect()
-        self._file.discard()
+        if self._file is not None:
+            self._file.discard()
+
+
+def open_recording(path: str | Path | None, view: LiveView | None, scene: Scene,
+                   recording_id: str, cut_path_m: np.ndarray, perceived: PerceivedPlan | None,
+                   first_pass_m: np.ndarray) -> EpisodeRecorder | None:
+    """An episode's recording (to the file ``path``, the live ``view`` or both; None when
+    neither is asked for), its planned tip path (``cut_path_m``) and, where the camera looked,
+    its first look and the first pass's tip path (``first_pass_m``) logged."""
+    if path is None and view is None:
+        return None
+    recorder = EpisodeRecorder(path, scene, recording_id, view)
+    recorder.log_planned_path(cut_path_m)
+    if perceived is not None:
+        recorder.log_perception(perceived)
+        recorder.log_look(0, perceived.guideline.points_m, perceived.cloud_m, first_pass_m)
+    return recorder

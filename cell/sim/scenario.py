@@ -11,6 +11,7 @@ Example:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Literal
@@ -110,7 +111,11 @@ class AponeurosisParams:
     to push the edge through the seam, or the curve's) one binding under the blade must
     carry to be cut by the force rule (the knife force also shears muscle and overcomes
     friction); ``force_scale`` multiplies the cutting force (the seam's toughness or the
-    curve: a duller or sharper knife, a tougher or weaker aponeurosis). ``force_share`` and
+    curve: a duller or sharper knife, a tougher or weaker aponeurosis).
+    ``toughness_gradient``: the seam's toughness graded along the interface (the cutting
+    model only): times ``exp(g (x - x_mid) / L)`` at the blade's centre ``x``, ``x_mid`` the
+    interface's middle and ``L`` its length, so that ``exp(g)`` is the ratio of its toughness
+    at the +x end to the -x end (0: the same all along). ``force_share`` and
     ``edge_share`` were chosen on the default episode with the curve so that the force rule
     cuts the bindings within the blade's reach and the pull tears those below it, and the
     knife reads about the curve's force while cutting (docs/benchmarks.md gives the
@@ -135,6 +140,7 @@ class AponeurosisParams:
     knife_margin_m: float = 0.003
     knife_force: Literal["cutting", "curve"] = "cutting"
     toughness_j_m2: float = 170.0
+    toughness_gradient: float = 0.0
     force_curve: str = str(asset_path("cutting_force/boning_knife_synthetic.csv"))
     force_share: float = 0.05
     force_scale: float = 1.0
@@ -149,6 +155,8 @@ class AponeurosisParams:
                   "force_share", "force_scale", "toughness_j_m2")
         require_non_negative(self, "damping_n_s_m", "tearing_force_n", "knife_margin_m",
                              "edge_share")
+        if not math.isfinite(self.toughness_gradient):
+            raise InputError(None, "toughness_gradient", "expected a finite number")
         if "force" in self.release_rules and self.law != "spring":
             raise InputError(None, "release_rules",
                              "the force rule needs law = \"spring\" (a binding force in N)")

@@ -39,6 +39,7 @@ import mujoco
 import numpy as np
 
 from cell.perception.registration import closest_on_triangles
+from cell.profiling import timed
 from cell.tissue.aponeurosis import Aponeurosis
 from cell.tissue.geometry import TwoMuscleMesh
 
@@ -103,6 +104,7 @@ class CutScore:
         across = along_normal >= _ACROSS_COSINE * distance
         return distance, binding, across
 
+    @timed("scoring")
     def observe(self, data: mujoco.MjData, pass_index: int, tip_m: np.ndarray,
                 blade_axis: np.ndarray) -> None:
         """Score one control step of cutting: the tip at ``tip_m`` (m), the blade running up

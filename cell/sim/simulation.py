@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from cell.errors import MaterialError, ScenarioError
+from cell.profiling import part, timed
 from cell.robots.names import GRASP_SITE, GRIPPER_BODY, KNIFE_BLADE_GEOM
 from cell.sim.assembly import Scene
 from cell.sim.divergence import FATAL_WARNINGS, check_state, fatal_warnings
@@ -98,10 +99,11 @@ class TissueSimulation:
         start = self.time_s
         for index in range(count):
             self._apply_forces()
-            if index < count - 1 or not sensors:
-                mujoco.mj_step(self.model, self.data)
-            else:
-                self._with_sensors(mujoco.mj_step)
+            with part("MuJoCo step"):
+                if index < count - 1 or not sensors:
+                    mujoco.mj_step(self.model, self.data)
+                else:
+                    self._with_sensors(mujoco.mj_step)
         self.check_divergence(start + count * self.model.opt.timestep)
 
     def forward(self) -> None:
@@ -119,6 +121,7 @@ class TissueSimulation:
     def _apply_forces(self) -> None:
         self.tissue.apply(self.data)
 
+    @timed("divergence check")
     def check_divergence(self, time_s: float | None = None) -> None:
         """Raise :class:`~cell.errors.DivergenceError` on NaN, a fatal MuJoCo warning since
         the last check or runaway tissue (:func:`~cell.sim.divergence.check_state`);
@@ -181,7 +184,8 @@ class Simulation(TissueSimulation):
             ReleaseRule.FORCE.value in params.release_rules or params.edge_share > 0) else None)
         # The material's cutting model in the seam, or a share of the curve at the edge.
         self.seam = (SeamCut(params.cutting(scenario.material.cutting), scene.mesh.top_line,
-                             float(scene.mesh.origin_m[2])) if by_model else None)
+                             float(scene.mesh.origin_m[2]), params.toughness_gradient)
+                     if by_model else None)
         self.edge = EdgeResistance(self.model)
         self._edge_force_n = 0.0  # the curve's share the edge meets until the next check, N
         self._cutting_n = 0.0  # the seam's force to cut where the edge was at the last step, N
@@ -259,6 +263,7 @@ class Simulation(TissueSimulation):
         site = self._tool_sensor[name][0]
         return value - self.data.site_xmat[site].reshape(3, 3).T @ load
 
+    @timed("cutting terms")  # the tissue's parts inside it timed as theirs
     def _apply_forces(self) -> None:
         data = self.data
         blade_pos, blade_mat = data.geom_xpos[self._blade], data.geom_xmat[self._blade]
@@ -300,6 +305,7 @@ class Simulation(TissueSimulation):
                                 "materials are isotropic)")
         self.springs[muscle].set_fibre_direction(direction)
 
+    @timed("release rules")
     def apply_release_rules(self, knife_time_s: float | None = None
                             ) -> dict[ReleaseRule, np.ndarray]:
         """Release bindings by the scenario's rules; returns the indices released per rule.
@@ -339,6 +345,7 @@ class Simulation(TissueSimulation):
                 params.tearing_force_n or None)
         return released
 
+    @timed("sensing")
     def knife_load_n(self) -> dict[str, float]:
         """How the force on the knife splits, N (norms of world-frame vectors): ``bindings``
         hooked on the edge, ``flesh`` pushing on the knife (its flex contacts), the
@@ -368,6 +375,7 @@ class Simulation(TissueSimulation):
         self.grasped = scene.grasp_equalities[inside]
         return int(inside.sum())
 
+    @timed("sensing")
     def tare(self, *names: str) -> None:
         """Zero sensors (all by default) at the present load, such as a tool's own weight."""
         for name in names or tuple(self._sensor):
@@ -378,6 +386,7 @@ class Simulation(TissueSimulation):
         site = self._sensor_site[name]
         return self.data.site_xmat[site].reshape(3, 3) @ self.read(name)
 
+    @timed("sensing")
     def read(self, name: str, rng: np.random.Generator | None = None) -> np.ndarray:
         """A tared 3-vector sensor reading with the sensors' bias and noise: ``knife/force``,
         ``knife/torque``, ``gripper/force``, ``gripper/torque`` (N, N m, sensor frame) or

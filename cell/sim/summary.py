@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from cell.perception.pipeline import PerceivedPlan
+from cell.profiling import timed
 from cell.sim.assembly import Scene
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
@@ -77,6 +78,7 @@ def _mean(series: list[float]) -> float:
     return float(np.mean(series)) if series else 0.0
 
 
+@timed("summary")
 def episode_summary(scenario: Scenario, scene: Scene, sim: Simulation, trace: EpisodeTrace,
                     score: CutScore, passes: PassPlan, wall_s: float,
                     perceived: PerceivedPlan | None, relooks: Relooks | None,

@@ -7,22 +7,12 @@ logs (``log-1``, ...), each with the scenario the lab believes (the base scenari
 log's meat shape, naming ``../material.toml``). Each log's meat shape is drawn about the
 base's (length, round's width and height, the interface's bow); its episode has a seed of
 its own, so its sensors' noise differs. The world the cell runs differs from the belief by
-the hidden causes of the log cause table (docs/logs.md), with drawn
-magnitudes, the same for every log of the batch:
-
-=====================  ===========================================================================
-``binding_strength``   the seam's toughness and the bindings' stiffness times a factor
-``binding_gradient``   the seam's toughness graded along the interface: the factor is the ratio
-                       of its two ends
-``tearing_threshold``  the bindings' tearing stretch times a factor
-``tissue_stiffness``   every modulus curve of the material times a factor
-``fibre_direction``    the fibres turned about the vertical by an angle
-``blade_friction``     the material's face friction times a factor (a cutting cause)
-``sensor_offset``      a constant force added to one channel (knife, gripper or fixture)
-=====================  ===========================================================================
-
-The world's changes are those the batch diagnosis fits (:mod:`cell.logs.causes`), so that
-a fitted magnitude compares with the truth.
+the hidden causes of the log diagnosis's registry (:mod:`cell.logs.causes`, every cause of
+:func:`hidden_causes`), with drawn magnitudes, the same for every log of the batch: a world
+cause's factor (or angle) drawn within its ``typical`` range, either way; ``sensor_offset``
+a constant force added to one channel (:data:`~cell.measure.logs.CHANNELS`). The world's
+changes are those the batch diagnosis fits, so that a fitted magnitude compares with the
+truth, and a cause added to the registry can be hidden with nothing edited here.
 
 The files say that the batch is synthetic and hold nothing of the truth (compare
 :mod:`cell.synthetic.cut` for cut sets).
@@ -50,7 +40,8 @@ import numpy as np
 
 from cell.config import read_toml
 from cell.errors import LogError
-from cell.logs.causes import SENSOR_OFFSET, applicable, changed_world, episode_adjustment
+from cell.logs.causes import CAUSES, SENSOR_OFFSET, applicable, changed_world
+from cell.measure.logs import CHANNELS
 from cell.outputs import write_atomic
 from cell.sim.episodelog import LoggedEpisode, write_log
 from cell.sim.scenario import Scenario, load_scenario
@@ -58,9 +49,10 @@ from cell.sim.scenariotoml import resolved_tables, tables_toml
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.materialfile import material_to_toml
 
-#: The causes this generator can hide: the log cause table's and ``blade_friction``.
-LOG_CAUSES = ("binding_strength", "binding_gradient", "tearing_threshold", "tissue_stiffness",
-              "fibre_direction", "blade_friction", SENSOR_OFFSET)
+#: The world causes drawn from the seed's first stream, in this order (those the generator
+#: had before later causes got a stream of their own, so that old seeds keep their batches);
+#: every other cause of the registry draws from the second stream, in the registry's order.
+_FIRST_STREAM = ("binding_strength", "tearing_threshold", "tissue_stiffness", "fibre_direction")
 #: Logs per batch.
 LOG_COUNT = 3
 #: The meat shape's drawn keys and the range of their factor on the base's value.
@@ -75,12 +67,10 @@ class LogBatchTruth:
     """The answer key of one hidden-effect log batch (never written into the batch).
 
     Attributes:
-        causes: the hidden causes, in :data:`LOG_CAUSES`' order (none: the belief's world).
+        causes: the hidden causes, in :func:`hidden_causes`' order (none: the belief's world).
         seed: the seed everything was drawn from.
-        magnitudes: each hidden cause's drawn magnitude: a factor (``binding_strength``,
-            ``binding_gradient``, ``tearing_threshold``, ``tissue_stiffness``,
-            ``blade_friction``), an angle in rad (``fibre_direction``), or the offset
-            channel's force, N (``sensor_offset``).
+        magnitudes: each hidden cause's drawn magnitude: a factor, an angle in rad (a cause
+            of kind ``"angle"``), or the offset channel's force, N (``sensor_offset``).
         offset_channel: the channel ``sensor_offset`` changes ("" without it).
         shapes: each log's drawn meat shape (the keys of :data:`SHAPE_FACTORS`, m).
         wall_s: wall-clock time of the batch's episodes, s.
@@ -98,43 +88,48 @@ class LogBatchTruth:
         return json.dumps(self.__dict__, indent=2, default=list) + "\n"
 
 
+def hidden_causes() -> tuple[str, ...]:
+    """The causes this generator can hide: every world cause of the registry
+    (:data:`~cell.logs.causes.CAUSES`) and ``sensor_offset``."""
+    return (*CAUSES, SENSOR_OFFSET)
+
+
+def _draw(cause: str, stream: np.random.Generator) -> float:
+    """A magnitude of ``cause`` within its ``typical`` range, either way: a factor, or an
+    angle in rad."""
+    low, high = CAUSES[cause].typical
+    if CAUSES[cause].kind == "angle":
+        return float(stream.choice([-1.0, 1.0]) * np.radians(stream.uniform(low, high)))
+    return float(np.exp(stream.choice([-1.0, 1.0]) * stream.uniform(np.log(low), np.log(high))))
+
+
 def _draw_world(seed: int) -> tuple[dict[str, Any], str, np.random.Generator]:
     """Every cause's magnitude (drawn whether hidden or not, so that the other draws do not
-    depend on which are hidden): factors away from 1, an angle, an offset; and the stream
-    the shapes and seeds are drawn from next. ``binding_gradient`` and ``blade_friction``
-    draw from a stream of their own, so that a seed's batches of the other causes are those
-    the generator made before it had them."""
+    depend on which are hidden), and the stream the shapes and seeds are drawn from next."""
     rng, later = np.random.default_rng(seed), np.random.default_rng([seed, 1])
-
-    def factor(low: float, high: float, stream: np.random.Generator = rng) -> float:
-        return float(np.exp(stream.choice([-1.0, 1.0])
-                            * stream.uniform(np.log(low), np.log(high))))
-
-    magnitudes = {"binding_strength": factor(1.3, 2.0), "tearing_threshold": factor(1.3, 2.0),
-                  "tissue_stiffness": factor(1.25, 1.6),
-                  "fibre_direction": float(rng.choice([-1.0, 1.0])
-                                           * np.radians(rng.uniform(20.0, 60.0)))}
+    magnitudes: dict[str, Any] = {cause: _draw(cause, rng) for cause in _FIRST_STREAM}
     offset = rng.normal(0.0, 1.0, 3)
     offset *= rng.uniform(0.5, 2.0) / np.linalg.norm(offset)
     magnitudes[SENSOR_OFFSET] = tuple(float(v) for v in offset)
-    channel = str(rng.choice(["knife", "gripper", "fixture"]))
-    magnitudes["binding_gradient"] = factor(1.6, 2.5, later)
-    magnitudes["blade_friction"] = factor(1.5, 2.5, later)
+    channel = str(rng.choice(list(CHANNELS)))
+    magnitudes.update({cause: _draw(cause, later) for cause in CAUSES
+                       if cause not in _FIRST_STREAM})
     return magnitudes, channel, rng
 
 
 def _world_changes(causes: Sequence[str], magnitudes: dict[str, Any]) -> dict[str, float]:
     """The hidden world causes as :func:`~cell.logs.causes.changed_world` takes them: the
     log of a factor, an angle."""
-    return {cause: (magnitudes[cause] if cause == "fibre_direction"
+    return {cause: (magnitudes[cause] if CAUSES[cause].kind == "angle"
                     else float(np.log(magnitudes[cause])))
             for cause in causes if cause != SENSOR_OFFSET}
 
 
 def _check(causes: Sequence[str], scenario: Scenario, logs: int) -> tuple[str, ...]:
-    unknown = [c for c in causes if c not in LOG_CAUSES]
+    known = hidden_causes()
+    unknown = [c for c in causes if c not in known]
     if unknown or len(set(causes)) != len(causes):
-        raise LogError(None, "causes", f"must be distinct causes of {LOG_CAUSES}, got "
+        raise LogError(None, "causes", f"must be distinct causes of {known}, got "
                        f"{list(causes)}")
     if not isinstance(scenario.material, MassSpringMaterial):
         raise LogError(None, "material", "the generator writes mass-spring materials only")
@@ -143,7 +138,7 @@ def _check(causes: Sequence[str], scenario: Scenario, logs: int) -> tuple[str, .
         raise LogError(None, "causes", f"{idle[0]} changes nothing in this scenario's world")
     if logs < 1:
         raise LogError(None, "logs", f"must be >= 1, got {logs}")
-    return tuple(c for c in LOG_CAUSES if c in causes)
+    return tuple(c for c in known if c in causes)
 
 
 def write_hidden_log_batch(folder: Path, seed: int, base: str | Path,
@@ -177,9 +172,6 @@ def write_hidden_log_batch(folder: Path, seed: int, base: str | Path,
         path.parent.mkdir(parents=True, exist_ok=True)
         write_atomic(path, _scenario_toml(raw, belief, shape))
         episode = LoggedEpisode(changed_world(belief, changes))
-        adjust = episode_adjustment(changes)
-        if adjust is not None:
-            adjust(episode)
         episode.run()
         offset = ({offset_channel: np.asarray(magnitudes[SENSOR_OFFSET])}
                   if SENSOR_OFFSET in causes else {})

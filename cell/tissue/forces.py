@@ -12,6 +12,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from cell.profiling import part
 from cell.tissue.aponeurosis import Aponeurosis
 from cell.tissue.massspring import MassSpringModel
 from cell.tissue.material import ContinuumMaterial, MassSpringMaterial
@@ -81,13 +82,16 @@ class TissueForces:
 
     def apply(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """Write the tissue forces for the state in ``data``; returns the pull on the blade."""
-        if not self.springs:
-            data.qfrc_applied[self.dofs] = 0.0
-        for springs in self.springs.values():
-            springs.apply(data, filtered=False)  # rewrites its muscle's dofs' entries
-        on_blade = self.aponeurosis.apply_forces(data)
-        for springs in self.springs.values():
-            springs.filter(data)  # the bindings' forces go through the implicit step too
+        with part("tissue law"):
+            if not self.springs:
+                data.qfrc_applied[self.dofs] = 0.0
+            for springs in self.springs.values():
+                springs.apply(data, filtered=False)  # rewrites its muscle's dofs' entries
+        with part("bindings"):
+            on_blade = self.aponeurosis.apply_forces(data)
+        with part("implicit solve"):
+            for springs in self.springs.values():
+                springs.filter(data)  # the bindings' forces go through the implicit step too
         return on_blade
 
     def reset(self) -> None:

@@ -35,7 +35,7 @@ The step keeps a little dissipation ``a`` (``theta = a``, ``gamma = 1/2 + a``,
 let the explicit binding springs pump energy into the muscles at a coarse step. A mode's
 numerical damping ratio is then about ``a h omega / 2``: at the default ``a = 0.05`` a swinging
 block of the default meat keeps the small-step explicit amplitude within the tolerance of
-``tests/test_massspring.py``, and the stiffest high modes lose about a tenth of their
+``tests/tissue/test_massspring.py``, and the stiffest high modes lose about a tenth of their
 amplitude a step; a smaller ``a`` left stiff meat on a finer mesh running away late in the
 default episode (docs/benchmarks.md).
 

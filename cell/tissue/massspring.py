@@ -84,7 +84,7 @@ class MassSpringModel:
     every step. The explicit step runs it at every step. Refreshing the law, its tangent
     stiffness and the solve's preconditioner once per control step saves most of the law's
     cost, and over one control step a spring's length changes too little for the tangent line
-    to part from the curve (``tests/test_massspring.py``, the bench's accuracy tests).
+    to part from the curve (``tests/tissue/test_massspring.py``, the bench's accuracy tests).
 
     Attributes:
         material: the material, its fibre direction the one now in use.

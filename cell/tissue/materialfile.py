@@ -156,9 +156,9 @@ def _cutting(table: object, file: str | Path | None, section: str) -> CuttingPar
     return from_table(CuttingParams, table, file=file, section=section, error=MaterialError)
 
 
-def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
-    """``material`` as a material file that :func:`load_material` reads back unchanged,
-    ``comment`` (lines) on top.
+def material_to_toml(material: MassSpringMaterial | ContinuumMaterial, comment: str = "") -> str:
+    """``material`` (either kind) as a material file that :func:`load_material` reads back
+    unchanged, ``comment`` (lines) on top.
 
     Raises:
         MaterialError: a modulus that :func:`load_material` would refuse
@@ -170,47 +170,61 @@ def material_to_toml(material: MassSpringMaterial, comment: str = "") -> str:
         >>> text = material_to_toml(default_meat(), "beef")
         >>> text.splitlines()[:2]
         ['# beef', 'model = "mass_spring"']
+        >>> material_to_toml(ContinuumMaterial(young_pa=2.0e4)).splitlines()[:3]
+        ['model = "continuum"', 'law = "stvk"', 'young_pa = 20000.0']
     """
-
-    for name in _CURVES + _COMPRESSION_CURVES:
-        curve = getattr(material, name)
-        if curve is not None:
-            _check_stiffness(curve, name, name)
-
-    def number(value: float) -> str:
-        return repr(float(value))
-
-    def numbers(values: tuple[float, ...]) -> str:
-        return "[" + ", ".join(number(v) for v in values) + "]"
-
     lines = [f"# {line}".rstrip() for line in comment.splitlines()]
-    lines += [
-        'model = "mass_spring"',
-        f"density_kg_m3 = {number(material.density_kg_m3)}",
-        f"damping_s = {number(material.damping_s)}",
-        f"fibre_direction = {numbers(material.fibre_direction)}",
-        f"relaxation_weights = {numbers(material.relaxation_weights)}",
-        f"relaxation_times_s = {numbers(material.relaxation_times_s)}",
-        f"relaxation_strain_slope = {number(material.relaxation_strain_slope)}",
-        f"relaxation_reference_strain = {number(material.relaxation_reference_strain)}",
-        f"yield_strain = {number(material.yield_strain)}",
-        f"hardening = {number(material.hardening)}",
-        f"geometric_compensation = {number(material.geometric_compensation)}",
-        f"oblique = {number(material.oblique)}",
-    ]
-    if material.oblique_compression is not None:
-        lines.append(f"oblique_compression = {number(material.oblique_compression)}")
-    for name in _CURVES + _COMPRESSION_CURVES:
-        curve: ModulusCurve | None = getattr(material, name)
-        if curve is None:
-            continue
-        lines += ["", f"[{name}]", f"coefficients = {numbers(curve.coefficients)}",
-                  f"r_min = {number(curve.r_min)}", f"r_max = {number(curve.r_max)}",
-                  f"exponent = {number(curve.exponent)}"]
+    if isinstance(material, ContinuumMaterial):
+        MODULUS_PA.check(material.young_pa, None, "young_pa", MaterialError)
+        lines += ['model = "continuum"', f'law = "{material.law}"'] + [
+            f"{name} = {_number(getattr(material, name))}"
+            for name in ("young_pa", "poisson", "density_kg_m3", "damping_s", "yield_strain")]
+    else:
+        lines += _mass_spring_lines(material)
     if material.cutting is not None:
         lines += ["", "[cutting]"]
         for item in fields(CuttingParams):
             value = getattr(material.cutting, item.name)
-            text = numbers(value) if isinstance(value, tuple) else number(value)
+            text = _numbers(value) if isinstance(value, tuple) else _number(value)
             lines.append(f"{item.name} = {text}")
     return "\n".join(lines) + "\n"
+
+
+def _number(value: float) -> str:
+    return repr(float(value))
+
+
+def _numbers(values: tuple[float, ...]) -> str:
+    return "[" + ", ".join(_number(v) for v in values) + "]"
+
+
+def _mass_spring_lines(material: MassSpringMaterial) -> list[str]:
+    """A mass-spring material's keys and modulus-curve tables (checked as the reader does)."""
+    for name in _CURVES + _COMPRESSION_CURVES:
+        curve = getattr(material, name)
+        if curve is not None:
+            _check_stiffness(curve, name, name)
+    lines = [
+        'model = "mass_spring"',
+        f"density_kg_m3 = {_number(material.density_kg_m3)}",
+        f"damping_s = {_number(material.damping_s)}",
+        f"fibre_direction = {_numbers(material.fibre_direction)}",
+        f"relaxation_weights = {_numbers(material.relaxation_weights)}",
+        f"relaxation_times_s = {_numbers(material.relaxation_times_s)}",
+        f"relaxation_strain_slope = {_number(material.relaxation_strain_slope)}",
+        f"relaxation_reference_strain = {_number(material.relaxation_reference_strain)}",
+        f"yield_strain = {_number(material.yield_strain)}",
+        f"hardening = {_number(material.hardening)}",
+        f"geometric_compensation = {_number(material.geometric_compensation)}",
+        f"oblique = {_number(material.oblique)}",
+    ]
+    if material.oblique_compression is not None:
+        lines.append(f"oblique_compression = {_number(material.oblique_compression)}")
+    for name in _CURVES + _COMPRESSION_CURVES:
+        curve: ModulusCurve | None = getattr(material, name)
+        if curve is None:
+            continue
+        lines += ["", f"[{name}]", f"coefficients = {_numbers(curve.coefficients)}",
+                  f"r_min = {_number(curve.r_min)}", f"r_max = {_number(curve.r_max)}",
+                  f"exponent = {_number(curve.exponent)}"]
+    return lines

@@ -73,7 +73,7 @@ from cell.tissue.springlaw import (
 
 #: The mirrored Kuhn lattice's geometric stiffening: linear springs give a uniaxial nominal
 #: secant modulus that grows with the strain; this compensation cancels it within the
-#: tolerance of ``tests/test_specimen.py`` over the strains it checks.
+#: tolerance of ``tests/diagnosis/specimen/test_solve.py`` over the strains it checks.
 LATTICE_STIFFENING = 0.33
 
 

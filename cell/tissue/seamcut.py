@@ -87,6 +87,9 @@ class SeamCut:
         top_line_m: (K, 3) the interface's top line, world frame, ordered along x: the seam's
             top at each x (between its points, linearly; outside them the meat ends).
         bottom_z_m: the seam's bottom, world z (the table), m.
+        gradient: the toughness graded along the top line: the edge's force and resistance
+            times ``exp(gradient (x - x_mid) / L)`` at the blade's centre ``x``, ``x_mid`` the
+            line's middle and ``L`` its length (0: the same all along).
 
     The blade is a box (``half_size_m``: x width, y thickness, z length) whose cutting edge
     is its +x face, upright in the seam; its z axis points to the tip.
@@ -104,7 +107,8 @@ class SeamCut:
         0.0
     """
 
-    def __init__(self, params: CuttingParams, top_line_m: np.ndarray, bottom_z_m: float) -> None:
+    def __init__(self, params: CuttingParams, top_line_m: np.ndarray, bottom_z_m: float,
+                 gradient: float = 0.0) -> None:
         self.params = params
         self._uniform = params.uniform()  # the depth factor is applied along the edge here
         top = np.asarray(top_line_m, dtype=float)
@@ -114,6 +118,8 @@ class SeamCut:
         self._width = (end - start) / count
         self._top = np.interp(0.5 * (self._edges[1:] + self._edges[:-1]), top[:, 0], top[:, 2])
         self._bottom = float(bottom_z_m)
+        self._gradient = float(gradient)
+        self._mid, self._length = 0.5 * (start + end), max(abs(end - start), 1e-6)
         self.reset()
 
     def reset(self) -> None:
@@ -152,14 +158,16 @@ class SeamCut:
         forward = float(push @ edge)
         resistance = 0.0
         edge_n = np.zeros(3)
+        grade = (1.0 if not self._gradient else
+                 math.exp(self._gradient * (float(centre[0]) - self._mid) / self._length))
         if uncut > 0.0:
             heights = bottom + (np.arange(DEPTH_SAMPLES) + 0.5) / DEPTH_SAMPLES * uncut
             weighted = engaged * float(self.params.depth_factor(self._top[at_edge] - heights)
                                        .mean())
-            resistance = self.params.toughness_j_m2 * weighted
+            resistance = self.params.toughness_j_m2 * weighted * grade
             if forward > 0.0:
                 edge_n = edge_force(self._uniform, weighted, push, slide, 0.0) * math.tanh(
-                    forward / STALL_SPEED_M_S)
+                    forward / STALL_SPEED_M_S) * grade
         area = inside / rise * 2.0 * half_size_m[0]
         faces_n = face_friction_force(self.params, area, push, slide) if area > 0 else np.zeros(3)
         # The edge's force acts at the middle of its engaged part, the faces' at the middle of

@@ -9,7 +9,7 @@ run.
 They share this file with the layouts of the packed arrays they read (the ``CURVE_``,
 ``PARAM_``, ``HISTORY_``, ``TANGENT_`` columns): numba's on-disk cache checks only the source
 file of the kernel it loads, not those of the functions it calls or the constants it reads
-(``tests/test_kernel_cache.py``); the implicit step's kernels (:mod:`cell.tissue.implicit`)
+(``tests/tissue/test_kernel_cache.py``); the implicit step's kernels (:mod:`cell.tissue.implicit`)
 read the tangent columns too. The law is inlined into its callers (``inline="always"``),
 cheaper per spring than a call; its slope is its own analytic derivative. The example of
 :mod:`cell.tissue.packedlaw` packs a material and runs :func:`spring_stress`.

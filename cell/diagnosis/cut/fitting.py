@@ -2,14 +2,16 @@
 
 The scheme of the uniaxial fits (:mod:`cell.diagnosis.specimen.fitting`) on the reduced model of a
 cut (:mod:`cell.diagnosis.cut.reduced`): ``scipy.optimize.least_squares`` searches the shape
-parameters of a :class:`~cell.diagnosis.cut.causes.CutCandidate` on thinned samples of every
+parameters of a :class:`~cell.diagnosis.cut.causes.candidate.CutCandidate` on thinned samples of
+every
 test, the linear ones (toughness per layer, the faces' shear stress, the sensor's offset) are
 solved in closed form at each step (bounded: toughness and friction not negative); held-out
 errors are leave-one-test-out, each test predicted at every sample by one damped Gauss-Newton
 step from the full fit on the other tests' rows of its Jacobian, the linear parameters solved
 on the other tests again, the step not taken when it fits them worse.
 
-A test's force is one series, channel after channel (:func:`~cell.diagnosis.cut.causes.flat`):
+A test's force is one series, channel after channel
+(:func:`~cell.diagnosis.cut.causes.candidate.flat`):
 :class:`CutSeries` carries it under the names that the acceptance of a cause reads
 (:mod:`cell.diagnosis.engine.acceptance`), so both kinds of test are judged by the same rules.
 """
@@ -26,7 +28,7 @@ from scipy.optimize import least_squares, lsq_linear
 from cell.diagnosis.cut.causes import CutCandidate, flat, linear_columns
 from cell.diagnosis.cut.reduced import CutKinematics
 from cell.diagnosis.engine.determined import estimates_json
-from cell.diagnosis.engine.statistics import Z95, bic
+from cell.diagnosis.engine.statistics import bic, half_widths_95
 from cell.diagnosis.specimen.fitting import HeldOutScores, one_step_held_out
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import CuttingParams, edge_force
@@ -42,14 +44,14 @@ class CutSeries:
     Attributes:
         test_id: the test's name.
         mode: ``"cut"``.
-        force_N: the measured force, channel after channel, N.
-        rest_samples: indices into ``force_N`` of the samples with the edge above the top
+        force_n: the measured force, channel after channel, N.
+        rest_samples: indices into ``force_n`` of the samples with the edge above the top
             face, where no cutting model puts a force on the blade (every channel).
     """
 
     test_id: str
     mode: str
-    force_N: np.ndarray
+    force_n: np.ndarray
     rest_samples: np.ndarray
 
     @classmethod
@@ -184,7 +186,7 @@ def best_layer_depth(problem: CutProblem, model: CutCandidate, shape: np.ndarray
     base = replace(model, causes=tuple(c for c in model.causes if c != "layered_toughness"))
     base_shape = np.delete(shape, index)
     unit = model.unit_edge(shape)[0]
-    parts = [_layer_products(unit, base, base_shape, k, np.asarray(t.force_N))
+    parts = [_layer_products(unit, base, base_shape, k, np.asarray(t.force_n))
              for k, t in zip(problem.kinematics, problem.tests, strict=True)]
     depths = np.unique(np.concatenate([p.depth for p in parts]))
     tried = 0.5 * (depths[1:] + depths[:-1])
@@ -298,7 +300,7 @@ def fit_cut(problem: CutProblem, model: CutCandidate, start: np.ndarray,
     rss, count = float(misfit @ misfit), len(misfit)
     fitted = [c @ linear for c in _columns(problem, model, shape, everything, thinned=False)]
     heldout = _held_out(problem, model, shape, misfit, jacobian, (lower, upper))
-    errors = np.concatenate([h - t.force_N for h, t in zip(heldout, problem.tests,
+    errors = np.concatenate([h - t.force_n for h, t in zip(heldout, problem.tests,
                                                            strict=True)])
     parameters = len(shape) + len(linear)
     return CutFit(model, shape, linear, model.cutting(shape, linear),
@@ -328,11 +330,7 @@ def _ci95(problem: CutProblem, model: CutCandidate, shape: np.ndarray, linear: n
     jacobian = np.column_stack([*derivatives, np.vstack(_columns(problem, model, shape,
                                                                   everything))])
     values = np.concatenate([shape, linear])
-    normal = jacobian.T @ jacobian
-    variance = rss / max(count - len(values), 1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        half = Z95 * np.sqrt(np.diag(np.linalg.pinv(normal)) * variance)
-    half = np.where(np.isfinite(half) & (np.diag(normal) > 0), half, np.nan)
+    half = half_widths_95(jacobian, rss / max(count - len(values), 1))
     return np.stack([values - half, values + half], axis=1)
 
 
@@ -356,5 +354,5 @@ def _held_out(problem: CutProblem, model: CutCandidate, shape: np.ndarray,
         return _columns(problem, model, trial, [left_out], thinned=False)[0] @ linear
 
     return one_step_held_out([len(f) for f in problem.thinned_force_n],
-                             [len(t.force_N) for t in problem.tests], shape, misfit, jacobian,
+                             [len(t.force_n) for t in problem.tests], shape, misfit, jacobian,
                              bounds, predict)

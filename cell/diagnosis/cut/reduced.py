@@ -29,7 +29,7 @@ Example:
     >>> t = np.linspace(0.0, 2.0, 201)
     >>> edge = np.column_stack([0.03 + 0 * t, 0.02 + 0 * t, 0.035 - 0.01 * t])
     >>> test = CutTest("press", t, edge, np.zeros((201, 3)), None)
-    >>> forces = simulate_cut(test, block, blade, CuttingParams(1000.0))
+    >>> forces = reduced_cut_forces(test, block, blade, CuttingParams(1000.0))
     >>> round(float(forces.total_n[150, 2]), 3)  # G times the block's 0.04 m width
     40.0
 """
@@ -236,7 +236,7 @@ class CutKinematics:
                          self.face_area_m2, self.middle_depth_m)
 
 
-def simulate_cut(test: CutTest, block: Block, blade: Blade, cutting: CuttingParams,
+def reduced_cut_forces(test: CutTest, block: Block, blade: Blade, cutting: CuttingParams,
                  strips: int = STRIPS) -> CutForces:
     """The forces on the blade over ``test`` (module docstring).
 
@@ -244,9 +244,14 @@ def simulate_cut(test: CutTest, block: Block, blade: Blade, cutting: CuttingPara
         >>> from cell.measure.cuts import Blade, Block, CutTest
         >>> t = np.linspace(0.0, 1.0, 11)
         >>> up = np.column_stack([0.03 + 0 * t, 0.02 + 0 * t, 0.02 + 0.01 * t])
-        >>> forces = simulate_cut(CutTest("out", t, up, np.zeros((11, 3))), Block((0.06, 0.04,
+        >>> forces = reduced_cut_forces(CutTest("out", t, up, np.zeros((11, 3))), Block((0.06, 0.04,
         ...     0.03)), Blade(0.12, 1e-3, (0, 1, 0), (1, 0, 0)), CuttingParams(800.0))
         >>> float(abs(forces.edge_n).max())  # moving back out cuts nothing
         0.0
     """
     return CutKinematics.of(test, block, blade, strips).forces(cutting)
+
+
+#: The name of :func:`reduced_cut_forces` in 0.1.0, importable for one release (the full
+#: simulation of a cut test is :func:`cell.cuttest.run.simulate_cut`).
+simulate_cut = reduced_cut_forces

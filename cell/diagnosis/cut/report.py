@@ -174,7 +174,7 @@ def _trend_lines(trends: tuple[ResidualTrend, ...]) -> list[str]:
 
 def _source_lines(params: dict[str, float]) -> list[str]:
     """The fitted parameters against their sources' ranges
-    (:func:`~cell.diagnosis.cut.causes.source_checks`): those outside flagged, those no
+    (:func:`~cell.diagnosis.cut.causes.candidate.source_checks`): those outside flagged, those no
     source bounds said so."""
     checks = source_checks(params)
     if not checks:

@@ -1,7 +1,7 @@
 """Diagnosis of a set's cut tests: the cut baseline, the causes of the cut catalogue
 (:mod:`cell.diagnosis.cut.causes`), the extended cutting model and the gain on held-out tests.
 
-The search is the uniaxial diagnosis's own (:func:`cell.diagnosis.engine.search.forward`, with its
+The search is the engine's (:func:`cell.diagnosis.engine.selection.forward`, with its
 look-ahead, backward drops and second start, and :func:`cell.diagnosis.engine.acceptance.accepts`
 judging each cause) walking the cut catalogue: :class:`CutSearch` fits the models it asks for
 on the reduced model of a cut (:mod:`cell.diagnosis.cut.fitting`). The noise is the uniaxial
@@ -22,46 +22,34 @@ Usage::
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from cell.diagnosis.cut.causes import (
-    CUT_CAUSES,
     FACE_PRESSURE_PA,
     CutCandidate,
+    catalogue,
     cause_of,
     source_checks,
 )
 from cell.diagnosis.cut.fitting import CutFit, CutProblem, best_layer_depth, fit_cut, refine
 from cell.diagnosis.cut.residuals import ResidualTrend, cut_residual_trends
-from cell.diagnosis.engine.acceptance import improved_fraction
+from cell.diagnosis.engine.acceptance import Rules, improved_fraction
 from cell.diagnosis.engine.outcome import Evidence, SearchOutcome, force_noise_n
-from cell.diagnosis.engine.search import Swap, forward, second_start, unexplained
+from cell.diagnosis.engine.search import Search
+from cell.diagnosis.engine.selection import Swap, forward, second_start, unexplained
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.specimen.causes import UNEXPLAINED
 from cell.measure.cuts import Blade, Block, CutTest
 
 
-def _start(model: CutCandidate, previous: CutFit | None) -> np.ndarray:
-    """A start for ``model``: the values of a related fit where the names match, its initial
-    values elsewhere."""
-    start = model.initial.copy()
-    if previous is not None:
-        names = previous.model.parameter_names
-        for i, name in enumerate(model.parameter_names):
-            if name in names:
-                start[i] = previous.shape[names.index(name)]
-    return start
-
-
-def fit_best(problem: CutProblem, model: CutCandidate, previous: CutFit | None,
+def fit_best(problem: CutProblem, model: CutCandidate, start: np.ndarray,
              max_evaluations: int) -> CutFit:
-    """``model`` fitted from the start :func:`_start` gives; a layered model's boundary first
-    put where it fits best with the start's other parameters, those fitted, the boundary put
-    again where it fits best with them, and the whole fitted from there (module docstring)."""
-    start = _start(model, previous)
+    """``model`` fitted from ``start``; a layered model's boundary first put where it fits
+    best with the start's other parameters, those fitted, the boundary put again where it
+    fits best with them, and the whole fitted from there (module docstring)."""
     if "layered_toughness" in model.causes and model.layers == 2:
         shape, _ = refine(problem, model, best_layer_depth(problem, model, start),
                           max_evaluations)
@@ -69,40 +57,23 @@ def fit_best(problem: CutProblem, model: CutCandidate, previous: CutFit | None,
     return fit_cut(problem, model, start, max_evaluations)
 
 
-class CutSearch:
-    """The fits of one cut diagnosis, remembered by their causes: what
-    :func:`cell.diagnosis.engine.search.forward` asks of a search (``run``, ``problem.tests``,
-    ``params``, ``catalogue``)."""
+class CutSearch(Search):
+    """The engine's :class:`~cell.diagnosis.engine.search.Search` over the cut catalogue,
+    fitting cutting models (:func:`fit_best`) in this process; no pair of cut causes
+    excludes each other.
 
-    def __init__(self, problem: CutProblem, params: DiagnosisParams,
-                 root: CutCandidate) -> None:
-        self.problem, self.params, self.root = problem, params, root
-        self.catalogue: tuple[str, ...] = CUT_CAUSES
-        self.fits: dict[frozenset[str], CutFit] = {}
-        #: Called with 1 after each fit (a progress bar's ``update``), or None.
-        self.on_fit: Callable[[int], object] | None = None
-        self.swaps: list[Swap] = []
+    Example:
+        >>> CutSearch.rules.offsets
+        ('blade_force_offset',)
+    """
 
-    def run(self, jobs: list[tuple[CutFit | None, str | None]]) -> list[CutFit]:
-        """Fit each (fit, cause): ``fit``'s model with ``cause`` added (None: the root model),
-        or removed when the fit has it; a model fitted before is fitted again only when a cause
-        is removed, the fit with the lower residual kept."""
-        results = []
-        for base, cause in jobs:
-            model = self.root if base is None else base.model
-            removing = cause is not None and cause in model.causes
-            if cause is not None:
-                kept = tuple(c for c in model.causes if c != cause)
-                model = replace(model, causes=kept if removing else (*model.causes, cause))
-            key = frozenset(model.causes)
-            if key not in self.fits or removing:
-                result = fit_best(self.problem, model, base, self.params.max_evaluations)
-                if key not in self.fits or result.rmse_n < self.fits[key].rmse_n:
-                    self.fits[key] = result
-                if self.on_fit is not None:
-                    self.on_fit(1)
-            results.append(self.fits[key])
-        return results
+    rules = Rules(offsets=("blade_force_offset",))
+    fit_model = staticmethod(fit_best)
+
+    @property
+    def catalogue(self) -> tuple[str, ...]:  # type: ignore[override]
+        """The registered cut causes (:func:`cell.diagnosis.cut.causes.registry.catalogue`)."""
+        return catalogue()
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,7 +97,8 @@ class CutDiagnosis(SearchOutcome):
     def to_json(self) -> dict[str, Any]:
         """The contract's JSON, plus the evidence of each cause (as the uniaxial
         diagnosis's), the fitted parameters checked against their sources' ranges
-        (:func:`~cell.diagnosis.cut.causes.source_checks`) and, where ``unexplained`` stands, the
+        (:func:`~cell.diagnosis.cut.causes.candidate.source_checks`) and, where ``unexplained``
+        stands, the
         residual's trends (the strongest first, :mod:`cell.diagnosis.cut.residuals`)."""
         return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence],
                 "source_ranges": source_checks(self.extended.params),
@@ -143,7 +115,7 @@ def _evidence(search: CutSearch, final: CutFit, order: list[str]) -> tuple[Evide
     for cause in order:
         kept = frozenset(c for c in final.model.causes if c != cause)
         without = search.fits.get(kept) or search.run([(final, cause)])[0]
-        own = {n: v for n, v in fitted.items() if cause_of(n) == cause}
+        own = {n: v for n, v in fitted.items() if cause_of(n, final.model) == cause}
         if cause == "blade_friction":
             own["face_friction"] = tuple(v / final.model.face_pressure_pa
                                          for v in own["face_shear_pa"])
@@ -162,7 +134,7 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
     ``on_fit`` is called with 1 after each fit (progress).
 
     Example:
-        >>> from cell.diagnosis.cut.reduced import simulate_cut
+        >>> from cell.diagnosis.cut.reduced import reduced_cut_forces
         >>> from cell.tissue.cutmodel import CuttingParams
         >>> block = Block((0.06, 0.04, 0.03))
         >>> blade = Blade(0.12, 0.0015, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))
@@ -170,7 +142,7 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
         >>> tests = []
         >>> for k, speed in enumerate((0.004, 0.006, 0.008)):
         ...     edge = np.column_stack([0.03 + 0 * t, 0.02 + 0 * t, 0.032 - speed * t])
-        ...     force = simulate_cut(CutTest("c", t, edge, edge), block, blade,
+        ...     force = reduced_cut_forces(CutTest("c", t, edge, edge), block, blade,
         ...                          CuttingParams(800.0)).total_n + [0.0, 0.0, 1.5]
         ...     noisy = force + np.random.default_rng(k).normal(0.0, 0.05, force.shape)
         ...     tests.append(CutTest(f"c{k}", t, edge, noisy))
@@ -185,7 +157,7 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
     search = CutSearch(problem, params, root)
     search.on_fit = on_fit
     baseline = search.run([(None, None)])[0]
-    candidates = search.run([(baseline, c) for c in CUT_CAUSES])
+    candidates = search.run([(baseline, c) for c in search.catalogue])
     current, steps, order = forward(search, baseline, candidates, noise)
     if unexplained(current, noise, params, problem.tests):
         current, steps, order = second_start(search, baseline, candidates, noise,

@@ -1,68 +1,79 @@
 """Whether a cause earns its place in a model of a measurement set, from the held-out errors
-of the model with and without it (:func:`accepts`; the search that asks is
-:mod:`cell.diagnosis.specimen.diagnosis`).
+of the model with and without it (:func:`accepts`; the selection that asks is
+:mod:`cell.diagnosis.engine.selection`), under the rules of the cause's family (:class:`Rules`).
 
 Usage::
 
     accepts(richer, poorer, first=False, noise=noise_n(data), tests=data.tests,
-            params=DiagnosisParams())  # richer: poorer's model plus one cause, fitted
+            params=DiagnosisParams(), rules=SpecimenSearch.rules)  # richer: poorer plus one
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
+from cell.diagnosis.engine.fit import Fit
 from cell.diagnosis.engine.settings import DiagnosisParams
-from cell.diagnosis.specimen.causes import EXCLUSIVE
-from cell.diagnosis.specimen.fitting import ModelFit
-from cell.measure.specimens import MechanicalTest
 
-#: The causes that are a sensor's offset, of the uniaxial and the cut catalogue.
-OFFSETS = ("force_offset", "blade_force_offset")
+#: The tests a fit is judged on: per test, its measured ``force_n`` and ``rest_samples``
+#: (:class:`~cell.measure.specimens.MechanicalTest`,
+#: :class:`~cell.diagnosis.cut.fitting.CutSeries`).
+Tests = tuple[Any, ...]
 #: Fewer samples at rest than this in a whole set: an offset is judged on the whole tests.
 MIN_REST_SAMPLES = 3
 
 
-def improved_fraction(fit: ModelFit, previous: ModelFit,
-                      tests: tuple[MechanicalTest, ...]) -> float:
+def improved_fraction(fit: Fit, previous: Fit,
+                      tests: Tests) -> float:
     """Fraction of the tests whose held-out RMSE ``fit`` lowers below ``previous``'s."""
     return float(np.mean(fit.heldout_mse_per_test(tests)
                          < previous.heldout_mse_per_test(tests)))
 
 
-def structure(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> float:
+def structure(fit: Fit, tests: Tests) -> float:
     """Lag-one autocorrelation of the held-out residuals, pooled over tests."""
     products, squares = 0.0, 0.0
     for predicted, test in zip(fit.heldout_force_n, tests, strict=True):
-        residual = predicted - test.force_N
+        residual = predicted - test.force_n
         residual = residual - residual.mean()
         products += float(residual[1:] @ residual[:-1])
         squares += float(residual @ residual)
     return products / max(squares, 1e-300)
 
 
-def _judged(richer: ModelFit, poorer: ModelFit,
-            tests: tuple[MechanicalTest, ...]) -> list[int]:
-    """The tests on which ``richer`` is judged against ``poorer``: the ramp-and-hold ones when
-    all it adds is to make poorer's relaxation non-linear (a relaxed fraction that depends on
-    the strain shows in holds alone; on the other tests its slope only trades misfit with the
-    other causes), every test otherwise (and when the set has no hold)."""
-    causes, other = set(richer.model.causes), set(poorer.model.causes)
-    holds = [i for i, test in enumerate(tests) if test.mode == "relaxation"]
-    if EXCLUSIVE[1] in causes and EXCLUSIVE[0] in other and causes - {EXCLUSIVE[1]} <= other:
-        return holds or list(range(len(tests)))
+def every_test(richer: Fit, poorer: Fit, tests: Tests) -> list[int]:
+    """Every test of the set: where a family judges each cause on the whole set."""
     return list(range(len(tests)))
 
 
-def _heldout_rmse_n(fit: ModelFit, tests: tuple[MechanicalTest, ...],
+@dataclass(frozen=True)
+class Rules:
+    """What a family of causes tells the acceptance: its causes that are a sensor's offset,
+    judged at rest (:func:`_at_rest`), and which tests a richer model is judged on against a
+    poorer one, (richer, poorer, tests) -> indices.
+
+    Example:
+        >>> Rules(offsets=("blade_force_offset",)).judged is every_test
+        True
+    """
+
+    offsets: tuple[str, ...] = ()
+    judged: Callable[[Fit, Fit, Tests], list[int]] = every_test
+
+
+def _heldout_rmse_n(fit: Fit, tests: Tests,
                     judged: list[int]) -> float:
     """Held-out RMSE of ``fit`` over every sample of the ``judged`` tests, N."""
-    errors = np.concatenate([fit.heldout_force_n[i] - tests[i].force_N for i in judged])
+    errors = np.concatenate([fit.heldout_force_n[i] - tests[i].force_n for i in judged])
     return float(np.sqrt(np.mean(errors**2)))
 
 
-def _at_rest(richer: ModelFit, poorer: ModelFit,
-             tests: tuple[MechanicalTest, ...]) -> list[np.ndarray] | None:
+def _at_rest(richer: Fit, poorer: Fit, tests: Tests,
+             offsets: tuple[str, ...]) -> list[np.ndarray] | None:
     """Per test, the samples at rest (``rest_samples``: a specimen at the machine's zero, a
     blade in the air) when all that ``richer`` adds is a sensor's offset and the set has at
     least :data:`MIN_REST_SAMPLES` of them; None otherwise. There every model predicts no
@@ -70,20 +81,20 @@ def _at_rest(richer: ModelFit, poorer: ModelFit,
     tissue (a plastic set unlike the springs') leaves an error beside which the offset may
     look small, and the offset would be left unnamed however plain it is at rest."""
     added = set(richer.model.causes) - set(poorer.model.causes)
-    if not added or not added <= set(OFFSETS):
+    if not added or not added <= set(offsets):
         return None
     rest = [test.rest_samples for test in tests]
     return rest if sum(len(r) for r in rest) >= MIN_REST_SAMPLES else None
 
 
-def _scores_at_rest(richer: ModelFit, poorer: ModelFit, tests: tuple[MechanicalTest, ...],
+def _scores_at_rest(richer: Fit, poorer: Fit, tests: Tests,
                     rest: list[np.ndarray]) -> tuple[float, float, float]:
     """Held-out RMSE of ``richer`` and ``poorer`` on the samples at rest (:func:`_at_rest`),
     N, and the share of tests at rest whose error ``richer`` lowers."""
     judged = [i for i, samples in enumerate(rest) if len(samples)]
 
-    def errors(fit: ModelFit) -> list[np.ndarray]:
-        return [fit.heldout_force_n[i][rest[i]] - tests[i].force_N[rest[i]] for i in judged]
+    def errors(fit: Fit) -> list[np.ndarray]:
+        return [fit.heldout_force_n[i][rest[i]] - tests[i].force_n[rest[i]] for i in judged]
 
     rich_errors, poor_errors = errors(richer), errors(poorer)
     rich, poor = (float(np.sqrt(np.mean(np.concatenate(e) ** 2)))
@@ -93,16 +104,16 @@ def _scores_at_rest(richer: ModelFit, poorer: ModelFit, tests: tuple[MechanicalT
     return rich, poor, improved
 
 
-def accepts(richer: ModelFit, poorer: ModelFit, first: bool, noise: float,
-            tests: tuple[MechanicalTest, ...], params: DiagnosisParams) -> bool:
-    """Whether ``richer`` (``poorer`` plus one cause) earns its cause (module docstring, 2),
-    on the tests :func:`_judged` picks; a sensor's offset on the samples at rest
-    (:func:`_at_rest`)."""
-    rest = _at_rest(richer, poorer, tests)
+def accepts(richer: Fit, poorer: Fit, *, first: bool, noise: float, tests: Tests,
+            params: DiagnosisParams, rules: Rules) -> bool:
+    """Whether ``richer`` (``poorer`` plus one cause) earns its cause (module docstring, 2;
+    ``first``: the first cause of a model), on the tests ``rules.judged`` picks; a sensor's
+    offset on the samples at rest (:func:`_at_rest`)."""
+    rest = _at_rest(richer, poorer, tests, rules.offsets)
     if rest is not None:
         rich, poor, improved = _scores_at_rest(richer, poorer, tests, rest)
     else:
-        judged = _judged(richer, poorer, tests)
+        judged = rules.judged(richer, poorer, tests)
         rich, poor = (_heldout_rmse_n(f, tests, judged) for f in (richer, poorer))
         improved = np.mean(richer.heldout_mse_per_test(tests)[judged]
                            < poorer.heldout_mse_per_test(tests)[judged])

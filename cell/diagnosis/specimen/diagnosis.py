@@ -1,7 +1,8 @@
 """Diagnosis of a measurement set: where the simulation is wrong, the causes, the extended
 material, the gain on held-out tests, and the evidence for each cause.
 
-1. The baseline (:class:`~cell.diagnosis.specimen.causes.CandidateMaterial` with no cause: linear,
+1. The baseline (:class:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial` with no
+   cause: linear,
    isotropic, rate-independent springs) is fitted to every test
    (:mod:`cell.diagnosis.specimen.fitting`:
    each test simulated with the muscles' own spring law, errors measured leave-one-test-out).
@@ -65,14 +66,15 @@ from cell.diagnosis.engine.determined import (
     shown,
 )
 from cell.diagnosis.engine.outcome import Evidence, SearchOutcome, force_noise_n
-from cell.diagnosis.engine.search import Search, Swap, forward, second_start, unexplained
+from cell.diagnosis.engine.search import Search
+from cell.diagnosis.engine.selection import Swap, forward, second_start, unexplained
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.specimen.causes import (
-    CAUSES,
     EXCLUSIVE,
     SPECIMEN_VARIABILITY,
     UNEXPLAINED,
     CandidateMaterial,
+    cause_of,
 )
 from cell.diagnosis.specimen.fitting import ModelFit, Problem
 from cell.diagnosis.specimen.intervals import PredictionIntervals, prediction_intervals
@@ -104,7 +106,8 @@ class Diagnosis(SearchOutcome):
             (:mod:`cell.diagnosis.specimen.spread`).
         intervals: the extended model's held-out predictions with their 90 % intervals
             (:mod:`cell.diagnosis.specimen.intervals`).
-        swaps: what the search's second look tried (:func:`cell.diagnosis.engine.search.forward`).
+        swaps: what the search's second look tried
+            (:func:`cell.diagnosis.engine.selection.forward`).
 
     ``to_json()`` is the JSON that ``musclecell diagnose --out`` writes.
     """
@@ -149,7 +152,7 @@ class Diagnosis(SearchOutcome):
 def noise_n(measurements: MeasurementSet) -> float:
     """Force noise of a set, N: the median over tests of a robust spread of the force's second
     differences (``sqrt(6)`` times the noise for white noise)."""
-    return force_noise_n([test.force_N for test in measurements.tests])
+    return force_noise_n([test.force_n for test in measurements.tests])
 
 
 def _time_range_s(measurements: MeasurementSet) -> tuple[float, float]:
@@ -187,34 +190,13 @@ def _evidence(search: Search, final: ModelFit, order: list[str]) -> tuple[Eviden
         else:
             without = search.run([(final, cause)])[0]
         names = final.model.parameter_names
-        owners = {cause, EXCLUSIVE[0]} if cause == EXCLUSIVE[1] else {cause}
-        own = [i for i, n in enumerate(names) if cause_of(n) in owners]
+        own = [i for i, n in enumerate(names) if cause_of(n, final.model) == cause]
         evidence.append(Evidence(
             cause, final.heldout_rmse_n, without.heldout_rmse_n,
             improved_fraction(final, without, tests),
-            {names[i]: (float(final.shape[i]), *map(float, final.shape_ci95[i])) for i in own},
+            {names[i]: (float(final.shape[i]), *map(float, final.ci95[i])) for i in own},
             without))
     return tuple(evidence)
-
-
-def cause_of(name: str) -> str:
-    """The cause a shape parameter belongs to.
-
-    Example:
-        >>> cause_of("log_relaxation_time_1"), cause_of("oblique")
-        ('viscoelasticity', 'anisotropy')
-    """
-    if name == "relaxed_fraction_slope":
-        return "nonlinear_viscoelasticity"
-    if "relax" in name:
-        return "viscoelasticity"
-    if "stiffening" in name:
-        return "strain_stiffening"
-    if name in ("log_el_over_et", "oblique", "log_el_over_et_compressed", "oblique_compressed"):
-        return "anisotropy"
-    if "compression" in name:
-        return "tension_compression_asymmetry"
-    return "plasticity"
 
 
 def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None,
@@ -250,7 +232,7 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
         baseline = search.run([(None, None)])[0]
         _require_runs(baseline)
         floor = _judged_noise(search.plain(baseline), tests, noise, groups)
-        candidates = search.run([(baseline, c) for c in CAUSES])
+        candidates = search.run([(baseline, c) for c in search.catalogue])
         current, steps, order = forward(search, baseline, candidates, floor)
         if unexplained(current, floor, params, tests):
             current, steps, order = second_start(search, baseline, candidates, floor,

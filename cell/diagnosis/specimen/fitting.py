@@ -1,6 +1,7 @@
 """Fitting one candidate material to a measurement set, and its error on held-out tests.
 
-A fit searches the shape parameters of a :class:`~cell.diagnosis.specimen.causes.CandidateMaterial`
+A fit searches the shape parameters of a
+:class:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial`
 with ``scipy.optimize.least_squares`` on up to ``fit_samples`` samples per test (picked evenly along
 time and displacement, turning points kept) and solves for E and the load cell's offset in
 closed form (the simulated force is linear in both). Each test is simulated by
@@ -35,7 +36,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cell.diagnosis.engine.determined import NOT_PREDICTED, determined, determined_each
-from cell.diagnosis.engine.statistics import Z95, bic
+from cell.diagnosis.engine.statistics import bic, half_widths_95
 from cell.diagnosis.specimen.causes import CandidateMaterial
 from cell.diagnosis.specimen.solve import SpecimenLattice, simulate_tests
 from cell.errors import DivergenceError, MaterialError
@@ -75,7 +76,7 @@ def fit_samples(test: MechanicalTest, count: int) -> np.ndarray:
 
 def _subset(test: MechanicalTest, rows: np.ndarray) -> MechanicalTest:
     return replace(test, time_s=test.time_s[rows], displacement_m=test.displacement_m[rows],
-                   force_N=test.force_N[rows])
+                   force_n=test.force_n[rows])
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,7 +108,7 @@ class Problem:
         the material or a run has no equilibrium."""
         try:
             material = model.material(shape, REFERENCE_PA, self.specimen.density_kg_m3)
-            return [run.force_N for run in
+            return [run.force_n for run in
                     simulate_tests(tests, self.specimen, material, self.lattice)]
         except (DivergenceError, MaterialError):
             return None
@@ -146,9 +147,9 @@ class HeldOutScores:
 
     def heldout_mse_per_test(self, tests: tuple[Any, ...]) -> np.ndarray:
         """Each test's held-out mean square error, N^2 (``tests``: the fitted ones, each with
-        its measured ``force_N``: :class:`MechanicalTest` or
+        its measured ``force_n``: :class:`MechanicalTest` or
         :class:`~cell.diagnosis.cut.fitting.CutSeries`)."""
-        return np.array([np.mean((h - t.force_N) ** 2)
+        return np.array([np.mean((h - t.force_n) ** 2)
                          for h, t in zip(self.heldout_force_n, tests, strict=True)])
 
     def to_json(self) -> dict[str, Any]:
@@ -170,7 +171,7 @@ class ModelFit(HeldOutScores):
     Attributes:
         model: the model (causes, stiffening law).
         shape: its shape parameters.
-        shape_ci95: (p, 2) their 95 % confidence intervals (NaN where the data do not set one).
+        ci95: (p, 2) their 95 % confidence intervals (NaN where the data do not set one).
         modulus_pa: fitted small-strain modulus E (geometric mean of El and Et), Pa.
         offset_n: fitted load-cell offset, N (0 without ``force_offset``).
         material: the fitted material.
@@ -180,7 +181,7 @@ class ModelFit(HeldOutScores):
 
     model: CandidateMaterial
     shape: np.ndarray
-    shape_ci95: np.ndarray
+    ci95: np.ndarray
     modulus_pa: float
     offset_n: float
     material: MassSpringMaterial
@@ -190,11 +191,16 @@ class ModelFit(HeldOutScores):
         """Fitted parameters in SI units."""
         return self.model.reported(self.shape, self.modulus_pa, self.offset_n)
 
+    @property
+    def shape_ci95(self) -> np.ndarray:
+        """The name of :attr:`ci95` in 0.1.0 (a cut fit's is ``ci95`` too), for one release."""
+        return self.ci95
+
 
 def _residual_function(problem: Problem, model: CandidateMaterial, tests: list[int]):
     """shape -> (residual on the thinned samples of ``tests``, scale, offset)."""
     chosen = tuple(problem.thinned[i] for i in tests)
-    measured = np.concatenate([t.force_N for t in chosen])
+    measured = np.concatenate([t.force_n for t in chosen])
 
     def solve(shape: np.ndarray) -> tuple[np.ndarray, float, float]:
         units = problem.unit_forces(model, shape, chosen)
@@ -242,16 +248,16 @@ def fit(problem: Problem, model: CandidateMaterial, start: np.ndarray,
     failed = None
     if fitted is None:
         failed = _failed_test(problem, model, shape)
-        fitted = [np.zeros(len(t.force_N)) for t in problem.tests]
+        fitted = [np.zeros(len(t.force_n)) for t in problem.tests]
     heldout = _held_out(problem, model, shape, residual, jacobian, (lower, upper))
     parameters = len(shape) + 1 + int(model.has_offset)
     return ModelFit(
-        model=model, shape=shape, shape_ci95=_ci95(jacobian, rss, count, shape),
+        model=model, shape=shape, ci95=_ci95(jacobian, rss, count, shape),
         modulus_pa=scale * REFERENCE_PA, offset_n=offset,
         material=model.material(shape, scale * REFERENCE_PA, problem.specimen.density_kg_m3),
         rmse_n=math.sqrt(rss / count),
         heldout_rmse_n=float(np.sqrt(np.mean(np.concatenate(
-            [(h - t.force_N) ** 2 for h, t in zip(heldout, problem.tests, strict=True)])))),
+            [(h - t.force_n) ** 2 for h, t in zip(heldout, problem.tests, strict=True)])))),
         bic=bic(rss, count, parameters),
         fitted_force_n=tuple(fitted), heldout_force_n=tuple(heldout), failed_test=failed)
 
@@ -264,12 +270,12 @@ def _held_out(problem: Problem, model: CandidateMaterial, shape: np.ndarray,
 
     def predict(left_out: int, trial: np.ndarray, worst_rss: float) -> np.ndarray | None:
         others = [i for i in range(len(problem.tests)) if i != left_out]
-        measured = np.concatenate([problem.thinned[i].force_N for i in others])
+        measured = np.concatenate([problem.thinned[i].force_n for i in others])
         chosen = (*(problem.thinned[i] for i in others), problem.tests[left_out])
         return _fold(problem, model, trial, chosen, measured, worst_rss)
 
-    return one_step_held_out([len(t.force_N) for t in problem.thinned],
-                             [len(t.force_N) for t in problem.tests], shape, residual, jacobian,
+    return one_step_held_out([len(t.force_n) for t in problem.thinned],
+                             [len(t.force_n) for t in problem.tests], shape, residual, jacobian,
                              bounds, predict)
 
 
@@ -323,10 +329,5 @@ def _ci95(jacobian: np.ndarray, rss: float, count: int, shape: np.ndarray) -> np
     """95 % intervals of the shape parameters from the fit's Jacobian (module docstring)."""
     if not len(shape):
         return np.zeros((0, 2))
-    variance = rss / max(count - len(shape), 1)
-    normal = jacobian.T @ jacobian
-    with np.errstate(divide="ignore", invalid="ignore"):
-        covariance = np.linalg.pinv(normal) * variance
-        half = Z95 * np.sqrt(np.diag(covariance))
-    half = np.where(np.isfinite(half) & (np.diag(normal) > 0), half, np.nan)
+    half = half_widths_95(jacobian, rss / max(count - len(shape), 1))
     return np.stack([shape - half, shape + half], axis=1)

@@ -147,7 +147,7 @@ def prediction_intervals(problem: Problem, fitted: ModelFit, noise_n: float,
     """The held-out predictions of ``fitted`` with their intervals (module docstring);
     ``spread_sd`` is the specimen spread (0 when none is named)."""
     tests = problem.tests
-    residual_fit = [t.force_N - f for t, f in zip(tests, fitted.fitted_force_n, strict=True)]
+    residual_fit = [t.force_n - f for t, f in zip(tests, fitted.fitted_force_n, strict=True)]
     gradients = sensitivities(problem, fitted)
     centers = fitted.heldout_force_n
     material = [c - fitted.offset_n for c in centers]
@@ -158,7 +158,7 @@ def prediction_intervals(problem: Problem, fitted: ModelFit, noise_n: float,
         parameters = [np.maximum(((g @ covariance) * g).sum(axis=1), 0.0) for g in gradients]
     specimen = [(spread_sd * m) ** 2 for m in material]
     base = [noise_n**2 + s + p for s, p in zip(specimen, parameters, strict=True)]
-    needed = [discrepancy_needed(t.force_N - c, m, b)
+    needed = [discrepancy_needed(t.force_n - c, m, b)
               for t, c, m, b in zip(tests, centers, material, base, strict=True)]
     owner = np.concatenate([np.full(len(n), k) for k, n in enumerate(needed)])
     pooled = np.concatenate(needed)
@@ -171,7 +171,7 @@ def prediction_intervals(problem: Problem, fitted: ModelFit, noise_n: float,
         half = Z90 * np.sqrt(base[k] + delta2 * material[k] ** 2)
         lower.append(centers[k] - half)
         upper.append(centers[k] + half)
-        coverage.append(float(np.mean(np.abs(test.force_N - centers[k]) <= half)))
+        coverage.append(float(np.mean(np.abs(test.force_n - centers[k]) <= half)))
         deltas.append(math.sqrt(delta2))
     parts = {"noise": noise_n, "specimen": _rms(specimen), "parameters": _rms(parameters),
              "discrepancy": _rms([(d * m) ** 2 for d, m in zip(deltas, material, strict=True)])}

@@ -78,7 +78,7 @@ def _curve(kind: str, test: MechanicalTest, force: np.ndarray, strain: np.ndarra
     if kind == "relaxed":
         start = _hold_start(test)
         return (test.time_s[start:] - test.time_s[start],
-                force[start:] / (test.force_N[start] or 1.0))
+                force[start:] / (test.force_n[start] or 1.0))
     if kind == "magnitude":
         return np.abs(strain), np.abs(force)
     if kind == "near_zero":
@@ -99,7 +99,7 @@ def _draw_panel(ax: Axes, kind: str, rows: list[int], diagnosis: Diagnosis,
     for k in rows:
         test = data.tests[k]
         strain = test.strain(data.specimen)
-        x, y = _curve(kind, test, test.force_N, strain)
+        x, y = _curve(kind, test, test.force_n, strain)
         ax.plot(x, y, ".", markersize=2.5, alpha=0.6,
                 label=f"{test.test_id} ({test.mode}, {test.angle_deg:g}°)")
         for fit, style, color in zip(fits, ("-", "--"), (_WITH, _WITHOUT), strict=True):

@@ -29,18 +29,18 @@ from dataclasses import replace
 
 import numpy as np
 
-from cell.diagnosis.engine.search import Search
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.specimen.causes import CandidateMaterial
 from cell.diagnosis.specimen.fitting import ModelFit, Problem
+from cell.diagnosis.specimen.search import SpecimenSearch
 from cell.diagnosis.specimen.spread import log_factors
 from cell.measure.specimens import MechanicalTest
 
 
-class RepeatSearch(Search):
-    """A :class:`~cell.diagnosis.engine.search.Search` whose fits are judged between repeats (module
-    docstring); ``groups`` are the tests under equal conditions; ``judging`` off returns the
-    plain fits.
+class RepeatSearch(SpecimenSearch):
+    """A :class:`~cell.diagnosis.specimen.search.SpecimenSearch` whose fits are judged between
+    repeats (module docstring); ``groups`` are the tests under equal conditions; ``judging``
+    off returns the plain fits.
 
     Example:
         >>> from cell.measure.specimens import load_measurement_set
@@ -63,7 +63,7 @@ class RepeatSearch(Search):
         self._plain: dict[int, tuple[ModelFit, ModelFit]] = {}
 
     def run(self, jobs: list[tuple[ModelFit | None, str | None]]) -> list[ModelFit]:
-        """:meth:`Search.run`, each fit judged between repeats while ``judging``."""
+        """:meth:`SpecimenSearch.run`, each fit judged between repeats while ``judging``."""
         fits = super().run([(None if base is None else self.plain(base), cause)
                             for base, cause in jobs])
         return [self.judged(f) for f in fits] if self.judging else fits
@@ -92,6 +92,6 @@ def at_own_factors(fit: ModelFit, tests: tuple[MechanicalTest, ...],
         shift[group] = u[group] - u[group].mean()
     heldout = tuple(fit.offset_n + np.exp(s) * (h - fit.offset_n)
                     for s, h in zip(shift, fit.heldout_force_n, strict=True))
-    errors = np.concatenate([h - t.force_N for h, t in zip(heldout, tests, strict=True)])
+    errors = np.concatenate([h - t.force_n for h, t in zip(heldout, tests, strict=True)])
     return replace(fit, heldout_force_n=heldout,
                    heldout_rmse_n=float(np.sqrt(np.mean(errors**2))))

@@ -86,7 +86,7 @@ def _draw_forces(figure: Figure, diagnosis: Diagnosis) -> Figure:
     figure.set_size_inches(4.0 * columns, 2.9 * rows + 0.6)
     axes = figure.subplots(rows, columns, squeeze=False).ravel()
     for k, (ax, test) in enumerate(zip(axes, tests, strict=False)):
-        ax.plot(test.time_s, test.force_N, ".", color="0.45", markersize=2.5, label="measured")
+        ax.plot(test.time_s, test.force_n, ".", color="0.45", markersize=2.5, label="measured")
         ax.plot(test.time_s, diagnosis.extended.heldout_force_n[k], color=_EXTENDED,
                 label=f"extended held-out ({diagnosis.extended.heldout_rmse_n:.3g} N RMSE)")
         if diagnosis.intervals is not None:
@@ -176,7 +176,7 @@ def _draw_residuals(figure: Figure, diagnosis: Diagnosis) -> Figure:
 
 
 def _residual(fit: ModelFit, tests: tuple[MechanicalTest, ...]) -> np.ndarray:
-    return np.concatenate([t.force_N - f for t, f in zip(tests, fit.heldout_force_n,
+    return np.concatenate([t.force_n - f for t, f in zip(tests, fit.heldout_force_n,
                                                           strict=True)])
 
 

@@ -24,7 +24,7 @@ Example:
     >>> t = np.linspace(0.0, 1.0, 5)
     >>> test = ShearTest("fs", "fs", t, 1e-4 * t, 0.0 * t)
     >>> run = simulate_shear(test, Specimen("cube", (0.01,) * 3), MassSpringMaterial.isotropic(1e4))
-    >>> sorted(run.force_N), run.force_N["force_N"].shape
+    >>> sorted(run.force_n), run.force_n["force_N"].shape
     (['force_N', 'normal_force_N'], (5,))
 """
 
@@ -53,7 +53,7 @@ class SimulatedForces:
     Attributes:
         test_id: the measured test's id.
         time_s: (n,) the test's sample times, s.
-        force_N: each force by the column that measures it (``force_N``, ``normal_force_N``
+        force_n: each force by the column that measures it (``force_N``, ``normal_force_N``
             for shear; ``force_N``, ``force_x_N`` for biaxial), (n,) N, signed as measured.
         gradient: (n, 4) the deformation gradient's xx, yy, zz and xz at the samples.
 
@@ -62,7 +62,7 @@ class SimulatedForces:
 
     test_id: str
     time_s: np.ndarray
-    force_N: dict[str, np.ndarray]
+    force_n: dict[str, np.ndarray]
     gradient: np.ndarray
 
 

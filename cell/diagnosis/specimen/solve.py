@@ -15,7 +15,7 @@ Newton's method, for the a, b, c at which the lateral faces and the platens carr
 the springs along rest direction j, s_j their stress, r_j their stretch, n_j their direction now),
 commits the springs' history, and reads the axial force ``A tau_zz / (1 + strain)``.
 
-Why quasi-static and homogeneous (measured in ``tests/test_specimen.py`` against
+Why quasi-static and homogeneous (measured in ``tests/diagnosis/specimen/test_solve.py`` against
 :mod:`tests.specimen_reference`, the same springs in MuJoCo on a 6-cell mesh at the real mass and
 half the stable step): the tests last minutes at strain rates of 1%/s, where inertia and the
 springs' dashpots carry nothing, and the forces agree within 2%. One set of 10 tests takes
@@ -31,7 +31,7 @@ Example:
     >>> from cell.measure.specimens import load_measurement_set
     >>> data = load_measurement_set("assets/measured/beef_round_example")
     >>> run = simulate_test(data.test("t00"), data.specimen, MassSpringMaterial.isotropic(6e3))
-    >>> run.force_N.shape
+    >>> run.force_n.shape
     (250,)
 """
 
@@ -160,7 +160,7 @@ class SimulatedTest:
     Attributes:
         test_id: the measured test's id.
         time_s: (n,) the test's sample times, s.
-        force_N: (n,) simulated axial force on the top face at those times, N (+ pulls).
+        force_n: (n,) simulated axial force on the top face at those times, N (+ pulls).
         lateral_stretch: (n, 2) a and b of the deformation gradient (x and y stretch).
 
     Example:
@@ -170,14 +170,20 @@ class SimulatedTest:
         >>> test = MechanicalTest("t00", "tension", 0.0, t, 1e-5 * t, 0.0 * t)
         >>> cube = Specimen("cube", (0.01, 0.01, 0.01))
         >>> run = simulate_test(test, cube, MassSpringMaterial.isotropic(1e4))
-        >>> round(float(run.force_N[-1]), 4)  # 10 kPa at 1 % strain on 1 cm^2: 0.01 N
+        >>> round(float(run.force_n[-1]), 4)  # 10 kPa at 1 % strain on 1 cm^2: 0.01 N
         0.01
     """
 
     test_id: str
     time_s: np.ndarray
-    force_N: np.ndarray
+    force_n: np.ndarray
     lateral_stretch: np.ndarray
+
+    @property
+    def force_N(self) -> np.ndarray:
+        """The name of :attr:`force_n` in 0.1.0 (a cut test's is ``force_n``), for one
+        release."""
+        return self.force_n
 
 
 def simulate_test(
@@ -200,7 +206,7 @@ def simulate_test(
         >>> from cell.tissue.material import MassSpringMaterial
         >>> data = load_measurement_set("assets/measured/beef_round_example")
         >>> run = simulate_test(data.test("c00"), data.specimen, MassSpringMaterial.isotropic(6e3))
-        >>> run.force_N.shape
+        >>> run.force_n.shape
         (250,)
     """
     return simulate_tests((test,), specimen, material, lattice)[0]

@@ -102,8 +102,8 @@ def log_factors(tests: tuple[MechanicalTest, ...], fitted_n: tuple[np.ndarray, .
     for test, fitted in zip(tests, fitted_n, strict=True):
         material = fitted - offset_n
         energy = max(float(material @ material), 1e-300)
-        ratio = max(1.0 + float(material @ (test.force_N - fitted)) / energy, 1e-3)
-        left = test.force_N - offset_n - ratio * material
+        ratio = max(1.0 + float(material @ (test.force_n - fitted)) / energy, 1e-3)
+        left = test.force_n - offset_n - ratio * material
         scatter = max(float(np.mean(left**2)), noise_n**2, 1e-300)
         factors.append(math.log(ratio))
         variances.append(scatter / (ratio**2 * energy))

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
 from cell.diagnosis.specimen.causes import CAUSES, EXCLUSIVE, CandidateMaterial
 from cell.diagnosis.specimen.diagnosis import Diagnosis
 from cell.diagnosis.specimen.fitting import REFERENCE_PA, ModelFit, Problem, scale_and_offset
@@ -106,8 +107,8 @@ class Rival:
 
     def to_json(self) -> dict[str, Any]:
         """The rival as the suggestion's JSON lists it."""
-        return {"model": self.name, "causes": list(self.causes), "rmse_N": self.rmse_n,
-                "typical": self.typical}
+        return {"model": self.name, "causes": list(self.causes),
+                **determined("rmse_N", self.rmse_n, NOT_PREDICTED), "typical": self.typical}
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,12 +159,13 @@ class Suggestion:
             "rivals": [r.to_json() for r in self.rivals],
             "test": None if self.test is None else self.test.to_json(),
             "rival": None if self.rival is None else self.rival.name,
-            "predicted_difference_N": self.difference_n,
-            "scatter_N": self.scatter_n,
-            "predicted_difference_over_scatter": self.over_scatter,
-            "score": self.score,
-            "specimen_spread_sd": self.spread_sd,
-            "ranking": [{**t.to_json(), "score": s} for t, s in self.ranking],
+            **determined("predicted_difference_N", self.difference_n, NOT_PREDICTED),
+            **determined("scatter_N", self.scatter_n, NOT_PREDICTED),
+            **determined("predicted_difference_over_scatter", self.over_scatter, NOT_PREDICTED),
+            **determined("score", self.score, NOT_PREDICTED),
+            **determined("specimen_spread_sd", self.spread_sd),
+            "ranking": [{**t.to_json(), **determined("score", s, NOT_PREDICTED)}
+                        for t, s in self.ranking],
         }
 
 
@@ -224,7 +226,7 @@ def _typical_rivals(diagnosis: Diagnosis, problem: Problem, margin: float) -> li
     """Per cause the extended model lacks, that model with the cause at each of its typical
     magnitudes, where it fits the set within ``margin`` (N^2) of the extended model's MSE."""
     final = diagnosis.extended
-    measured = np.concatenate([t.force_N for t in problem.thinned])
+    measured = np.concatenate([t.force_n for t in problem.thinned])
     rivals = []
     for cause in (c for c in CAUSES if c in TYPICAL and c not in final.model.causes):
         model = _with_cause(final.model, cause)
@@ -256,7 +258,7 @@ def _forces(tests: list[MechanicalTest], specimen: Specimen, lattice: SpecimenLa
     """Each candidate test's predicted force with ``material``, N (None where it cannot run:
     the tests are run one by one then, to find which)."""
     try:
-        return [run.force_N + offset_n
+        return [run.force_n + offset_n
                 for run in simulate_tests(tests, specimen, material, lattice)]
     except MaterialError:
         return [None] * len(tests)
@@ -264,7 +266,7 @@ def _forces(tests: list[MechanicalTest], specimen: Specimen, lattice: SpecimenLa
         forces: list[np.ndarray | None] = []
         for test in tests:
             try:
-                forces.append(simulate_tests((test,), specimen, material, lattice)[0].force_N
+                forces.append(simulate_tests((test,), specimen, material, lattice)[0].force_n
                               + offset_n)
             except DivergenceError:
                 forces.append(None)

@@ -1,0 +1,129 @@
+"""The log part of the diagnose bench (cell.bench.diagnose_logs): which batches it draws, how it
+scores a fitted magnitude, its summary, the requests it refuses, and (slow) a quick run."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from cell.bench.diagnose_logs import (
+    FIRST_SEED,
+    TUNING_SEEDS,
+    LogBenchParams,
+    bench_seeds,
+    hidden,
+    log_pairs,
+    log_table,
+    magnitude_error,
+    run_log_diagnose_bench,
+    summary,
+)
+from cell.cli import main
+from cell.errors import MeasurementError
+
+
+def _row(truth: tuple[str, ...], named: tuple[str, ...], gain: float, seconds: float,
+         within: bool = True) -> dict:
+    return {"truth": {"causes": list(truth)}, "causes": list(named),
+            "correct": sorted(truth) == sorted(named), "magnitude_within": within,
+            "gain": gain, "seconds": seconds, "cpu_seconds": seconds / 2, "replays": 39,
+            "simulation_seconds": 60.0,
+            "split": {"replay_wall_s": seconds - 2.0, "fit_wall_s": 2.0,
+                      "replay_cpu_s": seconds / 2 - 1.0, "fit_cpu_s": 1.0}}
+
+
+def test_the_single_batches_cycle_through_the_log_table_and_none() -> None:
+    LOG_TABLE, PAIRS = log_table(), log_pairs()
+    assert LOG_TABLE == ("binding_strength", "binding_gradient", "tearing_threshold",
+                         "tissue_stiffness", "fibre_direction", "sensor_offset")
+    seeds = bench_seeds(len(LOG_TABLE) + 3)
+    assert [hidden(s, "single") for s in seeds] == [(c,) for c in LOG_TABLE] + [()] * 3
+    seventeen = [hidden(s, "single") for s in bench_seeds(17)]
+    assert seventeen.count(()) == 5 and all(seventeen.count((c,)) == 2 for c in LOG_TABLE)
+    assert {hidden(FIRST_SEED["pairs"] + k, "pairs") for k in range(len(PAIRS))} == set(PAIRS)
+    assert len(PAIRS) == 15
+    bench = set(bench_seeds(100)) | set(bench_seeds(100, "pairs"))
+    assert not bench & set(TUNING_SEEDS) and min(bench) >= 10_000
+
+
+def test_a_fitted_magnitude_is_scored_relative_to_the_truth() -> None:
+    truth = {"binding_strength": 0.5, "fibre_direction": math.radians(40.0),
+             "sensor_offset": (0.0, 3.0, 4.0)}
+    fitted = {"binding_strength": {"magnitude": -0.6, "factor": 0.6},
+              "fibre_direction": {"magnitude": 0.75, "angle_deg": 44.0},
+              "sensor_offset": {"gripper": [0.0, 3.0, 4.5]}}
+    assert magnitude_error("binding_strength", truth, "", fitted) == pytest.approx(0.2)
+    assert magnitude_error("fibre_direction", truth, "", fitted) == pytest.approx(0.1)
+    assert magnitude_error("sensor_offset", truth, "gripper", fitted) == pytest.approx(0.1)
+    assert magnitude_error("sensor_offset", truth, "knife", fitted) == math.inf
+    assert magnitude_error("tissue_stiffness", {"tissue_stiffness": 1.4}, "", fitted) == math.inf
+
+
+def test_the_summary_counts_rates_medians_and_the_confusion() -> None:
+    rows = [_row(("binding_strength",), ("binding_strength",), 0.8, 100.0),
+            _row(("tissue_stiffness",), (), 0.0, 200.0, within=False),
+            _row(("sensor_offset",), ("sensor_offset",), 0.3, 120.0, within=False),
+            _row((), (), 0.0, 90.0), _row((), ("sensor_offset",), 0.1, 700.0)]
+    report = summary(rows, "single")
+    entries, targets = report["entries"], report["targets"]
+    assert entries["correct"]["value"] == pytest.approx(3 / 5)
+    assert entries["magnitude_within_20_percent"]["value"] == pytest.approx(1 / 3)
+    assert entries["heldout_gain_median"]["value"] == pytest.approx(0.3)
+    assert (entries["none_named_without_cause"]["value"],
+            entries["none_named_without_cause"]["of"]) == (1, 2)
+    assert entries["seconds_per_batch_median"]["value"] == 120.0
+    assert entries["seconds_per_batch_max"]["value"] == 700.0
+    assert entries["replay_wall_s_median"]["value"] == 118.0
+    assert entries["cpu_seconds_per_batch_max"]["value"] == 350.0
+    assert not targets["correct"]["pass"] and not targets["time_per_batch"]["pass"]
+    assert targets["time_per_batch_median"]["pass"]
+    assert not targets["none_named_without_cause"]["pass"]
+    assert report["confusion"]["none"] == {"none": 1, "sensor_offset": 1}
+    assert "| tissue_stiffness |" in report["markdown"]
+
+
+def test_pairs_have_no_magnitude_or_gain_targets() -> None:
+    rows = [_row(("binding_strength", "sensor_offset"), ("sensor_offset", "binding_strength"),
+                 0.6, 100.0)]
+    report = summary(rows, "pairs")
+    assert report["entries"]["correct"]["value"] == 1.0
+    assert report["confusion"] == {"binding_strength + sensor_offset":
+                                   {"binding_strength + sensor_offset": 1}}
+    assert set(report["targets"]) == {"correct", "time_per_batch_median", "time_per_batch"}
+
+
+def test_bad_requests_are_refused_before_any_batch() -> None:
+    with pytest.raises(MeasurementError, match="seeds"):
+        run_log_diagnose_bench([], "single")
+    with pytest.raises(MeasurementError, match="kind"):
+        run_log_diagnose_bench([70_000], "triples")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    (["--logs", "--subtle"], "--subtle"), (["--logs", "--cut"], "--logs"),
+    (["--logs", "--pairs", "--including", "force_offset"], "--including"),
+    (["--logs", "--seeds", "0"], "--seeds")])
+def test_the_command_refuses_bad_flags(tmp_path: Path, flags: list[str], named: str,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "bench.json"
+    assert main(["bench", "diagnose", *flags, "--out", str(out)]) == 2
+    assert named in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["bench", "env", "--logs"]) == 2
+    assert "--logs" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_quick_bench_diagnoses_a_batch_and_splits_its_time() -> None:
+    report = run_log_diagnose_bench(bench_seeds(1), "single", LogBenchParams.quick(workers=2))
+    (batch,) = report["batches"]
+    assert batch["truth"]["causes"] == ["binding_strength"] and report["quick"]
+    assert batch["replays"] >= 3 * (1 + 2)
+    split = batch["split"]
+    assert split["replay_wall_s"] > split["fit_wall_s"] > 0.0
+    assert split["replay_cpu_s"] > 0.0 and batch["simulation_seconds"] > 0.0
+    assert {"correct", "seconds_per_batch_median", "magnitude_within_20_percent",
+            "heldout_gain_median"} <= set(report["entries"])
+    assert report["markdown"].startswith("| truth |")

@@ -1,0 +1,80 @@
+"""A process that used the native libraries the suite uses exits cleanly (issue 53: one full
+run in nine ended in a segmentation fault at interpreter exit, after every test had passed).
+
+Each check runs the sequence in a fresh interpreter under faulthandler, so that a crash in its
+teardown shows as a non-zero exit status and a fatal-error report instead of passing unseen.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from tests.paths import PROJECT_ROOT
+
+ROOT = PROJECT_ROOT
+
+#: Headless rendering (EGL, its context left to the display's teardown at exit) and a Rerun
+#: recording (its background threads alive at exit), as the suite's tests do.
+RENDER_AND_RECORD = """
+import tempfile
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import rerun as rr
+
+from cell.robots.camera import CameraRig
+
+spec = mujoco.MjSpec()
+spec.worldbody.add_camera(name="eye", pos=[0.0, 0.0, 1.0])
+spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1.0, 1.0, 0.01])
+model = spec.compile()
+data = mujoco.MjData(model)
+mujoco.mj_forward(model, data)
+with CameraRig(model, "eye", 64, 48) as rig:
+    image = rig.rgb(data)
+stream = rr.RecordingStream("musclecell-exit-check")
+stream.save(Path(tempfile.mkdtemp()) / "exit.rrd")
+stream.log("image", rr.Image(image))
+stream.flush()
+stream.disconnect()
+"""
+
+#: The same, then a local Ray started and stopped (its gRPC threads outlive ray.shutdown).
+WITH_RAY = RENDER_AND_RECORD + """
+from cell.scale.pool import RunPool, Workers
+
+
+def negate(value: int) -> int:  # Ray takes Python functions, not builtins
+    return -value
+
+
+with RunPool(Workers(1, ray=True)) as pool:
+    assert sorted(pool.play(negate, [2], ["n"])) == [(0, -2, "")]
+"""
+
+
+def _exits_cleanly(code: str) -> None:
+    environment = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONFAULTHANDLER": "1",
+                   "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
+                   "RAY_USAGE_STATS_ENABLED": "0"}
+    done = subprocess.run([sys.executable, "-X", "faulthandler", "-c", textwrap.dedent(code)],
+                          cwd=ROOT, env=environment, stdin=subprocess.DEVNULL,
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0 and "Fatal Python error" not in done.stderr, (
+        f"exit status {done.returncode}:\n{done.stderr[-4000:]}")
+
+
+def test_rendering_and_recording_exit_cleanly() -> None:
+    _exits_cleanly(RENDER_AND_RECORD)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("run", range(20))
+def test_rendering_recording_and_ray_exit_cleanly_again_and_again(run: int) -> None:
+    _exits_cleanly(WITH_RAY)

@@ -1,0 +1,94 @@
+"""The evidence of a log beyond its forces (:mod:`cell.logs.outcome`): the ``[outcome]``
+counts and the release events in time, each in units of its own noise, and how much a count
+far from the log's weighs in the diagnosis's comparison; the wide screening probes."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from cell.logs.causes import CAUSES
+from cell.logs.fit import Rows, forward_selection, logged_vector, rmse_n
+from cell.logs.outcome import (
+    COUNTS,
+    EVENT_CAP,
+    EVENT_CHANNELS,
+    EVIDENCE_ROWS,
+    count_misfits,
+    event_misfits,
+    evidence_weight,
+)
+from cell.logs.search import screening_worlds
+from cell.measure.logs import Channel
+from tests.logcases import wave_log
+
+LOGGED = {"bindings": 120, "released": 110, "torn": 73}
+
+
+def test_a_replay_that_tears_5_where_the_log_tore_73_is_far_outside_the_counts_noise() -> None:
+    far = count_misfits(LOGGED, {"bindings": 120, "released": 100, "torn": 5})
+    near = count_misfits(LOGGED, {"bindings": 120, "released": 109, "torn": 72})
+    torn = COUNTS.index("torn")
+    assert far[torn] < -10.0
+    assert np.all(np.abs(near) < 1.0)
+
+
+def test_a_log_without_an_outcome_gives_no_count_evidence() -> None:
+    assert not count_misfits({}, {"bindings": 120, "released": 100, "torn": 5}).any()
+
+
+def _dropped(log_channels: dict[str, Channel], at_s: float) -> dict[str, Channel]:
+    """``log_channels`` whose force falls to nothing at ``at_s`` (a release)."""
+    return {name: replace(channel, force_n=np.where(channel.time_s[:, None] < at_s,
+                                                    channel.force_n + 5.0, 0.0))
+            for name, channel in log_channels.items()}
+
+
+def test_a_release_a_step_late_is_within_timing_noise_and_one_much_later_costs_the_cap(
+        ) -> None:
+    unreleased = wave_log(101)  # a sample every 10 ms
+    log = replace(unreleased, channels=_dropped(unreleased.channels, 0.5))
+    step_late = event_misfits(log, _dropped(unreleased.channels, 0.51))
+    much_later = event_misfits(log, _dropped(unreleased.channels, 0.9))
+    never = event_misfits(log, {k: replace(c, force_n=np.ones_like(c.force_n))
+                                for k, c in log.channels.items()})
+    assert np.all(np.abs(step_late) < 0.5)
+    assert np.allclose(much_later, EVENT_CAP) and np.allclose(never, EVENT_CAP)
+    assert len(step_late) == len(EVENT_CHANNELS)
+
+
+def test_a_count_misfit_is_what_the_selection_sees_when_the_forces_agree() -> None:
+    logs = [wave_log(200), wave_log(200)]
+    measured, rows = logged_vector(logs, EVIDENCE_ROWS)
+    assert isinstance(rows, Rows) and (~rows.force).sum() == 2 * EVIDENCE_ROWS
+    rng = np.random.default_rng(0)
+    weight = evidence_weight(rmse_n(np.full(3, 0.1)), 10)  # a force sample forgets in 10
+    torn = COUNTS.index("torn")
+    # The replays' forces agree with the logs to their noise; their torn counts do not.
+    simulated = measured + rng.normal(0.0, 0.1, measured.size) * rows.force
+    off = count_misfits(LOGGED, {"bindings": 120, "released": 100, "torn": 5})
+    evidence = np.flatnonzero(~rows.force).reshape(len(logs), EVIDENCE_ROWS)
+    for entries in evidence:
+        simulated[entries[:len(COUNTS)]] = weight * off
+    residual = measured - simulated
+    force_only = rmse_n(residual[rows.force])
+    assert rmse_n(residual) > 1.1 * force_only
+    # A cause that tears more, and changes the forces by no more than their noise.
+    tears = np.zeros((measured.size, 1))
+    tears[evidence[:, torn], 0] = weight * off[torn]
+    tears[rows.force, 0] = rng.normal(0.0, 0.01, rows.force.sum())
+    steps = forward_selection(residual, {"tearing_threshold": tears}, rows, 0.08)
+    assert [step.added for step in steps[1:]] == ["tearing_threshold"]
+
+
+def test_the_wide_probes_reach_a_threshold_halved_and_a_stiffness_two_and_a_half_times() -> None:
+    for name in ("tearing_threshold", "tissue_stiffness"):
+        factors = [math.exp(m) for m in CAUSES[name].probes(wide=True)]
+        assert min(factors) == pytest.approx(0.41, abs=0.02)
+        assert max(factors) == pytest.approx(2.46, abs=0.02)
+    assert CAUSES["tissue_stiffness"].probes(wide=False) == (0.3, -0.3)
+    worlds = screening_worlds(["tearing_threshold", "tissue_stiffness"], {}, wide=True)
+    assert len(worlds) == 8
