@@ -185,7 +185,7 @@ class _Dofs:
         return moved
 
 
-def _model(mesh: TetMesh, material: Material, mass_kg: float) -> mujoco.MjModel:
+def specimen_model(mesh: TetMesh, material: Material, mass_kg: float) -> mujoco.MjModel:
     """The specimen as a flexcomp, the corner at the origin pinned, no gravity, no contacts."""
     corner = int(np.argmin(np.linalg.norm(mesh.points, axis=1)))
     flex = flexcomp_xml(_FLEX, mesh.points, mesh.tets, material, mass_kg, radius_m=0.0001,
@@ -199,7 +199,7 @@ def _model(mesh: TetMesh, material: Material, mass_kg: float) -> mujoco.MjModel:
     return spec.compile()
 
 
-def _softest_modulus_pa(material: Material, strain: np.ndarray) -> float:
+def softest_modulus_pa(material: Material, strain: np.ndarray) -> float:
     """Smallest tangent modulus of the material over the test's nominal strains, Pa."""
     if isinstance(material, ContinuumMaterial):
         return material.young_pa
@@ -208,7 +208,7 @@ def _softest_modulus_pa(material: Material, strain: np.ndarray) -> float:
                      material.transverse.modulus_pa(stretch).min()))
 
 
-def _mass_scale(time_s: np.ndarray, strain: np.ndarray, height_m: float, modulus_pa: float,
+def inertia_mass_scale(time_s: np.ndarray, strain: np.ndarray, height_m: float, modulus_pa: float,
                 density_kg_m3: float, params: SpecimenSimParams) -> float:
     """Largest mass scale whose inertial stress stays within budget (module docstring).
 
@@ -270,9 +270,9 @@ def simulate_meshed(
     mesh = specimen_mesh(specimen, params.cells)
     time = test.time_s - test.time_s[0]
     strain = test.strain(specimen)
-    modulus = _softest_modulus_pa(material, strain)
-    mass_scale = _mass_scale(time, strain, height, modulus, specimen.density_kg_m3, params)
-    model = _model(mesh, material, specimen.density_kg_m3 * mass_scale * mesh.volume_m3)
+    modulus = softest_modulus_pa(material, strain)
+    mass_scale = inertia_mass_scale(time, strain, height, modulus, specimen.density_kg_m3, params)
+    model = specimen_model(mesh, material, specimen.density_kg_m3 * mass_scale * mesh.volume_m3)
     data = mujoco.MjData(model)
     dofs = _Dofs.of(model, mesh)
     springs = None

@@ -115,10 +115,17 @@ def diagnose_set(measurements: MeasurementSet, params: DiagnosisParams | None = 
     ``on_fit`` is called with 1 after each fit (progress).
 
     Raises:
-        DiagnosisError: a set with no test, or a uniaxial diagnosis that cannot run
+        DiagnosisError: a set with no test, a set with shear or biaxial tests (read, and
+            simulated by :mod:`cell.diagnosis.specimen.shearbiaxial`, but not yet fitted), or
+            a uniaxial diagnosis that cannot run
             (:func:`cell.diagnosis.specimen.diagnosis.diagnose`).
     """
     params = DiagnosisParams() if params is None else params
+    unfitted = [t.test_id for t in (*measurements.shear_tests, *measurements.biaxial_tests)]
+    if unfitted:
+        raise DiagnosisError(measurements.folder / "tests.csv", "mode", f"shear and biaxial "
+                             f"tests are read but not yet diagnosed: {', '.join(unfitted)}; "
+                             "diagnose the set without them")
     if not measurements.tests and not measurements.cut_tests:
         raise DiagnosisError(measurements.folder, None, "the set holds no test")
     uniaxial = diagnose(measurements, params, on_fit) if measurements.tests else None

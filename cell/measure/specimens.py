@@ -2,11 +2,11 @@
 
 A set is a folder with ``specimen.toml`` (the specimen's name, edge lengths and density, an
 optional free ``[rig]`` table) and ``tests.csv`` (long format, one row per sample, SI units),
-as the project's measured-data spec (``measured-data.md``) defines them. A set may also hold
-cut tests (mode ``cut``, with ``[block]`` and ``[blade]`` tables: :mod:`cell.measure.cuts`);
-a set of only cut tests needs no ``[specimen]``. Every fault of the
-input is an :class:`~cell.errors.InputError` naming the file and the key, or the line and
-column, at fault. Reading writes nothing.
+as the project's measured-data spec (``measured-data.md``) defines them: uniaxial, simple shear
+and biaxial tests (:mod:`cell.measure.shearbiaxial`), cut tests (mode ``cut``, with ``[block]``
+and ``[blade]`` tables: :mod:`cell.measure.cuts`; a set of only cut tests needs no
+``[specimen]``). Every fault of the input is an :class:`~cell.errors.InputError` naming the
+file and the key, or the line and column, at fault. Reading writes nothing.
 
 Example:
     >>> data = load_measurement_set("assets/measured/beef_round_example")
@@ -18,6 +18,7 @@ Example:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, cast, get_args
@@ -50,11 +51,31 @@ from cell.measure.cuts import (
     read_cut_tables,
     read_cut_tests,
 )
-from cell.measure.testrows import read_test_rows, require_columns, rows_of
+from cell.measure.shearbiaxial import (
+    BIAXIAL_MODE,
+    SHEAR_BIAXIAL_COLUMNS,
+    SHEAR_MODE,
+    BiaxialTest,
+    Loads,
+    ShearTest,
+    read_biaxial_tests,
+    read_shear_tests,
+)
+from cell.measure.testrows import (
+    SPECIMEN_COLUMNS,
+    OwnSize,
+    check_rows,
+    constant,
+    own_specimen,
+    read_test_rows,
+    require_columns,
+    rows_of,
+)
 
 Mode = Literal["tension", "compression", "relaxation", "cyclic"]
 MODES: tuple[str, ...] = get_args(Mode)
-"""Test modes of ``tests.csv``: monotonic ramps, ramp then hold, load/unload cycles."""
+"""Uniaxial modes of ``tests.csv``: monotonic ramps, ramp then hold, load/unload cycles."""
+_OWN_MODES = (SHEAR_MODE, BIAXIAL_MODE, CUT_MODE)
 
 SPECIMEN_FILE = "specimen.toml"
 TESTS_FILE = "tests.csv"
@@ -62,9 +83,8 @@ TESTS_FILE = "tests.csv"
 _NUMBER_COLUMNS: dict[str, Plausible] = {"angle_deg": ANGLE_DEG, "time_s": TIME_S,
                                          "displacement_m": DISPLACEMENT_M, "force_N": FORCE_N}
 #: The columns of one kind of test, needed when the set holds that kind.
-_OPTIONAL_COLUMNS = (*_NUMBER_COLUMNS, *CUT_COLUMNS)
+_OPTIONAL_COLUMNS = (*_NUMBER_COLUMNS, *CUT_COLUMNS, *SHEAR_BIAXIAL_COLUMNS, *SPECIMEN_COLUMNS)
 _TABLES = ("specimen", "rig", BLOCK_TABLE, BLADE_TABLE)
-_MIN_SAMPLES = 3
 
 
 @dataclass(frozen=True)
@@ -114,8 +134,8 @@ class Specimen:
 REST_FRACTION = 0.01
 
 @dataclass(frozen=True, eq=False)
-class MechanicalTest:
-    """One test: the displacement history put on the top face and the force measured there.
+class MechanicalTest(OwnSize):
+    """One uniaxial test: the displacement history put on the top face and the force there.
 
     Arrays are read-only, one value per sample, in time order (samples need not be evenly
     spaced). Positive displacement is extension, positive force is tension.
@@ -127,6 +147,8 @@ class MechanicalTest:
         time_s: (n,) time since the start of the test, s, non-decreasing.
         displacement_m: (n,) displacement of the top face along the load axis, m.
         force_n: (n,) axial force on the top face, N.
+        specimen_id: the test's specimen, ``""`` when the set does not say.
+        size_m: the specimen's own edge lengths along x, y, z, m; None for the set's.
 
     Example:
         >>> t = np.array([0.0, 1.0, 2.0])
@@ -141,6 +163,8 @@ class MechanicalTest:
     time_s: np.ndarray
     displacement_m: np.ndarray
     force_n: np.ndarray
+    specimen_id: str = ""
+    size_m: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         for name in ("time_s", "displacement_m", "force_n"):
@@ -150,8 +174,7 @@ class MechanicalTest:
 
     @property
     def force_N(self) -> np.ndarray:
-        """The name of :attr:`force_n` in 0.1.0 (a cut test's is ``force_n``), for one
-        release."""
+        """0.1.0's name of :attr:`force_n` (as on a cut test), kept for one release."""
         return self.force_n
 
     @property
@@ -170,13 +193,22 @@ class MechanicalTest:
             return np.arange(0)
         return np.arange(int(np.argmax(moved)) if moved.any() else len(moved))
 
+    # Strain, area and stress are the test's own specimen's where it has one.
     def strain(self, specimen: Specimen) -> np.ndarray:
-        """Nominal strain at the samples: displacement over the specimen's initial height."""
-        return self.displacement_m / specimen.size_m[2]
+        """Nominal strain at the samples: displacement over the initial height."""
+        return self.displacement_m / self.size_of(specimen)[2]
+
+    def area_m2(self, specimen: Specimen) -> float:
+        """Initial cross-section across the load axis, m^2."""
+        return self.size_of(specimen)[0] * self.size_of(specimen)[1]
 
     def stress_pa(self, specimen: Specimen) -> np.ndarray:
-        """Nominal stress at the samples, Pa: force over the specimen's initial area."""
-        return self.force_n / specimen.area_m2
+        """Nominal stress at the samples, Pa: force over the initial area."""
+        return self.force_n / self.area_m2(specimen)
+
+    def loads(self, size_m: tuple[float, float, float]) -> Loads:
+        """The measured force by column, with the area it acts on, m^2."""
+        return {"force_N": (self.force_n, size_m[0] * size_m[1])}
 
 
 @dataclass(frozen=True)
@@ -191,6 +223,8 @@ class MeasurementSet:
         block: the block of the cut tests (``[block]``), None if the set holds none.
         blade: the blade of the cut tests (``[blade]``), None if the set holds none.
         cut_tests: the cut tests, in the order of their first row, empty for a uniaxial set.
+        shear_tests, biaxial_tests: the simple shear and biaxial tests, each in the order of
+            its first row (:mod:`cell.measure.shearbiaxial`).
 
     Example:
         >>> data = load_measurement_set("assets/measured/beef_round_example")
@@ -204,13 +238,11 @@ class MeasurementSet:
     block: Block | None = None
     blade: Blade | None = None
     cut_tests: tuple[CutTest, ...] = ()
+    shear_tests: tuple[ShearTest, ...] = ()
+    biaxial_tests: tuple[BiaxialTest, ...] = ()
 
     def test(self, test_id: str) -> MechanicalTest:
-        """The test named ``test_id``.
-
-        Raises:
-            KeyError: no such test.
-        """
+        """The test named ``test_id`` (KeyError: no such test)."""
         for test in self.tests:
             if test.test_id == test_id:
                 return test
@@ -265,22 +297,20 @@ def _specimen(path: Path, raw: dict[str, Any]) -> Specimen:
 
 def load_tests(path: str | Path) -> tuple[MechanicalTest, ...]:
     """Read the uniaxial tests of ``tests.csv``: a header line, then one row per sample (see
-    the module docstring); rows of cut tests are left out (:func:`load_measurement_set` reads
-    them).
-
+    the module docstring); rows of other kinds are left out (:func:`load_measurement_set`).
     Read by :func:`cell.io.read_csv`: blank lines and lines starting with ``#`` are skipped,
-    extra columns are ignored; the rows of a test need not be contiguous but must be in time
-    order.
+    extra columns are ignored; a test's rows need not be contiguous but in time order.
 
     Raises:
         InputError: naming the file and ``line N, column C``: a file that
             :func:`cell.io.read_text` refuses, a missing column, a non-numeric, non-finite or
-            implausible value (:mod:`cell.config`), an empty test id, an unknown mode, a mode
-            or angle that changes within a test, time going backwards within a test, a test
-            with fewer than 3 samples, no test at all.
+            implausible value (:mod:`cell.config`), an empty test id, an unknown mode, a mode,
+            angle or own specimen (:func:`~cell.measure.testrows.own_specimen`) that changes
+            within a test, time going backwards within a test, a test with fewer than 3
+            samples, no test at all.
     """
-    table, groups, _ = read_test_rows(Path(path), CUT_MODE, _OPTIONAL_COLUMNS)
-    return _uniaxial_tests(table, groups)
+    table, kinds = read_test_rows(Path(path), _OWN_MODES, _OPTIONAL_COLUMNS)
+    return _uniaxial_tests(table, kinds[""])
 
 
 def _uniaxial_tests(table: CsvTable, groups: dict[str, list[int]]
@@ -298,37 +328,16 @@ def _uniaxial_tests(table: CsvTable, groups: dict[str, list[int]]
 def _test(table: CsvTable, values: dict[str, np.ndarray], test_id: str,
           rows: list[int]) -> MechanicalTest:
     """Validate and convert the rows of one test (``rows``: indices into ``table``)."""
-    path = table.path
-
-    def where(row: int, column: str) -> str:
-        return table.where(rows[row], column)
-
-    modes = [table.cells["mode"][row] for row in rows]
-    for row, mode in enumerate(modes):
-        if mode not in (*MODES, CUT_MODE):
-            raise InputError(path, where(row, "mode"), f"unknown mode {mode!r} (known "
-                             f"modes: {', '.join((*MODES, CUT_MODE))})")
-        if mode != modes[0]:
-            raise InputError(path, where(row, "mode"),
-                             f"test {test_id!r} changes mode from {modes[0]!r} to {mode!r}")
-    angle, time = values["angle_deg"][rows], values["time_s"][rows]
-    changed = np.flatnonzero(angle != angle[0])
-    if changed.size:
-        raise InputError(path, where(changed[0], "angle_deg"),
-                         f"test {test_id!r} changes angle from {angle[0]:g} to "
-                         f"{angle[changed[0]]:g}")
-    if len(angle) < _MIN_SAMPLES:
-        raise InputError(path, where(0, "test_id"),
-                         f"test {test_id!r} has {len(angle)} samples, needs at least "
-                         f"{_MIN_SAMPLES}")
-    back = np.flatnonzero(np.diff(time) < 0)
-    if back.size:
-        row = back[0] + 1
-        raise InputError(path, where(row, "time_s"),
-                         f"time goes backwards in test {test_id!r}: {time[row]:g} s after "
-                         f"{time[row - 1]:g} s")
-    return MechanicalTest(test_id, cast(Mode, modes[0]), float(angle[0]), time,
-                          values["displacement_m"][rows], values["force_N"][rows])
+    mode = table.cells["mode"][rows[0]]
+    row = next((r for r in rows if table.cells["mode"][r] not in (*MODES, *_OWN_MODES)), None)
+    if row is not None:
+        raise InputError(table.path, table.where(row, "mode"), f"unknown mode "
+                         f"{table.cells['mode'][row]!r} (known: {', '.join(MODES + _OWN_MODES)})")
+    check_rows(table, test_id, rows, values["time_s"][rows])
+    angle = constant(table, "angle_deg", values["angle_deg"][rows], test_id, rows, "deg")
+    return MechanicalTest(test_id, cast(Mode, mode), angle, values["time_s"][rows],
+                          values["displacement_m"][rows], values["force_N"][rows],
+                          *own_specimen(table, test_id, rows))
 
 
 def load_measurement_set(folder: str | Path) -> MeasurementSet:
@@ -340,10 +349,9 @@ def load_measurement_set(folder: str | Path) -> MeasurementSet:
             stress on the specimen's cross-section (:data:`cell.config.STRESS_PA`), forces
             too small to measure anything (:data:`cell.config.MEASURABLE_STRESS_PA`); a missing
             folder is a missing file, a file where the folder should be is refused; no
-            ``[specimen]`` where the set holds uniaxial tests.
-        CutTestError: bad ``[block]``, ``[blade]`` or cut rows
-            (:func:`cell.measure.cuts.read_cut_tables`,
-            :func:`cell.measure.cuts.read_cut_tests`).
+            ``[specimen]`` where the set holds uniaxial, shear or biaxial tests; the shear
+            and biaxial tests' own faults (:mod:`cell.measure.shearbiaxial`).
+        CutTestError: bad ``[block]``, ``[blade]`` or cut rows (:mod:`cell.measure.cuts`).
 
     Example:
         >>> len(load_measurement_set("assets/measured/beef_round_example").tests)
@@ -357,31 +365,35 @@ def load_measurement_set(folder: str | Path) -> MeasurementSet:
     raw = _read_specimen_file(specimen_path)
     specimen = _specimen(specimen_path, raw) if "specimen" in raw else None
     block, blade = read_cut_tables(specimen_path, raw)
-    table, groups, cut_groups = read_test_rows(tests_path, CUT_MODE, _OPTIONAL_COLUMNS)
-    tests = _uniaxial_tests(table, groups)
-    if tests and specimen is None:
+    table, kinds = read_test_rows(tests_path, _OWN_MODES, _OPTIONAL_COLUMNS)
+    tests = _uniaxial_tests(table, kinds[""])
+    shear = read_shear_tests(table, kinds[SHEAR_MODE])
+    biaxial = read_biaxial_tests(table, kinds[BIAXIAL_MODE])
+    if (tests or shear or biaxial) and specimen is None:
         raise InputError(specimen_path, "specimen", f"missing table: {TESTS_FILE} holds "
-                         "uniaxial tests")
-    cut_tests = read_cut_tests(table, cut_groups, block, blade, specimen_path)
-    if tests:
-        _check_stress(tests_path, specimen, tests)
-    return MeasurementSet(folder, specimen, tests, block, blade, cut_tests)
+                         "uniaxial, shear or biaxial tests")
+    cut_tests = read_cut_tests(table, kinds[CUT_MODE], block, blade, specimen_path)
+    if tests or shear or biaxial:
+        _check_stress(tests_path, specimen, (*tests, *shear, *biaxial))
+    return MeasurementSet(folder, specimen, tests, block, blade, cut_tests, shear, biaxial)
 
 
-def _check_stress(path: Path, specimen: Specimen, tests: tuple[MechanicalTest, ...]) -> None:
-    """The forces as stresses on the specimen: none beyond :data:`cell.config.STRESS_PA`, and
-    the largest at least :data:`cell.config.MEASURABLE_STRESS_PA`."""
+def _check_stress(path: Path, specimen: Specimen,
+                  tests: Sequence[MechanicalTest | ShearTest | BiaxialTest]) -> None:
+    """The forces as stresses on the faces they load: none beyond
+    :data:`cell.config.STRESS_PA`, and the largest at least
+    :data:`cell.config.MEASURABLE_STRESS_PA`."""
+    peak = 0.0
     for test in tests:
-        stress = test.stress_pa(specimen)
-        row = STRESS_PA.first_outside(stress)
-        if row is not None:
-            raise InputError(path, f"test {test.test_id}, column force_N",
-                             f"sample {row}: {STRESS_PA.refusal(float(stress[row]))} as "
-                             f"stress on the {specimen.area_m2:g} m^2 of {SPECIMEN_FILE}'s "
-                             "size_m")
-    peak = max(float(np.max(np.abs(test.force_n))) for test in tests)
-    if peak / specimen.area_m2 < MEASURABLE_STRESS_PA:
+        for column, (force, area) in test.loads(test.size_of(specimen)).items():
+            stress = force / area
+            row = STRESS_PA.first_outside(stress)
+            if row is not None:
+                raise InputError(path, f"test {test.test_id}, column {column}",
+                                 f"sample {row}: {STRESS_PA.refusal(float(stress[row]))} as "
+                                 f"stress on the {area:g} m^2 of the specimen's size_m")
+            peak = max(peak, float(np.max(np.abs(stress))))
+    if peak < MEASURABLE_STRESS_PA:
         raise InputError(path, "column force_N",
-                         f"the largest force, {peak:g} N, is a stress of "
-                         f"{peak / specimen.area_m2:g} Pa on the specimen: below "
+                         f"the largest stress on the specimen is {peak:g} Pa: below "
                          f"{MEASURABLE_STRESS_PA:g} Pa the set measured nothing of a tissue")

@@ -2,7 +2,7 @@
 
 The law, :func:`spring_stress` (described with its parameters at
 :class:`~cell.tissue.packedlaw.SpringLaw`), serves the muscles' kernel (:func:`muscle_forces`,
-for :mod:`cell.tissue.massspring`) and the specimen's (:func:`uniaxial_stress`, for
+for :mod:`cell.tissue.massspring`) and the specimen's (:func:`homogeneous_stress`, for
 :mod:`cell.diagnosis.specimen.solve`): a material fitted to measured tests is the one the muscles
 run.
 
@@ -265,106 +265,105 @@ def muscle_forces(qpos: np.ndarray, qvel: np.ndarray, qfrc: np.ndarray, qposadr:
 
 
 @njit(cache=True, fastmath=False)
-def _kirchhoff(state: np.ndarray, stretch: float, directions: np.ndarray, weights: np.ndarray,
+def _kirchhoff(gradient: np.ndarray, directions: np.ndarray, weights: np.ndarray,
                cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray, history: np.ndarray,
                timestep_s: float, commit: bool, out: np.ndarray) -> bool:
-    """Kirchhoff stress (xx, yy, xz, zz; Pa) of F(a, b, c; stretch); False once a spring has
-    collapsed."""
-    a, b, c = state[0], state[1], state[2]
+    """Kirchhoff stress (xx, yy, zz, xz; Pa) under the deformation gradient ``gradient``
+    (F_xx, F_yy, F_zz, F_xz; the other entries 0); False once a spring has collapsed."""
     out[:] = 0.0
     for j in range(directions.shape[0]):
         dx, dy, dz = directions[j, 0], directions[j, 1], directions[j, 2]
-        vx = a * dx + c * dz
-        vy = b * dy
-        vz = stretch * dz
+        vx = gradient[0] * dx + gradient[3] * dz
+        vy = gradient[1] * dy
+        vz = gradient[2] * dz
         length = math.sqrt(vx * vx + vy * vy + vz * vz)
         if not length > 0.0:
             return False
         stress, _, _ = spring_stress(length - 1.0, cos_sq[j], curves, params, history, j,
-                                  timestep_s, commit)
+                                     timestep_s, commit)
         scale = weights[j] * stress / length
         out[0] += scale * vx * vx
         out[1] += scale * vy * vy
-        out[2] += scale * vx * vz
-        out[3] += scale * vz * vz
+        out[2] += scale * vz * vz
+        out[3] += scale * vx * vz
     return True
 
 
 @njit(cache=True, fastmath=False)
-def _jacobian(state: np.ndarray, tau: np.ndarray, stretch: float, directions: np.ndarray,
+def _jacobian(gradient: np.ndarray, tau: np.ndarray, free: np.ndarray, directions: np.ndarray,
               weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
               history: np.ndarray, timestep_s: float, jacobian: np.ndarray) -> bool:
-    """Forward differences of the lateral stresses in (a, b, c) into ``jacobian``."""
-    trial = np.empty(3)
+    """Forward differences of the free faces' stresses in the free components."""
+    trial = np.empty(4)
     probe = np.empty(4)
-    for i in range(3):
-        trial[:] = state
-        trial[i] += _PROBE
-        if not _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params, history,
+    for i in range(free.shape[0]):
+        trial[:] = gradient
+        trial[free[i]] += _PROBE
+        if not _kirchhoff(trial, directions, weights, cos_sq, curves, params, history,
                           timestep_s, False, probe):
             return False
-        for r in range(3):
-            jacobian[r, i] = (probe[r] - tau[r]) / _PROBE
+        for r in range(free.shape[0]):
+            jacobian[r, i] = (probe[free[r]] - tau[free[r]]) / _PROBE
     return True
 
 
 @njit(cache=True, fastmath=False)
-def uniaxial_stress(time_s: np.ndarray, strain: np.ndarray, directions: np.ndarray,
-              weights: np.ndarray, cos_sq: np.ndarray, curves: np.ndarray, params: np.ndarray,
-              history: np.ndarray, stress_out: np.ndarray, lateral_out: np.ndarray) -> int:
-    """The specimen's kernel (:mod:`cell.diagnosis.specimen.solve`): nominal axial stress (Pa) of
-    the homogeneous lattice at every sample into ``stress_out``; returns the index of the first
-    sample without an equilibrium, or -1.
-
-    Newton's method with a Jacobian kept from sample to sample and refreshed when it stops
-    converging fast, and a backtracking line search (the plastic law has kinks).
-    """
-    state = np.array([1.0, 1.0, 0.0])
+def homogeneous_stress(time_s: np.ndarray, path: np.ndarray, free: np.ndarray,
+                       directions: np.ndarray, weights: np.ndarray, cos_sq: np.ndarray,
+                       curves: np.ndarray, params: np.ndarray, history: np.ndarray,
+                       tau_out: np.ndarray, gradient_out: np.ndarray) -> int:
+    """The specimen's kernel (:mod:`cell.diagnosis.specimen.solve`): the homogeneous lattice
+    along ``path`` ((n, 4): F - I's xx, yy, zz, xz per sample), the components in ``free``
+    solved for zero Kirchhoff stress in the same components (Newton's method, its Jacobian kept
+    until it stops converging fast, with a backtracking line search: the plastic law has
+    kinks); the Kirchhoff stress (xx, yy, zz, xz; Pa) into ``tau_out``, F (xx, yy, zz, xz) into
+    ``gradient_out``; returns the first sample without an equilibrium, or -1."""
+    unit = np.array([1.0, 1.0, 1.0, 0.0])
+    held = np.ones(4, dtype=np.bool_)
+    held[free] = False
+    state = unit + path[0]
     previous = state.copy()
-    trial = np.empty(3)
-    tau = np.empty(4)
-    probe = np.empty(4)
-    jacobian = np.zeros((3, 3))
+    trial, tau, probe = np.empty(4), np.empty(4), np.empty(4)
+    jacobian = np.zeros((free.shape[0], free.shape[0]))
     fresh = False
     # Stresses below this are round-off: the small-strain modulus times a micro-strain.
     floor = 1e-6 * max(abs(curves[CURVE_LONGITUDINAL, CURVE_COEFFICIENTS]),
                        abs(curves[CURVE_TRANSVERSE, CURVE_COEFFICIENTS]))
     for k in range(time_s.shape[0]):
         timestep = time_s[k] - time_s[k - 1] if k > 0 else 0.0
-        stretch = 1.0 + strain[k]
-        # Predict the lateral state by extrapolating along the strain from the last two.
-        if k > 1 and strain[k - 1] != strain[k - 2]:
-            slope = (strain[k] - strain[k - 1]) / (strain[k - 1] - strain[k - 2])
-            if abs(slope) <= 4.0:
-                step_back = state - previous
-                previous[:] = state
-                state += slope * step_back
-            else:
-                previous[:] = state
-        else:
-            previous[:] = state
-        if not _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
+        # Predict the free components by extrapolating along the held one that moved most.
+        lead = np.argmax(np.abs(path[k - 1] - path[k - 2]) * held) if k > 1 else 0
+        moved = path[k - 1, lead] - path[k - 2, lead] if k > 1 else 0.0
+        slope = (path[k, lead] - path[k - 1, lead]) / moved if moved != 0.0 else np.inf
+        step_back = state - previous
+        previous[:] = state
+        if abs(slope) <= 4.0:
+            state += slope * step_back
+        state[held] = unit[held] + path[k][held]
+        if not _kirchhoff(state, directions, weights, cos_sq, curves, params, history,
                           timestep, False, tau):
             return k
-        norm = abs(tau[0]) + abs(tau[1]) + abs(tau[2])
+        norm = np.abs(tau[free]).sum()
         converged = False
         for _ in range(_NEWTON_ITERATIONS):
-            if norm <= _NEWTON_TOLERANCE * max(abs(tau[3]) + norm, floor):
+            if norm <= _NEWTON_TOLERANCE * max(np.abs(tau[held]).sum() + norm, floor):
                 converged = True
                 break
             if (k == 0 and not fresh) or (not fresh and jacobian[0, 0] == 0.0):
-                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
+                fresh = _jacobian(state, tau, free, directions, weights, cos_sq, curves,
                                   params, history, timestep, jacobian)
                 if not fresh:
                     return k
-            step = np.linalg.solve(jacobian, tau[:3])
+            step = np.linalg.solve(jacobian, tau[free])
             length = 1.0
             improved = False
             for _ in range(8):
-                trial[:] = state - length * step
-                if _kirchhoff(trial, stretch, directions, weights, cos_sq, curves, params,
-                              history, timestep, False, probe):
-                    trial_norm = abs(probe[0]) + abs(probe[1]) + abs(probe[2])
+                trial[:] = state
+                for i in range(free.shape[0]):
+                    trial[free[i]] -= length * step[i]
+                if _kirchhoff(trial, directions, weights, cos_sq, curves, params, history,
+                              timestep, False, probe):
+                    trial_norm = np.abs(probe[free]).sum()
                     if trial_norm < norm:
                         improved = True
                         break
@@ -377,15 +376,14 @@ def uniaxial_stress(time_s: np.ndarray, strain: np.ndarray, directions: np.ndarr
             elif fresh:
                 return k
             else:
-                fresh = _jacobian(state, tau, stretch, directions, weights, cos_sq, curves,
+                fresh = _jacobian(state, tau, free, directions, weights, cos_sq, curves,
                                   params, history, timestep, jacobian)
                 if not fresh:
                     return k
         if not converged:
             return k
-        _kirchhoff(state, stretch, directions, weights, cos_sq, curves, params, history,
-                   timestep, True, tau)
-        stress_out[k] = tau[3] / stretch
-        lateral_out[k, 0] = state[0]
-        lateral_out[k, 1] = state[1]
+        _kirchhoff(state, directions, weights, cos_sq, curves, params, history, timestep,
+                   True, tau)
+        tau_out[k] = tau
+        gradient_out[k] = state
     return -1

@@ -37,12 +37,13 @@ springlaw.muscle_forces(
     np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.array([[0, 1]]), np.array([1.0]),
     np.array([1.0]), np.array([1.0]), law.curves, law.params, law.history(1), 0.0, 0.0,
     np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((0, 6)), False)
-# The specimen's lattice: one spring along each axis.
-axial = np.zeros(2)
-failed = springlaw.uniaxial_stress(
-    np.array([0.0, 1.0]), np.array([0.0, 0.1]), np.eye(3), np.ones(3),
-    np.array([0.0, 0.0, 1.0]), law.curves, law.params, law.history(3), axial, np.zeros((2, 2)))
-print(json.dumps([stress, -qfrc[0], axial[1], failed]))
+# The specimen's lattice: one spring along each axis, stretched 10% along z, x and y free.
+tau = np.zeros((2, 4))
+failed = springlaw.homogeneous_stress(
+    np.array([0.0, 1.0]), np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.1, 0.0]]),
+    np.array([0, 1, 3]), np.eye(3), np.ones(3), np.array([0.0, 0.0, 1.0]), law.curves,
+    law.params, law.history(3), tau, np.zeros((2, 4)))
+print(json.dumps([stress, -qfrc[0], tau[1, 2], failed]))
 """
 
 

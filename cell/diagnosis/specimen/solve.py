@@ -48,12 +48,16 @@ from cell.measure.specimens import MeasurementSet, MechanicalTest, Specimen
 from cell.tissue.lattice import calibration_factors, tet_edges
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.packedlaw import SpringLaw
-from cell.tissue.springlaw import uniaxial_stress as _uniaxial
+from cell.tissue.springlaw import homogeneous_stress
 from cell.tissue.tetmesh import TetMesh, structured_hex_tets
 
 # Cells along the specimen's longest edge; the homogeneous lattice only needs their shape.
 _CELLS = 2
 _LOAD_AXIS = (0.0, 0.0, 1.0)
+#: The displacement gradient's components a path gives (:func:`solve_path`), as strains.
+_COMPONENTS = ("strain xx", "strain yy", "strain zz", "shear xz")
+#: A uniaxial test's free components: the lateral stretches and the shear of oblique fibres.
+_UNIAXIAL_FREE = (0, 1, 3)
 
 
 def specimen_mesh(specimen: Specimen, cells: int) -> TetMesh:
@@ -225,22 +229,42 @@ def simulate_tests(
     law = lattice.law(material)
     runs = []
     for test in tests:
-        fibre = np.asarray(fibre_direction(test.angle_deg))
-        cos_sq = (lattice.directions @ fibre) ** 2
-        time = np.ascontiguousarray(test.time_s - test.time_s[0])
         strain = np.ascontiguousarray(test.strain(specimen))
-        stress = np.empty(len(time))
-        lateral = np.empty((len(time), 2))
-        failed = _uniaxial(time, strain, lattice.directions, lattice.weights, cos_sq,
-                           law.curves, law.params, law.history(len(lattice.directions)), stress,
-                           lateral)
-        if failed >= 0:
-            raise DivergenceError(float(time[failed]),
-                                  f"test {test.test_id!r}: the specimen has no equilibrium at "
-                                  f"strain {strain[failed]:.4g}")
-        runs.append(SimulatedTest(test.test_id, test.time_s, stress * specimen.area_m2,
-                                  lateral))
+        path = np.zeros((len(strain), 4))
+        path[:, 2] = strain
+        tau, gradient = solve_path(lattice, law, test.test_id, test.time_s, path,
+                                   _UNIAXIAL_FREE, fibre_direction(test.angle_deg))
+        runs.append(SimulatedTest(test.test_id, test.time_s,
+                                  tau[:, 2] / (1.0 + strain) * test.area_m2(specimen),
+                                  gradient[:, :2]))
     return runs
+
+
+def solve_path(lattice: SpecimenLattice, law: SpringLaw, test_id: str, time_s: np.ndarray,
+               path: np.ndarray, free: Sequence[int], fibre: Sequence[float]
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The homogeneous lattice along ``path`` ((n, 4): the displacement gradient F - I's xx,
+    yy, zz and xz at the samples of ``time_s``; F's other entries 0), the components listed in
+    ``free`` solved for zero stress in the same components, fibres along ``fibre``
+    (:func:`~cell.tissue.springlaw.homogeneous_stress`): the Kirchhoff stress (n, 4; xx, yy,
+    zz, xz; Pa) and F (n, 4; xx, yy, zz, xz) at the samples.
+
+    Raises:
+        DivergenceError: no equilibrium at some sample (naming ``test_id``).
+    """
+    cos_sq = (lattice.directions @ np.asarray(fibre, dtype=float)) ** 2
+    time = np.ascontiguousarray(time_s - time_s[0])
+    path = np.ascontiguousarray(path, dtype=float)
+    tau, gradient = np.empty((len(time), 4)), np.empty((len(time), 4))
+    failed = homogeneous_stress(time, path, np.asarray(free, dtype=np.int64),
+                                lattice.directions, lattice.weights, cos_sq, law.curves,
+                                law.params, law.history(len(lattice.directions)), tau, gradient)
+    if failed >= 0:
+        moved = ", ".join(f"{name} {path[failed, i]:.4g}" for i, name in enumerate(_COMPONENTS)
+                          if i not in free and path[failed, i] != 0.0)
+        raise DivergenceError(float(time[failed]), f"test {test_id!r}: the specimen has no "
+                              f"equilibrium at {moved or 'rest'}")
+    return tau, gradient
 
 
 def simulate_set(measurements: MeasurementSet,
