@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from cell.robots.names import ARMS, GRASP_SITE, KNIFE_TIP
+from cell.robots.names import GRASP_SITE, KNIFE_TIP
 from cell.sim.episode import Episode
 from controllers.ik import arm_joint_names
 
@@ -125,7 +125,8 @@ class TrajectorySampler:
         self.episode = episode
         model = episode.sim.model
         self.rng = np.random.default_rng([episode.scenario.seed, TRAJECTORY_STREAM])
-        self.joints = {prefix: tuple(arm_joint_names(prefix, arm)) for prefix, arm in ARMS.items()}
+        self.joints = {prefix: tuple(arm_joint_names(prefix, arm))
+                       for prefix, arm in episode.arms.items()}
         names = [name for joints in self.joints.values() for name in joints]
         self._dofs = np.array([model.joint(name).dofadr[0] for name in names])
         self._start_q = episode.commanded_q_rad.copy()
@@ -188,7 +189,7 @@ class TrajectorySampler:
             arms[prefix] = ArmTrajectory(
                 joints, planned[:, cols], planned_qd[:, cols], executed[:, cols],
                 speed[:, cols], effort[:, cols],
-                np.array([joint.max_speed_rad_s for joint in ARMS[prefix].joints]),
+                np.array(self.episode.arms[prefix].max_speed_rad_s),
                 TOOL_SITES[prefix], poses[:, 7 * k:7 * k + 3], poses[:, 7 * k + 3:7 * k + 7])
         model = self.episode.sim.model
         frames = {sensor: model.site(int(model.sensor(f"{sensor}/force").objid[0])).name
