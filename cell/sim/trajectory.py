@@ -46,6 +46,8 @@ class ArmTrajectory:
         tool_site: the site its tool pose is given at.
         tool_position_m: (n, 3) the tool site's position, world frame.
         tool_quaternion: (n, 4) its orientation (w, x, y, z; w >= 0), world frame.
+        max_accel_rad_s2: (dof,) the arm's rated joint accelerations, or None where its
+            scenario rates none.
 
     Example:
         >>> arm = ArmTrajectory(("a/joint1",), *[np.zeros((2, 1))] * 5, np.ones(1), "a/tip",
@@ -64,6 +66,7 @@ class ArmTrajectory:
     tool_site: str
     tool_position_m: np.ndarray
     tool_quaternion: np.ndarray
+    max_accel_rad_s2: np.ndarray | None = None
 
     @property
     def dof(self) -> int:
@@ -101,6 +104,10 @@ class EpisodeTrajectory:
     def steps(self) -> int:
         """Number of control steps."""
         return len(self.time_s)
+
+
+def _rated(limits: tuple[float, ...] | None) -> np.ndarray | None:
+    return None if limits is None else np.array(limits)
 
 
 class TrajectorySampler:
@@ -190,7 +197,8 @@ class TrajectorySampler:
                 joints, planned[:, cols], planned_qd[:, cols], executed[:, cols],
                 speed[:, cols], effort[:, cols],
                 np.array(self.episode.arms[prefix].max_speed_rad_s),
-                TOOL_SITES[prefix], poses[:, 7 * k:7 * k + 3], poses[:, 7 * k + 3:7 * k + 7])
+                TOOL_SITES[prefix], poses[:, 7 * k:7 * k + 3], poses[:, 7 * k + 3:7 * k + 7],
+                _rated(self.episode.arms[prefix].max_accel_rad_s2))
         model = self.episode.sim.model
         frames = {sensor: model.site(int(model.sensor(f"{sensor}/force").objid[0])).name
                   for sensor in WRENCH_SENSORS}
