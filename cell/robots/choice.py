@@ -29,6 +29,8 @@ from cell.robots.robotfile import load_robot_file
 #: The built-in arms, by name.
 BUILT_IN: dict[str, ArmDescription] = {arm.name: arm for arm in (VIPER_S1700D, KUKA_LWR4)}
 _DH_KEYS = ("theta0_rad", "d_m", "a_m", "alpha_rad")
+_TABLE_KEYS = ("lower_rad", "upper_rad", "max_speed_rad_s", "max_accel_rad_s2",
+               "max_torque_nm", "link_masses_kg", "home_q_rad")
 
 
 @dataclass(frozen=True)
@@ -84,12 +86,16 @@ class ArmChoice:
         if self.builtin is not None and self.builtin not in BUILT_IN:
             raise InputError(None, "builtin", f"unknown arm {self.builtin!r} (built-in: "
                              f"{', '.join(sorted(BUILT_IN))})")
+        own = {"builtin": _DH_KEYS + _TABLE_KEYS,  # what the arm's source already has
+               "file": (*_DH_KEYS, "max_torque_nm", "link_masses_kg")}
+        for source, keys in own.items():
+            given = [key for key in keys if getattr(self, key)]
+            if getattr(self, source) is not None and given:
+                raise InputError(None, given[0], f"not for an arm given by {source}: it "
+                                 "has its own")
         if self.a_m:
-            self._check_lengths((*_DH_KEYS, "lower_rad", "upper_rad", "max_speed_rad_s"),
-                                len(self.a_m), required=True)
-        self._check_lengths(("lower_rad", "upper_rad", "max_speed_rad_s", "max_accel_rad_s2",
-                             "max_torque_nm", "link_masses_kg", "home_q_rad"),
-                            len(self.lower_rad or self.max_speed_rad_s), required=False)
+            self._check_lengths(_DH_KEYS + _TABLE_KEYS[:3], len(self.a_m), required=True)
+            self._check_lengths(_TABLE_KEYS[3:], len(self.a_m), required=False)
         for key in ("max_speed_rad_s", "max_accel_rad_s2", "max_torque_nm", "link_masses_kg"):
             if any(v <= 0 for v in getattr(self, key)):
                 raise InputError(None, key, f"must all be > 0, got {getattr(self, key)}")

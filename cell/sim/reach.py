@@ -7,6 +7,7 @@ its limit (or, for a target beyond the arm's reach, the joint nearest one).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -20,7 +21,7 @@ from controllers.ik import CellIK, arm_joint_names
 from controllers.trajectory import CartesianTrajectory
 
 #: The tool site each arm's waypoints are given at, by place.
-TOOL_SITES = {"knife": KNIFE_TIP, "gripper": GRASP_SITE}
+TOOL_SITES = {"knife": KNIFE_TIP, "gripper": GRASP_SITE, "camera": "camera/optical"}
 
 
 @dataclass(frozen=True)
@@ -74,11 +75,12 @@ def check_pose(configuration: mink.Configuration, place: str, arm: CellArm, targ
 
 
 def check_ready(ik: CellIK, arms: dict[str, CellArm]) -> None:
-    """Raise :class:`ReachError` if IK left the knife or the gripper short of its ready
-    pose."""
-    for place, task in (("knife", ik.knife), ("gripper", ik.grasp)):
+    """Raise :class:`ReachError` if IK left the knife, the gripper or the camera (its
+    position: its gaze is a task of its own) short of its ready pose."""
+    for place, task in (("knife", ik.knife), ("gripper", ik.grasp), ("camera", ik.camera)):
+        tolerance = ReachTolerance(angle_rad=math.pi if place == "camera" else 0.02)
         check_pose(ik.configuration, place, arms[PLACES[place]],
-                   task.transform_target_to_world, "ready (before the episode)")
+                   task.transform_target_to_world, "ready (before the episode)", tolerance)
 
 
 def _knots(trajectory: CartesianTrajectory) -> Iterator[tuple[str, mink.SE3]]:

@@ -54,3 +54,13 @@ def test_a_file_without_rated_speeds_needs_them(tmp_path: Path) -> None:
     assert refused.value.field == "max_speed_rad_s"
     speeds = (1.0,) * 7
     assert cell_arm(ArmChoice(file=str(path), max_speed_rad_s=speeds)).max_speed_rad_s == speeds
+
+
+@pytest.mark.parametrize(("choice", "field"), [
+    ({"builtin": "viper_s1700d", "max_speed_rad_s": (1.0,) * 6}, "max_speed_rad_s"),
+    ({"file": "arm.urdf", "link_masses_kg": (1.0,) * 6}, "link_masses_kg"),
+])
+def test_what_the_source_has_is_not_given_again(choice: dict, field: str) -> None:
+    with pytest.raises(InputError, match="has its own") as refused:
+        ArmChoice(**choice)
+    assert refused.value.field == field

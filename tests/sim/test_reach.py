@@ -69,3 +69,9 @@ def test_a_ur5e_and_a_seven_axis_arm_run_the_default_episode(tmp_path: Path, kin
                                             "joints": 6}
     assert summary["arms"]["pull_arm"]["joints"] == 7
     json.dumps(summary)
+
+
+def test_a_camera_arm_out_of_reach_is_named() -> None:
+    far = replace(_COARSE.layout, camera_arm_base=(2.5, 0.3, 0.6, 180.0))
+    with pytest.raises(ReachError, match=r"kuka_lwr4 .*waypoint ready.*camera_arm/joint"):
+        Episode(replace(_COARSE, layout=far))
