@@ -83,15 +83,13 @@ class FileTooLargeError(FileReadError):
 
 
 class NotTextError(FileReadError):
-    """A file that is not UTF-8 text (a binary file, another encoding) where text is
-    expected."""
+    """A file that is not UTF-8 text (a binary file, another encoding) where text goes."""
 
 
 @functools.cache
 def file_read_error(fault: type[FileReadError], reading: type[InputError]
                     ) -> type[FileReadError]:
-    """``fault`` that is also ``reading`` (the error of what was being read), so that a caller
-    catching either catches it. One class per pair.
+    """``fault`` that is also ``reading`` (the error of what was read): either catches it.
 
     Example:
         >>> issubclass(file_read_error(MissingFileError, SweepError), SweepError)
@@ -111,6 +109,10 @@ def _rebuilt_read_error(fault: type[FileReadError], reading: type[InputError], f
 
 class ScenarioError(InputError):
     """A scenario TOML file with a wrong key, type or value."""
+
+
+class ReachError(ScenarioError):
+    """A plan that leaves an arm's reach or joint limits: names arm, waypoint and joint."""
 
 
 class MaterialError(InputError):
@@ -220,9 +222,8 @@ class RandomizationError(InputError):
 
 
 class LearningError(InputError):
-    """A training or evaluation request that cannot run: an unknown env, a bad
-    hyper-parameter, a seed in the evaluation range, no policy or checkpoint where one is
-    named."""
+    """A training or evaluation request that cannot run: an unknown env, a bad hyper-parameter,
+    a seed in the evaluation range, no policy or checkpoint where one is named."""
 
 
 class PickledPolicyError(LearningError):
@@ -239,10 +240,10 @@ class PickledPolicyError(LearningError):
     def __init__(self, file: str | Path | None, field: str | None = None,
                  message: str | None = None) -> None:
         super().__init__(file, field, message or (
-            "a policy in the pickled format of earlier releases (policy.zip, "
-            "vecnormalize.pkl), which is refused: loading it would run any code its pickles "
-            "hold. If you trust where it came from, convert it once to the numbers-and-JSON "
-            f"format: musclecell convert-policy {file} --trust-pickle"))
+            "a policy in the pickled format of earlier releases (policy.zip, vecnormalize.pkl), "
+            "which is refused: loading it would run any code its pickles hold. If you trust "
+            "where it came from, convert it once to the numbers-and-JSON format: "
+            f"musclecell convert-policy {file} --trust-pickle"))
 
 
 class SweepError(InputError):
@@ -250,10 +251,9 @@ class SweepError(InputError):
 
 
 class PoolError(InputError):
-    """A request to play runs side by side (:mod:`cell.scale.pool`: a sweep's runs, a batch's
-    sets, a log diagnosis's replays) that cannot be met: fewer than one worker, an address
-    that is not a Ray cluster's or does not answer, no Ray installed; or a run whose worker
-    died. ``field`` is the option at fault (``--address``, ``--workers``).
+    """A request to play runs side by side (:mod:`cell.scale.pool`: sweeps, batches, replays)
+    that cannot be met: fewer than one worker, an address that is not a Ray cluster's or does
+    not answer, no Ray; a run whose worker died. ``field``: the option (``--address``).
 
     Example:
         >>> raise PoolError(None, "--address", "not a Ray address: 'x'")

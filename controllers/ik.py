@@ -13,8 +13,8 @@ import mink
 import mujoco
 import numpy as np
 
-from cell.robots.dh import ArmDescription
-from cell.robots.names import ARMS, GRASP_SITE, KNIFE_TIP
+from cell.robots.choice import CellArm
+from cell.robots.names import GRASP_SITE, KNIFE_TIP
 
 
 @dataclass(frozen=True)
@@ -44,13 +44,14 @@ class CellIK:
     Args:
         model: the arms-only model (see :func:`cell.sim.assembly.build_robot_spec`).
         q0: starting configuration (nq,), e.g. every arm's home pose.
+        arms: the cell's arms by prefix, for their rated speeds.
         params: costs, limits and solver.
 
     Example:
         >>> from cell.sim.assembly import build_robot_spec
         >>> from cell.sim.scenario import Scenario
         >>> robot_model = build_robot_spec(Scenario()).compile()
-        >>> ik = CellIK(robot_model, robot_model.qpos0)
+        >>> ik = CellIK(robot_model, robot_model.qpos0, Scenario().arms.cell_arms())
         >>> position_m, rotation = ik.site_pose(KNIFE_TIP)
         >>> ik.knife.set_target(pose(position_m + [0.0, 0.0, 0.01], rotation))
         >>> q = ik.solve(0.02)
@@ -58,7 +59,7 @@ class CellIK:
         True
     """
 
-    def __init__(self, model: mujoco.MjModel, q0: np.ndarray,
+    def __init__(self, model: mujoco.MjModel, q0: np.ndarray, arms: dict[str, CellArm],
                  params: IKParams = IKParams()) -> None:
         self.model = model
         self.params = params
@@ -75,9 +76,10 @@ class CellIK:
         self.posture.set_target(np.asarray(q0, float))
         self.tasks = [self.knife, self.grasp, self.gaze, self.camera, self.posture]
         speeds = {}
-        for prefix, arm in ARMS.items():
-            for i, joint in enumerate(arm.joints):
-                speeds[f"{prefix}/joint{i + 1}"] = params.speed_fraction * joint.max_speed_rad_s
+        for prefix, arm in arms.items():
+            for name, speed in zip(arm_joint_names(prefix, arm), arm.max_speed_rad_s,
+                                   strict=True):
+                speeds[name] = params.speed_fraction * speed
         self.limits = [mink.ConfigurationLimit(model), mink.VelocityLimit(model, speeds)]
         tool_dofs = [model.jnt_dofadr[j] for j in range(model.njnt)
                      if model.joint(j).name not in speeds]
@@ -107,6 +109,6 @@ def pose(position: np.ndarray, rotation: np.ndarray) -> mink.SE3:
                                                   np.asarray(position, float))
 
 
-def arm_joint_names(prefix: str, arm: ArmDescription) -> list[str]:
+def arm_joint_names(prefix: str, arm: CellArm) -> list[str]:
     """Names of an arm's joints (and of their actuators) in the scene."""
-    return [f"{prefix}/joint{i + 1}" for i in range(len(arm.joints))]
+    return [f"{prefix}/joint{i + 1}" for i in range(arm.dof)]

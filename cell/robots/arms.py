@@ -41,7 +41,9 @@ __all__ = [
     "LOOKS",
     "VIPER_S1700D_LOOK",
     "ArmLook",
+    "add_servo",
     "build_arm",
+    "generic_look",
 ]
 
 # Segments shorter than this are not drawn: a DH offset of zero means the two axes meet.
@@ -239,6 +241,46 @@ def _add_base(spec: mujoco.MjSpec, arm: ArmDescription, look: ArmLook) -> mujoco
     return base
 
 
+def add_servo(spec: mujoco.MjSpec, hinge: mujoco.MjsJoint, range_rad: tuple[float, float],
+              kp: float, torque_nm: float, tuning: ServoTuning) -> None:
+    """Limit ``hinge`` to ``range_rad`` and drive it by a position servo of stiffness ``kp``
+    (N m/rad) named as the hinge, torque-limited to ``torque_nm`` (N m) together with the
+    gravity compensation routed through it; damping and armature as :func:`build_arm` says."""
+    inertia_time_s2 = (tuning.timestep_s / tuning.omega_timestep) ** 2
+    hinge.range = list(range_rad)
+    hinge.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+    hinge.damping = [kp * tuning.damping_time_s, 0.0, 0.0]
+    hinge.armature = kp * inertia_time_s2
+    hinge.actgravcomp = True
+    # Servo and gravity compensation come from one motor: clamp their sum.
+    hinge.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    hinge.actfrcrange = [-torque_nm, torque_nm]
+    actuator = spec.add_actuator(
+        name=hinge.name,
+        target=hinge.name,
+        trntype=mujoco.mjtTrn.mjTRN_JOINT,
+        ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        ctrlrange=list(range_rad),
+        forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        forcerange=[-torque_nm, torque_nm],
+    )
+    actuator.set_to_position(kp=kp, dampratio=tuning.dampratio)
+
+
+def generic_look(arm: ArmDescription) -> ArmLook:
+    """A plain look for an arm the cell has no look of: grey shells 5 cm thick at the base,
+    thinning to 3.5 cm at the flange."""
+    radii = tuple(float(r) for r in np.linspace(0.05, 0.035, arm.dof))
+    return ArmLook(
+        segment_radius_m=radii,
+        housing_radius_m=tuple(1.1 * r for r in radii),
+        base_radius_m=0.07,
+        base_height_m=0.05,
+        shell_rgba=(0.7, 0.72, 0.75, 1.0),
+        housing_rgba=(0.3, 0.32, 0.35, 1.0),
+    )
+
+
 @dataclass(frozen=True)
 class _Servo:
     """One joint's servo: stiffness kp (N m/rad), torque limit (N m) and the tuning."""
@@ -253,22 +295,11 @@ def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, offset: np.ndarray,
     """Link i + 1 at ``offset`` (4x4, the previous joint's DH transform) in ``parent``: its
     hinge, its shapes carrying the link's mass by volume, and its position servo."""
     joint, kp, torque, tuning = arm.joints[i], servo.kp_nm_per_rad, servo.torque_nm, servo.tuning
-    inertia_time_s2 = (tuning.timestep_s / tuning.omega_timestep) ** 2
     body = parent.add_body(
         name=f"link{i + 1}", pos=offset[:3, 3], quat=_quat(offset[:3, :3]), gravcomp=1.0
     )
-    body.add_joint(
-        name=f"joint{i + 1}",
-        type=mujoco.mjtJoint.mjJNT_HINGE,
-        axis=[0.0, 0.0, 1.0],
-        range=[joint.lower_rad, joint.upper_rad],
-        limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-        damping=kp * tuning.damping_time_s,
-        armature=kp * inertia_time_s2,
-        actgravcomp=True,
-        # Servo and gravity compensation come from one motor: clamp their sum.
-        actfrclimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-        actfrcrange=[-torque, torque],
+    hinge = body.add_joint(
+        name=f"joint{i + 1}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0.0, 0.0, 1.0]
     )
     shapes = _link_shapes(arm, look, i)
     total_volume = sum(s.volume_m3 for s in shapes)
@@ -282,16 +313,7 @@ def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, offset: np.ndarray,
             mass=arm.link_masses_kg[i] * shape.volume_m3 / total_volume,
             rgba=shape.rgba,
         )
-    actuator = spec.add_actuator(
-        name=f"joint{i + 1}",
-        target=f"joint{i + 1}",
-        trntype=mujoco.mjtTrn.mjTRN_JOINT,
-        ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-        ctrlrange=[joint.lower_rad, joint.upper_rad],
-        forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-        forcerange=[-torque, torque],
-    )
-    actuator.set_to_position(kp=kp, dampratio=tuning.dampratio)
+    add_servo(spec, hinge, (joint.lower_rad, joint.upper_rad), kp, torque, tuning)
     return body
 
 

@@ -4,19 +4,14 @@ Tools are attached to the arms under a prefix (``knife/``, ``gripper/``, ``camer
 are the names the controllers, the runtime and the envs look up.
 
 Example:
-    >>> from cell.robots.names import ARMS, KNIFE_TIP
-    >>> sorted(ARMS), KNIFE_TIP
-    (['camera_arm', 'knife_arm', 'pull_arm'], 'knife/tip')
+The arms themselves (``knife_arm/``, ``pull_arm/``, ``camera_arm/``) are the scenario's
+choice (:class:`cell.robots.choice.ArmsParams`).
+
+    >>> from cell.robots.names import KNIFE_TIP
+    >>> KNIFE_TIP
+    'knife/tip'
 """
 
-from cell.robots.dh import KUKA_LWR4, VIPER_S1700D, ArmDescription
-
-#: Arm prefix, description and tool of each robot of the cell.
-ARMS: dict[str, ArmDescription] = {
-    "knife_arm": VIPER_S1700D,
-    "pull_arm": VIPER_S1700D,
-    "camera_arm": KUKA_LWR4,
-}
 KNIFE_TIP = "knife/tip"
 KNIFE_BLADE_GEOM = "knife/blade"
 GRASP_SITE = "gripper/grasp"

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from cell.robots.dh import ArmDescription, DHJoint
 
-_GRAVITY_M_S2 = 9.81
+GRAVITY_M_S2 = 9.81
 
 
 @dataclass(frozen=True)
@@ -137,5 +137,5 @@ def torque_limits_nm(arm: ArmDescription, tuning: ServoTuning = DEFAULT_SERVO) -
         row = levers[i]
         moment_kg_m = sum(m * r for m, r in zip(arm.link_masses_kg, row, strict=False))
         moment_kg_m += tuning.payload_kg * row[-1]
-        limits.append(tuning.torque_margin * _GRAVITY_M_S2 * moment_kg_m)
+        limits.append(tuning.torque_margin * GRAVITY_M_S2 * moment_kg_m)
     return tuple(limits)

@@ -19,9 +19,8 @@ import numpy as np
 from cell.collision import FEET, TABLE_TOP, muscles
 from cell.errors import MaterialError, MeshError
 from cell.outputs import write_atomic
-from cell.robots.arms import build_arm
 from cell.robots.cad import ConvexParts, add_part, decompose
-from cell.robots.names import ARMS, GRIPPER_BODY
+from cell.robots.names import GRIPPER_BODY
 from cell.robots.tools import build_camera, build_gripper, build_knife
 from cell.sim.scenario import Scenario
 from cell.tissue.aponeurosis import Aponeurosis, BindingLaw
@@ -169,10 +168,10 @@ def _add_arms(scenario: Scenario, spec: mujoco.MjSpec, handle: ConvexParts | Non
         "pull_arm": layout.pull_arm_base,
         "camera_arm": layout.camera_arm_base,
     }
-    for prefix, description in ARMS.items():
+    for prefix, arm in scenario.arms.cell_arms().items():
         x, y, z, yaw = bases[prefix]
         frame = world.add_frame(pos=[x, y, z], quat=_yaw_quat(yaw))
-        spec.attach(build_arm(description), frame=frame, prefix=f"{prefix}/")
+        spec.attach(arm.spec(), frame=frame, prefix=f"{prefix}/")
         tool_prefix, tool = tools[prefix]
         spec.attach(tool, site=spec.site(f"{prefix}/flange"), prefix=tool_prefix)
 

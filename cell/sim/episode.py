@@ -20,8 +20,9 @@ from cell.perception.pipeline import PerceivedPlan, generic_model, perceive
 from cell.profiling import timed
 from cell.progress import progress_bar
 from cell.robots.camera import CameraRig
-from cell.robots.names import ARMS, CAMERA, GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
+from cell.robots.names import CAMERA, GRASP_SITE, KNIFE_BLADE_GEOM, KNIFE_TIP
 from cell.sim.assembly import Scene, build_robot_spec, build_scene, grasp_point
+from cell.sim.reach import check_plan, check_ready
 from cell.sim.relook import Relooks
 from cell.sim.scenario import Scenario
 from cell.sim.score import CutScore
@@ -98,12 +99,13 @@ class Episode:
 
     def __init__(self, scenario: Scenario, scene: Scene | None = None) -> None:
         self.scenario = scenario
+        self.arms = scenario.arms.cell_arms()
         self.scene = build_scene(scenario) if scene is None else scene
         self.robot_model = build_robot_spec(
             scenario, handle=self.scene.cad_parts.get("knife.handle_mesh")).compile()
         self.sim = Simulation(self.scene, scenario)
         model = self.scene.model
-        names = [n for prefix, arm in ARMS.items() for n in arm_joint_names(prefix, arm)]
+        names = [n for prefix, arm in self.arms.items() for n in arm_joint_names(prefix, arm)]
         self.scene_qpos = np.array([model.joint(n).qposadr[0] for n in names])
         self.ik_qpos = np.array([self.robot_model.joint(n).qposadr[0] for n in names])
         self.actuators = np.array([model.actuator(n).id for n in names])
@@ -112,8 +114,9 @@ class Episode:
         self.control_dt_s = 1.0 / scenario.simulation.control_rate_hz
         self.substeps = scenario.simulation.control_substeps
         self.generic = generic_model(scenario.layout.meat_origin_m)
-        self.ik = CellIK(self.robot_model, self._home_configuration())
+        self.ik = CellIK(self.robot_model, self._home_configuration(), self.arms)
         self._solve_ready_poses()
+        check_ready(self.ik, self.arms)
         self._place_arms()
         self._control_steps = 0
         self.step_observers: list[Callable[[], None]] = []  # called after each control step
@@ -131,7 +134,7 @@ class Episode:
 
     def _home_configuration(self) -> np.ndarray:
         q = self.robot_model.qpos0.copy()
-        for prefix, arm in ARMS.items():
+        for prefix, arm in self.arms.items():
             for name, angle in zip(arm_joint_names(prefix, arm), arm.home_q_rad, strict=True):
                 q[self.robot_model.joint(name).qposadr[0]] = angle
         return q
@@ -194,6 +197,7 @@ class Episode:
         perceived = self.perceive(rig) if rig is not None and scenario.perception.enabled \
             else None
         plan = self.plan(perceived)
+        check_plan(self.ik.configuration, self.arms, {"knife": plan.knife, "gripper": plan.pull})
         relooks = None
         if perceived is not None and isinstance(perceived.interface_y, SeenInterface):
             relooks = Relooks(perceived.interface_y, perceived.marker_m, plan.passes.looks_s,
@@ -306,9 +310,8 @@ class Episode:
         ``knife_plan_s`` is the plan's time the knife target is at (None: the step's own
         time, for a knife on the plan's clock): whether the knife cuts, and how far into its
         cutting-force curve, follow the knife, so that a knife slower or faster than its
-        plan cuts for as long as it is in its cut. ``command_q_rad`` (the arms' joint
-        commands, rad, in the order of :attr:`scene_qpos`) replaces the IK: a program played
-        open-loop.
+        plan cuts for as long as it is in its cut. ``command_q_rad`` (rad, ordered as
+        :attr:`scene_qpos`) replaces the IK: a program played open-loop.
 
         Returns:
             The bindings released in this step, by rule.
@@ -325,8 +328,8 @@ class Episode:
             self.ik.knife.set_target(pose(*knife_target))
         if grasp_target is not None:
             self.ik.grasp.set_target(pose(*grasp_target))
-        ctrl_next = (self.ik.solve(self.control_dt_s)[self.ik_qpos] if command_q_rad is None
-                     else np.asarray(command_q_rad, dtype=float))
+        ctrl_next = self.ik.solve(self.control_dt_s)[self.ik_qpos] if command_q_rad is None \
+            else np.asarray(command_q_rad, dtype=float)
         if scenario.pull.enabled and t_next >= schedule.close_s:
             data.ctrl[self.fingers] = 0.0
         ctrl_prev = self._ctrl_prev

@@ -11,7 +11,7 @@ import numpy as np
 
 from cell.errors import ScenarioError
 from cell.robots.camera import CameraRig
-from cell.robots.names import ARMS, CAMERA
+from cell.robots.names import CAMERA
 from cell.sim.episode import Episode
 from cell.sim.scenario import Scenario
 from cell.sim.trajectory import EpisodeTrajectory, TrajectorySampler
@@ -45,7 +45,9 @@ def play_program(scenario: Scenario, commands_q_rad: dict[str, np.ndarray]
         ...              - ran.arms["knife_arm"].tool_position_m).max())
         0.0
     """
-    joints = [name for prefix, arm in ARMS.items() for name in arm_joint_names(prefix, arm)]
+    episode = Episode(scenario)
+    joints = [name for prefix, arm in episode.arms.items()
+              for name in arm_joint_names(prefix, arm)]
     missing = [name for name in joints if name not in commands_q_rad]
     if missing:
         raise ScenarioError(None, "program", f"no commands for the joints {missing}")
@@ -55,7 +57,6 @@ def play_program(scenario: Scenario, commands_q_rad: dict[str, np.ndarray]
                             "count for every joint")
     commands = np.column_stack([np.asarray(commands_q_rad[name], dtype=float)
                                 for name in joints])
-    episode = Episode(scenario)
     perceived = None
     if scenario.perception.enabled:  # the plan's timing (grasp, cut windows) as the run's
         with CameraRig(episode.sim.model, CAMERA, scenario.camera.width_px,

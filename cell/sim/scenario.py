@@ -20,6 +20,7 @@ from cell.assets import asset_path
 from cell.config import from_table, read_toml, require_non_negative, require_positive
 from cell.errors import InputError, MaterialError, ScenarioError
 from cell.perception.params import PerceptionParams
+from cell.robots.choice import PLACES, ArmsParams, cell_arm
 from cell.robots.tools import CameraParams, FixtureParams, GripperParams, KnifeParams
 from cell.tissue.aponeurosis import ReleaseRule
 from cell.tissue.cutmodel import CuttingParams
@@ -265,6 +266,7 @@ class Scenario:
     pull: PullPlan = field(default_factory=PullPlan)
     steering: SteeringParams = field(default_factory=SteeringParams)
     layout: LayoutParams = field(default_factory=LayoutParams)
+    arms: ArmsParams = field(default_factory=ArmsParams)
     sensors: SensorParams = field(default_factory=SensorParams)
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     recording: RecordingParams = field(default_factory=RecordingParams)
@@ -285,7 +287,8 @@ class _Head:
 
 
 _TABLES = ("simulation", "tissue", "material", "aponeurosis", "knife", "fixture", "gripper",
-           "camera", "cut", "pull", "steering", "layout", "sensors", "perception", "recording")
+           "camera", "cut", "pull", "steering", "layout", "arms", "sensors", "perception",
+           "recording")
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -330,7 +333,25 @@ def load_scenario(path: str | Path) -> Scenario:
                                                        "fixture.clamp_mesh"))
     return replace(scenario, aponeurosis=replace(scenario.aponeurosis, force_curve=curve),
                    tissue=replace(scenario.tissue, surface_mesh=scans), knife=knife,
-                   fixture=fixture)
+                   fixture=fixture, arms=_arms(path, scenario.arms))
+
+
+def _arms(scenario_file: Path, arms: ArmsParams) -> ArmsParams:
+    """``arms`` with each robot file found beside the scenario, and each arm read once so
+    that a bad file, flange or limit is refused now, naming the scenario and the key."""
+    for place in PLACES:
+        choice = getattr(arms, place)
+        if choice.file is not None:
+            choice = replace(choice, file=_resolve(scenario_file, choice.file,
+                                                   f"arms.{place}.file"))
+            arms = replace(arms, **{place: choice})
+        try:
+            cell_arm(choice)
+        except InputError as exc:
+            raise ScenarioError(scenario_file, f"arms.{place}.{exc.field}",
+                                f"{exc.message}" + (f" ({exc.file})" if exc.file else "")
+                                ) from None
+    return arms
 
 
 def _material(scenario_file: Path, table: object) -> ContinuumMaterial | MassSpringMaterial:

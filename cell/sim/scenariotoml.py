@@ -27,6 +27,9 @@ def resolved_tables(raw: dict[str, Any], scenario: Scenario) -> dict[str, Any]:
         for key, resolved in keys.items():
             if key in tables.get(name, {}):
                 tables[name][key] = resolved(scenario)
+    for place, choice in tables.get("arms", {}).items():  # [arms.<place>] file = ...
+        if isinstance(choice, dict) and "file" in choice:
+            tables["arms"][place] = {**choice, "file": getattr(scenario.arms, place).file}
     return tables
 
 

@@ -143,7 +143,8 @@ def episode_summary(scenario: Scenario, scene: Scene, sim: Simulation, trace: Ep
     timing = {"wall_time_s": wall_s, "real_time_factor": sim.time_s / wall_s,
               "perception_s": looks_s,
               "cad_parts": {key: part.timing() for key, part in scene.cad_parts.items()}}
-    return {"result": result, "timing": timing}
+    arms = {prefix: arm.summary() for prefix, arm in scenario.arms.cell_arms().items()}
+    return {"result": result, "arms": arms, "timing": timing}
 
 
 def _mesh_figures(mesh: TwoMuscleMesh) -> dict[str, Any]:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from cell.robots.names import ARMS, GRASP_SITE, KNIFE_TIP
+from cell.robots.names import GRASP_SITE, KNIFE_TIP
 from cell.sim.episode import Episode
 from controllers.ik import arm_joint_names
 
@@ -46,6 +46,8 @@ class ArmTrajectory:
         tool_site: the site its tool pose is given at.
         tool_position_m: (n, 3) the tool site's position, world frame.
         tool_quaternion: (n, 4) its orientation (w, x, y, z; w >= 0), world frame.
+        max_accel_rad_s2: (dof,) the arm's rated joint accelerations, or None where its
+            scenario rates none.
 
     Example:
         >>> arm = ArmTrajectory(("a/joint1",), *[np.zeros((2, 1))] * 5, np.ones(1), "a/tip",
@@ -64,6 +66,7 @@ class ArmTrajectory:
     tool_site: str
     tool_position_m: np.ndarray
     tool_quaternion: np.ndarray
+    max_accel_rad_s2: np.ndarray | None = None
 
     @property
     def dof(self) -> int:
@@ -103,6 +106,10 @@ class EpisodeTrajectory:
         return len(self.time_s)
 
 
+def _rated(limits: tuple[float, ...] | None) -> np.ndarray | None:
+    return None if limits is None else np.array(limits)
+
+
 class TrajectorySampler:
     """Samples an episode's arms and tool sensors after every control step: register it with
     :meth:`attach`, run the episode, then take :meth:`trajectory`. :attr:`elapsed_s` is the
@@ -125,7 +132,8 @@ class TrajectorySampler:
         self.episode = episode
         model = episode.sim.model
         self.rng = np.random.default_rng([episode.scenario.seed, TRAJECTORY_STREAM])
-        self.joints = {prefix: tuple(arm_joint_names(prefix, arm)) for prefix, arm in ARMS.items()}
+        self.joints = {prefix: tuple(arm_joint_names(prefix, arm))
+                       for prefix, arm in episode.arms.items()}
         names = [name for joints in self.joints.values() for name in joints]
         self._dofs = np.array([model.joint(name).dofadr[0] for name in names])
         self._start_q = episode.commanded_q_rad.copy()
@@ -188,8 +196,9 @@ class TrajectorySampler:
             arms[prefix] = ArmTrajectory(
                 joints, planned[:, cols], planned_qd[:, cols], executed[:, cols],
                 speed[:, cols], effort[:, cols],
-                np.array([joint.max_speed_rad_s for joint in ARMS[prefix].joints]),
-                TOOL_SITES[prefix], poses[:, 7 * k:7 * k + 3], poses[:, 7 * k + 3:7 * k + 7])
+                np.array(self.episode.arms[prefix].max_speed_rad_s),
+                TOOL_SITES[prefix], poses[:, 7 * k:7 * k + 3], poses[:, 7 * k + 3:7 * k + 7],
+                _rated(self.episode.arms[prefix].max_accel_rad_s2))
         model = self.episode.sim.model
         frames = {sensor: model.site(int(model.sensor(f"{sensor}/force").objid[0])).name
                   for sensor in WRENCH_SENSORS}

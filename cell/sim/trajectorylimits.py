@@ -12,6 +12,7 @@ found so far are skipped.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import Any
 
@@ -163,10 +164,11 @@ def _joint_extremes(arm: ArmTrajectory, dt_s: float) -> dict[str, Any]:
     executed_qd = np.abs(arm.executed_qd_rad_s).max(axis=0)
     planned_qdd = np.abs(np.diff(arm.planned_qd_rad_s, axis=0) / dt_s).max(axis=0)
     executed_qdd = np.abs(np.diff(arm.executed_qd_rad_s, axis=0) / dt_s).max(axis=0)
+    rated = arm.max_accel_rad_s2
     return {joint: {"max_speed_rad_s": float(arm.max_speed_rad_s[k]),
                     "planned_speed_rad_s": float(planned_qd[k]),
                     "executed_speed_rad_s": float(executed_qd[k]),
-                    "max_acceleration_rad_s2": None,
+                    "max_acceleration_rad_s2": None if rated is None else float(rated[k]),
                     "planned_acceleration_rad_s2": float(planned_qdd[k]),
                     "executed_acceleration_rad_s2": float(executed_qdd[k])}
             for k, joint in enumerate(arm.joints)}
@@ -176,19 +178,21 @@ def limits_report(model: mujoco.MjModel, qpos: np.ndarray, trajectory: EpisodeTr
                   settings: LimitSettings = LimitSettings(),
                   arms_model: mujoco.MjModel | None = None) -> dict[str, Any]:
     """The report (JSON-ready): per arm its joints' extremes and its clearances, and
-    ``flags``, one line per limit broken (empty: the program holds). The arms carry no
-    acceleration limits (their DH tables rate speeds only): accelerations are reported, not
-    flagged. ``qpos`` and ``arms_model``: as :func:`clearances`."""
+    ``flags``, one line per limit broken (empty: the program holds). Accelerations are
+    flagged against an arm's rated ones where its scenario gives them (``max_accel_rad_s2``;
+    the built-in arms rate speeds only). ``qpos`` and ``arms_model``: as :func:`clearances`."""
     clear = clearances(model, qpos, trajectory, arms_model=arms_model)
     arms, flags = {}, []
     for prefix, arm in trajectory.arms.items():
         joints = _joint_extremes(arm, trajectory.control_dt_s)
         for joint, figures in joints.items():
-            for kind in ("planned", "executed"):
-                speed = figures[f"{kind}_speed_rad_s"]
-                if speed > figures["max_speed_rad_s"]:
-                    flags.append(f"{joint}: {kind} speed {speed:.3g} rad/s over its limit "
-                                 f"{figures['max_speed_rad_s']:.3g} rad/s")
+            for kind, (quantity, unit, key) in itertools.product(
+                    ("planned", "executed"), (("speed", "rad/s", "speed_rad_s"),
+                                              ("acceleration", "rad/s2", "acceleration_rad_s2"))):
+                value, limit = figures[f"{kind}_{key}"], figures[f"max_{key}"]
+                if limit is not None and value > limit:
+                    flags.append(f"{joint}: {kind} {quantity} {value:.3g} {unit} over its "
+                                 f"limit {limit:.3g} {unit}")
         for name, entry in clear[prefix].items():
             if entry["clearance_m"] < settings.min_clearance_m:
                 flags.append(f"{prefix}: clearance to {name} {entry['clearance_m']:.4g} m "

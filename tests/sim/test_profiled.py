@@ -66,4 +66,4 @@ def test_the_summary_has_a_profile_only_when_asked(tmp_path: Path) -> None:
     scenario.write_text('[scenario]\nname = "tiny"\nend_s = 0.04\n[perception]\n'
                         "enabled = false\n[tissue]\ncell_size_m = 0.05\nlength_m = 0.3\n")
     assert main(["run", str(scenario), "-q", "-o", str(tmp_path / "s.json")]) == 0
-    assert set(json.loads((tmp_path / "s.json").read_text())) == {"result", "timing"}
+    assert set(json.loads((tmp_path / "s.json").read_text())) == {"result", "arms", "timing"}

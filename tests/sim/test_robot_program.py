@@ -210,6 +210,12 @@ def test_a_plan_made_too_fast_is_flagged() -> None:
     assert not fast["holds"]
     assert fast["flags"] == ["pull_arm/joint1: planned speed 5 rad/s over its limit "
                              "2.97 rad/s"]
+    # An arm rated for accelerations (a scenario's max_accel_rad_s2) is checked against them.
+    slow_arm = replace(trajectory.arms["pull_arm"], max_accel_rad_s2=np.full(6, 1e-3))
+    rated = replace(trajectory, arms={**trajectory.arms, "pull_arm": slow_arm})
+    flags = limits_report(episode.sim.model, episode.sim.data.qpos, rated)["flags"]
+    assert flags and all(flag.startswith("pull_arm/joint") and " acceleration " in flag
+                         and flag.endswith("over its limit 0.001 rad/s2") for flag in flags)
 
 
 def test_a_trajectory_of_another_form_is_refused(tmp_path: Path) -> None:

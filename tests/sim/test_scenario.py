@@ -11,6 +11,7 @@ from cell.cli import main
 from cell.errors import ScenarioError
 from cell.sim.scenario import Scenario, load_scenario
 from tests.paths import DEFAULT_SCENARIO
+from tests.robotarms import UR5E, write_ur5e
 
 DEFAULT = DEFAULT_SCENARIO
 
@@ -22,6 +23,13 @@ BAD_SCENARIOS = [
         id="unknown-key-in-known-table",
     ),
     pytest.param("[cutting]\nspeed_m_s = 0.03\n", "cutting", id="unknown-table"),
+    pytest.param('[arms.knife]\nflang = "tool0"\n', "arms.knife.flang", id="unknown-arm-key"),
+    pytest.param('[arms.gripper]\nbuiltin = "ur10"\n', "arms.gripper.builtin",
+                 id="unknown-built-in-arm"),
+    pytest.param('[arms.camera]\nfile = "lwr.urdf"\n', "arms.camera.file",
+                 id="missing-robot-file"),
+    pytest.param("[arms.knife]\na_m = [0.0, 0.4]\nd_m = [0.3]\n", "arms.knife.theta0_rad",
+                 id="dh-table-of-two-lengths"),
     pytest.param("[steering]\nmiddle_fraction = 1.5\n", "steering.middle_fraction",
                  id="steering-window-past-the-cut"),
     pytest.param("[steering]\nenabled = 1\n", "steering.enabled", id="number-for-switch"),
@@ -183,3 +191,21 @@ def test_cli_leaves_existing_summary_byte_identical(tmp_path: Path) -> None:
     assert out.read_bytes() == previous
     assert not rrd.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml", "summary.json"]
+
+
+def test_arms_named_by_file_are_found_beside_the_scenario(tmp_path: Path) -> None:
+    write_ur5e(tmp_path, "urdf")
+    path = _write(tmp_path, '[arms.knife]\nfile = "ur5e.urdf"\n')
+    arms = load_scenario(path).arms
+    assert arms.knife.file == str(tmp_path / "ur5e.urdf")
+    assert arms.gripper == Scenario().arms.gripper
+    assert arms.cell_arms()["knife_arm"].max_speed_rad_s == UR5E.max_speed_rad_s
+
+
+def test_a_robot_file_without_the_flange_names_the_scenario_and_key(tmp_path: Path) -> None:
+    write_ur5e(tmp_path, "xml")
+    path = _write(tmp_path, '[arms.knife]\nfile = "ur5e.xml"\nflange = "tool0"\n'
+                  f"max_speed_rad_s = {list(UR5E.max_speed_rad_s)}\n")
+    with pytest.raises(ScenarioError, match="tool0") as caught:
+        load_scenario(path)
+    assert (caught.value.file, caught.value.field) == (str(path), "arms.knife.flange")
