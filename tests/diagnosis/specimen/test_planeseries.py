@@ -70,7 +70,7 @@ def test_a_uniaxial_set_is_simulated_as_before() -> None:
         np.testing.assert_array_equal(old, new)
 
 
-@pytest.mark.slow  # a diagnosis of five tests: about a minute on one core
+@pytest.mark.slow  # a whole diagnosis
 def test_a_mixed_set_names_its_hidden_anisotropy_with_the_evidence_of_each_mode(
         tmp_path: Path) -> None:
     tests = _shapes()
