@@ -5,7 +5,9 @@ material, the gain on held-out tests, and the evidence for each cause.
    cause: linear,
    isotropic, rate-independent springs) is fitted to every test
    (:mod:`cell.diagnosis.specimen.fitting`:
-   each test simulated with the muscles' own spring law, errors measured leave-one-test-out).
+   each test simulated with the muscles' own spring law, errors measured leave-one-test-out;
+   shear and biaxial tests are fitted with the uniaxial ones, each one series of the fit, and
+   each cause's evidence is then given per mode: :mod:`cell.diagnosis.specimen.planeseries`).
 2. A stepwise search, forward with backward steps, over combinations of the catalogue's causes:
    every cause not in the current model is added to it and fitted (``nonlinear_viscoelasticity``
    replaces ``viscoelasticity``, never joins it); the best is kept when it passes
