@@ -1,7 +1,8 @@
 """Diagnosis of a measurement set that may hold uniaxial tests, cut tests or both, in one run.
 
 The two kinds share no parameter (the uniaxial tests set the springs, the cut tests the cutting
-model), so each part is diagnosed on its own tests
+model), so each part is diagnosed on its own tests (the shear and biaxial tests with the
+uniaxial ones: they set the same springs)
 (:func:`cell.diagnosis.specimen.diagnosis.diagnose`,
 :func:`cell.diagnosis.cut.search.diagnose_cuts`) and the results are joined: the causes of both
 catalogues, one extended material (the fitted springs with the fitted cutting model as its
@@ -86,7 +87,10 @@ class SetDiagnosis:
     def summary(self) -> str:
         """One line per part: causes and held-out errors."""
         lines = []
-        for kind, part in (("uniaxial", self.uniaxial), ("cut", self.cut)):
+        data = self.measurements
+        springs = ("uniaxial" if not (data.shear_tests or data.biaxial_tests)
+                   else "uniaxial, shear and biaxial")
+        for kind, part in ((springs, self.uniaxial), ("cut", self.cut)):
             if part is not None:
                 lines.append(f"{kind}: causes {', '.join(part.causes) or 'none'}; held-out "
                              f"RMSE {shown(part.baseline.heldout_rmse_n, '.4g')} N -> "
@@ -115,20 +119,16 @@ def diagnose_set(measurements: MeasurementSet, params: DiagnosisParams | None = 
     ``on_fit`` is called with 1 after each fit (progress).
 
     Raises:
-        DiagnosisError: a set with no test, a set with shear or biaxial tests (read, and
-            simulated by :mod:`cell.diagnosis.specimen.shearbiaxial`, but not yet fitted), or
-            a uniaxial diagnosis that cannot run
+        DiagnosisError: a set with no test, or a specimen diagnosis (uniaxial, shear and
+            biaxial tests together) that cannot run
             (:func:`cell.diagnosis.specimen.diagnosis.diagnose`).
     """
     params = DiagnosisParams() if params is None else params
-    unfitted = [t.test_id for t in (*measurements.shear_tests, *measurements.biaxial_tests)]
-    if unfitted:
-        raise DiagnosisError(measurements.folder / "tests.csv", "mode", f"shear and biaxial "
-                             f"tests are read but not yet diagnosed: {', '.join(unfitted)}; "
-                             "diagnose the set without them")
-    if not measurements.tests and not measurements.cut_tests:
+    specimen_tests = (*measurements.tests, *measurements.shear_tests,
+                      *measurements.biaxial_tests)
+    if not specimen_tests and not measurements.cut_tests:
         raise DiagnosisError(measurements.folder, None, "the set holds no test")
-    uniaxial = diagnose(measurements, params, on_fit) if measurements.tests else None
+    uniaxial = diagnose(measurements, params, on_fit) if specimen_tests else None
     cut = None
     if measurements.cut_tests:
         cut = diagnose_cuts(measurements.block, measurements.blade, measurements.cut_tests,

@@ -6,8 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cell.diagnosis.sets import diagnose_set
-from cell.errors import DiagnosisError, InputError
+from cell.errors import InputError
 from cell.measure.shearbiaxial import SHEAR_PLANES
 from cell.measure.specimens import SPECIMEN_FILE, TESTS_FILE, load_measurement_set
 
@@ -135,10 +134,3 @@ def test_every_shear_plane_reads(tmp_path: Path) -> None:
     data = load_measurement_set(_write_set(tmp_path / "set", "\n".join([HEADER, *rows])))
     assert [t.shear_plane for t in data.shear_tests] == list(SHEAR_PLANES)
     assert [t.fibre_axis for t in data.shear_tests] == [2, 2, 0, 1, 0, 1]
-
-
-def test_the_diagnosis_says_shear_and_biaxial_tests_are_not_yet_diagnosed(
-        tmp_path: Path) -> None:
-    data = load_measurement_set(_write_set(tmp_path / "set", GOOD))
-    with pytest.raises(DiagnosisError, match="read but not yet diagnosed"):
-        diagnose_set(data)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -43,6 +43,8 @@ class Evidence:
         with_fit: the fit with it, where that is not the extended model (for plots: for
             ``specimen_variability``, each test at its specimen's factor within its group of
             repeats).
+        per_mode: in a set of several kinds of test (uniaxial, shear, biaxial), each mode's
+            held-out RMSE with and without the cause, N; empty otherwise.
     """
 
     cause: str
@@ -52,6 +54,16 @@ class Evidence:
     params: dict[str, tuple[float, float, float]]
     without: Any
     with_fit: Any = None
+    per_mode: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    @property
+    def revealed_by(self) -> str | None:
+        """The mode whose held-out error the cause lowers most (ratio without / with), None
+        without ``per_mode``."""
+        if not self.per_mode:
+            return None
+        return max(self.per_mode, key=lambda m: self.per_mode[m][1] / max(self.per_mode[m][0],
+                                                                          1e-300))
 
     def to_json(self) -> dict[str, Any]:
         """The evidence as the JSON's ``evidence`` entry."""
@@ -60,7 +72,10 @@ class Evidence:
                 **determined("heldout_rmse_without_N", self.heldout_rmse_without_n,
                              NOT_PREDICTED),
                 "improved_fraction": self.improved_fraction,
-                "params": estimates_json(self.params)}
+                "params": estimates_json(self.params),
+                **({"per_mode": {mode: {"heldout_rmse_with_N": w, "heldout_rmse_without_N": wo}
+                                 for mode, (w, wo) in self.per_mode.items()},
+                    "revealed_by": self.revealed_by} if self.per_mode else {})}
 
 
 class SearchOutcome:

@@ -5,7 +5,9 @@ material, the gain on held-out tests, and the evidence for each cause.
    cause: linear,
    isotropic, rate-independent springs) is fitted to every test
    (:mod:`cell.diagnosis.specimen.fitting`:
-   each test simulated with the muscles' own spring law, errors measured leave-one-test-out).
+   each test simulated with the muscles' own spring law, errors measured leave-one-test-out;
+   shear and biaxial tests are fitted with the uniaxial ones, each one series of the fit, and
+   each cause's evidence is then given per mode: :mod:`cell.diagnosis.specimen.planeseries`).
 2. A stepwise search, forward with backward steps, over combinations of the catalogue's causes:
    every cause not in the current model is added to it and fitted (``nonlinear_viscoelasticity``
    replaces ``viscoelasticity``, never joins it); the best is kept when it passes
@@ -78,6 +80,7 @@ from cell.diagnosis.specimen.causes import (
 )
 from cell.diagnosis.specimen.fitting import ModelFit, Problem
 from cell.diagnosis.specimen.intervals import PredictionIntervals, prediction_intervals
+from cell.diagnosis.specimen.planeseries import Series, fitted_series, per_mode_rmse
 from cell.diagnosis.specimen.repeats import repeat_groups
 from cell.diagnosis.specimen.repeatsearch import RepeatSearch, at_own_factors
 from cell.diagnosis.specimen.spread import SpecimenSpread, specimen_spread
@@ -126,6 +129,12 @@ class Diagnosis(SearchOutcome):
     intervals: PredictionIntervals | None = None
     swaps: tuple[Swap, ...] = ()
 
+    @property
+    def series(self) -> tuple[Series, ...]:
+        """The fitted tests, in the order of the fits' forces: the uniaxial ones, then the
+        shear and biaxial ones (:mod:`cell.diagnosis.specimen.planeseries`)."""
+        return fitted_series(self.measurements)
+
     def material_comment(self) -> str:
         """The comment lines on top of the extended material's file: where it comes from,
         the causes, the held-out errors and a rig offset left out of it."""
@@ -152,22 +161,23 @@ class Diagnosis(SearchOutcome):
 def noise_n(measurements: MeasurementSet) -> float:
     """Force noise of a set, N: the median over tests of a robust spread of the force's second
     differences (``sqrt(6)`` times the noise for white noise)."""
-    return force_noise_n([test.force_n for test in measurements.tests])
+    return force_noise_n([test.force_n for test in fitted_series(measurements)])
 
 
 def _time_range_s(measurements: MeasurementSet) -> tuple[float, float]:
     """Relaxation times a fit may give: from a third of the shortest sample interval (faster
     ones act at once) to twice the longest test (slower ones never act)."""
-    shortest = min(float(np.median(np.diff(t.time_s))) for t in measurements.tests
-                   if len(t.time_s) > 1)
-    longest = max(t.duration_s for t in measurements.tests)
+    tests = fitted_series(measurements)
+    shortest = min(float(np.median(np.diff(t.time_s))) for t in tests if len(t.time_s) > 1)
+    longest = max(t.duration_s for t in tests)
     low = max(shortest / 3.0, 1e-3)
     return low, max(2.0 * longest, 10.0 * low)
 
 
 def _stretch_range(measurements: MeasurementSet) -> tuple[float, float]:
     """The set's stretches, widened by 10% of their span and to contain 1."""
-    strains = np.concatenate([t.strain(measurements.specimen) for t in measurements.tests])
+    strains = np.concatenate([t.strain(measurements.specimen)
+                              for t in fitted_series(measurements)])
     margin = 0.1 * max(float(np.ptp(strains)), 0.01)
     return (max(1.0 + min(float(strains.min()), 0.0) - margin, 0.05),
             1.0 + max(float(strains.max()), 0.0) + margin)
@@ -177,7 +187,7 @@ def _reference_strain(measurements: MeasurementSet) -> float:
     """The strain a non-linear relaxed fraction is fitted at: the median of the tests' peak
     strains (within the set's strains, where the fraction is measured)."""
     return float(np.median([np.abs(t.strain(measurements.specimen)).max()
-                            for t in measurements.tests]))
+                            for t in fitted_series(measurements)]))
 
 
 def _evidence(search: Search, final: ModelFit, order: list[str]) -> tuple[Evidence, ...]:
@@ -195,8 +205,18 @@ def _evidence(search: Search, final: ModelFit, order: list[str]) -> tuple[Eviden
             cause, final.heldout_rmse_n, without.heldout_rmse_n,
             improved_fraction(final, without, tests),
             {names[i]: (float(final.shape[i]), *map(float, final.ci95[i])) for i in own},
-            without))
+            without, per_mode=_per_mode(final, without, tests)))
     return tuple(evidence)
+
+
+def _per_mode(final: ModelFit, without: ModelFit, tests: tuple[Series, ...]
+              ) -> dict[str, tuple[float, float]]:
+    """Each mode's held-out RMSE with and without a cause, N, where the set holds shear or
+    biaxial tests beside others (a uniaxial set's evidence is as it was)."""
+    if all(isinstance(t, MechanicalTest) for t in tests):
+        return {}
+    with_, without_ = (per_mode_rmse(f.heldout_force_n, tests) for f in (final, without))
+    return {mode: (with_[mode], without_[mode]) for mode in with_}
 
 
 def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None,
@@ -209,17 +229,17 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
             or the extended model cannot run a test (which, and with which causes).
     """
     params = DiagnosisParams() if params is None else params
-    if len(measurements.tests) == 1:
+    tests = fitted_series(measurements)
+    if len(tests) == 1:
         # Each test is predicted by the model fitted to the others: one alone has none.
         raise DiagnosisError(measurements.folder / "tests.csv", "test_id",
-                             f"one uniaxial test ({measurements.tests[0].test_id}): the "
-                             "diagnosis holds each test out in turn, so it needs at least two")
-    problem = Problem.of(measurements.specimen, measurements.tests, params.fit_samples)
+                             f"one test ({tests[0].test_id}): the diagnosis holds each test "
+                             "out in turn, so it needs at least two")
+    problem = Problem.of(measurements.specimen, tests, params.fit_samples)
     root = CandidateMaterial((), "exponential", _time_range_s(measurements), _RELAXATION_TERMS,
                              _stretch_range(measurements), oblique=True,
                              reference_strain=_reference_strain(measurements))
     noise = noise_n(measurements)
-    tests = measurements.tests
     # Spawned, not forked: a fork of a process whose numba (and MuJoCo, in the CLI) has
     # started threads can deadlock. The workers load the compiled spring law from numba's
     # on-disk cache rather than compiling it again.

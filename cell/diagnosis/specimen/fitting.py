@@ -38,8 +38,10 @@ from scipy.optimize import least_squares
 from cell.diagnosis.engine.determined import NOT_PREDICTED, determined, determined_each
 from cell.diagnosis.engine.statistics import bic, half_widths_95
 from cell.diagnosis.specimen.causes import CandidateMaterial
-from cell.diagnosis.specimen.solve import SpecimenLattice, simulate_tests
+from cell.diagnosis.specimen.planeseries import PlaneSeries, Series, series_forces
+from cell.diagnosis.specimen.solve import SpecimenLattice
 from cell.errors import DivergenceError, MaterialError
+from cell.measure.shearbiaxial import BiaxialTest, ShearTest
 from cell.measure.specimens import MechanicalTest, Specimen
 from cell.tissue.material import MassSpringMaterial
 
@@ -54,7 +56,7 @@ _TOLERANCE = 1e-5
 _STEP_DAMPING = 1e-2
 
 
-def fit_samples(test: MechanicalTest, count: int) -> np.ndarray:
+def fit_samples(test: MechanicalTest | ShearTest | BiaxialTest, count: int) -> np.ndarray:
     """Indices of about ``count`` samples spread evenly along time and displacement, the first,
     the last and the displacement's turning points included."""
     # Imported here: only the parent picks samples, and scipy.signal would be half of every
@@ -66,7 +68,8 @@ def fit_samples(test: MechanicalTest, count: int) -> np.ndarray:
         return np.arange(n)
     span = max(float(np.ptp(test.displacement_m)), 1e-300)
     travel = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(test.displacement_m)))]) / span
-    elapsed = (test.time_s - test.time_s[0]) / max(test.duration_s, 1e-300)
+    elapsed = test.time_s - test.time_s[0]
+    elapsed = elapsed / max(float(elapsed[-1]), 1e-300)
     progress = travel / max(travel[-1], 1e-300) + elapsed
     picks = np.searchsorted(progress, np.linspace(0.0, progress[-1], count))
     turns = [find_peaks(sign * test.displacement_m, prominence=0.05 * span)[0]
@@ -74,7 +77,11 @@ def fit_samples(test: MechanicalTest, count: int) -> np.ndarray:
     return np.unique(np.concatenate([picks.clip(0, n - 1), *turns, [0, n - 1]]))
 
 
-def _subset(test: MechanicalTest, rows: np.ndarray) -> MechanicalTest:
+def _thinned(test: Series, count: int) -> Series:
+    """``test`` at its :func:`fit_samples`."""
+    if isinstance(test, PlaneSeries):
+        return test.subset(fit_samples(test.test, count))
+    rows = fit_samples(test, count)
     return replace(test, time_s=test.time_s[rows], displacement_m=test.displacement_m[rows],
                    force_n=test.force_n[rows])
 
@@ -85,31 +92,30 @@ class Problem:
 
     Attributes:
         specimen: the set's specimen.
-        tests: its tests, every sample.
+        tests: its tests, every sample (uniaxial, then shear and biaxial ones as
+            :class:`~cell.diagnosis.specimen.planeseries.PlaneSeries`).
         thinned: the same tests, ``fit_samples`` of them each.
         lattice: the specimen's spring lattice.
     """
 
     specimen: Specimen
-    tests: tuple[MechanicalTest, ...]
-    thinned: tuple[MechanicalTest, ...]
+    tests: tuple[Series, ...]
+    thinned: tuple[Series, ...]
     lattice: SpecimenLattice
 
     @classmethod
-    def of(cls, specimen: Specimen, tests: tuple[MechanicalTest, ...],
-           samples: int) -> Problem:
+    def of(cls, specimen: Specimen, tests: tuple[Series, ...], samples: int) -> Problem:
         """The problem of ``tests``, thinned to about ``samples`` samples each."""
-        return cls(specimen, tests, tuple(_subset(t, fit_samples(t, samples)) for t in tests),
+        return cls(specimen, tests, tuple(_thinned(t, samples) for t in tests),
                    SpecimenLattice.of(specimen))
 
     def unit_forces(self, model: CandidateMaterial, shape: np.ndarray,
-                    tests: tuple[MechanicalTest, ...]) -> list[np.ndarray] | None:
+                    tests: tuple[Series, ...]) -> list[np.ndarray] | None:
         """Each test's force at modulus ``REFERENCE_PA``, N; None when the lattice cannot give
         the material or a run has no equilibrium."""
         try:
             material = model.material(shape, REFERENCE_PA, self.specimen.density_kg_m3)
-            return [run.force_n for run in
-                    simulate_tests(tests, self.specimen, material, self.lattice)]
+            return series_forces(tests, self.specimen, material, self.lattice)
         except (DivergenceError, MaterialError):
             return None
 

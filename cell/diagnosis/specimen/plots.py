@@ -97,7 +97,7 @@ def _draw_panel(ax: Axes, kind: str, rows: list[int], diagnosis: Diagnosis,
                 fits: tuple[ModelFit, ModelFit]) -> None:
     data = diagnosis.measurements
     for k in rows:
-        test = data.tests[k]
+        test = diagnosis.series[k]
         strain = test.strain(data.specimen)
         x, y = _curve(kind, test, test.force_n, strain)
         ax.plot(x, y, ".", markersize=2.5, alpha=0.6,
@@ -113,8 +113,9 @@ def _draw_panel(ax: Axes, kind: str, rows: list[int], diagnosis: Diagnosis,
 def draw_cause(figure: Figure, diagnosis: Diagnosis, evidence: Evidence) -> Figure:
     """The figure of one named cause (module docstring): measured points, the held-out
     prediction with the cause (solid blue) and without it (dashed red)."""
-    panels = [(kind, rows) for kind, rows in _panels(evidence.cause, diagnosis.measurements.tests)
-              if rows]
+    tests = diagnosis.series
+    panels = ([(kind, rows) for kind, rows in _panels(evidence.cause, tests) if rows]
+              or [("strain", list(range(len(tests))))])
     figure.set_size_inches(5.5 * len(panels), 4.2)
     axes = figure.subplots(1, len(panels), squeeze=False).ravel()
     for ax, (kind, rows) in zip(axes, panels, strict=True):

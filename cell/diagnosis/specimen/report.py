@@ -80,7 +80,7 @@ def write_report(diagnosis: Diagnosis, folder: Path,
 
 def _draw_forces(figure: Figure, diagnosis: Diagnosis) -> Figure:
     """One panel per test: measured force, baseline and extended held-out predictions."""
-    tests = diagnosis.measurements.tests
+    tests = diagnosis.series
     rows = math.ceil(len(tests) / _COLUMNS)
     columns = min(len(tests), _COLUMNS)
     figure.set_size_inches(4.0 * columns, 2.9 * rows + 0.6)
@@ -148,7 +148,7 @@ _PANELS = (
 def _draw_residuals(figure: Figure, diagnosis: Diagnosis) -> Figure:
     """Six panels of held-out residuals, baseline dark, extended light beside it."""
     data = diagnosis.measurements
-    features = [_features(t, data.specimen) for t in data.tests]
+    features = [_features(t, data.specimen) for t in diagnosis.series]
     figure.set_size_inches(13.0, 7.6)
     axes = figure.subplots(2, 3).ravel()
     # Fit, label, colour, opacity, side of its strip on categorical panels.
@@ -161,7 +161,7 @@ def _draw_residuals(figure: Figure, diagnosis: Diagnosis) -> Figure:
         if key == "angle":
             spread = 0.03 * max(float(np.ptp(x)), 30.0)
         for fit, name, color, alpha, side in fits:
-            ax.scatter(x + (side + jitter) * spread, _residual(fit, data.tests), s=4,
+            ax.scatter(x + (side + jitter) * spread, _residual(fit, diagnosis.series), s=4,
                        color=color, alpha=alpha, linewidths=0, label=f"{name}: {fit.model.name}")
         ax.axhline(0.0, color="0.3", linewidth=0.8)
         ax.set_xlabel(label)
@@ -194,6 +194,21 @@ def evidence_table(evidence: tuple[Evidence, ...]) -> list[str]:
     return [*lines, ""]
 
 
+def per_mode_table(evidence: tuple[Evidence, ...]) -> list[str]:
+    """In a set of several kinds of test: per cause and mode, the held-out RMSE with and
+    without the cause, and the mode that revealed it (the largest ratio); none otherwise."""
+    shown_modes = [e for e in evidence if e.per_mode]
+    if not shown_modes:
+        return []
+    lines = ["Each cause per mode (held-out RMSE over that mode's tests):", "",
+             "| cause | mode | with (N) | without (N) | revealed by |", "|---|---|---|---|---|"]
+    for e in shown_modes:
+        lines += [f"| {e.cause} | {mode} | {with_:.4g} | {without:.4g} | "
+                  f"{'yes' if mode == e.revealed_by else ''} |"
+                  for mode, (with_, without) in e.per_mode.items()]
+    return [*lines, ""]
+
+
 def _interval_text(low: float, high: float) -> str:
     """An interval as ``[low, high]``, or said to be not determined
     (:mod:`cell.diagnosis.engine.determined`)."""
@@ -206,7 +221,7 @@ def _evidence_lines(diagnosis: Diagnosis) -> list[str]:
     """The evidence section: :func:`evidence_table` and each cause's figure."""
     if not diagnosis.evidence:
         return []
-    lines = evidence_table(diagnosis.evidence)
+    lines = evidence_table(diagnosis.evidence) + per_mode_table(diagnosis.evidence)
     lines += [f"![{e.cause}: with and without it](cause-{e.cause}.png)" for e in diagnosis.evidence]
     return [*lines, ""]
 
