@@ -34,6 +34,11 @@ from cell.measure.testrows import require_columns, rows_of
 #: The ``mode`` of a cut test's rows in ``tests.csv``.
 CUT_MODE = "cut"
 BLOCK_TABLE, BLADE_TABLE = "block", "blade"
+#: Bevel of a blade whose ``edge_angle_deg`` is not given, degrees (a boning knife's).
+DEFAULT_EDGE_ANGLE_DEG = 20.0
+#: Radius of a blade's edge where ``edge_radius_m`` is not given, m: a sharpened steel
+#: knife's (a few micrometres; a razor's is under one).
+DEFAULT_EDGE_RADIUS_M = 5e-6
 EDGE_COLUMNS = ("edge_x_m", "edge_y_m", "edge_z_m")
 FORCE_COLUMNS = ("force_x_N", "force_y_N", "force_z_N")
 #: Optional: all three, or none.
@@ -157,7 +162,10 @@ class Blade:
         edge_direction: unit vector along the edge, block frame.
         blade_normal: unit normal of the blade's plane, block frame, perpendicular to
             ``edge_direction``.
-        edge_angle_deg: included angle of the edge's bevel, degrees, or None if not given.
+        edge_angle_deg: included angle of the edge's bevel, degrees, or None if not given
+            (:attr:`bevel_deg` is then :data:`DEFAULT_EDGE_ANGLE_DEG`).
+        edge_radius_m: radius of the edge's rounded tip, m, >= 0 (a sharp knife's few
+            micrometres by default: :data:`DEFAULT_EDGE_RADIUS_M`).
 
     Raises:
         InputError: a length that is not > 0 or not plausible (:data:`cell.config.LENGTH_M`),
@@ -175,6 +183,7 @@ class Blade:
     edge_direction: tuple[float, float, float]
     blade_normal: tuple[float, float, float]
     edge_angle_deg: float | None = None
+    edge_radius_m: float = DEFAULT_EDGE_RADIUS_M
 
     def __post_init__(self) -> None:
         for name in ("edge_length_m", "thickness_m"):
@@ -195,6 +204,46 @@ class Blade:
         if angle is not None and not (math.isfinite(angle) and 0.0 < angle < 180.0):
             raise InputError(None, "edge_angle_deg",
                              f"must be between 0 and 180 degrees, got {angle}")
+        if not (math.isfinite(self.edge_radius_m) and 0.0 <= self.edge_radius_m
+                < self.thickness_m / 2):
+            raise InputError(None, "edge_radius_m", f"must be >= 0 and under half the "
+                             f"thickness, got {self.edge_radius_m}")
+
+    @property
+    def bevel_deg(self) -> float:
+        """The bevel's included angle, degrees: ``edge_angle_deg`` or the default."""
+        return self.edge_angle_deg or DEFAULT_EDGE_ANGLE_DEG
+
+    def opening_strain(self, block: Block) -> float:
+        """The strain of the cut's faces where the blade opens them fully: its thickness
+        over the block's extent across its plane (both sides of the cut strained in series).
+
+        Example:
+            >>> Blade(0.1, 0.002, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)).opening_strain(
+            ...     Block((0.04, 0.06, 0.03)))
+            0.05
+        """
+        normal = np.abs(np.asarray(self.blade_normal))
+        return self.thickness_m / float(normal @ np.asarray(block.size_m))
+
+    def wedge_height_m(self, height_m: np.ndarray) -> np.ndarray:
+        """How far the blade wedges the cut open over ``height_m`` of its face above the
+        edge, as a height at full opening, m: the integral of the half-thickness
+        ``min(r + s tan(bevel / 2), t / 2)`` over s from the edge, over ``t / 2``.
+
+        Example:
+            >>> blade = Blade(0.1, 0.002, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), 90.0, 0.0)
+            >>> blade.wedge_height_m(np.array([0.0005, 0.003])).tolist()  # bevel 1 mm long
+            [0.000125, 0.0025]
+        """
+        half = self.thickness_m / 2
+        slope = math.tan(math.radians(self.bevel_deg) / 2)
+        bevel = (half - self.edge_radius_m) / slope
+        s = np.clip(np.asarray(height_m, dtype=float), 0.0, None)
+        on_bevel = np.minimum(s, bevel)
+        opened = (self.edge_radius_m * on_bevel + 0.5 * slope * on_bevel ** 2
+                  + half * (s - on_bevel))
+        return opened / half
 
 
 @dataclass(frozen=True, eq=False)
