@@ -66,6 +66,7 @@ import numpy as np
 from cell.cuttest.scene import HALVES, CutScene, build_cut_scene, normal_axis
 from cell.errors import InputError
 from cell.measure.cuts import Blade, Block
+from cell.measure.wedge import opening_strain, wedge_height_m
 from cell.sim.divergence import check_state, fatal_warnings
 from cell.tissue.cutmodel import (
     CuttingParams,
@@ -263,7 +264,7 @@ class _Cut:
         """Area of one face of the blade (edge midpoint at ``position``) in the cut, m^2: the
         released ties' shares of the plane (halfway to their neighbours) between the edge and
         the spine's side, within the edge's length; and that area weighted by how far the
-        blade opens the cut (:meth:`~cell.measure.cuts.Blade.wedge_height_m`), m^2."""
+        blade opens the cut (:func:`~cell.measure.wedge.wedge_height_m`), m^2."""
         along = position @ self.scene.edge_direction
         half = self.blade.edge_length_m / 2
         low, high = self.tie_along_span
@@ -271,10 +272,10 @@ class _Cut:
         bottom, top = self.tie_spine_span
         edge = position @ self.scene.spine_direction
         above, below = np.clip(top - edge, 0, None), np.clip(bottom - edge, 0, None)
-        wedge = self.blade.wedge_height_m
         released = ~self.bound
+        opened = wedge_height_m(self.blade, above) - wedge_height_m(self.blade, below)
         return (float((width * (above - below))[released].sum()),
-                float((width * (wedge(above) - wedge(below)))[released].sum()))
+                float((width * opened)[released].sum()))
 
     def faces(self) -> np.ndarray:
         """The flex contacts' force on the blade, N (block frame). With elliptic cones a
@@ -377,7 +378,7 @@ def simulate_cut(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bl
                                  blade.blade_normal)
     faces_n = face_log[chosen] + face_friction_force(cutting, area[chosen, 0], push, slide,
                                                      area[chosen, 1],
-                                                     blade.opening_strain(block))
+                                                     opening_strain(blade, block))
     return SimulatedCut(time_s.copy(), edge_n + faces_n, edge_n, faces_n,
                         released[chosen], len(scene.ties),
                         int(cut.springs.vertex_count), clock.perf_counter() - started)

@@ -214,37 +214,6 @@ class Blade:
         """The bevel's included angle, degrees: ``edge_angle_deg`` or the default."""
         return self.edge_angle_deg or DEFAULT_EDGE_ANGLE_DEG
 
-    def opening_strain(self, block: Block) -> float:
-        """The strain of the cut's faces where the blade opens them fully: its thickness
-        over the block's extent across its plane (both sides of the cut strained in series).
-
-        Example:
-            >>> Blade(0.1, 0.002, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)).opening_strain(
-            ...     Block((0.04, 0.06, 0.03)))
-            0.05
-        """
-        normal = np.abs(np.asarray(self.blade_normal))
-        return self.thickness_m / float(normal @ np.asarray(block.size_m))
-
-    def wedge_height_m(self, height_m: np.ndarray) -> np.ndarray:
-        """How far the blade wedges the cut open over ``height_m`` of its face above the
-        edge, as a height at full opening, m: the integral of the half-thickness
-        ``min(r + s tan(bevel / 2), t / 2)`` over s from the edge, over ``t / 2``.
-
-        Example:
-            >>> blade = Blade(0.1, 0.002, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), 90.0, 0.0)
-            >>> blade.wedge_height_m(np.array([0.0005, 0.003])).tolist()  # bevel 1 mm long
-            [0.000125, 0.0025]
-        """
-        half = self.thickness_m / 2
-        slope = math.tan(math.radians(self.bevel_deg) / 2)
-        bevel = (half - self.edge_radius_m) / slope
-        s = np.clip(np.asarray(height_m, dtype=float), 0.0, None)
-        on_bevel = np.minimum(s, bevel)
-        opened = (self.edge_radius_m * on_bevel + 0.5 * slope * on_bevel ** 2
-                  + half * (s - on_bevel))
-        return opened / half
-
 
 @dataclass(frozen=True, eq=False)
 class CutTest:

@@ -36,7 +36,7 @@ cell):
   thickness t wedges the cut's faces apart, each side of the cut a slab of the material
   (together the block's extent W across the blade) strained by the opening, so the faces
   press with ``E 2 h(s) / W`` where the blade's half-thickness h(s) grows along the bevel
-  from the edge's radius to t / 2 (:meth:`cell.measure.cuts.Blade.wedge_height_m`). Its drag,
+  from the edge's radius to t / 2 (:func:`cell.measure.wedge.wedge_height_m`). Its drag,
   mu times that pressure over the blade's area in the material, grows with the depth of
   blade in the material: quadratically along the bevel, then linearly.
 

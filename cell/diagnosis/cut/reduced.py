@@ -17,7 +17,7 @@ pressure p of the cutting model (:mod:`cell.tissue.cutmodel`, whose force law th
   footprint, from the edge up to the top face: its area drags with
   :func:`~cell.tissue.cutmodel.face_friction_force`, also while the blade moves back out;
   the wedge's drag weights each strip's face by how far the blade opens the cut there
-  (:meth:`~cell.measure.cuts.Blade.wedge_height_m`).
+  (:func:`~cell.measure.wedge.wedge_height_m`).
 
 The edge's velocity is the time derivative of the logged path (second-order differences on
 the irregular samples). The blade enters through the top face: its cutting direction (in its
@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cell.measure import wedge
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import (
     CuttingParams,
@@ -141,7 +142,8 @@ class CutKinematics:
             the terms with a state (the loading, the edge's friction) follow the whole path.
         samples: the indices of these samples in ``whole``.
         wedged_area_m2: (n,) ``face_area_m2`` weighted by the cut's opening, m^2.
-        opening_strain: the faces' strain at full opening (:meth:`Blade.opening_strain`).
+        opening_strain: the faces' strain at full opening
+            (:func:`~cell.measure.wedge.opening_strain`).
     """
 
     fresh: np.ndarray
@@ -184,8 +186,8 @@ class CutKinematics:
             top - bottom)), 0.0, None) / rise, 0.0)
         return cls(fresh, depth, width, push, slide, width * height.sum(axis=1),
                    block.top_z_m - test.edge_m[:, 2], inside, test.edge_m @ edge_dir, down,
-                   edge_dir, wedged_area_m2=width * blade.wedge_height_m(height).sum(axis=1),
-                   opening_strain=blade.opening_strain(block))
+                   edge_dir, wedged_area_m2=width * wedge.wedge_height_m(blade, height).sum(axis=1),
+                   opening_strain=wedge.opening_strain(blade, block))
 
     def rows(self, samples: np.ndarray) -> CutKinematics:
         """The kinematics at ``samples`` only (indices): the crack fronts were found on the

@@ -14,6 +14,7 @@ from cell.diagnosis.cut.causes import source_checks
 from cell.diagnosis.cut.reduced import reduced_cut_forces
 from cell.errors import InputError
 from cell.measure.cuts import Blade, Block, CutTest
+from cell.measure.wedge import wedge_height_m
 from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.material import default_meat
 
@@ -39,11 +40,11 @@ def _saw() -> CutTest:
 def test_the_bevel_opens_the_cut_from_the_edges_radius_to_the_full_thickness() -> None:
     blade = Blade(0.1, 0.002, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), 90.0, 0.0)
     # A 90 degree bevel on a 2 mm blade is 1 mm long: half open on average along it.
-    assert blade.wedge_height_m(np.array([0.001, 0.011])).tolist() == pytest.approx(
+    assert wedge_height_m(blade, np.array([0.001, 0.011])).tolist() == pytest.approx(
         [0.0005, 0.0105])
     rounded = Blade(0.1, 0.002, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), 90.0, 1e-4)
-    assert rounded.wedge_height_m(np.array([1e-5]))[0] > blade.wedge_height_m(
-        np.array([1e-5]))[0]
+    assert wedge_height_m(rounded, np.array([1e-5]))[0] > wedge_height_m(
+        blade, np.array([1e-5]))[0]
     assert Blade(0.1, 0.002, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)).bevel_deg == 20.0
     with pytest.raises(InputError, match="edge_radius_m"):
         Blade(0.1, 0.002, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), 20.0, 0.001)
