@@ -64,11 +64,11 @@ def bench_seeds(count: int, kind: Kind = "single") -> list[int]:
 
 def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
     """The causes hidden in the set of ``seed``: the catalogue in turn and none twice
-    (single: 40 sets hold each cause 4 times and none 8 times), or every pair in turn.
+    (single: 44 sets hold each cause 4 times and none 8 times), or every pair in turn.
 
     Example:
-        >>> hidden(41_000, "single"), hidden(41_007, "single"), hidden(41_008, "single")
-        (('blade_friction',), ('edge_friction',), ())
+        >>> hidden(41_000, "single"), hidden(41_008, "single"), hidden(41_009, "single")
+        (('blade_friction',), ('wedge_friction',), ())
     """
     return cycled_causes(seed - FIRST_SEED[kind], CUT_CAUSES, 2,
                          PAIRS if kind == "pairs" else None)
@@ -94,6 +94,8 @@ def _truth_vector(cause: str, cutting: CuttingParams, offset_n: Sequence[float]
         return np.array([cutting.loading_depth_m])
     if cause == "edge_friction":
         return np.array([cutting.edge_friction, cutting.edge_slip_m])
+    if cause == "wedge_friction":
+        return np.array([cutting.face_modulus_pa])
     return None
 
 

@@ -66,6 +66,7 @@ import numpy as np
 from cell.cuttest.scene import HALVES, CutScene, build_cut_scene, normal_axis
 from cell.errors import InputError
 from cell.measure.cuts import Blade, Block
+from cell.measure.wedge import opening_strain, wedge_height_m
 from cell.sim.divergence import check_state, fatal_warnings
 from cell.tissue.cutmodel import (
     CuttingParams,
@@ -259,18 +260,22 @@ class _Cut:
             self.data.eq_active[scene.ties[newly]] = 0
             self.bound &= ~newly
 
-    def face_area_m2(self, position: np.ndarray) -> float:
+    def face_area_m2(self, position: np.ndarray) -> tuple[float, float]:
         """Area of one face of the blade (edge midpoint at ``position``) in the cut, m^2: the
         released ties' shares of the plane (halfway to their neighbours) between the edge and
-        the spine's side, within the edge's length."""
+        the spine's side, within the edge's length; and that area weighted by how far the
+        blade opens the cut (:func:`~cell.measure.wedge.wedge_height_m`), m^2."""
         along = position @ self.scene.edge_direction
         half = self.blade.edge_length_m / 2
         low, high = self.tie_along_span
         width = np.clip(np.minimum(high, along + half) - np.maximum(low, along - half), 0, None)
         bottom, top = self.tie_spine_span
-        height = np.clip(top - np.maximum(bottom, position @ self.scene.spine_direction), 0,
-                         None)
-        return float((width * height)[~self.bound].sum())
+        edge = position @ self.scene.spine_direction
+        above, below = np.clip(top - edge, 0, None), np.clip(bottom - edge, 0, None)
+        released = ~self.bound
+        opened = wedge_height_m(self.blade, above) - wedge_height_m(self.blade, below)
+        return (float((width * (above - below))[released].sum()),
+                float((width * opened)[released].sum()))
 
     def faces(self) -> np.ndarray:
         """The flex contacts' force on the blade, N (block frame). With elliptic cones a
@@ -350,7 +355,7 @@ def simulate_cut(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bl
     read = np.zeros(len(steps), dtype=bool)
     read[chosen] = True
     face_log = np.zeros((len(steps), 3))
-    area = np.zeros(len(steps))
+    area = np.zeros((len(steps), 2))
     released = np.zeros(len(steps), dtype=int)
     for k, end in enumerate(steps):
         start = end - dt
@@ -371,7 +376,9 @@ def simulate_cut(time_s: np.ndarray, edge_m: np.ndarray, block: Block, blade: Bl
     edge_n = edge_term_n(time_s, edge_m, block, blade, cutting, scene.spine_direction)
     push, slide = push_and_slice(path_velocity_m_s(time_s, edge_m), scene.edge_direction,
                                  blade.blade_normal)
-    faces_n = face_log[chosen] + face_friction_force(cutting, area[chosen], push, slide)
+    faces_n = face_log[chosen] + face_friction_force(cutting, area[chosen, 0], push, slide,
+                                                     area[chosen, 1],
+                                                     opening_strain(blade, block))
     return SimulatedCut(time_s.copy(), edge_n + faces_n, edge_n, faces_n,
                         released[chosen], len(scene.ties),
                         int(cut.springs.vertex_count), clock.perf_counter() - started)

@@ -51,8 +51,6 @@ from cell.tissue.tetmesh import structured_hex_tets
 
 #: The two halves of the block, flex names: the one below the plane's coordinate first.
 HALVES = ("near", "far")
-#: Bevel of a blade whose ``edge_angle_deg`` is not given, degrees (a boning knife's).
-DEFAULT_EDGE_ANGLE_DEG = 20.0
 #: The blade's contact impedance (MuJoCo's solimp). Stiffer than the cell's knife's
 #: (:data:`cell.robots.tools.BLADE_SOLIMP`), which keeps the cell's stiff meat from flinging
 #: vertices off the blade at its 5 ms step: chosen when the contacts carried the faces'
@@ -161,7 +159,7 @@ def _blade_xml(blade: Blade, frame: np.ndarray, reach_m: float, start: np.ndarra
                ) -> tuple[str, str]:
     """The blade's body (the bevel's wedge and the box above it; ``reach_m``, how far the
     block reaches along the spine) and the bevel's mesh asset, as MJCF."""
-    angle = math.radians(blade.edge_angle_deg or DEFAULT_EDGE_ANGLE_DEG)
+    angle = math.radians(blade.bevel_deg)
     wedge_h = blade.thickness_m / 2 / math.tan(angle / 2)
     box_h = max(KnifeParams().blade_width_m, reach_m + 0.01)
     wedge = " ".join(f"{v:.9g}" for v in _wedge_vertices(blade, wedge_h).ravel())

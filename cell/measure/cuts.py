@@ -34,6 +34,11 @@ from cell.measure.testrows import require_columns, rows_of
 #: The ``mode`` of a cut test's rows in ``tests.csv``.
 CUT_MODE = "cut"
 BLOCK_TABLE, BLADE_TABLE = "block", "blade"
+#: Bevel of a blade whose ``edge_angle_deg`` is not given, degrees (a boning knife's).
+DEFAULT_EDGE_ANGLE_DEG = 20.0
+#: Radius of a blade's edge where ``edge_radius_m`` is not given, m: a sharpened steel
+#: knife's (a few micrometres; a razor's is under one).
+DEFAULT_EDGE_RADIUS_M = 5e-6
 EDGE_COLUMNS = ("edge_x_m", "edge_y_m", "edge_z_m")
 FORCE_COLUMNS = ("force_x_N", "force_y_N", "force_z_N")
 #: Optional: all three, or none.
@@ -157,7 +162,10 @@ class Blade:
         edge_direction: unit vector along the edge, block frame.
         blade_normal: unit normal of the blade's plane, block frame, perpendicular to
             ``edge_direction``.
-        edge_angle_deg: included angle of the edge's bevel, degrees, or None if not given.
+        edge_angle_deg: included angle of the edge's bevel, degrees, or None if not given
+            (:attr:`bevel_deg` is then :data:`DEFAULT_EDGE_ANGLE_DEG`).
+        edge_radius_m: radius of the edge's rounded tip, m, >= 0 (a sharp knife's few
+            micrometres by default: :data:`DEFAULT_EDGE_RADIUS_M`).
 
     Raises:
         InputError: a length that is not > 0 or not plausible (:data:`cell.config.LENGTH_M`),
@@ -175,6 +183,7 @@ class Blade:
     edge_direction: tuple[float, float, float]
     blade_normal: tuple[float, float, float]
     edge_angle_deg: float | None = None
+    edge_radius_m: float = DEFAULT_EDGE_RADIUS_M
 
     def __post_init__(self) -> None:
         for name in ("edge_length_m", "thickness_m"):
@@ -195,6 +204,15 @@ class Blade:
         if angle is not None and not (math.isfinite(angle) and 0.0 < angle < 180.0):
             raise InputError(None, "edge_angle_deg",
                              f"must be between 0 and 180 degrees, got {angle}")
+        if not (math.isfinite(self.edge_radius_m) and 0.0 <= self.edge_radius_m
+                < self.thickness_m / 2):
+            raise InputError(None, "edge_radius_m", f"must be >= 0 and under half the "
+                             f"thickness, got {self.edge_radius_m}")
+
+    @property
+    def bevel_deg(self) -> float:
+        """The bevel's included angle, degrees: ``edge_angle_deg`` or the default."""
+        return self.edge_angle_deg or DEFAULT_EDGE_ANGLE_DEG
 
 
 @dataclass(frozen=True, eq=False)

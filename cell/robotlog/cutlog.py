@@ -134,7 +134,8 @@ def import_cut_set(mapping: ImportMapping, sources: Sequence[str | Path], out: s
     block = Block(mapping.block.size_m, mapping.block.fibre_direction,
                   section=mapping.block.section)
     blade = Blade(mapping.blade.edge_length_m, mapping.blade.thickness_m, (0.0, 1.0, 0.0),
-                  (1.0, 0.0, 0.0), mapping.blade.edge_angle_deg)
+                  (1.0, 0.0, 0.0), mapping.blade.edge_angle_deg,
+                  *(() if mapping.blade.edge_radius_m is None else (mapping.blade.edge_radius_m,)))
 
     def fill(folder: Path) -> None:
         (folder / SPECIMEN_FILE).write_text(_specimen_toml(block, blade, names, mapping))
@@ -163,4 +164,5 @@ def _specimen_toml(block: Block, blade: Blade, names: Sequence[str], mapping: Im
               f"blade_normal = {vector(blade.blade_normal)}"]
     if blade.edge_angle_deg is not None:
         lines.append(f"edge_angle_deg = {blade.edge_angle_deg!r}")
+    lines.append(f"edge_radius_m = {blade.edge_radius_m!r}")
     return "\n".join(lines) + "\n"

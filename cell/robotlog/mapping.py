@@ -142,12 +142,13 @@ class BlockSize:
 
 @dataclass(frozen=True)
 class BladeShape:
-    """The ``[blade]`` table: the edge's length, the spine's thickness (m) and the bevel's
-    included angle (degrees, optional)."""
+    """The ``[blade]`` table: the edge's length, the spine's thickness (m), the bevel's
+    included angle (degrees, optional) and the edge's radius (m, optional)."""
 
     edge_length_m: float
     thickness_m: float
     edge_angle_deg: float | None = None
+    edge_radius_m: float | None = None
 
 
 @dataclass(frozen=True)

@@ -20,10 +20,13 @@ plus the hidden causes of the format's cut table, each with drawn magnitudes:
 ``blade_force_offset``      a constant 3-vector added to the sensor's force
 ``edge_loading``            ``loading_depth_m``
 ``edge_friction``           ``edge_friction`` and ``edge_slip_m``
+``wedge_friction``          ``face_modulus_pa`` (mu E, 20-120 kPa: beef's modulus range times
+                            its friction, a drag of a few newtons on the set's blades)
 ==========================  ====================================================================
 
 The two terms with a state along the path (``edge_loading``, ``edge_friction``) draw from a
-second stream of the seed, so that the sets drawn before they existed are unchanged.
+second stream of the seed, ``wedge_friction`` from a third, so that the sets drawn before
+they existed are unchanged.
 
 The faces' friction coefficient is drawn about the default beef's (the published one of
 muscle on bone) at the default beef's ``face_pressure_pa``, which the diagnosis divides its
@@ -176,6 +179,8 @@ def _truth_cutting(rng: np.random.Generator, causes: Sequence[str], height_m: fl
     loading = second.uniform(0.002, 0.006)
     edge_friction = second.uniform(0.3, 1.0)
     edge_slip = second.uniform(0.001, 0.004)
+    face_modulus = float(np.exp(np.random.default_rng((seed, 2)).uniform(np.log(2e4),
+                                                                         np.log(1.2e5))))
     hidden = set(causes)
     layered = "layered_toughness" in hidden
     cutting = CuttingParams(
@@ -190,7 +195,8 @@ def _truth_cutting(rng: np.random.Generator, causes: Sequence[str], height_m: fl
         layer_factors=(1.0, layer_factor) if layered else (),
         loading_depth_m=loading if "edge_loading" in hidden else 0.0,
         edge_friction=edge_friction if "edge_friction" in hidden else 0.0,
-        edge_slip_m=edge_slip)
+        edge_slip_m=edge_slip,
+        face_modulus_pa=face_modulus if "wedge_friction" in hidden else 0.0)
     return cutting, offset if "blade_force_offset" in hidden else np.zeros(3)
 
 
@@ -281,6 +287,7 @@ def _specimen_toml(seed: int, block: Block, blade: Blade, plans: Sequence[_Plan]
         f"edge_length_m = {blade.edge_length_m}",
         f"thickness_m = {blade.thickness_m}",
         f"edge_angle_deg = {blade.edge_angle_deg}",
+        f"edge_radius_m = {blade.edge_radius_m}",
         f"edge_direction = [{', '.join(f'{v:.1f}' for v in blade.edge_direction)}]",
         f"blade_normal = [{', '.join(f'{v:.1f}' for v in blade.blade_normal)}]", ""]
     return "\n".join(lines)

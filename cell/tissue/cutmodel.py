@@ -32,6 +32,13 @@ cell):
 - the **faces** (:func:`face_friction_force`): both faces of the blade drag in the cut with
   the shear stress ``mu p`` over the blade's area in the material, opposite to the blade's
   velocity along its faces, also while it moves back out.
+- the **wedge** (``face_modulus_pa``, mu E, in :func:`face_friction_force`): the blade's
+  thickness t wedges the cut's faces apart, each side of the cut a slab of the material
+  (together the block's extent W across the blade) strained by the opening, so the faces
+  press with ``E 2 h(s) / W`` where the blade's half-thickness h(s) grows along the bevel
+  from the edge's radius to t / 2 (:func:`cell.measure.wedge.wedge_height_m`). Its drag,
+  mu times that pressure over the blade's area in the material, grows with the depth of
+  blade in the material: quadratically along the bevel, then linearly.
 
 The face pressure p is a parameter of its own (``face_pressure_pa``), not derived from the
 modulus: a wedge of thickness t held in a plane cut of depth a is pressed by about
@@ -69,6 +76,7 @@ CUT_CAUSES = (
     "blade_force_offset",
     "edge_loading",
     "edge_friction",
+    "wedge_friction",
 )
 
 #: Speed below which the faces' friction fades linearly to zero instead of flipping sign:
@@ -110,6 +118,8 @@ class CuttingParams:
             edge's load is a cutting force only (module docstring).
         edge_friction: mu_e, the edge's friction along itself per unit of its load, >= 0.
         edge_slip_m: the slip along the edge over which its friction turns, m, > 0.
+        face_modulus_pa: mu E, the faces' friction coefficient times the modulus that
+            presses them on a blade wedging the cut open, Pa, >= 0; 0 = no wedge.
 
     Raises:
         MaterialError: naming the key at fault (a value out of range or not finite, layer
@@ -134,12 +144,14 @@ class CuttingParams:
     loading_depth_m: float = 0.0
     edge_friction: float = 0.0
     edge_slip_m: float = 0.001
+    face_modulus_pa: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("toughness_j_m2", "reference_speed_m_s", "edge_slip_m"):
             _check(name, getattr(self, name), lambda v: v > 0, "> 0")
         for name in ("face_friction", "face_pressure_pa", "slicing_efficiency",
-                     "indentation_depth_m", "loading_depth_m", "edge_friction"):
+                     "indentation_depth_m", "loading_depth_m", "edge_friction",
+                     "face_modulus_pa"):
             _check(name, getattr(self, name), lambda v: v >= 0, ">= 0")
         _check("rate_exponent", self.rate_exponent, lambda v: -1 <= v <= 1, "in [-1, 1]")
         depths = _numbers("layer_depths_m", self.layer_depths_m)
@@ -256,7 +268,8 @@ def edge_force(params: CuttingParams, engaged_length_m: ArrayLike,
 
 
 def face_friction_force(params: CuttingParams, face_area_m2: ArrayLike,
-                        push_velocity_m_s: ArrayLike, slice_velocity_m_s: ArrayLike
+                        push_velocity_m_s: ArrayLike, slice_velocity_m_s: ArrayLike,
+                        wedged_area_m2: ArrayLike = 0.0, opening_strain: float = 0.0
                         ) -> np.ndarray:
     """The drag of the cut faces on the blade's two faces, N, shape ``(..., 3)``.
 
@@ -267,6 +280,10 @@ def face_friction_force(params: CuttingParams, face_area_m2: ArrayLike,
         push_velocity_m_s: the blade's velocity across its edge in its plane, m/s, ``(..., 3)``
             (negative push, moving back out, drags too).
         slice_velocity_m_s: the blade's velocity along its edge, m/s, ``(..., 3)``.
+        wedged_area_m2: the blade's area in the material weighted by how far it opens the
+            cut (the share of full opening), m^2, shape ``(...)``: the wedge's.
+        opening_strain: the faces' strain at full opening, the blade's thickness over the
+            block's extent across the blade (``t / W``).
 
     The force opposes the blade's velocity along its faces, its magnitude faded to zero below
     :data:`FRICTION_REGULARISATION_M_S`.
@@ -280,8 +297,9 @@ def face_friction_force(params: CuttingParams, face_area_m2: ArrayLike,
                 + np.asarray(slice_velocity_m_s, dtype=float))
     speed = _norm(velocity)
     scale = np.maximum(speed, FRICTION_REGULARISATION_M_S)
-    drag = 2.0 * params.face_friction * params.face_pressure_pa * np.asarray(
-        face_area_m2, dtype=float)
+    drag = 2.0 * (params.face_friction * params.face_pressure_pa * np.asarray(
+        face_area_m2, dtype=float) + params.face_modulus_pa * opening_strain
+        * np.asarray(wedged_area_m2, dtype=float))
     return -(drag / scale)[..., None] * velocity
 
 

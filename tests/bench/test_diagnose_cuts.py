@@ -55,6 +55,9 @@ def test_parameter_errors_are_relative_norms() -> None:
                      (0.0, 0.0, 0.0), 0.1)
     assert parameter_error("blade_friction", rubbing, CuttingParams(
         900.0, face_friction=0.33, face_pressure_pa=1600.0), np.zeros(3)) == pytest.approx(0.1)
+    wedged = _Truth(CuttingParams(900.0, face_modulus_pa=5e4), (0.0, 0.0, 0.0), 0.1)
+    assert parameter_error("wedge_friction", wedged, CuttingParams(
+        900.0, face_modulus_pa=5.5e4), np.zeros(3)) == pytest.approx(0.1)
 
 
 def test_the_reduced_model_agrees_with_a_set_it_made() -> None:

@@ -15,7 +15,9 @@ pressure p of the cutting model (:mod:`cell.tissue.cutmodel`, whose force law th
   sideways at a depth it reached before cuts nothing.
 - The blade's face in the material spans, in each strip the blade covers inside the block's
   footprint, from the edge up to the top face: its area drags with
-  :func:`~cell.tissue.cutmodel.face_friction_force`, also while the blade moves back out.
+  :func:`~cell.tissue.cutmodel.face_friction_force`, also while the blade moves back out;
+  the wedge's drag weights each strip's face by how far the blade opens the cut there
+  (:func:`~cell.measure.wedge.wedge_height_m`).
 
 The edge's velocity is the time derivative of the logged path (second-order differences on
 the irregular samples). The blade enters through the top face: its cutting direction (in its
@@ -41,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cell.measure import wedge
 from cell.measure.cuts import Blade, Block, CutTest
 from cell.tissue.cutmodel import (
     CuttingParams,
@@ -138,6 +141,9 @@ class CutKinematics:
         whole: the kinematics of every sample, where these are some of them (:meth:`rows`):
             the terms with a state (the loading, the edge's friction) follow the whole path.
         samples: the indices of these samples in ``whole``.
+        wedged_area_m2: (n,) ``face_area_m2`` weighted by the cut's opening, m^2.
+        opening_strain: the faces' strain at full opening
+            (:func:`~cell.measure.wedge.opening_strain`).
     """
 
     fresh: np.ndarray
@@ -153,6 +159,8 @@ class CutKinematics:
     edge: np.ndarray
     whole: CutKinematics | None = None
     samples: np.ndarray | None = None
+    wedged_area_m2: np.ndarray | None = None
+    opening_strain: float = 0.0
 
     @classmethod
     def of(cls, test: CutTest, block: Block, blade: Blade, strips: int = STRIPS
@@ -178,7 +186,8 @@ class CutKinematics:
             top - bottom)), 0.0, None) / rise, 0.0)
         return cls(fresh, depth, width, push, slide, width * height.sum(axis=1),
                    block.top_z_m - test.edge_m[:, 2], inside, test.edge_m @ edge_dir, down,
-                   edge_dir)
+                   edge_dir, wedged_area_m2=width * wedge.wedge_height_m(blade, height).sum(axis=1),
+                   opening_strain=wedge.opening_strain(blade, block))
 
     def rows(self, samples: np.ndarray) -> CutKinematics:
         """The kinematics at ``samples`` only (indices): the crack fronts were found on the
@@ -189,7 +198,14 @@ class CutKinematics:
                              self.push_m_s[samples], self.slice_m_s[samples],
                              self.face_area_m2[samples], self.middle_depth_m[samples],
                              self.inside[samples], self.along_m[samples], self.down,
-                             self.edge, whole, picked)
+                             self.edge, whole, picked, self.wedged[samples],
+                             self.opening_strain)
+
+    @property
+    def wedged(self) -> np.ndarray:
+        """(n,) :attr:`wedged_area_m2` (zero where kinematics were made without it), m^2."""
+        return (np.zeros_like(self.face_area_m2) if self.wedged_area_m2 is None
+                else self.wedged_area_m2)
 
     @property
     def engaged_length_m(self) -> np.ndarray:
@@ -228,7 +244,8 @@ class CutKinematics:
 
     def faces_n(self, cutting: CuttingParams) -> np.ndarray:
         """(n, 3) friction of the cut faces on the blade, N."""
-        return face_friction_force(cutting, self.face_area_m2, self.push_m_s, self.slice_m_s)
+        return face_friction_force(cutting, self.face_area_m2, self.push_m_s, self.slice_m_s,
+                                   self.wedged, self.opening_strain)
 
     def forces(self, cutting: CuttingParams) -> CutForces:
         """The forces of ``cutting`` over the test."""

@@ -33,6 +33,7 @@ HIDDEN = {
     "blade_force_offset": (PLAIN, (0.5, -0.3, 2.0)),
     "edge_loading": (replace(PLAIN, loading_depth_m=0.004), (0.0, 0.0, 0.0)),
     "edge_friction": (replace(PLAIN, edge_friction=0.5, edge_slip_m=0.002), (0.0, 0.0, 0.0)),
+    "wedge_friction": (replace(PLAIN, face_modulus_pa=6e4), (0.0, 0.0, 0.0)),
 }
 
 
@@ -106,6 +107,8 @@ def test_a_hidden_cause_is_named_with_its_parameters(cause: str) -> None:
     elif cause == "edge_friction":
         assert fitted.edge_friction == pytest.approx(0.5, rel=0.15)
         assert fitted.edge_slip_m == pytest.approx(0.002, rel=0.15)
+    elif cause == "wedge_friction":
+        assert fitted.face_modulus_pa == pytest.approx(6e4, rel=0.15)
     else:
         np.testing.assert_allclose(result.extended.offset_n, offset, atol=0.1)
 

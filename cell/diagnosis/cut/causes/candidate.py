@@ -24,6 +24,8 @@ cause                       change (shape parameters; linear ones in brackets)
                             front before the crack runs; the load holds while the edge rests
 ``edge_friction``           the edge drags along itself with mu_e times its load, turning over
                             the slip ``edge_slip_m`` [``edge_friction_j_m2``: mu_e G]
+``wedge_friction``          the blade wedges the cut open; the faces press with the modulus times
+                            the opening strain and drag [``face_modulus_pa``: mu E]
 ==========================  ====================================================================
 
 Example:
@@ -168,7 +170,8 @@ class CutCandidate:
                              layer_depths_m=depths, layer_factors=factors,
                              loading_depth_m=unit.loading_depth_m,
                              edge_friction=solved.get("edge_friction_j_m2", 0.0) / base,
-                             edge_slip_m=unit.edge_slip_m)
+                             edge_slip_m=unit.edge_slip_m,
+                             face_modulus_pa=solved.get("face_modulus_pa", 0.0))
 
     def reported(self, shape: np.ndarray, linear: np.ndarray) -> dict[str, float]:
         """The fitted parameters in physical units, for people and the JSON report."""
@@ -189,6 +192,8 @@ class CutCandidate:
         if "edge_friction" in self.causes:
             params["edge_friction"] = cutting.edge_friction
             params["edge_slip_m"] = cutting.edge_slip_m
+        if "wedge_friction" in self.causes:
+            params["face_modulus_pa"] = cutting.face_modulus_pa
         for k, depth in enumerate(cutting.layer_depths_m):
             params[f"layer_depth_{k}_m"] = depth
         for k, factor in enumerate(cutting.layer_factors):
@@ -208,6 +213,10 @@ SOURCE_RANGES: dict[str, tuple[float | None, float | None, str]] = {
                         "and rig): no published range for a rig"),
     "edge_friction": (None, None, "no published friction of an edge along itself in food"),
     "edge_slip_m": (None, None, "no published Dahl slip of an edge in food"),
+    "face_modulus_pa": (2e3, 6e6, "mu E: friction of steel on moist food 0.2-0.6 (muscle "
+                        "on bone 0.3, Shacham et al. 2010) times the modulus, 10 kPa (soft "
+                        "muscle across its fibres, Van Loocke et al. 2006) to 10 MPa (firm "
+                        "fruit and vegetable flesh)"),
 }
 
 
@@ -279,6 +288,8 @@ def linear_columns(model: CutCandidate, shape: np.ndarray,
     if "blade_friction" in model.causes:
         faces = CuttingParams(1.0, face_friction=1.0, face_pressure_pa=1.0)
         columns.append(flat(kinematics.faces_n(faces)))
+    if "wedge_friction" in model.causes:
+        columns.append(flat(kinematics.faces_n(CuttingParams(1.0, face_modulus_pa=1.0))))
     if model.has_offset:
         n = len(kinematics.middle_depth_m)
         columns += [np.repeat(np.eye(3)[k], n) for k in range(3)]

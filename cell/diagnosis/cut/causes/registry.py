@@ -12,6 +12,7 @@ from cell.diagnosis.cut.causes.layered_toughness import LayeredToughness
 from cell.diagnosis.cut.causes.offset import BladeForceOffset
 from cell.diagnosis.cut.causes.rate_dependent_cutting import RateDependentCutting
 from cell.diagnosis.cut.causes.slicing import Slicing
+from cell.diagnosis.cut.causes.wedge_friction import WedgeFriction
 
 #: Every cause by name, in catalogue order (:data:`cell.tissue.cutmodel.CUT_CAUSES` as it
 #: ships; a model's shape parameters follow it).
@@ -24,6 +25,7 @@ REGISTRY: dict[str, CutCause] = {cause.name: cause for cause in (
     BladeForceOffset(),
     EdgeLoading(),
     EdgeFriction(),
+    WedgeFriction(),
 )}
 
 
