@@ -18,6 +18,8 @@ Entries (``value`` in ``unit``; ``peer`` and ``ratio`` = value / peer where a pe
 - ``contact_load_us``: the load of the flex contacts on the knife and on the round (as the
   tools' sensors and the dynamometer read them), read at once from MuJoCo's contact
   arrays, at a state in the cut; peer: the same contacts one ``mj_contactForce`` call each.
+- ``mesh_build_s``: building the two muscles' mesh of the scenario's shape; peer: building
+  the whole scene it is part of (``ratio``: its share).
 - ``episode_growth_exponent``: how the episode's wall time (build and run, no recording)
   grows with the tissue's nodes: the slope of log wall time on log nodes over the same
   scenario meshed at about :data:`GROWTH_NODES` nodes (finer cells); ``runs`` has each
@@ -41,12 +43,14 @@ from cell.profiling import Profile
 from cell.robots.arms import build_arm
 from cell.robots.dh import VIPER_S1700D
 from cell.robots.names import KNIFE_BLADE_GEOM
+from cell.sim.assembly import build_scene
 from cell.sim.dynamometer import contact_load
 from cell.sim.episode import Episode
 from cell.sim.profiled import EPISODE_PARTS, MUJOCO_STEP, add_mujoco_stages, start_episode
 from cell.sim.scenario import Scenario, load_scenario
 from cell.sim.trajectory import TrajectorySampler
 from cell.sim.trajectoryfiles import program_output
+from cell.tissue.geometry import build_two_muscles
 from cell.tissue.material import ContinuumMaterial
 
 
@@ -79,6 +83,20 @@ def bench_episode(scenario: Scenario, quick: bool) -> dict[str, Any]:
     return {"value": summary["timing"]["real_time_factor"], "unit": "x real time",
             "sim_time_s": summary["result"]["sim_time_s"],
             "wall_time_s": summary["timing"]["wall_time_s"], "truncated": quick}
+
+
+def bench_mesh_build(scenario: Scenario, repeats: int) -> dict[str, Any]:
+    mesh_s, scene_s = [], []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        build_two_muscles(scenario.tissue)
+        mesh_s.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        build_scene(scenario)
+        scene_s.append(time.perf_counter() - start)
+    mesh, scene = min(mesh_s), min(scene_s)
+    return {"value": mesh, "unit": "s", "peer": scene, "peer_name": "the whole scene's build",
+            "ratio": mesh / scene}
 
 
 #: The node counts the growth entry aims its meshes at.
@@ -229,6 +247,7 @@ def run_bench(scenario_path: str | Path, quick: bool = False) -> dict[str, Any]:
         "trajectory_s": bench_trajectory(scenario, quick),
         "episode_stepping_share": bench_profile(scenario, quick),
         "contact_load_us": bench_contacts(scenario, 200 if quick else 2000),
+        "mesh_build_s": bench_mesh_build(scenario, 2 if quick else 5),
         "episode_growth_exponent": bench_growth(scenario, quick),
     }
     return {

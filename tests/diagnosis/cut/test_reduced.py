@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -136,15 +134,3 @@ def test_irregular_and_dropped_samples_give_the_same_force() -> None:
     np.testing.assert_allclose(part.total_n[inside], full.total_n[keep][inside], atol=0.5)
 
 
-def test_a_test_runs_well_under_ten_milliseconds() -> None:
-    test = _saw(samples=500)
-    cutting = CuttingParams(900.0, face_friction=0.3, face_pressure_pa=1600.0,
-                            slicing_efficiency=1.0, rate_exponent=0.2,
-                            indentation_depth_m=0.002, layer_depths_m=(0.01,),
-                            layer_factors=(1.0, 1.5))
-    runs = []
-    for _ in range(10):
-        start = time.perf_counter()
-        reduced_cut_forces(test, BLOCK, BLADE, cutting)
-        runs.append(time.perf_counter() - start)
-    assert min(runs) < 0.01
