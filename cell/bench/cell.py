@@ -106,7 +106,7 @@ GROWTH_NODES = (500, 1000, 2000, 4000)
 def bench_growth(scenario: Scenario, quick: bool) -> dict[str, Any]:
     if quick:
         scenario = replace(scenario, end_s=3.0)
-    nodes_here = Episode(scenario).sim.scene.node_count
+    nodes_here = build_scene(scenario).node_count
     runs = []
     for target in GROWTH_NODES:
         cell_size_m, nodes = scenario.tissue.cell_size_m, nodes_here
@@ -114,8 +114,9 @@ def bench_growth(scenario: Scenario, quick: bool) -> dict[str, Any]:
             cell_size_m *= (nodes / target) ** (1.0 / 3.0)
             meshed = replace(scenario, tissue=replace(scenario.tissue, cell_size_m=cell_size_m))
             start = time.perf_counter()
-            episode = Episode(meshed)
-            nodes = episode.sim.scene.node_count
+            scene = build_scene(meshed)
+            nodes = scene.node_count
+        episode = Episode(meshed, scene)
         episode.run()
         runs.append({"cell_size_m": cell_size_m, "nodes": episode.sim.scene.node_count,
                      "bindings": len(episode.sim.scene.aponeurosis),

@@ -115,10 +115,8 @@ def scenario_keys(name: str, scenario: Scenario) -> tuple[str, ...]:
     """
     cause = CAUSES[name]
     world = cause.change(scenario, cause.step)
-    keys = [f"{table}.{key}" for table, changed in changed_keys(scenario, world).items()
-            for key in changed]
-    keys += _changed_fields("material", scenario.material, world.material)
-    return tuple(sorted(keys))
+    return tuple(sorted(key for table in fields(scenario) for key in _changed_fields(
+        table.name, getattr(scenario, table.name), getattr(world, table.name))))
 
 
 def _changed_fields(prefix: str, before: Any, after: Any) -> list[str]:
