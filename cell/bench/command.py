@@ -74,6 +74,10 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--logs", action="store_true",
                        help="diagnose suite: hidden-effect batches of separation logs, "
                        "diagnosed as diagnose-logs does (with --pairs: two causes at once)")
+    bench.add_argument("--scenario-keys", action="store_true",
+                       help="diagnose suite with --logs: the batches' worlds made by editing "
+                       "the scenario keys each cause maps to (factors 0.4 to 2.5, drawn "
+                       "shapes), as a user changes a world")
     bench.add_argument("--workers", type=int,
                        help="diagnose suite: processes per diagnosis (default: every core; "
                        "with --address, the whole cluster)")
@@ -99,7 +103,7 @@ def bench_command(args: argparse.Namespace) -> int:
     suite = args.suite
     if suite not in ("tissue", "diagnose", "sweep"):
         for flag in ("seeds", "pairs", "subtle", "spread", "triples", "including", "suggest",
-                     "logs", "lab_protocol"):
+                     "logs", "lab_protocol", "scenario_keys"):
             if getattr(args, flag) not in (None, False):
                 option = f"--{flag.replace('_', '-')}"
                 raise InputError(None, option, f"only `musclecell bench diagnose` takes {option}")
@@ -231,6 +235,8 @@ def _diagnose_kind(args: argparse.Namespace) -> str:
         raise InputError(None, f"--{kinds[1]}", f"give one of --{' --'.join(kinds)}, not both")
     if args.cut and args.logs:
         raise InputError(None, "--logs", "give one of --cut --logs, not both")
+    if args.scenario_keys and not args.logs:
+        raise InputError(None, "--scenario-keys", "goes with --logs")
     if args.lab_protocol and (args.cut or args.logs or args.suggest or args.spread):
         raise InputError(None, "--lab-protocol", "goes with the uniaxial sets alone")
     if (args.cut or args.logs) and kinds not in ([], ["pairs"]):
@@ -301,6 +307,8 @@ def _log_bench(args: argparse.Namespace, kind: str, count: int, workers: int
     from cell.bench import diagnose_logs
     from cell.scale.command import log_cluster
 
+    if args.scenario_keys:
+        kind = "key-pairs" if kind == "pairs" else "keys"
     cluster = None if args.address is None else log_cluster(args.workers, args.address)
     asked = workers if cluster is None else args.workers  # a cluster's: None, all of it
     params = (diagnose_logs.LogBenchParams.quick(asked) if args.quick

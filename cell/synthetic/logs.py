@@ -170,7 +170,7 @@ def write_hidden_log_batch(folder: Path, seed: int, base: str | Path,
                          tissue=replace(scenario.tissue, **shape))
         path = folder / f"log-{k}" / "scenario.toml"
         path.parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(path, _scenario_toml(raw, belief, shape))
+        write_atomic(path, log_scenario_toml(raw, belief, shape, _HEADER))
         episode = LoggedEpisode(changed_world(belief, changes))
         episode.run()
         offset = ({offset_channel: np.asarray(magnitudes[SENSOR_OFFSET])}
@@ -183,13 +183,15 @@ def write_hidden_log_batch(folder: Path, seed: int, base: str | Path,
                          time.perf_counter() - wall_start)
 
 
-def _scenario_toml(raw: dict[str, Any], belief: Scenario, shape: dict[str, float]) -> str:
-    """The base scenario's tables with this log's name, seed, end and shape, naming the
-    batch's material file."""
+def log_scenario_toml(raw: dict[str, Any], belief: Scenario, shape: dict[str, float],
+                      header: str) -> str:
+    """The base scenario's tables (``raw``) with this log's name, seed, end and ``shape``
+    (its drawn keys), naming the batch's material file (``../material.toml``), ``header``'s
+    lines on top."""
     tables = {**raw, "scenario": {**raw.get("scenario", {}), "name": belief.name,
                                   "seed": belief.seed},
               "tissue": {**raw.get("tissue", {}), **shape},
               "material": {"file": "../material.toml"}}
     if belief.end_s is not None:
         tables["scenario"]["end_s"] = belief.end_s
-    return tables_toml(tables, _HEADER)
+    return tables_toml(tables, header)
