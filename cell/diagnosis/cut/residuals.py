@@ -163,8 +163,7 @@ def scales_between_tests(tests: Sequence[CutTest], block: Block, blade: Blade,
     trends = [rank_trend(name, "per-test scale", values, [np.array([s]) for s in scales])
               for name, values in medians.items()]
     return ScalesBetweenTests(tuple(scales), 1.0 - after / before if before > 0.0 else 0.0,
-                      tuple(sorted((t for t in trends if t is not None),
-                                   key=lambda t: -abs(t.rank_correlation))))
+                              _by_strength(trends))
 
 
 def cut_residual_trends(tests: Sequence[CutTest], block: Block, blade: Blade,
@@ -182,5 +181,10 @@ def cut_residual_trends(tests: Sequence[CutTest], block: Block, blade: Blade,
                  for name, direction in directions.items()}
     trends = [rank_trend(quantity, component, [q[quantity] for q in quantities], series)
               for quantity in quantities[0] for component, series in residuals.items()]
+    return _by_strength(trends)
+
+
+def _by_strength(trends: Sequence[ResidualTrend | None]) -> tuple[ResidualTrend, ...]:
+    """The trends there are, the largest rank correlation (either sign) first."""
     return tuple(sorted((t for t in trends if t is not None),
                         key=lambda t: -abs(t.rank_correlation)))
