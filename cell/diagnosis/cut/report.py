@@ -27,7 +27,12 @@ import numpy as np
 
 from cell.diagnosis.cut.causes import source_checks
 from cell.diagnosis.cut.reduced import cutting_direction
-from cell.diagnosis.cut.residuals import ResidualTrend, cut_quantities, strongest
+from cell.diagnosis.cut.residuals import (
+    ResidualTrend,
+    ScalesBetweenTests,
+    cut_quantities,
+    strongest,
+)
 from cell.diagnosis.specimen.report import evidence_table, gain_line, search_lines
 from cell.extras import require
 from cell.outputs import figure_png, write_atomic
@@ -146,6 +151,7 @@ def _markdown(diagnosis: SetDiagnosis, folder: Path, material_path: Path | None,
              *(evidence_table(cut.evidence) if cut.evidence else []),
              *_source_lines(cut.extended.params),
              *_trend_lines(cut.residual_trends),
+             *_scale_lines(cut.between_tests),
              *(["![The residual against what the tests vary](cut-residuals.png)", ""]
                if cut.residual_trends else []),
              *search_lines(cut, folder, material_path),
@@ -170,6 +176,20 @@ def _trend_lines(trends: tuple[ResidualTrend, ...]) -> list[str]:
               + (f"[{t.ci95[0]:+.2f}, {t.ci95[1]:+.2f}]" if t.ci95 else "not determined")
               + " |" for t in trends]
     return [*lines, ""]
+
+
+def _scale_lines(scales: ScalesBetweenTests | None) -> list[str]:
+    """Where ``unexplained`` stands: how much of the residual one factor per test on the
+    prediction removes, and what the factors follow most."""
+    if scales is None:
+        return []
+    top = strongest(scales.trends)
+    follows = (f"; they follow the tests' **{top.quantity}** most (rank correlation "
+               f"{top.rank_correlation:+.2f} [{top.ci95[0]:+.2f}, {top.ci95[1]:+.2f}])"
+               if top is not None else "; no quantity of the tests clearly orders them")
+    return [f"One factor per test on the held-out prediction (from {min(scales.scales):.2f} "
+            f"to {max(scales.scales):.2f}) would remove {scales.share:.0%} of the residual's "
+            f"sum of squares{follows}.", ""]
 
 
 def _source_lines(params: dict[str, float]) -> list[str]:

@@ -5,6 +5,12 @@ the model is missing (a force that grows with depth, one that follows the stroke
 The samples of one test follow each other and are not independent, so the interval comes
 from resampling whole tests (a cluster bootstrap), never from the count of samples.
 
+A model can also be wrong between tests rather than within them: the right shape, scaled
+differently from one test to the next (a force that grows with the speed each test was run
+at, say). :func:`scales_between_tests` fits one factor per test to its held-out prediction,
+gives the share of the residual those factors remove, and correlates the factors with each
+test's median of each quantity.
+
 Example:
     >>> t = [np.linspace(0.0, 1.0, 50) + k for k in range(4)]
     >>> trend = rank_trend("time_s", "against the cut", t, [x**2 for x in t])
@@ -108,6 +114,58 @@ def cut_quantities(test: CutTest, block: Block, blade: Blade) -> dict[str, np.nd
             "time_s": test.time_s - test.time_s[0]}
 
 
+@dataclass(frozen=True)
+class ScalesBetweenTests:
+    """How much of the held-out residual is one factor per test on the prediction, and what
+    the factors follow.
+
+    Attributes:
+        scales: per test, the factor (dimensionless) that best scales its held-out prediction
+            to its measured force (least squares; 1 where the prediction is zero).
+        share: the share of the residual's sum of squares the factors remove, in [0, 1].
+        trends: the factors' rank correlation with each test's median of each quantity of
+            :func:`cut_quantities` over its samples in the block (quantity ``median
+            depth_m`` ...), the strongest first.
+
+    Example:
+        >>> ScalesBetweenTests((1.0, 2.0), 0.5, ()).to_json()["share"]
+        0.5
+    """
+
+    scales: tuple[float, ...]
+    share: float
+    trends: tuple[ResidualTrend, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON's ``residual_test_scales``."""
+        return {"scales": list(self.scales), "share": self.share,
+                "trends": [t.to_json() for t in self.trends]}
+
+
+def scales_between_tests(tests: Sequence[CutTest], block: Block, blade: Blade,
+                         heldout_force_n: Sequence[np.ndarray]) -> ScalesBetweenTests:
+    """The factor per test on its held-out prediction (:class:`ScalesBetweenTests`);
+    ``heldout_force_n`` as for :func:`cut_residual_trends`."""
+    predicted = [np.asarray(pred).reshape(3, -1).T for pred in heldout_force_n]
+    scales, before, after = [], 0.0, 0.0
+    for test, pred in zip(tests, predicted, strict=True):
+        size = float(np.sum(pred * pred))
+        scale = float(np.sum(pred * test.force_n)) / size if size > 0.0 else 1.0
+        scales.append(scale)
+        before += float(np.sum((test.force_n - pred) ** 2))
+        after += float(np.sum((test.force_n - scale * pred) ** 2))
+    medians: dict[str, list[np.ndarray]] = {}
+    for test in tests:
+        inside = test.depth_m(block) > 0.0
+        for name, values in cut_quantities(test, block, blade).items():
+            middle = np.median(values[inside]) if inside.any() else np.median(values)
+            medians.setdefault(f"median {name}", []).append(np.array([middle]))
+    trends = [rank_trend(name, "per-test scale", values, [np.array([s]) for s in scales])
+              for name, values in medians.items()]
+    return ScalesBetweenTests(tuple(scales), 1.0 - after / before if before > 0.0 else 0.0,
+                              _by_strength(trends))
+
+
 def cut_residual_trends(tests: Sequence[CutTest], block: Block, blade: Blade,
                         heldout_force_n: Sequence[np.ndarray]) -> tuple[ResidualTrend, ...]:
     """The trends of the held-out residual of the force against the cut and along the edge
@@ -123,5 +181,10 @@ def cut_residual_trends(tests: Sequence[CutTest], block: Block, blade: Blade,
                  for name, direction in directions.items()}
     trends = [rank_trend(quantity, component, [q[quantity] for q in quantities], series)
               for quantity in quantities[0] for component, series in residuals.items()]
+    return _by_strength(trends)
+
+
+def _by_strength(trends: Sequence[ResidualTrend | None]) -> tuple[ResidualTrend, ...]:
+    """The trends there are, the largest rank correlation (either sign) first."""
     return tuple(sorted((t for t in trends if t is not None),
                         key=lambda t: -abs(t.rank_correlation)))

@@ -35,7 +35,12 @@ from cell.diagnosis.cut.causes import (
     source_checks,
 )
 from cell.diagnosis.cut.fitting import CutFit, CutProblem, best_layer_depth, fit_cut, refine
-from cell.diagnosis.cut.residuals import ResidualTrend, cut_residual_trends
+from cell.diagnosis.cut.residuals import (
+    ResidualTrend,
+    ScalesBetweenTests,
+    cut_residual_trends,
+    scales_between_tests,
+)
 from cell.diagnosis.engine.acceptance import Rules, improved_fraction
 from cell.diagnosis.engine.outcome import Evidence, SearchOutcome, force_noise_n
 from cell.diagnosis.engine.search import Search
@@ -93,16 +98,20 @@ class CutDiagnosis(SearchOutcome):
     params: DiagnosisParams = field(default_factory=DiagnosisParams)
     swaps: tuple[Swap, ...] = ()
     residual_trends: tuple[ResidualTrend, ...] = ()
+    between_tests: ScalesBetweenTests | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The contract's JSON, plus the evidence of each cause (as the uniaxial
         diagnosis's), the fitted parameters checked against their sources' ranges
         (:func:`~cell.diagnosis.cut.causes.candidate.source_checks`) and, where ``unexplained``
-        stands, the
-        residual's trends (the strongest first, :mod:`cell.diagnosis.cut.residuals`)."""
+        stands, the residual's trends (the strongest first) and the factor per test on the
+        prediction (``residual_test_scales``, null otherwise), both of
+        :mod:`cell.diagnosis.cut.residuals`."""
+        scales = self.between_tests
         return {**super().to_json(), "evidence": [e.to_json() for e in self.evidence],
                 "source_ranges": source_checks(self.extended.params),
-                "residual_trends": [t.to_json() for t in self.residual_trends]}
+                "residual_trends": [t.to_json() for t in self.residual_trends],
+                "residual_test_scales": None if scales is None else scales.to_json()}
 
 
 def _evidence(search: CutSearch, final: CutFit, order: list[str]) -> tuple[Evidence, ...]:
@@ -162,10 +171,11 @@ def diagnose_cuts(block: Block, blade: Blade, tests: tuple[CutTest, ...],
     if unexplained(current, noise, params, problem.tests):
         current, steps, order = second_start(search, baseline, candidates, noise,
                                              (current, steps, order))
-    causes, trends = tuple(order), ()
+    causes, trends, scales = tuple(order), (), None
     if unexplained(current, noise, params, problem.tests):
         causes += (UNEXPLAINED,)
         trends = cut_residual_trends(tests, block, blade, current.heldout_force_n)
+        scales = scales_between_tests(tests, block, blade, current.heldout_force_n)
     return CutDiagnosis(noise, baseline, tuple(candidates), tuple(steps), current, causes,
                         _evidence(search, current, list(order)), params, tuple(search.swaps),
-                        trends)
+                        trends, scales)
