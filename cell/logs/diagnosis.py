@@ -32,7 +32,7 @@ from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
 from cell.diagnosis.engine.outcome import force_noise_n
 from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
-from cell.logs.evidence import LogEvidence, log_evidence
+from cell.logs.evidence import Indistinguishable, LogEvidence, indistinguishable, log_evidence
 from cell.logs.fit import (
     FORCE_CHANNELS,
     Rows,
@@ -101,6 +101,8 @@ class LogDiagnosis:
         timing: replays, their wall and CPU time, and the fits' (the rest's), s.
         noise_n: the logged force channels' noise (the engine's
             :func:`~cell.diagnosis.engine.outcome.force_noise_n`), N.
+        indistinguishable: the causes screened that the batch cannot tell from a named one
+            (:func:`~cell.logs.evidence.indistinguishable`).
 
     Example:
         >>> LogDiagnosis(["a", "b"], [2.0, 2.0], [], [], {}, {"baseline": 2.0, "extended": 1.5},
@@ -119,6 +121,7 @@ class LogDiagnosis:
     simulated: dict[str, np.ndarray] = field(repr=False)
     timing: dict[str, float]
     noise_n: float = 0.0
+    indistinguishable: list[Indistinguishable] = field(default_factory=list)
 
     @property
     def gain(self) -> float:
@@ -145,7 +148,9 @@ class LogDiagnosis:
                 **_score("gain", self.gain), "noise_N": self.noise_n,
                 "steps": [_scored(s) for s in self.steps],
                 "second_look": [] if tried is None else [tried],
-                "evidence": [e.to_json() for e in self.evidence], "timing": self.timing}
+                "evidence": [e.to_json() for e in self.evidence],
+                "indistinguishable": [i.to_json() for i in self.indistinguishable],
+                "timing": self.timing}
 
 
 def _score(name: str, value: float) -> dict[str, Any]:
@@ -226,7 +231,9 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
         log_evidence(residual, blocks, rows, chosen, left),
         steps_json, {"baseline": base, "extended": fit["simulated"], "measured": measured},
-        _timing(replayer, started, cpu_started), _noise_n(batch))
+        _timing(replayer, started, cpu_started), _noise_n(batch),
+        indistinguishable(residual, blocks, rows, chosen,
+                          [c for c in world if c in blocks], params.min_heldout_gain))
 
 
 def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from cell.diagnosis.engine.outcome import Evidence
-from cell.logs.fit import Rows, heldout, rmse_n
+from cell.logs.fit import FORCE_CHANNELS, Rows, heldout, rmse_n, solve
 from cell.logs.search import OFFSET, fixed
 
 
@@ -63,3 +63,72 @@ def log_evidence(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows
         out.append(LogEvidence(cause, rmse_n(left), rmse_n(without), float(np.mean(better)),
                                {}, None, channel=channel))
     return out
+
+
+@dataclass(frozen=True)
+class Indistinguishable:
+    """A cause the batch cannot tell from a named one: swapped in for it (the other named
+    blocks kept), its held-out RMSE (linearised) is not worse by the share a cause must earn
+    to be named (the diagnosis's ``min_heldout_gain``).
+
+    Attributes:
+        cause: the named world cause.
+        alternative: the world cause screened that explains the logs as well.
+        heldout_rmse_n: the held-out force RMSE (linearised) with ``cause``, N.
+        alternative_heldout_rmse_n: the same with ``alternative`` in its place, N.
+        differs_most: where the two causes' fitted changes differ most: a force channel
+            (``knife``, ``gripper``, ``fixture``) or ``outcome`` (the counts and the release
+            events): what a log that tells them apart must show.
+
+    Example:
+        >>> Indistinguishable("a", "b", 0.5, 0.52, "gripper").to_json()["alternative"]
+        'b'
+    """
+
+    cause: str
+    alternative: str
+    heldout_rmse_n: float
+    alternative_heldout_rmse_n: float
+    differs_most: str
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON's ``indistinguishable`` entry."""
+        return {"cause": self.cause, "alternative": self.alternative,
+                "heldout_rmse_N": self.heldout_rmse_n,
+                "alternative_heldout_rmse_N": self.alternative_heldout_rmse_n,
+                "differs_most": self.differs_most}
+
+
+def indistinguishable(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
+                      chosen: list[str], world: list[str], min_gain: float
+                      ) -> list[Indistinguishable]:
+    """For each named world cause of ``world`` (among the blocks ``chosen``), every other
+    world cause screened (a block of ``blocks`` not chosen and no offset) that the batch
+    cannot tell from it (:class:`Indistinguishable`)."""
+    out = []
+    for name in world:
+        kept = {c: blocks[c] for c in chosen if c != name}
+        named = rmse_n(heldout(residual, {**kept, name: blocks[name]}, rows, fixed(kept)))
+        for other in blocks:
+            if other in chosen or other.startswith(OFFSET):
+                continue
+            error = rmse_n(heldout(residual, {**kept, other: blocks[other]}, rows, fixed(kept)))
+            if (1.0 - min_gain) * error <= named:
+                out.append(Indistinguishable(name, other, named, error,
+                                             _differs_most(residual, blocks, rows, name, other)))
+    return out
+
+
+def _differs_most(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
+                  name: str, other: str) -> str:
+    """The channel (or ``outcome``) where the changes of ``name`` and ``other``, each fitted
+    alone to ``residual``, differ most (root mean square)."""
+    changes = []
+    for cause in (name, other):
+        fitted, _ = solve(residual, {cause: blocks[cause]})
+        changes.append(blocks[cause] @ fitted[cause])
+    difference = changes[0] - changes[1]
+    places = (*FORCE_CHANNELS, "outcome")
+    spread = [rmse_n(difference[rows.channel == k]) if np.any(rows.channel == k) else 0.0
+              for k in range(len(places))]
+    return places[int(np.argmax(spread))]

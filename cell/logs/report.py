@@ -142,6 +142,14 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) ->
         lines.append(f"- {name}: held-out {shown(e['heldout_rmse_with_N'], '.3f')} N with it, "
                      f"{shown(e['heldout_rmse_without_N'], '.3f')} N without (linearised); "
                      f"improves {e['improved_fraction']:.0%} of the logs")
+    for pair in data["indistinguishable"]:
+        place = ("outcome (the counts and the release times)" if pair["differs_most"] == "outcome"
+                 else f"{pair['differs_most']} force")
+        lines.append(f"- {pair['cause']} cannot be told from {pair['alternative']} on these "
+                     f"logs: held-out {shown(pair['heldout_rmse_N'], '.3f')} N against "
+                     f"{shown(pair['alternative_heldout_rmse_N'], '.3f')} N (linearised); they "
+                     f"differ most in the {place}: a log where that differs tells them apart "
+                     "(docs/logs.md, \"Causes told apart\")")
     t = data["timing"]
     lines += ["", f"{t['replays']} replays, {t['replay_wall_s']:.0f} s; the fits "
               f"{t['fit_s']:.1f} s.", ""]

@@ -17,7 +17,7 @@ from cell.errors import LogError
 from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES, applicable, changed_world, magnitudes_json
 from cell.logs.diagnosis import LogDiagnosis
-from cell.logs.evidence import LogEvidence
+from cell.logs.evidence import Indistinguishable, LogEvidence
 from cell.logs.fit import (
     Rows,
     broyden,
@@ -174,7 +174,9 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
         {"params": {**strength, "sensor_offset": {"knife": [0.5, 0.0, 0.0]}}},
         {"baseline": 2.0, "extended": 1.0}, evidence, [],
         {"baseline": measured + 1.0, "extended": measured + 0.1, "measured": measured},
-        {"replays": 9, "replay_wall_s": 1.0, "fit_s": 0.1, "total_s": 1.1})
+        {"replays": 9, "replay_wall_s": 1.0, "fit_s": 0.1, "total_s": 1.1},
+        indistinguishable=[Indistinguishable("binding_strength", "tearing_threshold", 1.0, 1.05,
+                                             "gripper")])
     written = write_log_diagnosis(tmp_path / "out", batch, diagnosis, plots=True)
     assert {p.name for p in written} >= {"diagnosis.json", "report.md", "channels-1.png",
                                          SCENARIO, MATERIAL}
@@ -189,9 +191,13 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
     assert diagnosis.gain == pytest.approx(0.5)
     report = (tmp_path / "out" / "report.md").read_text()
     assert "gain 0.50" in report and "- sensor_offset (knife): held-out 1.000 N" in report
+    assert ("- binding_strength cannot be told from tearing_threshold on these logs: held-out "
+            "1.000 N against 1.050 N (linearised); they differ most in the gripper force"
+            in report)
     data = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
     assert {"causes", "candidates", "steps", "evidence", "gain", "noise_N", "baseline",
-            "extended", "second_look"} <= set(data)
+            "extended", "second_look", "indistinguishable"} <= set(data)
+    assert data["indistinguishable"][0]["differs_most"] == "gripper"
     assert data["evidence"][1] == {"cause": "sensor_offset", "heldout_rmse_with_N": 1.0,
                                    "heldout_rmse_without_N": 1.2, "improved_fraction": 0.5,
                                    "params": {}, "channel": "knife", "linearised": True}
