@@ -153,7 +153,7 @@ class RayVecEnv(VecEnv):
                 for i, args, ref in zip(indices, arguments, refs, strict=True)]
 
     def _result(self, index: int, method: str, args: tuple, ref: Any,
-                lost: Callable[[int], Any] | None) -> Any:
+                lost: Callable[[int, Any], Any] | None) -> Any:
         for _ in range(MAX_LOSSES_IN_A_ROW):
             try:
                 return self._ray.get(ref)
