@@ -86,3 +86,12 @@ def test_episodes_played_as_ray_tasks_match_those_played_here(cluster: str) -> N
             rows[address] = [{k: v for k, v in row.items() if k != "wall_s"}
                              for row in run_tasks(tasks)]
     assert rows[None] == rows[cluster]
+
+
+def test_an_unreachable_cluster_is_a_named_error_and_nothing_is_written(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "run"
+    assert main(["learn", ENV_ID, "--steps", "8", "--out", str(out), "--quiet",
+                 "--address", "127.0.0.1:1"]) == 2
+    assert "--address: cannot reach 127.0.0.1:1" in capsys.readouterr().err
+    assert not out.exists()
