@@ -15,7 +15,8 @@ from pathlib import Path
 #: The project's packages that the rules know, bottom layer first.
 BASE = ("cell.errors", "cell.io", "cell.folders", "cell.outputs", "cell.config",
         "cell.collision", "cell.polyline", "cell.memory", "cell.assets", "cell.scenarios",
-        "cell.extras", "cell.options", "cell.progress", "cell.profiling", "cell.moved")
+        "cell.extras", "cell.options", "cell.progress", "cell.profiling", "cell.moved",
+        "cell.rayconnect")
 #: The MuJoCo-free part of the tissue that a diagnosis simulates with.
 TISSUE_LAWS = ("cell.tissue.curves", "cell.tissue.material", "cell.tissue.materialfile",
                "cell.tissue.cutmodel", "cell.tissue.edgestate", "cell.tissue.springlaw",

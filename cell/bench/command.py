@@ -82,8 +82,10 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
                        help="diagnose suite: processes per diagnosis (default: every core; "
                        "with --address, the whole cluster)")
     bench.add_argument("--address",
-                       help="diagnose suite with --logs: replay on this Ray cluster: auto, "
-                       "HEAD_HOST:PORT or ray://HOST:PORT (needs the scale extra)")
+                       help="diagnose suite with --logs: replay on this Ray cluster; env "
+                       "suite with --learn: also learn --address on one env per CPU of it "
+                       "over one env here: auto, HEAD_HOST:PORT or ray://HOST:PORT (needs "
+                       "the scale extra)")
     bench.add_argument("--learn", action="store_true",
                        help="env suite: also learn --envs 2 over --envs 1, two PPO runs "
                        "(needs the learn extra; minutes, eight with the full suite)")
@@ -112,9 +114,10 @@ def bench_command(args: argparse.Namespace) -> int:
                              "only `musclecell bench tissue` and `bench diagnose` write Markdown")
     if args.learn and suite != "env":
         raise InputError(None, "--learn", "only `musclecell bench env` takes --learn")
-    if args.address is not None and not (suite == "diagnose" and args.logs):
-        raise InputError(None, "--address",
-                         "only `musclecell bench diagnose --logs` takes --address")
+    if args.address is not None and not ((suite == "diagnose" and args.logs)
+                                         or (suite == "env" and args.learn)):
+        raise InputError(None, "--address", "only `musclecell bench diagnose --logs` and "
+                         "`bench env --learn` take --address")
     if args.shapes < 0:
         raise InputError(None, "--shapes", f"must be >= 0, got {args.shapes}")
     json_path = args.out or Path(DEFAULT_JSON[suite])
@@ -202,7 +205,7 @@ def _env(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> in
         from cell.extras import require
 
         require("stable_baselines3", "learn", "bench env --learn")
-    report = run_env_bench(quick=args.quick, learn=args.learn)
+    report = run_env_bench(quick=args.quick, learn=args.learn, address=args.address)
     write_json(json_path, report)
     _print_entries(report["entries"])
     print(f"wrote {json_path}")

@@ -6,7 +6,8 @@ training's ``--envs``), each with its ``scaling``, its rate over the single env'
 core count when the processes scale; and, asked for (``--learn``, the learn extra),
 ``learn_scaling_2_over_1``:
 ``musclecell learn`` with two envs over one, its training loop whole (resets, the policy, PPO's
-updates).
+updates); with ``--address`` too, ``learn_ray_over_1``: ``learn --address`` with one env per
+CPU of that Ray cluster (:mod:`cell.learning.rayenvs`) over one env here.
 
 One env step is one control step (20 ms: 4 physics steps of 5 ms, the implicit tissue step).
 Each single-env entry splits a step's wall time into physics (:meth:`Simulation.step`, MuJoCo
@@ -115,43 +116,59 @@ def bench_processes(cell_size_m: float, steps: int, processes: int) -> dict[str,
             "per_process": rates, "cell_size_m": cell_size_m}
 
 
-def _learn_rate(envs: int, steps_per_env: int, n_steps: int, folder: Path) -> dict[str, Any]:
+def _learn_rate(envs: int, steps_per_env: int, n_steps: int, folder: Path,
+                address: str | None = None) -> dict[str, Any]:
     """``musclecell learn Cut-v2`` on ``envs`` envs for ``steps_per_env`` env steps each,
-    ``n_steps`` per env between updates: Stable-Baselines3's own rate over the training loop
-    (its last ``time/fps``: env steps since the loop began over its wall time, resets,
-    policy, PPO updates and checkpoints included; env construction not)."""
+    ``n_steps`` per env between updates (on the Ray cluster at ``address``, if any):
+    Stable-Baselines3's own rate over the training loop (its last ``time/fps``: env steps
+    since the loop began over its wall time, resets, policy, PPO updates and checkpoints
+    included; env construction not)."""
     from cell.learning import ppo
     from cell.learning.hyper import LearnSettings, PPOHyper
     from cell.learning.logs import read_rows
 
     settings = LearnSettings("musclecell/Cut-v2", {}, seed=0, envs=envs,
-                             steps=envs * steps_per_env, checkpoint_every=10**9)
+                             steps=envs * steps_per_env, checkpoint_every=10**9,
+                             address=address)
     hyper = PPOHyper(n_steps=n_steps, batch_size=min(256, n_steps))
     result = ppo.learn(settings, hyper, folder)
     fps = float(read_rows(folder / "progress.csv")[-1]["time/fps"])
     return {"value": fps, "unit": "env steps/s", "envs": envs, "steps": result.steps,
-            "n_steps": n_steps, "wall_s": result.wall_s}
+            "n_steps": n_steps, "wall_s": result.wall_s, "address": address}
 
 
-def bench_learn_scaling(steps_per_env: int, n_steps: int) -> dict[str, Any]:
-    """``learn --envs 2`` over ``learn --envs 1``, the same steps per env and per update:
-    each run's rate (:func:`_learn_rate`) and their ratio, with the machine's load average
-    (1 min) before and after: a ratio measured on busy cores says little."""
+def bench_learn_scaling(steps_per_env: int, n_steps: int, address: str | None = None
+                        ) -> dict[str, Any]:
+    """``learn --envs 2`` over ``learn --envs 1``, or with ``address`` ``learn --address``
+    with one env per CPU of that cluster over ``learn --envs 1`` here, the same steps per env
+    and per update: each run's rate (:func:`_learn_rate`) and their ratio, with the machine's
+    load average (1 min) before and after: a ratio measured on busy cores says little."""
     import tempfile
 
+    many = 2 if address is None else _cluster_cpus(address)
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as folder:
-        runs = {envs: _learn_rate(envs, steps_per_env, n_steps, Path(folder) / f"envs{envs}")
-                for envs in (1, 2)}
-    ratio = runs[2]["value"] / runs[1]["value"]
-    return {"value": ratio, "unit": "ratio", "envs1": runs[1], "envs2": runs[2],
+        one = _learn_rate(1, steps_per_env, n_steps, Path(folder) / "envs1")
+        spread = _learn_rate(many, steps_per_env, n_steps, Path(folder) / f"envs{many}", address)
+    ratio = spread["value"] / one["value"]
+    return {"value": ratio, "unit": "ratio", "envs1": one, f"envs{many}": spread,
             "target": LEARN_SCALING_TARGET, "pass": ratio >= LEARN_SCALING_TARGET,
             "load_1min": [load_before, os.getloadavg()[0]], "cores": os.cpu_count()}
 
 
-def run_env_bench(quick: bool = False, learn: bool = False) -> dict[str, Any]:
+def _cluster_cpus(address: str) -> int:
+    from cell.learning.environments import WITHOUT_RAY
+    from cell.rayconnect import ray_session
+
+    with ray_session(address, "--address", WITHOUT_RAY) as ray:
+        return int(ray.cluster_resources().get("CPU", 1))
+
+
+def run_env_bench(quick: bool = False, learn: bool = False, address: str | None = None
+                  ) -> dict[str, Any]:
     """Every entry (``learn_scaling_2_over_1`` with ``learn`` only: it trains, and needs the
-    learn extra); returns the JSON-ready report."""
+    learn extra; ``learn_ray_over_1`` with ``address`` too); returns the JSON-ready
+    report."""
     steps = 30 if quick else 200
     coarse, default = 0.05, MuscleShape().cell_size_m
     entries = {
@@ -168,6 +185,8 @@ def run_env_bench(quick: bool = False, learn: bool = False) -> dict[str, Any]:
     entries["single_coarse"]["target"] = TARGET_STEPS_PER_S
     entries["single_coarse"]["pass"] = entries["single_coarse"]["value"] >= TARGET_STEPS_PER_S
     if learn:
-        entries["learn_scaling_2_over_1"] = (bench_learn_scaling(128, 64) if quick
-                                             else bench_learn_scaling(*LEARN_SCALING_STEPS))
+        sizes = (128, 64) if quick else LEARN_SCALING_STEPS
+        entries["learn_scaling_2_over_1"] = bench_learn_scaling(*sizes)
+        if address is not None:
+            entries["learn_ray_over_1"] = bench_learn_scaling(*sizes, address=address)
     return {"env": "musclecell/Cut-v2", "entries": entries}

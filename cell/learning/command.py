@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import os
 from collections.abc import Callable
+from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -34,7 +35,11 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
     learn.add_argument("--seed", type=int, default=0,
                        help=f"env i starts at seed SEED + i (training seeds < "
                        f"{EVAL_SEED_START}); default 0")
-    learn.add_argument("--envs", type=int, help="envs side by side (default: one per core)")
+    learn.add_argument("--envs", type=int, help="envs side by side (default: one per core, "
+                       "or one per CPU of the --address cluster)")
+    learn.add_argument("--address", help="Ray cluster whose workers play the envs, one actor "
+                       "each (the learner stays here): auto, HEAD_HOST:PORT or "
+                       "ray://HOST:PORT (needs the scale extra; default: processes here)")
     learn.add_argument("--minutes", type=float, help="stop after this wall time, min")
     learn.add_argument("--checkpoint-every", type=int, default=50_000,
                        help="env steps between checkpoints (default 50000)")
@@ -113,10 +118,18 @@ def learn_command(args: argparse.Namespace) -> int:
     from cell.progress import progress_bar
 
     env_id = resolve_env_id(args.env)
-    envs = args.envs if args.envs is not None else os.cpu_count() or 1
-    with progress_bar("step", quiet=args.quiet, total=None if args.resume else args.steps,
-                      desc="learn") as bar:
-        result = _train(args, env_id, envs, bar.update)
+    with ExitStack() as session:  # joined once: training itself joins this session
+        envs = args.envs if args.envs is not None else os.cpu_count() or 1
+        if args.address is not None:
+            from cell.learning.environments import WITHOUT_RAY
+            from cell.rayconnect import ray_session
+
+            ray = session.enter_context(ray_session(args.address, "--address", WITHOUT_RAY))
+            if args.envs is None:
+                envs = int(ray.cluster_resources().get("CPU", 1))
+        with progress_bar("step", quiet=args.quiet,
+                          total=None if args.resume else args.steps, desc="learn") as bar:
+            result = _train(args, env_id, envs, bar.update)
     print(f"trained {result.steps} env steps in {result.wall_s:.1f} s (stopped by "
           f"{result.stopped_by}); wrote {result.out}")
     return 0
@@ -133,14 +146,14 @@ def _train(args: argparse.Namespace, env_id: str, envs: int,
             raise LearningError(None, "--resume", "continues the run as it was set: drop "
                                 "--env-kwargs, --hyper and --warm-start")
         return ppo.resume(args.out, env_id, args.steps, envs, args.minutes,
-                          args.checkpoint_every, on_steps)
+                          args.checkpoint_every, on_steps, args.address)
     if args.warm_start_anchor and not args.warm_start:
         raise LearningError(None, "--warm-start-anchor", "needs --warm-start")
     warm = (WarmStart(args.warm_start, episodes=args.warm_start_episodes,
                       anchor_epochs=args.warm_start_anchor) if args.warm_start else None)
     settings = LearnSettings(env_id, parse_json_object(args.env_kwargs, "--env-kwargs"),
                              args.seed, envs, args.steps, args.minutes,
-                             args.checkpoint_every, warm)
+                             args.checkpoint_every, warm, args.address)
     hyper = PPOHyper().with_overrides(parse_json_object(args.hyper, "--hyper"))
     return ppo.learn(settings, hyper, args.out, on_steps)
 

@@ -42,6 +42,7 @@ from cell.learning.hyper import check_training_seeds
 from cell.learning.policyfile import WEIGHTS_FILE, ObservationNormalizer, save_network
 from cell.learning.segments import Actor
 from cell.outputs import figure_png, write_atomic, write_json, write_rows
+from cell.rayconnect import check_address
 from envs.policies import DEMONSTRATORS, true_interface_policy
 
 if TYPE_CHECKING:
@@ -87,6 +88,9 @@ class DaggerSettings:
     statistics: then the learner plays every round, the first too. ``base``, a demonstrator's
     name, makes the learned policy that demonstrator but for the action's ``learned``
     entries, which the network gives (:class:`~cell.learning.baselines.BasePolicy`).
+    ``address``, a Ray cluster's (``auto``, ``HEAD_HOST:PORT``, ``ray://HOST:PORT``), plays
+    the episodes there as Ray tasks instead of ``workers`` processes, the fits here; the
+    same seed gives the same run.
 
     Example:
         >>> DaggerSettings(rounds=2, episodes=4).seeds(1)
@@ -109,8 +113,11 @@ class DaggerSettings:
     base: str = ""
     learned: tuple[int, ...] = ()
     average_rounds: int = 0
+    address: str | None = None
 
     def __post_init__(self) -> None:
+        if self.address is not None:
+            check_address(self.address, "address")
         if self.expert not in EXPERTS:
             raise LearningError(None, "expert", f"unknown expert {self.expert!r}; known: "
                                 f"{', '.join(EXPERTS)}")
@@ -286,7 +293,7 @@ def train(settings: DaggerSettings, out: Path,
     labels: list[np.ndarray] = []
     curve: list[dict[str, Any]] = []
     stopped_by = "rounds"
-    with episode_runner(settings.workers, play_episode) as play:
+    with episode_runner(settings.workers, play_episode, address=settings.address) as play:
         for round_index in range(settings.rounds):
             round_started = time.monotonic()
             actor = None if normalize is None else Actor.of(policy)

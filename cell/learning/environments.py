@@ -20,6 +20,8 @@ NAMESPACE = "musclecell"
 #: Start method of the training env processes: a fresh interpreter, not a fork of one that
 #: has MuJoCo, numba's threads or torch's open.
 START_METHOD = "forkserver"
+#: What trains without Ray, for the error that says Ray is missing.
+WITHOUT_RAY = "leave out --address: the envs run in processes on this machine"
 
 
 def resolve_env_id(name: str) -> str:
@@ -59,13 +61,20 @@ def make_segment_worker(env_id: str, env_kwargs: dict[str, Any], index: int) -> 
     return SegmentWorker(make_env(env_id, env_kwargs), index)
 
 
-def make_training_envs(env_id: str, env_kwargs: dict[str, Any], count: int) -> VecEnv:
-    """``count`` envs in a ``VecMonitor`` (episode returns and lengths), one process each
-    when more than one, each a :func:`make_segment_worker`; the caller seeds them and wraps
-    them in ``VecNormalize``."""
+def make_training_envs(env_id: str, env_kwargs: dict[str, Any], count: int,
+                       ray: Any = None) -> VecEnv:
+    """``count`` envs in a ``VecMonitor`` (episode returns and lengths), each a
+    :func:`make_segment_worker`: one process each when more than one, or on ``ray`` (the
+    module, joined to a cluster) one actor each (:class:`~cell.learning.rayenvs.RayVecEnv`);
+    the caller seeds them and wraps them in ``VecNormalize``."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
     make_env(env_id, env_kwargs).close()  # a bad keyword fails here, not in a child process
+    if ray is not None:
+        from cell.learning.rayenvs import RayVecEnv  # Ray's envs only where asked for
+
+        return VecMonitor(RayVecEnv(ray, partial(make_segment_worker, env_id, env_kwargs),
+                                    count))
     factories = [partial(make_segment_worker, env_id, env_kwargs, index)
                  for index in range(count)]
     if count == 1:

@@ -40,7 +40,7 @@ from cell.learning.baselines import (
     make_policy,
     policy_folder,
 )
-from cell.learning.environments import START_METHOD, make_env
+from cell.learning.environments import START_METHOD, WITHOUT_RAY, make_env
 from cell.learning.hyper import EVAL_SEED_START, TUNING_SEED_START
 from cell.learning.paired import compare, comparison_markdown
 from cell.learning.table import SCORED_COLUMNS, markdown, summarize
@@ -49,6 +49,8 @@ from envs.policies import demonstrators_for, episode_return
 
 #: Keys of the final step's info that each episode's row keeps, by column (``success`` is
 #: the info's ``is_success``).
+#: Times Ray plays an episode again whose worker was lost (its process or node died).
+LOST_TASK_RETRIES = 3
 INFO_COLUMNS = ("success", "released_fraction", "torn_fraction", "knife_force_peak_n",
                 "flesh_damage_s", "elapsed_s", "diverged", "protective_stop")
 #: Columns of the episodes CSV (a scored column blank for an env without it, or an
@@ -163,12 +165,15 @@ def _one_thread() -> None:
 
 @contextmanager
 def episode_runner(workers: int, play: Callable[[Any], dict[str, Any]] = run_episode,
-                   on_episode: Callable[[int], object] | None = None
+                   on_episode: Callable[[int], object] | None = None,
+                   address: str | None = None
                    ) -> Iterator[Callable[[list[Any]], list[dict[str, Any]]]]:
     """A function that plays a list of tasks with ``play`` (by default :func:`run_episode`)
     and returns their rows in the tasks' order, on ``workers`` processes (started once, for
-    every list) or in this process for one; ``on_episode`` is called with 1 as each row
-    comes (progress).
+    every list) or in this process for one, or with ``address`` as Ray tasks of one CPU on
+    that cluster (``workers`` unused: the cluster's CPUs bound them; a task whose worker is
+    lost is played again, from its seed, by Ray); ``on_episode`` is called with 1 as each
+    row comes (progress).
 
     Example:
         >>> with episode_runner(1) as run:
@@ -184,6 +189,14 @@ def episode_runner(workers: int, play: Callable[[Any], dict[str, Any]] = run_epi
                 on_episode(1)
         return done
 
+    if address is not None:
+        from cell.rayconnect import ray_session
+
+        with ray_session(address, "--address", WITHOUT_RAY) as ray:
+            remote = ray.remote(num_cpus=1, max_retries=LOST_TASK_RETRIES)(play)
+            yield lambda tasks: counted(ray.get(ref) for ref in
+                                        [remote.remote(task) for task in tasks])
+        return
     if workers == 1:
         yield lambda tasks: counted(map(play, tasks))
         return

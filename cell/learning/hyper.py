@@ -9,6 +9,7 @@ from typing import Any
 
 from cell.config import updated
 from cell.errors import LearningError
+from cell.rayconnect import check_address
 
 #: First seed of the evaluation episodes; training seeds stay below it.
 EVAL_SEED_START = 100_000
@@ -159,6 +160,9 @@ class LearnSettings:
         warm_start: behaviour cloning of a demonstrator before PPO (None: PPO from a random
             network); its env steps are not counted in ``steps``, its time is in
             ``minutes``.
+        address: a Ray cluster whose workers play the envs, one actor each
+            (:mod:`cell.learning.rayenvs`; ``auto``, ``HEAD_HOST:PORT`` or
+            ``ray://HOST:PORT``); None: processes on this machine.
 
     Example:
         >>> LearnSettings("musclecell/Cut-v2", {}, seed=0, envs=2, steps=1000).seed
@@ -173,8 +177,11 @@ class LearnSettings:
     minutes: float | None = None
     checkpoint_every: int = 50_000
     warm_start: WarmStart | None = None
+    address: str | None = None
 
     def __post_init__(self) -> None:
+        if self.address is not None:
+            check_address(self.address, "--address")
         if not self.envs >= 1:
             raise LearningError(None, "--envs", f"must be >= 1, got {self.envs}")
         if not self.steps >= 1:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -29,7 +30,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 
 from cell.errors import LearningError
 from cell.io import read_json
-from cell.learning.environments import make_training_envs
+from cell.learning.environments import WITHOUT_RAY, make_training_envs
 from cell.learning.hyper import LearnSettings, PPOHyper, WarmStart, check_training_seeds
 from cell.learning.logs import EpisodeLog, ProgressCsv
 from cell.learning.policyfile import (
@@ -43,6 +44,7 @@ from cell.learning.policyfile import (
 )
 from cell.learning.segmentppo import SegmentPPO
 from cell.outputs import write_json
+from cell.rayconnect import ray_session
 
 STATE_FILE = "state.json"
 LEARN_FILE = "learn.json"
@@ -160,11 +162,12 @@ def learn(settings: LearnSettings, hyper: PPOHyper, out: Path,
 
 
 def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None,
-           checkpoint_every: int, on_steps: Callable[[int], object] | None = None
-           ) -> LearnResult:
+           checkpoint_every: int, on_steps: Callable[[int], object] | None = None,
+           address: str | None = None) -> LearnResult:
     """Continue the run in ``out`` from its latest checkpoint up to ``steps`` env steps in
     all, with its own env kwargs, seed and hyper-parameters; ``envs`` new envs start at the
-    training seeds after those already used; ``on_steps`` as for :func:`learn`.
+    training seeds after those already used (on the Ray cluster at ``address``, if any);
+    ``on_steps`` as for :func:`learn`.
 
     Raises:
         LearningError: no checkpoint in ``out``, or ``env_id`` is not the run's env.
@@ -177,7 +180,7 @@ def resume(out: Path, env_id: str, steps: int, envs: int, minutes: float | None,
     if state["env_id"] != env_id:
         raise LearningError(out, "ENV", f"the run trains {state['env_id']}, not {env_id}")
     settings = LearnSettings(env_id, state["env_kwargs"], state["seed"], envs, steps,
-                             minutes, checkpoint_every)
+                             minutes, checkpoint_every, address=address)
     hyper = PPOHyper().with_overrides(state["hyper"])
     run = _Run(out, settings, hyper, state)
     run.on_steps = on_steps
@@ -191,8 +194,11 @@ def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
     # A 64x64 network gains nothing from torch's threads, which would take the cores the
     # envs' physics needs.
     torch.set_num_threads(1)
-    venv = make_training_envs(settings.env_id, settings.env_kwargs, settings.envs)
-    try:
+    with ExitStack() as session:
+        ray = None if settings.address is None else session.enter_context(
+            ray_session(settings.address, "--address", WITHOUT_RAY))
+        venv = make_training_envs(settings.env_id, settings.env_kwargs, settings.envs, ray)
+        session.callback(venv.close)
         if checkpoint is None:
             run.normalize = VecNormalize(venv, gamma=run.hyper.gamma)
             model = SegmentPPO("MlpPolicy", run.normalize, seed=run.first_seed, device="cpu",
@@ -221,8 +227,6 @@ def _train(run: _Run, checkpoint: Path | None) -> LearnResult:
         save_checkpoint(run.out, model, run.normalize,
                         {**state, "stopped_by": stopped_by, "versions": _versions()},
                         state_file=LEARN_FILE)
-    finally:
-        venv.close()
     return LearnResult(run.out, state["steps"], state["wall_s"], stopped_by)
 
 

@@ -80,7 +80,8 @@ def log_cluster(workers: int | None, address: str) -> RunPool:
         PoolError: ``address`` is not a Ray address, ``workers`` is below one, or Ray is not
             installed (the install hint).
     """
-    from cell.scale.pool import RunPool, Workers, require_ray
+    from cell.rayconnect import require_ray
+    from cell.scale.pool import RunPool, Workers
 
     pool = RunPool(Workers(workers, address))
     require_ray("--address", LOGS_WITHOUT_RAY)

@@ -8,29 +8,18 @@ Ray is the ``scale`` extra: it is imported only when a pool uses it.
 
 from __future__ import annotations
 
-import logging
-import os
-import re
-import socket
 import time
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import ExitStack
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, TypeVar
 
 from cell.errors import PoolError
+from cell.rayconnect import check_address, ray_session
 
 T = TypeVar("T")
 R = TypeVar("R")
-#: A cluster's address: its head's ``HOST:PORT`` or its client server's ``ray://HOST:PORT``.
-_ADDRESS = re.compile(r"(?:ray://)?(?P<host>[A-Za-z0-9._\-]+|\[[0-9A-Fa-f:]+\])"
-                      r":(?P<port>\d{1,5})")
-#: How long a cluster's head may take to answer before the address counts as unreachable, s.
-CONNECT_TIMEOUT_S = 5.0
-#: What the CLI tells a user without Ray: how to install it, then what runs without it.
-INSTALL_HINT = "pip install -e '.[scale]'"
-#: What a sweep or a batch runs without Ray.
-WITHOUT_RAY = "--workers 1 runs without Ray, in this process"
 
 
 @dataclass(frozen=True)
@@ -62,11 +51,8 @@ class Workers:
             raise PoolError(None, "--workers", f"must be >= 1, got {self.count}")
         if self.ray is False and self.address is not None:
             raise PoolError(None, "--address", "a cluster is reached through Ray")
-        if self.address is not None and self.address != "auto":
-            match = _ADDRESS.fullmatch(self.address)
-            if match is None or not 0 < int(match["port"]) < 65536:
-                raise PoolError(None, "--address", f"not a Ray address: {self.address!r} "
-                                "(auto, HEAD_HOST:PORT or ray://HOST:PORT)")
+        if self.address is not None:
+            check_address(self.address, "--address")
 
     @property
     def in_process(self) -> bool:
@@ -93,40 +79,21 @@ class RunPool:
         self.workers = workers
         self.startup_s = 0.0
         self._ray: Any = None
-        self._started_ray = False
+        self._session = ExitStack()
 
     def __enter__(self) -> RunPool:
         if self.workers.in_process:
             return self
         started = time.perf_counter()
-        self._ray = require_ray("--address" if self.workers.address else "--workers")
-        if not self._ray.is_initialized():
-            _reachable(self.workers.address)
-            try:
-                self._ray.init(**self._init_options())
-            except (ConnectionError, TimeoutError, RuntimeError, ValueError) as exc:
-                raise PoolError(None, "--address" if self.workers.address else "--workers",
-                                f"cannot start or join Ray: {exc}") from None
-            self._started_ray = True
+        self._ray = self._session.enter_context(ray_session(
+            self.workers.address, "--address" if self.workers.address else "--workers",
+            cpus=self.workers.count))
         self.startup_s = time.perf_counter() - started
         return self
 
     def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
                  trace: TracebackType | None) -> None:
-        if self._started_ray:
-            self._ray.shutdown()
-
-    def _init_options(self) -> dict[str, Any]:
-        # Workers render the camera headless, as `musclecell run` does.
-        options: dict[str, Any] = {
-            "runtime_env": {"env_vars": {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}},
-            "log_to_driver": False, "logging_level": logging.WARNING}
-        if self.workers.address is not None:
-            return {**options, "address": self.workers.address}
-        # "local": a Ray of its own, even where `ray start` left one running on this machine.
-        return {**options, "address": "local",
-                "num_cpus": self.workers.count or os.cpu_count() or 1,
-                "include_dashboard": False}
+        self._session.close()
 
     def share(self, value: Any) -> Any:
         """``value``, an input every task reads, ready for :meth:`play`'s ``shared``: on Ray,
@@ -169,37 +136,3 @@ class RunPool:
                 yield position, ray.get(ref), ""
             except ray.exceptions.RayError as exc:
                 yield position, None, f"{type(exc).__name__}: {str(exc).strip().splitlines()[0]}"
-
-
-def _reachable(address: str | None) -> None:
-    """Fail within :data:`CONNECT_TIMEOUT_S` where a ``HOST:PORT`` address does not answer:
-    Ray itself keeps trying for a minute or more.
-
-    Raises:
-        PoolError: naming ``--address`` and what the connection said.
-    """
-    match = None if address is None else _ADDRESS.fullmatch(address)
-    if match is None:
-        return
-    host = match["host"].strip("[]")
-    try:
-        socket.create_connection((host, int(match["port"])), timeout=CONNECT_TIMEOUT_S).close()
-    except OSError as exc:
-        raise PoolError(None, "--address", f"cannot reach {address}: "
-                        f"{exc.strerror or exc or 'no answer'}") from None
-
-
-def require_ray(option: str, instead: str = WITHOUT_RAY) -> Any:
-    """The ``ray`` module, or a :class:`~cell.errors.PoolError` on ``option`` that says how to
-    install it, or ``instead`` what runs without it.
-
-    Usage statistics are off unless the user turned them on: musclecell does not report to
-    anyone, and CI machines have no network.
-    """
-    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-    try:
-        import ray
-    except ImportError:
-        raise PoolError(None, option,
-                        f"Ray is not installed: {INSTALL_HINT} (or {instead})") from None
-    return ray

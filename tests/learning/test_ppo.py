@@ -236,6 +236,8 @@ def test_worker_processes_play_the_episodes_as_this_process_does() -> None:
       "table-skimming-knife", "--warm-start-episodes", "0"], "warm_start.episodes: must be >= 1"),
     (["learn", "Cut-v1", "--steps", "8", "--out", "unused", "--warm-start-anchor", "10"],
      "--warm-start-anchor: needs --warm-start"),
+    (["learn", "Cut-v1", "--steps", "8", "--out", "unused", "--address", "head"],
+     "--address: not a Ray address: 'head'"),
     (["evaluate", "no/such/run", "Cut-v1"], "no/such/run/policy.npz: not found"),
     (["evaluate", "Cut-v1"], "--out: needed when no POLICY is given"),
     (["evaluate", "no/such/run", "Cut-v1", "--episodes", "0"], "--episodes: must be >= 1"),
