@@ -86,10 +86,8 @@ def simulate_shear(test: ShearTest, specimen: Specimen, material: MassSpringMate
     size = test.size_of(specimen)
     path = np.zeros((len(test.time_s), 4))
     path[:, _XZ] = test.gamma(size)
-    plane = test.shear_plane
-    sheet = np.eye(3)[2 if plane[0] == "s" else 0 if plane[1] == "s" else 1]
     tau, gradient = solve_path(lattice, lattice.law(material), test.test_id, test.time_s, path,
-                               (), np.eye(3)[test.fibre_axis], sheet,
+                               (), np.eye(3)[test.fibre_axis], np.eye(3)[test.sheet_axis],
                                lattice.sheet_factor(material))
     area = size[0] * size[1]
     return SimulatedForces(test.test_id, test.time_s,
