@@ -39,7 +39,7 @@ def orthotropy_bench(seeds: Iterable[int], kinds: Iterable[str] = PLANE_KINDS,
         for seed in seeds:
             for hidden in (True, False):
                 with tempfile.TemporaryDirectory() as folder:
-                    truth = write_plane_set(Path(folder), seed, kind, hidden)  # type: ignore[arg-type]
+                    truth = write_plane_set(Path(folder), seed, kind, hidden)
                     start = time.perf_counter()
                     result = diagnose_set(load_measurement_set(folder),
                                           DiagnosisParams(workers=workers)).uniaxial

@@ -26,18 +26,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 
 from cell.diagnosis.specimen.causes import CandidateMaterial
 from cell.diagnosis.specimen.shearbiaxial import simulate_biaxial, simulate_shear
 from cell.diagnosis.specimen.solve import SpecimenLattice, simulate_tests
+from cell.errors import MeasurementError
 from cell.measure.shearbiaxial import BiaxialTest, ShearTest
 from cell.measure.specimens import MechanicalTest, Specimen
 from cell.synthetic.specimen import ASPECT_SPREAD, DENSITY_KG_M3, write_set
 
-PlaneKind = Literal["shear", "mixed"]
 PLANE_KINDS: tuple[str, ...] = ("shear", "mixed")
 #: Noise on every force column, as a fraction of the column's peak (standard deviation).
 NOISE_FRACTION = 0.01
@@ -124,15 +123,15 @@ def _rows(tests: tuple[list[ShearTest], list[BiaxialTest], list[MechanicalTest]]
     return rows
 
 
-def write_plane_set(folder: Path, seed: int, kind: PlaneKind, hidden: bool) -> PlaneTruth:
-    """Draw a ``kind`` set from ``seed``, orthotropy ``hidden`` or not, write it in ``folder``
-    (module docstring) and return its truth.
+def write_plane_set(folder: Path, seed: int, kind: str, hidden: bool) -> PlaneTruth:
+    """Draw a ``kind`` set (one of :data:`PLANE_KINDS`) from ``seed``, orthotropy ``hidden``
+    or not, write it in ``folder`` (module docstring) and return its truth.
 
     Raises:
-        ValueError: an unknown ``kind``.
+        MeasurementError: an unknown ``kind``.
     """
     if kind not in PLANE_KINDS:
-        raise ValueError(f"kind must be one of {PLANE_KINDS}, got {kind!r}")
+        raise MeasurementError(None, "kind", f"must be one of {PLANE_KINDS}, got {kind!r}")
     rng = np.random.default_rng([seed, PLANE_KINDS.index(kind), int(hidden)])
     edge = rng.uniform(0.008, 0.012)
     size = edge * (1.0 + rng.uniform(-ASPECT_SPREAD, ASPECT_SPREAD, 3))
