@@ -68,7 +68,7 @@ Protocol = Literal["hidden", "lab"]
 
 def _combinations(size: int) -> tuple[tuple[str, ...], ...]:
     """Every ``size`` causes a set may hide together (one viscoelasticity at most)."""
-    return tuple(c for c in itertools.combinations(generator.CAUSES, size)
+    return tuple(c for c in itertools.combinations(generator.UNIAXIAL_CAUSES, size)
                  if not {"viscoelasticity", "nonlinear_viscoelasticity"} <= set(c))
 
 
@@ -154,9 +154,9 @@ def check_request(seeds: Sequence[int], kind: str, kinds: Sequence[str],
     if kind not in kinds:
         raise MeasurementError(None, "kind", f"must be one of {kinds}, got {kind!r}")
     if including is not None and (kind not in ("pairs", "triples")
-                                  or including not in generator.CAUSES):
-        raise MeasurementError(None, "including", f"a cause of {generator.CAUSES} that pairs or "
-                               f"triples include, got {including!r} with {kind}")
+                                  or including not in generator.UNIAXIAL_CAUSES):
+        raise MeasurementError(None, "including", f"a cause of {generator.UNIAXIAL_CAUSES} that "
+                               f"pairs or triples include, got {including!r} with {kind}")
 
 
 def time_summary(times: Sequence[float], median_target: float, max_target: float

@@ -109,7 +109,17 @@ class ShearTest(OwnSize):
     @property
     def fibre_axis(self) -> int:
         """The specimen axis along the fibres: 2 (z) for ``f?``, 0 (x) for ``?f``, else 1."""
-        return 2 if self.shear_plane[0] == "f" else 0 if self.shear_plane[1] == "f" else 1
+        return self.axis_of("f")
+
+    @property
+    def sheet_axis(self) -> int:
+        """The specimen axis along the sheets, as :attr:`fibre_axis` for ``s``."""
+        return self.axis_of("s")
+
+    def axis_of(self, tissue_axis: str) -> int:
+        """The specimen axis (0 x, 1 y, 2 z) along the tissue's ``f``, ``s`` or ``n``."""
+        plane = self.shear_plane
+        return 2 if plane[0] == tissue_axis else 0 if plane[1] == tissue_axis else 1
 
     def gamma(self, size_m: Sequence[float]) -> np.ndarray:
         """The amount of shear at the samples: displacement over the height ``size_m[2]``."""

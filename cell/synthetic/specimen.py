@@ -41,13 +41,13 @@ from typing import Any, Literal
 
 import numpy as np
 
-from cell.diagnosis.specimen.causes import CAUSES
+from cell.diagnosis.specimen.causes import UNIAXIAL_CAUSES
 from cell.errors import MeasurementError
 from cell.measure.protocols import TestPlan, lab_protocol, true_force_n
 from cell.outputs import write_atomic
 from cell.synthetic.truth import check_effects, draw_magnitudes, truth_stress_pa
 
-EFFECTS: tuple[str | None, ...] = (*CAUSES, None)
+EFFECTS: tuple[str | None, ...] = (*UNIAXIAL_CAUSES, None)
 """The single effects a set can hide: the causes of the catalogue, and None (baseline alone)."""
 Effects = str | Sequence[str] | Literal["random"] | None
 """What :func:`write_hidden_effect_set` hides: a cause, several, none, or one drawn."""

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from cell.diagnosis.specimen.causes import CAUSES, EXCLUSIVE
+from cell.diagnosis.specimen.causes import EXCLUSIVE, UNIAXIAL_CAUSES
 from cell.errors import MeasurementError
 
 #: Strain at which a non-linear relaxation's drawn fraction ``relaxed`` holds.
@@ -52,11 +52,11 @@ def check_effects(effects: Sequence[str]) -> tuple[str, ...]:
     Raises:
         MeasurementError: naming the effect at fault.
     """
-    unknown = [e for e in effects if e not in CAUSES]
+    unknown = [e for e in effects if e not in UNIAXIAL_CAUSES]
     if unknown or len(set(effects)) != len(effects) or set(EXCLUSIVE) <= set(effects):
         raise MeasurementError(None, "effect", f"bad effects {tuple(effects)!r}: each once, "
-                               f"from {CAUSES}, not both of {EXCLUSIVE}")
-    return tuple(c for c in CAUSES if c in effects)
+                               f"from {UNIAXIAL_CAUSES}, not both of {EXCLUSIVE}")
+    return tuple(c for c in UNIAXIAL_CAUSES if c in effects)
 
 
 def draw_magnitudes(rng: np.random.Generator, effects: Sequence[str],

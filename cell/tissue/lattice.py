@@ -17,6 +17,12 @@ stretch the springs off the load axis see less of the strain than the material d
 that stiffens fourfold over its range is followed within 8% (isotropic) to 16% (El != Et) at
 r = 1.3, one that stiffens twofold within 5%.
 
+Orthotropy (``sheet_over_normal`` != 1): springs get ``1 + (k - 1) (u . s)**2`` times their
+modulus (u the spring's direction, s the sheets'), and k is solved with (alpha, beta) so that the
+affine lattice has the material's El along the fibres, E_s / E_n = ``sheet_over_normal`` and
+sqrt(E_s E_n) = Et (:func:`sheet_factor`). A transversely isotropic material gets k = 1 and the
+calibration above unchanged.
+
 This module holds no MuJoCo: the muscles (:mod:`cell.tissue.massspring`) and the specimen
 tests (:mod:`cell.diagnosis.specimen.solve`) share it.
 """
@@ -38,6 +44,8 @@ from cell.tissue.tetmesh import _TET_EDGES, signed_volumes_m3
 _VOIGT = np.array([[0, 0], [1, 1], [2, 2], [1, 2], [0, 2], [0, 1]])
 # Bracket of log(El / Et) searched by the calibration.
 _LOG_RATIO_BOUND = math.log(1e4)
+# Bracket of log(k), the sheet factor, searched by the orthotropic calibration.
+_LOG_SHEET_BOUND = math.log(10.0)
 
 
 def tet_edges(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -80,11 +88,22 @@ def oblique_gain(oblique: float, cos_sq: np.ndarray) -> np.ndarray:
     return 1.0 + oblique * 4.0 * cos_sq * (1.0 - cos_sq)
 
 
-def _fibre_frame(fibre: np.ndarray) -> np.ndarray:
-    """(3, 3) rows: the unit fibre direction and two unit vectors across it."""
+def sheet_gain(sheet_factor: float, sheet_sq: np.ndarray) -> np.ndarray:
+    """Factor on the modulus of springs at squared cosine ``sheet_sq`` to the sheets:
+    ``1 + (k - 1) (u . s)**2``, 1 along the fibres and the sheets' normal, k along the sheets
+    (:attr:`~cell.tissue.material.MassSpringMaterial.sheet_over_normal`)."""
+    return 1.0 + (sheet_factor - 1.0) * sheet_sq
+
+
+def _fibre_frame(fibre: np.ndarray, sheet: np.ndarray | None = None) -> np.ndarray:
+    """(3, 3) rows: the unit fibre direction and two unit vectors across it, the first along
+    ``sheet`` (made orthogonal to the fibres) where one is given."""
     a = np.asarray(fibre, dtype=float) / np.linalg.norm(fibre)
-    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
-    t = np.cross(a, helper)
+    if sheet is None:
+        helper = np.eye(3)[int(np.argmin(np.abs(a)))]
+        t = np.cross(a, helper)
+    else:
+        t = np.asarray(sheet, dtype=float) - (np.asarray(sheet, dtype=float) @ a) * a
     t /= np.linalg.norm(t)
     return np.stack([a, t, np.cross(a, t)])
 
@@ -101,31 +120,46 @@ class AffineLattice:
 
     def __init__(
         self, points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
-        fibre: np.ndarray, oblique: float = 0.0
+        fibre: np.ndarray, oblique: float = 0.0, sheet: np.ndarray | None = None
     ) -> None:
         d = points[edges[:, 1]] - points[edges[:, 0]]
-        u = d / np.linalg.norm(d, axis=1, keepdims=True) @ _fibre_frame(fibre).T
+        u = d / np.linalg.norm(d, axis=1, keepdims=True) @ _fibre_frame(fibre, sheet).T
         self.cos_sq = u[:, 0] ** 2
+        self.sheet_sq = u[:, 1] ** 2
         self.oblique_gain = oblique_gain(oblique, self.cos_sq)
         self.quartic = u[:, _VOIGT[:, 0]] * u[:, _VOIGT[:, 1]]
         self.edge_volume_m3 = edge_volume_m3
         self.volume_m3 = float(edge_volume_m3.sum()) / len(_TET_EDGES)
 
-    def moduli(self, el_pa: float, et_pa: float) -> tuple[float, float]:
-        """Young's moduli (Pa) of the lattice along and across the fibres, Eq. 10 springs."""
+    def axial_moduli(self, el_pa: float, et_pa: float,
+                     sheet_factor: float = 1.0) -> tuple[float, float, float]:
+        """Young's moduli (Pa) of the lattice along the fibres, the sheets (the frame's
+        second axis) and their normal, Eq. 10 springs times the sheet gain."""
         # K l**2 = ||E u|| sum(V), so C = sum(||E u|| sum(V) u u u u) / V.
         weight = (directional_modulus(el_pa, et_pa, self.cos_sq) * self.oblique_gain
                   * self.edge_volume_m3)
+        if sheet_factor != 1.0:
+            weight = weight * sheet_gain(sheet_factor, self.sheet_sq)
         stiffness = (self.quartic * weight[:, None]).T @ self.quartic / self.volume_m3
         compliance = np.diag(np.linalg.inv(stiffness))
-        return float(1.0 / compliance[0]), float(0.5 * (1.0 / compliance[1] + 1.0 / compliance[2]))
+        return float(1.0 / compliance[0]), float(1.0 / compliance[1]), float(1.0 / compliance[2])
 
-    def calibrated(self, el_pa: float, et_pa: float) -> tuple[float, float]:
-        """Eq. 10 moduli (Pa) for which the lattice's moduli are ``el_pa`` and ``et_pa``."""
+    def moduli(self, el_pa: float, et_pa: float,
+               sheet_factor: float = 1.0) -> tuple[float, float]:
+        """Young's moduli (Pa) of the lattice along and across the fibres, Eq. 10 springs:
+        across, the mean of the two transverse moduli (their geometric mean, the material's
+        Et, for an orthotropic lattice: ``sheet_factor`` != 1)."""
+        el, es, en = self.axial_moduli(el_pa, et_pa, sheet_factor)
+        return el, float(0.5 * (es + en) if sheet_factor == 1.0 else math.sqrt(es * en))
+
+    def calibrated(self, el_pa: float, et_pa: float,
+                   sheet_factor: float = 1.0) -> tuple[float, float]:
+        """Eq. 10 moduli (Pa) for which the lattice's moduli are ``el_pa`` and ``et_pa``,
+        its springs' sheet factor ``sheet_factor``."""
         target = math.log(el_pa / et_pa)
 
         def mismatch(log_ratio: float) -> float:
-            el, et = self.moduli(math.exp(log_ratio), 1.0)
+            el, et = self.moduli(math.exp(log_ratio), 1.0, sheet_factor)
             return math.log(el / et) - target
 
         lo, hi = mismatch(-_LOG_RATIO_BOUND), mismatch(_LOG_RATIO_BOUND)
@@ -138,8 +172,30 @@ class AffineLattice:
                 f"({reachable[0]:.3g} to {reachable[1]:.3g})",
             )
         ratio = math.exp(brentq(mismatch, -_LOG_RATIO_BOUND, _LOG_RATIO_BOUND, xtol=1e-12))
-        scale = et_pa / self.moduli(ratio, 1.0)[1]
+        scale = et_pa / self.moduli(ratio, 1.0, sheet_factor)[1]
         return ratio * scale, scale
+
+    def sheet_calibrated(self, el_pa: float, et_pa: float, sheet_over_normal: float) -> float:
+        """The sheet factor k for which the lattice, calibrated to ``el_pa`` and ``et_pa``
+        (:meth:`calibrated`), has E_s / E_n = ``sheet_over_normal``.
+
+        Raises:
+            MaterialError: ``sheet_over_normal`` beyond what the lattice's springs can give.
+        """
+        target = math.log(sheet_over_normal)
+
+        def mismatch(log_factor: float) -> float:
+            factor = math.exp(log_factor)
+            _, es, en = self.axial_moduli(*self.calibrated(el_pa, et_pa, factor), factor)
+            return math.log(es / en) - target
+
+        lo, hi = mismatch(-_LOG_SHEET_BOUND), mismatch(_LOG_SHEET_BOUND)
+        if lo > 0 or hi < 0:
+            raise MaterialError(
+                None, "sheet_over_normal",
+                f"E_s/E_n = {sheet_over_normal:.4g} is outside what this mesh's springs can give "
+                f"({math.exp(lo + target):.3g} to {math.exp(hi + target):.3g})")
+        return math.exp(brentq(mismatch, -_LOG_SHEET_BOUND, _LOG_SHEET_BOUND, xtol=1e-10))
 
 
 def calibration_factors(
@@ -148,9 +204,12 @@ def calibration_factors(
     edge_volume_m3: np.ndarray,
     material: MassSpringMaterial,
     along: np.ndarray | Sequence[float],
+    sheet_along: np.ndarray | Sequence[float] | None = None,
+    sheet_factor: float = 1.0,
 ) -> tuple[float, float]:
     """(alpha, beta): the factors on El and Et for which the affine lattice of Eq. 10 springs
-    has the material's small-strain moduli along and across fibres lying ``along``.
+    has the material's small-strain moduli along and across fibres lying ``along``; with
+    ``sheet_factor`` (:func:`sheet_factor`) its springs' sheet gain for sheets ``sheet_along``.
 
     Raises:
         MaterialError: ``longitudinal`` when the lattice cannot give the anisotropy.
@@ -164,12 +223,44 @@ def calibration_factors(
         >>> [round(f, 3) for f in factors]
         [0.738, 0.738]
     """
-    lattice = AffineLattice(points, edges, edge_volume_m3, np.asarray(along, dtype=float),
-                             material.oblique)
+    lattice = _lattice(points, edges, edge_volume_m3, material, along, sheet_along)
     el = material.longitudinal.small_strain_modulus_pa
     et = material.transverse.small_strain_modulus_pa
-    el_in, et_in = lattice.calibrated(el, et)
+    el_in, et_in = lattice.calibrated(el, et, sheet_factor)
     return el_in / el, et_in / et
+
+
+def _lattice(points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
+             material: MassSpringMaterial, along: np.ndarray | Sequence[float],
+             sheet_along: np.ndarray | Sequence[float] | None) -> AffineLattice:
+    # A transversely isotropic material keeps the frame across its fibres it always had.
+    orthotropic = sheet_along is not None and material.orthotropic
+    sheet = np.asarray(sheet_along, dtype=float) if orthotropic else None
+    return AffineLattice(points, edges, edge_volume_m3, np.asarray(along, dtype=float),
+                         material.oblique, sheet)
+
+
+def sheet_factor(
+    points: np.ndarray,
+    edges: np.ndarray,
+    edge_volume_m3: np.ndarray,
+    material: MassSpringMaterial,
+    along: np.ndarray | Sequence[float],
+    sheet_along: np.ndarray | Sequence[float],
+) -> float:
+    """k of the springs' sheet gain (:func:`sheet_gain`) for which the lattice, fibres
+    ``along`` and sheets ``sheet_along``, has the material's E_s / E_n in tension; exactly 1
+    for a transversely isotropic material.
+
+    Raises:
+        MaterialError: ``sheet_over_normal`` (or ``longitudinal``) beyond the lattice's reach.
+    """
+    if not material.orthotropic:
+        return 1.0
+    lattice = _lattice(points, edges, edge_volume_m3, material, along, sheet_along)
+    return lattice.sheet_calibrated(material.longitudinal.small_strain_modulus_pa,
+                                    material.transverse.small_strain_modulus_pa,
+                                    material.sheet_over_normal)
 
 
 def calibrated_law(
@@ -178,16 +269,21 @@ def calibrated_law(
     edge_volume_m3: np.ndarray,
     material: MassSpringMaterial,
     along: np.ndarray | Sequence[float],
-) -> tuple[SpringLaw, tuple[float, float], tuple[float, float]]:
-    """``material``'s spring law on this lattice and its (alpha, beta) in tension and in
-    compression: each pair of curves calibrated (:func:`calibration_factors`) for fibres lying
-    ``along``.
+    sheet_along: np.ndarray | Sequence[float] | None = None,
+) -> tuple[SpringLaw, tuple[float, float], tuple[float, float], float]:
+    """``material``'s spring law on this lattice, its (alpha, beta) in tension and in
+    compression, each pair of curves calibrated (:func:`calibration_factors`) for fibres lying
+    ``along``, and its sheet factor (:func:`sheet_factor`, for sheets ``sheet_along``, the
+    material's own by default; one k for both: it is set in tension).
 
     Raises:
-        MaterialError: ``longitudinal`` when the lattice cannot give an anisotropy.
+        MaterialError: ``longitudinal`` when the lattice cannot give an anisotropy,
+            ``sheet_over_normal`` when it cannot give the orthotropy.
     """
-    tension = calibration_factors(points, edges, edge_volume_m3, material, along)
+    sheet = material.sheet_direction if sheet_along is None else sheet_along
+    factor = sheet_factor(points, edges, edge_volume_m3, material, along, sheet)
+    tension = calibration_factors(points, edges, edge_volume_m3, material, along, sheet, factor)
     compression = (tension if material.symmetric else
                    calibration_factors(points, edges, edge_volume_m3, material.in_compression(),
-                                       along))
-    return SpringLaw.of(material, tension, compression), tension, compression
+                                       along, sheet, factor))
+    return SpringLaw.of(material, tension, compression), tension, compression, factor

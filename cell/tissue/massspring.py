@@ -57,6 +57,7 @@ from cell.tissue.lattice import (
     calibrated_law,
     directional_modulus,
     oblique_gain,
+    sheet_gain,
     tet_edges,
 )
 from cell.tissue.material import MassSpringMaterial
@@ -93,6 +94,9 @@ class MassSpringModel:
         edge_volume_m3: (E,) volume of the tets sharing each spring, m^3.
         fibre_cosine: (E,) cosine between each spring's rest direction and the fibres.
         calibration: (alpha, beta), the factors on El and Et fed to Eq. 10.
+        sheet_factor: k of the springs' sheet gain ``1 + (k - 1) (u . s)**2`` (the material's
+            orthotropy on this lattice, :func:`~cell.tissue.lattice.sheet_factor`; 1 for a
+            transversely isotropic material).
         calibrate_along: the direction the lattice is calibrated in; None for the fibres'.
         stiffness_n_m: (E,) calibrated small-strain stiffness of each spring, N/m.
         dofadr: (N,) first dof of each vertex's slide joints, -1 for pinned vertices.
@@ -214,11 +218,16 @@ class MassSpringModel:
         material = replace(self.material, fibre_direction=tuple(float(v) for v in direction))
         fibre = np.asarray(material.fibre_direction)
         along = fibre if self.calibrate_along is None else self.calibrate_along
-        self._law, self.calibration, self._compression_calibration = calibrated_law(
-            self._points, self.edges, self.edge_volume_m3, material, along)
+        self._law, self.calibration, self._compression_calibration, self.sheet_factor = (
+            calibrated_law(self._points, self.edges, self.edge_volume_m3, material, along))
         self.material = material
-        self._cos_sq = AffineLattice(self._points, self.edges, self.edge_volume_m3,
-                                      fibre).cos_sq
+        sheet = np.asarray(material.sheet_direction) if material.orthotropic else None
+        lattice = AffineLattice(self._points, self.edges, self.edge_volume_m3, fibre,
+                                sheet=sheet)
+        self._cos_sq = lattice.cos_sq
+        # Each spring's K l**2 over its modulus, the sheets' gain included.
+        self._spring_gain = (self._gain if self.sheet_factor == 1.0
+                             else self._gain * sheet_gain(self.sheet_factor, lattice.sheet_sq))
         self.fibre_cosine = np.sqrt(self._cos_sq)
         if not hasattr(self, "_history"):
             self._history = self._law.history(len(self.edges))
@@ -234,7 +243,7 @@ class MassSpringModel:
             self.implicit.reset()
 
     def _stiffness(self, el_pa: float, et_pa: float) -> np.ndarray:
-        return (self._gain * directional_modulus(el_pa, et_pa, self._cos_sq)
+        return (self._spring_gain * directional_modulus(el_pa, et_pa, self._cos_sq)
                 * oblique_gain(self.material.oblique, self._cos_sq))
 
     def apply(self, data: mujoco.MjData, filtered: bool = True) -> None:
@@ -253,7 +262,7 @@ class MassSpringModel:
             self._rest_position,
             self.edges,
             self.rest_lengths_m,
-            self._gain,
+            self._spring_gain,
             self._cos_sq,
             self._law.curves,
             self._law.params,

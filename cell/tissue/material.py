@@ -137,11 +137,22 @@ class MassSpringMaterial:
             [0, 1); fitted materials carry it, older ones keep 0.
         cutting: the material's resistance to a blade (the file's ``[cutting]`` table,
             :class:`~cell.tissue.cutmodel.CuttingParams`), or None for a material without one.
+        sheet_direction: unit vector along the sheets, across the fibres, in the world frame
+            (made orthogonal to the fibres and normalised on construction); the sheets' normal
+            completes the frame (fibre x sheet). Default z: with fibres along x, sheets in
+            the x-z plane, their normal along y.
+        sheet_over_normal: orthotropy, E_s / E_n: the small-strain modulus along the sheets
+            over the one along their normal (> 0). ``transverse`` is their geometric mean; 1
+            (the default) is the transversely isotropic material, exactly as before. Springs
+            get ``1 + (k - 1) (u . s)**2`` times their modulus, k calibrated on the lattice
+            (:mod:`cell.tissue.lattice`).
 
     Raises:
         MaterialError: ``density_kg_m3``, ``damping_s``, the relaxation,
             ``yield_strain`` or ``hardening`` out of range, ``fibre_direction`` zero or not
-            finite; curve errors name the curve's own fields.
+            finite, ``sheet_over_normal`` not positive and finite, ``sheet_direction`` zero,
+            not finite or (for an orthotropic material) along the fibres; curve errors name
+            the curve's own fields.
 
     Example:
         >>> paper = MassSpringMaterial.transversely_isotropic(0.25e6, 0.6e6)
@@ -168,6 +179,8 @@ class MassSpringMaterial:
     oblique_compression: float | None = None
     relaxation_reference_strain: float = 0.0
     cutting: CuttingParams | None = None
+    sheet_direction: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    sheet_over_normal: float = 1.0
 
     def __post_init__(self) -> None:
         require_positive(self, "density_kg_m3", error=MaterialError)
@@ -204,6 +217,35 @@ class MassSpringMaterial:
                 f"must be a finite non-zero 3-vector, got {self.fibre_direction!r}",
             )
         object.__setattr__(self, "fibre_direction", tuple((fibre / norm).tolist()))
+        self._check_sheet()
+
+    def _check_sheet(self) -> None:
+        """Normalise the sheet direction and make it orthogonal to the fibres."""
+        if not (math.isfinite(self.sheet_over_normal) and self.sheet_over_normal > 0):
+            raise MaterialError(None, "sheet_over_normal",
+                                f"must be > 0 and finite, got {self.sheet_over_normal}")
+        sheet = np.asarray(self.sheet_direction, dtype=float)
+        if not (sheet.shape == (3,) and np.isfinite(sheet).all()):
+            raise MaterialError(None, "sheet_direction",
+                                f"must be a finite 3-vector, got {self.sheet_direction!r}")
+        fibre = np.asarray(self.fibre_direction)
+        across = sheet - (sheet @ fibre) * fibre
+        norm = float(np.linalg.norm(across))
+        if norm > 1e-9 * max(float(np.linalg.norm(sheet)), 1e-300):
+            object.__setattr__(self, "sheet_direction", tuple((across / norm).tolist()))
+        elif self.orthotropic:
+            raise MaterialError(None, "sheet_direction", "must be a non-zero vector not along "
+                                f"the fibres, got {self.sheet_direction!r}")
+
+    @property
+    def orthotropic(self) -> bool:
+        """Whether the sheets and their normal differ (``sheet_over_normal`` != 1).
+
+        Example:
+            >>> MassSpringMaterial(sheet_over_normal=2.0).orthotropic
+            True
+        """
+        return self.sheet_over_normal != 1.0
 
     @property
     def symmetric(self) -> bool:

@@ -75,6 +75,8 @@ def load_material(path: str | Path) -> ContinuumMaterial | MassSpringMaterial:
         model = "mass_spring"
         damping_s = 2e-4
         fibre_direction = [1.0, 0.0, 0.0]
+        sheet_direction = [0.0, 0.0, 1.0]   # optional, with sheet_over_normal (orthotropy)
+        sheet_over_normal = 1.8
         relaxation_weights = [0.3, 0.2]
         relaxation_times_s = [1.0, 30.0]
         [longitudinal]
@@ -220,6 +222,9 @@ def _mass_spring_lines(material: MassSpringMaterial) -> list[str]:
     ]
     if material.oblique_compression is not None:
         lines.append(f"oblique_compression = {_number(material.oblique_compression)}")
+    if material.orthotropic:
+        lines += [f"sheet_direction = {_numbers(material.sheet_direction)}",
+                  f"sheet_over_normal = {_number(material.sheet_over_normal)}"]
     for name in _CURVES + _COMPRESSION_CURVES:
         curve: ModulusCurve | None = getattr(material, name)
         if curve is None:

@@ -144,6 +144,11 @@ def test_load_material_continuum(tmp_path: Path) -> None:
         (_GOOD_MASS_SPRING.replace("[0, 1, 0]", "[0, 0, 0]"), "fibre_direction"),
         (_GOOD_MASS_SPRING.replace("[0, 1, 0]", "[0, 1]"), "fibre_direction"),
         (_GOOD_MASS_SPRING.replace('"mass_spring"', '"springs"'), "model"),
+        (_GOOD_MASS_SPRING.replace("[0, 1, 0]", "[0, 1, 0]\nsheet_over_normal = 0"),
+         "sheet_over_normal"),
+        (_GOOD_MASS_SPRING.replace(
+            "[0, 1, 0]", "[0, 1, 0]\nsheet_over_normal = 2\nsheet_direction = [0, -2, 0]"),
+         "sheet_direction"),
         ('model = "continuum"\nyoung_pa = -3e4\n', "young_pa"),
     ],
     ids=[
@@ -156,6 +161,8 @@ def test_load_material_continuum(tmp_path: Path) -> None:
         "zero-fibre",
         "short-fibre",
         "unknown-model",
+        "zero-orthotropy",
+        "sheet-along-fibres",
         "negative-young",
     ],
 )
@@ -192,3 +199,22 @@ def test_a_non_linear_relaxation_is_written_and_read_back(tmp_path: Path) -> Non
     assert load_material(path) == material
     with pytest.raises(MaterialError, match="relaxation_reference_strain"):
         MassSpringMaterial(relaxation_reference_strain=-0.1)
+
+
+def test_an_orthotropic_material_is_written_and_read_back(tmp_path: Path) -> None:
+    material = MassSpringMaterial.transversely_isotropic(2e4, 1e4, sheet_over_normal=1.8,
+                                                         sheet_direction=(1.0, 0.0, 2.0))
+    # Made orthogonal to the fibres (x) and normalised.
+    assert material.sheet_direction == (0.0, 0.0, 1.0) and material.orthotropic
+    text = material_to_toml(material)
+    assert "sheet_over_normal = 1.8" in text
+    path = tmp_path / "m.toml"
+    path.write_text(text)
+    assert load_material(path) == material
+
+
+def test_a_transversely_isotropic_material_is_written_as_before() -> None:
+    material = MassSpringMaterial()
+    assert not material.orthotropic and "sheet" not in material_to_toml(material)
+    # Fibres along the default sheet direction are fine while the sheets do not matter.
+    assert MassSpringMaterial(fibre_direction=(0.0, 0.0, 1.0)).sheet_direction == (0.0, 0.0, 1.0)

@@ -22,6 +22,7 @@ from cell.diagnosis.engine.fit import Fit, Start
 from cell.diagnosis.engine.search import Search
 from cell.diagnosis.specimen.causes import EXCLUSIVE, CandidateMaterial, catalogue
 from cell.diagnosis.specimen.fitting import ModelFit, fit
+from cell.diagnosis.specimen.planeseries import PlaneSeries
 
 #: The load cell's offset: judged on the samples at rest.
 OFFSET = "force_offset"
@@ -69,8 +70,9 @@ class SpecimenSearch(Search):
 
     @property
     def catalogue(self) -> tuple[str, ...]:  # type: ignore[override]
-        """The registered causes (:func:`cell.diagnosis.specimen.causes.registry.catalogue`)."""
-        return catalogue()
+        """The registered causes (:func:`cell.diagnosis.specimen.causes.registry.catalogue`)
+        that the set's tests can show (orthotropy needs shear or biaxial tests)."""
+        return catalogue(any(isinstance(t, PlaneSeries) for t in self.problem.tests))
 
     def variants(self, model: CandidateMaterial, cause: str) -> list[CandidateMaterial]:
         """``model`` with ``cause`` added (a viscoelasticity replacing the other), with both

@@ -13,9 +13,11 @@ traction (:func:`~cell.diagnosis.specimen.solve.solve_path`).
   solved for a free face and free-sliding edges. The edge forces are the first
   Piola-Kirchhoff stress ``P = tau F^-T`` times the edges' initial areas.
 
-The cell's material is transversely isotropic: the sheet and normal directions are alike, so
-the shear modes pair up (``fs`` and ``fn``, ``sf`` and ``nf``, ``sn`` and ``ns`` give the same
-forces).
+The sheets lie along the axis that ``shear_plane`` names ``s`` in shear, and across the fibres
+in the sheet's x-z plane in a biaxial test (their normal along its thickness y). A transversely
+isotropic material (``sheet_over_normal`` 1) makes the sheets and their normal alike, so its
+shear modes pair up (``fs`` and ``fn``, ``sf`` and ``nf``, ``sn`` and ``ns`` give the same
+forces); an orthotropic one parts them.
 
 Example:
     >>> from cell.measure.shearbiaxial import ShearTest
@@ -35,7 +37,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.diagnosis.specimen.solve import SpecimenLattice, fibre_direction, solve_path
+from cell.diagnosis.specimen.solve import (
+    SpecimenLattice,
+    fibre_direction,
+    sheet_direction,
+    solve_path,
+)
 from cell.measure.shearbiaxial import BiaxialTest, ShearTest
 from cell.measure.specimens import MeasurementSet, Specimen
 from cell.tissue.material import MassSpringMaterial
@@ -79,9 +86,9 @@ def simulate_shear(test: ShearTest, specimen: Specimen, material: MassSpringMate
     size = test.size_of(specimen)
     path = np.zeros((len(test.time_s), 4))
     path[:, _XZ] = test.gamma(size)
-    fibre = np.eye(3)[test.fibre_axis]
     tau, gradient = solve_path(lattice, lattice.law(material), test.test_id, test.time_s, path,
-                               (), fibre)
+                               (), np.eye(3)[test.fibre_axis], np.eye(3)[test.sheet_axis],
+                               lattice.sheet_factor(material))
     area = size[0] * size[1]
     return SimulatedForces(test.test_id, test.time_s,
                            {"force_N": area * tau[:, _XZ], "normal_force_N": area * tau[:, _ZZ]},
@@ -103,7 +110,8 @@ def simulate_biaxial(test: BiaxialTest, specimen: Specimen, material: MassSpring
     path = np.zeros((len(test.time_s), 4))
     path[:, _ZZ], path[:, _XX] = strains[:, 0], strains[:, 1]
     tau, gradient = solve_path(lattice, lattice.law(material), test.test_id, test.time_s, path,
-                               _BIAXIAL_FREE, fibre_direction(test.angle_deg))
+                               _BIAXIAL_FREE, fibre_direction(test.angle_deg),
+                               sheet_direction(test.angle_deg), lattice.sheet_factor(material))
     along_z, along_x = face_stress(tau, gradient)
     return SimulatedForces(test.test_id, test.time_s,
                            {"force_N": size[0] * size[1] * along_z,

@@ -45,7 +45,7 @@ import numpy as np
 
 from cell.errors import DivergenceError
 from cell.measure.specimens import MeasurementSet, MechanicalTest, Specimen
-from cell.tissue.lattice import calibration_factors, tet_edges
+from cell.tissue.lattice import calibration_factors, sheet_factor, sheet_gain, tet_edges
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.packedlaw import SpringLaw
 from cell.tissue.springlaw import homogeneous_stress
@@ -54,6 +54,8 @@ from cell.tissue.tetmesh import TetMesh, structured_hex_tets
 # Cells along the specimen's longest edge; the homogeneous lattice only needs their shape.
 _CELLS = 2
 _LOAD_AXIS = (0.0, 0.0, 1.0)
+# The sheets' direction at calibration: across the load axis, in the specimen's x-z plane.
+_SHEET_AXIS = (1.0, 0.0, 0.0)
 #: The displacement gradient's components a path gives (:func:`solve_path`), as strains.
 _COMPONENTS = ("strain xx", "strain yy", "strain zz", "shear xz")
 #: A uniaxial test's free components: the lateral stretches and the shear of oblique fibres.
@@ -86,6 +88,18 @@ def fibre_direction(angle_deg: float) -> tuple[float, float, float]:
     return (math.sin(angle), 0.0, math.cos(angle))
 
 
+def sheet_direction(angle_deg: float) -> tuple[float, float, float]:
+    """Unit sheet direction of fibres at ``angle_deg`` from z (:func:`fibre_direction`): across
+    them in the x-z plane, the sheets' normal along y (the specimen's thickness).
+
+    Example:
+        >>> [round(v, 6) for v in sheet_direction(0.0)]
+        [1.0, 0.0, 0.0]
+    """
+    angle = math.radians(angle_deg)
+    return (math.cos(angle), 0.0, -math.sin(angle))
+
+
 @dataclass(frozen=True, eq=False)
 class SpecimenLattice:
     """The specimen's springs grouped by rest direction, for homogeneous deformation.
@@ -109,9 +123,9 @@ class SpecimenLattice:
     mesh: TetMesh
     edges: np.ndarray
     edge_volume_m3: np.ndarray
-    # Calibration factors by (El / Et, oblique): they depend on nothing else, and a diagnosis
-    # asks for the same ones thousands of times.
-    _factors: dict[tuple[float, float], tuple[float, float]] = field(
+    # Calibration factors and sheet factor by (El / Et, oblique, E_s / E_n): they depend on
+    # nothing else, and a diagnosis asks for the same ones thousands of times.
+    _factors: dict[tuple[float, ...], tuple[float, float, float]] = field(
         default_factory=dict, repr=False)
 
     @classmethod
@@ -138,18 +152,27 @@ class SpecimenLattice:
         """``material``'s spring law on this lattice, calibrated with its fibres along the load
         axis (as :func:`~cell.tissue.lattice.calibrated_law`, its factors remembered)."""
         squeezed = material.in_compression()
-        tension = self._calibration(material)
+        tension = self._calibration(material)[:2]
         return SpringLaw.of(material, tension,
-                            tension if material.symmetric else self._calibration(squeezed))
+                            tension if material.symmetric else self._calibration(squeezed)[:2])
 
-    def _calibration(self, material: MassSpringMaterial) -> tuple[float, float]:
+    def sheet_factor(self, material: MassSpringMaterial) -> float:
+        """k of ``material``'s sheet gain on this lattice
+        (:func:`~cell.tissue.lattice.sheet_factor`, fibres along the load axis, sheets
+        across it); 1 for a transversely isotropic material."""
+        return self._calibration(material)[2]
+
+    def _calibration(self, material: MassSpringMaterial) -> tuple[float, float, float]:
         key = (material.longitudinal.small_strain_modulus_pa
-               / material.transverse.small_strain_modulus_pa, material.oblique)
+               / material.transverse.small_strain_modulus_pa, material.oblique,
+               material.sheet_over_normal)
         if key not in self._factors:
             if len(self._factors) > 4096:
                 self._factors.clear()
-            self._factors[key] = calibration_factors(self.mesh.points, self.edges,
-                                                     self.edge_volume_m3, material, _LOAD_AXIS)
+            geometry = (self.mesh.points, self.edges, self.edge_volume_m3)
+            factor = sheet_factor(*geometry, material, _LOAD_AXIS, _SHEET_AXIS)
+            self._factors[key] = (*calibration_factors(*geometry, material, _LOAD_AXIS,
+                                                       _SHEET_AXIS, factor), factor)
         return self._factors[key]
 
 
@@ -233,7 +256,8 @@ def simulate_tests(
         path = np.zeros((len(strain), 4))
         path[:, 2] = strain
         tau, gradient = solve_path(lattice, law, test.test_id, test.time_s, path,
-                                   _UNIAXIAL_FREE, fibre_direction(test.angle_deg))
+                                   _UNIAXIAL_FREE, fibre_direction(test.angle_deg),
+                                   sheet_direction(test.angle_deg), lattice.sheet_factor(material))
         runs.append(SimulatedTest(test.test_id, test.time_s,
                                   tau[:, 2] / (1.0 + strain) * test.area_m2(specimen),
                                   gradient[:, :2]))
@@ -241,23 +265,27 @@ def simulate_tests(
 
 
 def solve_path(lattice: SpecimenLattice, law: SpringLaw, test_id: str, time_s: np.ndarray,
-               path: np.ndarray, free: Sequence[int], fibre: Sequence[float]
+               path: np.ndarray, free: Sequence[int], fibre: Sequence[float],
+               sheet: Sequence[float] = _SHEET_AXIS, sheet_factor: float = 1.0
                ) -> tuple[np.ndarray, np.ndarray]:
     """The homogeneous lattice along ``path`` ((n, 4): the displacement gradient F - I's xx,
     yy, zz and xz at the samples of ``time_s``; F's other entries 0), the components listed in
-    ``free`` solved for zero stress in the same components, fibres along ``fibre``
-    (:func:`~cell.tissue.springlaw.homogeneous_stress`): the Kirchhoff stress (n, 4; xx, yy,
-    zz, xz; Pa) and F (n, 4; xx, yy, zz, xz) at the samples.
+    ``free`` solved for zero stress in the same components, fibres along ``fibre``, sheets
+    along ``sheet`` (x or z, or y: F keeps y a plane of symmetry) with the springs' sheet gain
+    ``sheet_factor`` (:func:`~cell.tissue.springlaw.homogeneous_stress`): the Kirchhoff stress
+    (n, 4; xx, yy, zz, xz; Pa) and F (n, 4; xx, yy, zz, xz) at the samples.
 
     Raises:
         DivergenceError: no equilibrium at some sample (naming ``test_id``).
     """
     cos_sq = (lattice.directions @ np.asarray(fibre, dtype=float)) ** 2
+    weights = (lattice.weights if sheet_factor == 1.0 else lattice.weights * sheet_gain(
+        sheet_factor, (lattice.directions @ np.asarray(sheet, dtype=float)) ** 2))
     time = np.ascontiguousarray(time_s - time_s[0])
     path = np.ascontiguousarray(path, dtype=float)
     tau, gradient = np.empty((len(time), 4)), np.empty((len(time), 4))
     failed = homogeneous_stress(time, path, np.asarray(free, dtype=np.int64),
-                                lattice.directions, lattice.weights, cos_sq, law.curves,
+                                lattice.directions, weights, cos_sq, law.curves,
                                 law.params, law.history(len(lattice.directions)), tau, gradient)
     if failed >= 0:
         moved = ", ".join(f"{name} {path[failed, i]:.4g}" for i, name in enumerate(_COMPONENTS)

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from cell.diagnosis.engine.determined import NOT_IDENTIFIABLE, NOT_PREDICTED
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.sets import diagnose_set
-from cell.diagnosis.specimen.causes import CAUSES, EXCLUSIVE
+from cell.diagnosis.specimen.causes import EXCLUSIVE, UNIAXIAL_CAUSES
 from cell.measure.specimens import load_measurement_set
 from cell.outputs import json_text
 from cell.synthetic.specimen import Repeats, write_hidden_effect_set
@@ -45,7 +45,7 @@ class GeneratedSet:
 
 def _effects() -> st.SearchStrategy[tuple[str, ...]]:
     """None, one or two causes of the catalogue (never both viscoelasticities)."""
-    return st.lists(st.sampled_from(CAUSES), max_size=2, unique=True).filter(
+    return st.lists(st.sampled_from(UNIAXIAL_CAUSES), max_size=2, unique=True).filter(
         lambda drawn: not set(EXCLUSIVE) <= set(drawn)).map(tuple)
 
 

@@ -12,7 +12,7 @@ import pytest
 
 from cell.cli import main
 from cell.diagnosis.engine.settings import DiagnosisParams
-from cell.diagnosis.specimen.causes import CAUSES, UNEXPLAINED
+from cell.diagnosis.specimen.causes import UNEXPLAINED, UNIAXIAL_CAUSES
 from cell.diagnosis.specimen.diagnosis import diagnose
 from cell.errors import DiagnosisError
 from cell.measure.specimens import load_measurement_set, load_specimen
@@ -48,8 +48,8 @@ def test_json_follows_the_contract_field_by_field(diagnosed: tuple[dict, Path]) 
     _entry(report["extended"])
     assert report["baseline"]["params"].keys() == {"young_pa"}
     assert report["causes"][0] == "viscoelasticity"
-    assert set(report["causes"]) <= set(CAUSES) | {UNEXPLAINED}
-    assert [c["cause"] for c in report["candidates"]] == list(CAUSES)
+    assert set(report["causes"]) <= set(UNIAXIAL_CAUSES) | {UNEXPLAINED}
+    assert [c["cause"] for c in report["candidates"]] == list(UNIAXIAL_CAUSES)
     for candidate in report["candidates"]:
         assert set(candidate) >= {"cause", "params", "heldout_rmse_N", "selected"}
         assert candidate["selected"] == (candidate["cause"] in report["causes"])

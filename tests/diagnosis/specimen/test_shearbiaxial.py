@@ -2,14 +2,21 @@
 small-strain elastic constants, and against the meshed specimen in MuJoCo
 (:mod:`tests.shear_reference`) within 2 %."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from cell.diagnosis.specimen.shearbiaxial import simulate_biaxial, simulate_shear
-from cell.diagnosis.specimen.solve import SpecimenLattice, fibre_direction
+from cell.diagnosis.specimen.solve import (
+    SpecimenLattice,
+    fibre_direction,
+    sheet_direction,
+    simulate_tests,
+)
 from cell.errors import DivergenceError
 from cell.measure.shearbiaxial import SHEAR_PLANES, BiaxialTest, ShearTest
-from cell.measure.specimens import Specimen
+from cell.measure.specimens import MechanicalTest, Specimen
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.packedlaw import LATTICE_STIFFENING
 from cell.tissue.springlaw import spring_stress
@@ -20,6 +27,8 @@ CUBE = Specimen("cube", (0.01, 0.01, 0.01))
 ISOTROPIC = MassSpringMaterial.isotropic(1e4, geometric_compensation=LATTICE_STIFFENING)
 ANISOTROPIC = MassSpringMaterial.transversely_isotropic(
     2e4, 1e4, geometric_compensation=LATTICE_STIFFENING)
+# Sheets twice as stiff as their normal, Et their geometric mean.
+ORTHOTROPIC = replace(ISOTROPIC, sheet_over_normal=2.0)
 TIME = np.linspace(0.0, 2.0, 41)
 # The meshed reference needs an even number of cells: the mirrored split tiles in pairs.
 QUICK = SpecimenSimParams(cells=4)
@@ -69,6 +78,31 @@ def test_the_shear_modes_pair_up_in_a_transversely_isotropic_material() -> None:
     assert forces["fs"][-1] != pytest.approx(forces["sn"][-1], rel=0.05)
 
 
+def test_an_orthotropic_material_parts_the_shear_modes_and_the_biaxial_forces() -> None:
+    shear = {plane: simulate_shear(_shear(plane, 1e-3), CUBE, ORTHOTROPIC).force_n["force_N"][-1]
+             for plane in SHEAR_PLANES}
+    # Shearing towards the stiffer sheets takes more force, by less than their ratio: the
+    # lattice's shear modulus is not its Young's modulus.
+    assert 1.2 < shear["fs"] / shear["fn"] < 2.0
+    assert shear["sf"] == pytest.approx(shear["fs"], rel=1e-4)  # the same plane, either way
+    assert shear["sn"] == pytest.approx(shear["ns"], rel=1e-4)
+    isotropic = simulate_shear(_shear("fs", 1e-3), CUBE, ISOTROPIC).force_n["force_N"][-1]
+    assert shear["fn"] < isotropic < shear["fs"]
+    # Equibiaxial: the fibres keep Et's stiffness, the sheets across them sqrt(2) times it.
+    run = simulate_biaxial(_biaxial(0.0, 1e-4, 1e-4), CUBE, ORTHOTROPIC)
+    plain = simulate_biaxial(_biaxial(0.0, 1e-4, 1e-4), CUBE, ISOTROPIC)
+    assert run.force_n["force_x_N"][-1] > 1.2 * plain.force_n["force_x_N"][-1]
+
+
+def test_the_lattice_has_the_orthotropic_materials_young_moduli() -> None:
+    tension = MechanicalTest("t", "tension", 90.0, TIME, 1e-6 * TIME, 0.0 * TIME)
+    (run,) = simulate_tests([tension], CUBE, ORTHOTROPIC)  # along the sheets (x, at 90 deg)
+    strain = 1e-6 * TIME[-1] / CUBE.size_m[2]
+    assert run.force_n[-1] / CUBE.area_m2 / strain == pytest.approx(1e4 * 2**0.5, rel=1e-3)
+    lattice = SpecimenLattice.of(CUBE)
+    assert lattice.sheet_factor(ISOTROPIC) == 1.0 and lattice.sheet_factor(ORTHOTROPIC) > 1.0
+
+
 @pytest.mark.parametrize(("strain_z", "strain_x"), [(1e-4, 1e-4), (1e-4, 0.5e-4), (0.5e-4, 1e-4)])
 def test_small_biaxial_stresses_follow_the_lattice_with_a_free_thickness(
         strain_z: float, strain_x: float) -> None:
@@ -96,19 +130,24 @@ def test_a_collapsed_sheet_is_a_divergence_naming_the_test() -> None:
 
 def _against_mesh(test: ShearTest | BiaxialTest, material: MassSpringMaterial,
                   params: SpecimenSimParams) -> dict[str, float]:
-    """The largest difference of each force to the meshed reference's, over its largest."""
+    """The largest difference of each force to the meshed reference's, over its largest (the
+    meshed springs calibrated along z, their sheets where the test puts them)."""
     path = np.zeros((len(TIME), 4))
     if isinstance(test, ShearTest):
         fast = simulate_shear(test, CUBE, material)
         path[:, 3] = test.gamma(CUBE.size_m)
-        mesh = simulate_gradient(CUBE, material, np.eye(3)[test.fibre_axis], TIME, path, True,
-                                 params)
+        fibre = np.eye(3)[test.fibre_axis]
+        meshed_material = replace(material, fibre_direction=tuple(fibre),
+                                  sheet_direction=tuple(np.eye(3)[test.sheet_axis]))
+        mesh = simulate_gradient(CUBE, meshed_material, fibre, TIME, path, True, params)
         meshed = {"force_N": mesh.top_N[:, 0], "normal_force_N": mesh.top_N[:, 1]}
     else:
         fast = simulate_biaxial(test, CUBE, material)
         path[:, 2], path[:, 0] = test.strains(CUBE.size_m).T
-        mesh = simulate_gradient(CUBE, material, fibre_direction(test.angle_deg), TIME, path,
-                                 False, params)
+        meshed_material = replace(material, fibre_direction=fibre_direction(test.angle_deg),
+                                  sheet_direction=sheet_direction(test.angle_deg))
+        mesh = simulate_gradient(CUBE, meshed_material, fibre_direction(test.angle_deg), TIME,
+                                 path, False, params)
         meshed = {"force_N": mesh.top_N[:, 1], "force_x_N": mesh.side_N[:, 0]}
     return {name: float(np.abs(fast.force_n[name] - force).max() / np.abs(force).max())
             for name, force in meshed.items()}
@@ -122,6 +161,10 @@ CASES = [
     pytest.param(_biaxial(0.0, 0.05, 0.05), ANISOTROPIC, id="biaxial 1:1"),
     pytest.param(_biaxial(0.0, 0.05, 0.025), ANISOTROPIC, id="biaxial 1:0.5"),
     pytest.param(_biaxial(90.0, 0.025, 0.05), ISOTROPIC, id="biaxial 0.5:1 across"),
+    # Orthotropic, fibres along z (the meshed springs' calibration axis): sheets along x, y.
+    pytest.param(_shear("fs", 0.1), ORTHOTROPIC, id="shear fs orthotropic"),
+    pytest.param(_shear("fn", 0.1), ORTHOTROPIC, id="shear fn orthotropic"),
+    pytest.param(_biaxial(0.0, 0.05, 0.025), ORTHOTROPIC, id="biaxial 1:0.5 orthotropic"),
 ]
 
 

@@ -20,7 +20,7 @@ from cell.diagnosis.specimen.causes.candidate import (
     CandidateMaterial,
     cause_of,
 )
-from cell.diagnosis.specimen.causes.registry import CAUSES, REGISTRY, catalogue
+from cell.diagnosis.specimen.causes.registry import CAUSES, REGISTRY, UNIAXIAL_CAUSES, catalogue
 
 __all__ = ["CAUSES", "EXCLUSIVE", "REGISTRY", "SPECIMEN_VARIABILITY", "UNEXPLAINED",
-           "CandidateMaterial", "Cause", "Parameter", "catalogue", "cause_of"]
+           "UNIAXIAL_CAUSES", "CandidateMaterial", "Cause", "Parameter", "catalogue", "cause_of"]

@@ -54,6 +54,9 @@ class Cause:
     """
 
     name: ClassVar[str] = ""
+    #: Whether only shear and biaxial tests can show the cause (a uniaxial set is not offered
+    #: it).
+    needs_plane_tests: ClassVar[bool] = False
 
     def parameters(self, model: Settings) -> tuple[Parameter, ...]:
         """The shape parameters the cause adds to ``model``, in vector order."""

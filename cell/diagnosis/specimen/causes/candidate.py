@@ -32,6 +32,9 @@ cause                              change to the material (shape parameters)
 ``plasticity``                     yield strain and hardening ratio of every spring
 ``force_offset``                   the load cell reads a constant offset (a rig effect: it is
                                    not part of the material the muscles get)
+``orthotropy``                     the sheets' modulus over their normal's, E_s / E_n, their
+                                   geometric mean Et (shear and biaxial sets only)
+                                   (log E_s / E_n)
 =================================  ==============================================================
 
 Example:
@@ -230,6 +233,8 @@ class CandidateMaterial:
         if "plasticity" in self.causes:
             params["yield_strain"] = material.yield_strain
             params["hardening"] = material.hardening
+        if "orthotropy" in self.causes:
+            params["sheet_over_normal"] = material.sheet_over_normal
         if self.has_offset:
             params["force_offset_n"] = offset_n
         return params
