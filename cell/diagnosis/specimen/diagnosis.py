@@ -111,7 +111,8 @@ class Diagnosis(SearchOutcome):
         params: the settings it ran with.
         explored: every model the search fitted.
         specimen: the specimen spread between tests under equal conditions
-            (:mod:`cell.diagnosis.specimen.spread`).
+            (:mod:`cell.diagnosis.specimen.spread`), or across named specimens
+            (:mod:`cell.diagnosis.specimen.specimenids`).
         intervals: the extended model's held-out predictions with their 90 % intervals
             (:mod:`cell.diagnosis.specimen.intervals`).
         swaps: what the search's second look tried

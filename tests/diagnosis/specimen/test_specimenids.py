@@ -128,5 +128,5 @@ def test_the_named_specimens_bench_draws_spreads_of_5_to_25_percent() -> None:
 
     seeds = bench_seeds(50, by_specimen=True)
     cvs = [np.sqrt(np.expm1(spread_sd(s, by_specimen=True) ** 2)) for s in seeds]
-    assert 0.05 <= min(cvs) and max(cvs) <= 0.25
+    assert min(cvs) >= 0.05 and max(cvs) <= 0.25
     assert not set(seeds) & set(bench_seeds(50))
