@@ -52,6 +52,8 @@ _MAX_SD = 3.0
 _CI_LEVEL = 0.95
 # Points of the profile likelihood's grid.
 _GRID = 121
+# A log-likelihood gain below this is none.
+_FLAT = 1e-9
 
 
 def _specimen_id(series: Series) -> str:
@@ -78,7 +80,8 @@ class CrossedFit:
         sd: the specimens' sd of the log factor.
         tau: the tests' own sd within a specimen, beyond the noise.
         ratio: twice the restricted log-likelihood gain over ``sd = 0``.
-        ci95: the profile interval of ``sd``.
+        ci95: the profile interval of ``sd`` (its upper end NaN where the data do not
+            bound it).
         blup: per specimen, its log factor's best linear unbiased prediction.
         blup_sd: per specimen, the standard deviation of its prediction error.
 
@@ -140,7 +143,8 @@ def crossed_reml(u: np.ndarray, v: np.ndarray, conditions: list[list[int]],
     best = min((minimize(lambda p: model.loss(*p), start, method="L-BFGS-B",
                          bounds=[(0.0, _MAX_SD)] * 2) for start in starts),
                key=lambda r: r.fun)
-    sd, tau = ((float(best.x[0]), float(best.x[1])) if best.fun < null
+    # A likelihood flat in sd (no condition repeated) leaves it at none.
+    sd, tau = ((float(best.x[0]), float(best.x[1])) if best.fun < null - _FLAT
                else (0.0, model.profiled(0.0)[1]))
     peak = min(float(best.fun), null)
     ratio = max(2.0 * (null - peak), 0.0)
@@ -150,7 +154,9 @@ def crossed_reml(u: np.ndarray, v: np.ndarray, conditions: list[list[int]],
     p, _ = model.projection(sd, tau)
     blup = sd**2 * z.T @ p @ u
     error = sd**2 - sd**4 * np.einsum("ks,kl,ls->s", z, p, z)
-    return CrossedFit(sd, tau, ratio, (float(inside.min()), float(inside.max())), blup,
+    # An interval that reaches the grid's end is not bounded by the data.
+    high = float(inside.max()) if inside.max() < grid[-1] else math.nan
+    return CrossedFit(sd, tau, ratio, (float(inside.min()), high), blup,
                       np.sqrt(np.maximum(error, 0.0)))
 
 
