@@ -68,6 +68,9 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--spread", action="store_true",
                        help="diagnose suite: thirty-test sets of repeats, with a specimen "
                        "spread and without (--seeds pairs of sets)")
+    bench.add_argument("--by-specimen", action="store_true",
+                       help="diagnose suite, with --spread: sets that name their specimens "
+                       "(five specimens running five ramps each, a modulus spread of 5-25 %%)")
     bench.add_argument("--cut", action="store_true",
                        help="diagnose suite: hidden-effect cut sets, made by the full "
                        "simulation of a cut (with --pairs: two causes at once)")
@@ -104,8 +107,8 @@ def bench_command(args: argparse.Namespace) -> int:
     the suite."""
     suite = args.suite
     if suite not in ("tissue", "diagnose", "sweep"):
-        for flag in ("seeds", "pairs", "subtle", "spread", "triples", "including", "suggest",
-                     "logs", "lab_protocol", "scenario_keys"):
+        for flag in ("seeds", "pairs", "subtle", "spread", "by_specimen", "triples",
+                     "including", "suggest", "logs", "lab_protocol", "scenario_keys"):
             if getattr(args, flag) not in (None, False):
                 option = f"--{flag.replace('_', '-')}"
                 raise InputError(None, option, f"only `musclecell bench diagnose` takes {option}")
@@ -240,6 +243,8 @@ def _diagnose_kind(args: argparse.Namespace) -> str:
         raise InputError(None, "--logs", "give one of --cut --logs, not both")
     if args.scenario_keys and not args.logs:
         raise InputError(None, "--scenario-keys", "goes with --logs")
+    if args.by_specimen and not args.spread:
+        raise InputError(None, "--by-specimen", "goes with --spread")
     if args.lab_protocol and (args.cut or args.logs or args.suggest or args.spread):
         raise InputError(None, "--lab-protocol", "goes with the uniaxial sets alone")
     if (args.cut or args.logs) and kinds not in ([], ["pairs"]):
@@ -273,8 +278,9 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
     elif args.spread:
         from cell.bench import spread
 
-        report = spread.run_spread_bench(spread.bench_seeds(count), workers=workers,
-                                         progress=_progress(args))
+        report = spread.run_spread_bench(spread.bench_seeds(count, args.by_specimen),
+                                         workers=workers, progress=_progress(args),
+                                         by_specimen=args.by_specimen)
     elif args.logs:
         report = _log_bench(args, kind, count, workers)
     elif args.cut:

@@ -14,6 +14,14 @@ and <= 10 % of those without; the fitted spread within 35 % of the truth in >= 7
 sets with one; the 90 % intervals of the held-out predictions covering 85 to 95 % of the
 held-out samples (the median over sets, for each kind of set); median <= 45 s and max <= 90 s
 per set.
+
+With ``by_specimen`` (``--spread --by-specimen``) the sets name their specimens instead:
+:data:`SPECIMENS` specimens each running the protocol's first :data:`SPECIMEN_CONDITIONS`
+tests (the ramps), one modulus factor per specimen with a coefficient of variation drawn in
+:data:`CV_RANGE` (or none), in the ``specimen`` column; the diagnosis then leaves whole
+specimens out (:mod:`cell.diagnosis.specimen.specimenids`). Fresh seeds from
+:data:`FIRST_SPECIMEN_SEED`; the fitted spread is judged against the specimens' realised
+spread (their log factors' sample sd), which five specimens draw far from the population's.
 """
 
 from __future__ import annotations
@@ -44,20 +52,37 @@ TARGETS = {"named_with_spread": 0.9, "named_without_spread": 0.1, "spread_within
 #: Target range of the median coverage of the held-out samples by their 90 % intervals.
 TARGET_COVERAGE = (0.85, 0.95)
 KINDS = ("spread", "no_spread")
+#: With ``by_specimen``: the coefficient of variation of the specimens' modulus factor is
+#: drawn in this range; conditions run by each specimen; specimens of a set; the first seed.
+CV_RANGE = (0.05, 0.25)
+SPECIMEN_CONDITIONS, SPECIMENS = 5, 5
+FIRST_SPECIMEN_SEED = 70_000
 
 
-def bench_seeds(count: int) -> list[int]:
+def bench_seeds(count: int, by_specimen: bool = False) -> list[int]:
     """The seeds of ``count`` pairs of sets."""
-    return [FIRST_SEED + i for i in range(count)]
+    return [(FIRST_SPECIMEN_SEED if by_specimen else FIRST_SEED) + i for i in range(count)]
 
 
-def spread_sd(seed: int) -> float:
+def spread_sd(seed: int, by_specimen: bool = False) -> float:
     """The hidden spread of the set of ``seed`` with one (its own stream: the set's other draws
-    are those of the set without)."""
-    return float(np.random.default_rng([seed, 2]).uniform(*SPREAD_RANGE))
+    are those of the set without); with ``by_specimen``, the sd whose lognormal factor has a
+    coefficient of variation drawn in :data:`CV_RANGE`."""
+    rng = np.random.default_rng([seed, 2])
+    if by_specimen:
+        return float(np.sqrt(np.log1p(rng.uniform(*CV_RANGE) ** 2)))
+    return float(rng.uniform(*SPREAD_RANGE))
 
 
-def run_one(folder: Path, seed: int, kind: str, workers: int) -> dict[str, Any]:
+def _design(sd: float, by_specimen: bool) -> generator.Repeats:
+    """The repeats of a set: named specimens running the ramps, or each test another."""
+    if by_specimen:
+        return generator.Repeats(SPECIMEN_CONDITIONS, SPECIMENS, sd, named=True)
+    return generator.Repeats(CONDITIONS, REPEATS, sd)
+
+
+def run_one(folder: Path, seed: int, kind: str, workers: int,
+            by_specimen: bool = False) -> dict[str, Any]:
     """Write, read and diagnose the set of ``seed`` and ``kind``: its row of the bench."""
     from cell.diagnosis.engine.settings import DiagnosisParams
     from cell.diagnosis.specimen.causes import CAUSES
@@ -65,9 +90,12 @@ def run_one(folder: Path, seed: int, kind: str, workers: int) -> dict[str, Any]:
     from cell.measure.specimens import load_measurement_set
 
     effects = hidden(seed, "single")
-    sd = spread_sd(seed) if kind == "spread" else 0.0
+    sd = spread_sd(seed, by_specimen) if kind == "spread" else 0.0
     truth = generator.write_hidden_effect_set(folder, seed, effects,
-                                              repeats=generator.Repeats(CONDITIONS, REPEATS, sd))
+                                              repeats=_design(sd, by_specimen))
+    # Named specimens: the spread their factors realise (one factor per specimen).
+    realised = (float(np.std(np.log(truth.specimen_factors[:SPECIMENS]), ddof=1))
+                if by_specimen else sd)
     data = load_measurement_set(folder)
     start = time.perf_counter()
     result = diagnose(data, DiagnosisParams(workers=workers))
@@ -78,7 +106,10 @@ def run_one(folder: Path, seed: int, kind: str, workers: int) -> dict[str, Any]:
             "causes": list(result.causes), "spread_sd_truth": sd,
             "spread_named": "specimen_variability" in result.causes,
             "spread_sd_fitted": result.specimen.sd, "spread_ci95": list(result.specimen.ci95),
-            "spread_within_35pc": sd > 0 and abs(result.specimen.sd - sd) <= 0.35 * sd,
+            "spread_sd_realised": realised, "by_specimen": by_specimen,
+            "spread_within_35pc": sd > 0 and abs(result.specimen.sd - realised)
+            <= 0.35 * realised,
+            "specimen_factors": {k: f.factor for k, f in result.specimen.specimens.items()},
             "material_causes_correct": sorted(named) == sorted(effects),
             "coverage": intervals.overall_coverage if intervals else float("nan"),
             "coverage_per_test": dict(zip(intervals.test_ids, intervals.coverage, strict=True))
@@ -90,8 +121,10 @@ def run_one(folder: Path, seed: int, kind: str, workers: int) -> dict[str, Any]:
 
 def run_spread_bench(seeds: Sequence[int], workers: int | None = None,
                      progress: Callable[[str], None] | None = None,
-                     kinds: Sequence[str] = KINDS) -> dict[str, Any]:
-    """Diagnose the sets of each seed and kind (module docstring): rows, entries, targets.
+                     kinds: Sequence[str] = KINDS, by_specimen: bool = False
+                     ) -> dict[str, Any]:
+    """Diagnose the sets of each seed and kind (module docstring; ``by_specimen``: sets that
+    name their specimens): rows, entries, targets.
 
     Raises:
         MeasurementError: no seed, or an unknown kind.
@@ -105,7 +138,8 @@ def run_spread_bench(seeds: Sequence[int], workers: int | None = None,
     with tempfile.TemporaryDirectory(prefix="bench-spread-") as scratch:
         for seed in seeds:
             for kind in kinds:
-                row = run_one(Path(scratch) / f"{kind}-{seed}", seed, kind, workers)
+                row = run_one(Path(scratch) / f"{kind}-{seed}", seed, kind, workers,
+                              by_specimen)
                 rows.append(row)
                 if progress is not None:
                     progress(f"seed {seed} {kind}: spread {row['spread_sd_truth']:.3f}, fitted "
@@ -154,7 +188,8 @@ def summarize(rows: list[dict[str, Any]], workers: int, seeds: list[int]) -> dic
                                              "pass": within >= TARGETS["spread_within_35pc"]}
     time_entries, time_targets = time_summary([r["seconds"] for r in rows],
                                               TARGET_SECONDS_MEDIAN, TARGET_SECONDS_PER_SET)
-    return {"suite": "diagnose", "kind": "spread", "workers": workers, "seeds": seeds,
+    kind = "spread-by-specimen" if any(r.get("by_specimen") for r in rows) else "spread"
+    return {"suite": "diagnose", "kind": kind, "workers": workers, "seeds": seeds,
             "sets": rows, "entries": {**time_entries, **entries},
             "targets": {**time_targets, **targets}, "markdown": markdown(rows)}
 

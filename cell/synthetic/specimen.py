@@ -106,12 +106,14 @@ class Digits:
 
 
 def csv_text(plans: Sequence[TestPlan], measured: Sequence[tuple[np.ndarray, np.ndarray]],
-              digits: Digits) -> str:
-    """The ``tests.csv`` text: a header, then one fixed-point row per sample."""
-    rows = [_HEADER]
-    for plan, (displacement, force) in zip(plans, measured, strict=True):
+             digits: Digits, specimens: Sequence[str] = ()) -> str:
+    """The ``tests.csv`` text: a header, then one fixed-point row per sample; with
+    ``specimens`` (one name per plan), a ``specimen`` column."""
+    rows = [_HEADER + (",specimen" if specimens else "")]
+    names = [f",{name}" for name in specimens] or [""] * len(plans)
+    for plan, (displacement, force), name in zip(plans, measured, names, strict=True):
         rows += [f"{plan.test_id},{plan.mode},{plan.angle_deg:g},{t:.{digits.time_s}f},"
-                 f"{d:.{digits.displacement_m}f},{f:.{digits.force_n}f}"
+                 f"{d:.{digits.displacement_m}f},{f:.{digits.force_n}f}{name}"
                  for t, d, f in zip(plan.time_s, displacement, force, strict=True)]
     return "\n".join(rows) + "\n"
 
@@ -233,12 +235,15 @@ class Repeats:
     """Tests repeated under equal conditions, each on another specimen: the first
     ``conditions`` tests of the protocol, ``count`` times each (ids ``<id>-<k>``), every test's
     force times its specimen's factor ``exp(u)``, ``u ~ N(0, spread_sd**2)`` (a factor on the
-    whole material: every term of the truth's stress scales with its modulus).
+    whole material: every term of the truth's stress scales with its modulus). With
+    ``named``, repeat k is one specimen ``S<k+1>`` that runs every kept test (one factor for
+    all of them), written in the ``specimen`` column.
 
     Attributes:
         conditions: tests of the protocol kept (1 to 10).
-        count: repeats of each (at least 1).
+        count: repeats of each (at least 1): with ``named``, the specimens.
         spread_sd: standard deviation of the log factor (0: one material throughout).
+        named: whether each repeat is a named specimen running every condition.
 
     Example:
         >>> Repeats(5, 3, 0.2).count
@@ -248,6 +253,15 @@ class Repeats:
     conditions: int = 10
     count: int = 3
     spread_sd: float = 0.0
+    named: bool = False
+
+    @property
+    def specimen_ids(self) -> tuple[str, ...]:
+        """Per repeated test (in :meth:`apply`'s order), its specimen's name; none unless
+        ``named``."""
+        if not self.named:
+            return ()
+        return tuple(f"S{k + 1}" for _ in range(self.conditions) for k in range(self.count))
 
     def __post_init__(self) -> None:
         if not (1 <= self.conditions <= 10 and self.count >= 1 and self.spread_sd >= 0.0):
@@ -259,6 +273,8 @@ class Repeats:
         """The repeated plans, their forces and the specimens' factors."""
         kept = range(self.conditions)
         factors = np.exp(rng.normal(0.0, self.spread_sd, self.conditions * self.count))
+        if self.named:
+            factors = np.tile(factors[:self.count], self.conditions)
         repeated = [replace(plans[i], test_id=f"{plans[i].test_id}-{k}")
                     for i in kept for k in range(self.count)]
         scaled = [forces[i] * factors[j] for j, i in
@@ -327,7 +343,8 @@ def write_hidden_effect_set(folder: Path, seed: int, effect: Effects = "random",
     write_set(folder,
               specimen_toml(_HIDDEN_HEADER, f"hidden-effect-{seed} (synthetic)", size,
                             {"machine": "uniaxial tester (synthetic)"}, HIDDEN_DIGITS),
-              csv_text(tests, measured, HIDDEN_DIGITS))
+              csv_text(tests, measured, HIDDEN_DIGITS,
+                       repeats.specimen_ids if repeats is not None else ()))
     return HiddenEffect(effects, seed, magnitudes, float(noise_n), factors)
 
 

@@ -35,7 +35,11 @@ material, the gain on held-out tests, and the evidence for each cause.
    specimens' scatter within each group of repeats taken out
    (:mod:`cell.diagnosis.specimen.repeatsearch`), and ``specimen_variability`` is named when the
    repeats disagree beyond the noise, its spread fitted as a random effect
-   (:mod:`cell.diagnosis.specimen.spread`).
+   (:mod:`cell.diagnosis.specimen.spread`). Where the tests name their specimens (the
+   ``specimen`` column: two or more, one of them with two or more tests), the held-out
+   scores leave whole specimens out, the steps judge each cause at each specimen's own
+   factor, and the spread is estimated across the specimens, one modulus factor each
+   (:mod:`cell.diagnosis.specimen.specimenids`).
 6. Each held-out prediction of the extended model gets a 90 % interval holding the specimen
    spread, the parameters' uncertainty and the model's discrepancy
    (:mod:`cell.diagnosis.specimen.intervals`), and the share of held-out samples they cover.
@@ -83,6 +87,7 @@ from cell.diagnosis.specimen.intervals import PredictionIntervals, prediction_in
 from cell.diagnosis.specimen.planeseries import Series, fitted_series, per_mode_rmse
 from cell.diagnosis.specimen.repeats import repeat_groups
 from cell.diagnosis.specimen.repeatsearch import RepeatSearch, at_own_factors
+from cell.diagnosis.specimen.specimenids import specimen_folds, spread_by_specimen
 from cell.diagnosis.specimen.spread import SpecimenSpread, specimen_spread
 from cell.errors import DiagnosisError
 from cell.measure.specimens import MeasurementSet, MechanicalTest
@@ -106,7 +111,8 @@ class Diagnosis(SearchOutcome):
         params: the settings it ran with.
         explored: every model the search fitted.
         specimen: the specimen spread between tests under equal conditions
-            (:mod:`cell.diagnosis.specimen.spread`).
+            (:mod:`cell.diagnosis.specimen.spread`), or across named specimens
+            (:mod:`cell.diagnosis.specimen.specimenids`).
         intervals: the extended model's held-out predictions with their 90 % intervals
             (:mod:`cell.diagnosis.specimen.intervals`).
         swaps: what the search's second look tried
@@ -235,7 +241,8 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
         raise DiagnosisError(measurements.folder / "tests.csv", "test_id",
                              f"one test ({tests[0].test_id}): the diagnosis holds each test "
                              "out in turn, so it needs at least two")
-    problem = Problem.of(measurements.specimen, tests, params.fit_samples)
+    specimens = specimen_folds(tests)
+    problem = Problem.of(measurements.specimen, tests, params.fit_samples, specimens)
     root = CandidateMaterial((), "exponential", _time_range_s(measurements), _RELAXATION_TERMS,
                              _stretch_range(measurements), oblique=True,
                              reference_strain=_reference_strain(measurements))
@@ -247,11 +254,13 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
             if params.workers > 1 else None)
     groups = repeat_groups(tests, measurements.specimen)
     try:
-        search = RepeatSearch(problem, params, root, pool, groups)
+        search = RepeatSearch(problem, params, root, pool, specimens or groups, bool(specimens))
         search.on_fit = on_fit
         baseline = search.run([(None, None)])[0]
         _require_runs(baseline)
-        floor = _judged_noise(search.plain(baseline), tests, noise, groups)
+        # At each named specimen's own factor, no spread is left between specimens.
+        floor = noise if specimens else _judged_noise(search.plain(baseline), tests, noise,
+                                                      groups)
         candidates = search.run([(baseline, c) for c in search.catalogue])
         current, steps, order = forward(search, baseline, candidates, floor)
         if unexplained(current, floor, params, tests):
@@ -270,7 +279,9 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
     order.sort(key=lambda c: -next(e.heldout_rmse_without_n for e in evidence if e.cause == c))
     evidence = tuple(sorted(evidence, key=lambda e: order.index(e.cause)))
     causes = tuple(order)
-    spread = specimen_spread(tests, current.fitted_force_n, current.offset_n, noise, groups)
+    spread = (spread_by_specimen(tests, current.fitted_force_n, current.offset_n, noise, groups,
+                                 specimens) if specimens else
+              specimen_spread(tests, current.fitted_force_n, current.offset_n, noise, groups))
     if spread.named:
         causes += (SPECIMEN_VARIABILITY,)
         evidence += (Evidence(SPECIMEN_VARIABILITY, judged.heldout_rmse_n,
@@ -278,7 +289,8 @@ def diagnose(measurements: MeasurementSet, params: DiagnosisParams | None = None
                               {"log_modulus_sd": (spread.sd, *spread.ci95)}, current, judged),)
     # With a spread named, what no specimen's factor explains is left, against the noise
     # alone (the factors took the group means' spread too); else, what the steps judged.
-    left = ((at_own_factors(current, tests, None), noise) if spread.named else (judged, floor))
+    left = ((at_own_factors(current, tests, specimens or None, bool(specimens)), noise)
+            if spread.named else (judged, floor))
     if unexplained(*left, params, tests):
         causes += (UNEXPLAINED,)
     intervals = prediction_intervals(problem, current, noise, spread.sd if spread.named else 0.0)

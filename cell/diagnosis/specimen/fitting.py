@@ -8,12 +8,14 @@ closed form (the simulated force is linear in both). Each test is simulated by
 :func:`~cell.diagnosis.specimen.solve.simulate_tests` with the muscles' own spring law.
 
 Held-out errors are leave-one-test-out: each test is predicted, at every sample, by the model
-refitted without it. The refit is one damped Gauss-Newton step from the fit on every test,
-on the Jacobian that fit ended with (its rows of the other tests), then E and the offset solved
-on the other tests again: the approximate leave-one-out of M-estimation, a refit's cost of one
-simulation instead of dozens. A step that fits the other tests worse than the fit it started
-from is not taken (a refit never ends worse than its start), so that a parameter the other
-tests hardly set stays where the full fit put it.
+refitted without it; where the tests name their specimens
+(:mod:`cell.diagnosis.specimen.specimenids`), leave-one-specimen-out: without every test of
+its specimen (the problem's ``folds``). The refit is one damped Gauss-Newton step from the
+fit on every test, on the Jacobian that fit ended with (its rows of the other tests), then E
+and the offset solved on the other tests again: the approximate leave-one-out of
+M-estimation, a refit's cost of one simulation instead of dozens. A step that fits the other
+tests worse than the fit it started from is not taken (a refit never ends worse than its
+start), so that a parameter the other tests hardly set stays where the full fit put it.
 
 The confidence intervals of the shape parameters come from the same Jacobian:
 ``s**2 (J^T J)^-1`` with ``s**2`` the residual variance, 95 % for a normal error.
@@ -96,18 +98,26 @@ class Problem:
             :class:`~cell.diagnosis.specimen.planeseries.PlaneSeries`).
         thinned: the same tests, ``fit_samples`` of them each.
         lattice: the specimen's spring lattice.
+        folds: the tests held out together (indices; each test alone when empty).
     """
 
     specimen: Specimen
     tests: tuple[Series, ...]
     thinned: tuple[Series, ...]
     lattice: SpecimenLattice
+    folds: tuple[tuple[int, ...], ...] = ()
 
     @classmethod
-    def of(cls, specimen: Specimen, tests: tuple[Series, ...], samples: int) -> Problem:
-        """The problem of ``tests``, thinned to about ``samples`` samples each."""
+    def of(cls, specimen: Specimen, tests: tuple[Series, ...], samples: int,
+           folds: list[list[int]] | None = None) -> Problem:
+        """The problem of ``tests``, thinned to about ``samples`` samples each, held out in
+        ``folds`` (each test alone when None or empty)."""
         return cls(specimen, tests, tuple(_thinned(t, samples) for t in tests),
-                   SpecimenLattice.of(specimen))
+                   SpecimenLattice.of(specimen), tuple(tuple(f) for f in folds or ()))
+
+    def fold_of(self, test: int) -> list[int]:
+        """The tests held out with ``test`` (itself included)."""
+        return next((list(f) for f in self.folds if test in f), [test])
 
     def unit_forces(self, model: CandidateMaterial, shape: np.ndarray,
                     tests: tuple[Series, ...]) -> list[np.ndarray] | None:
@@ -275,20 +285,24 @@ def _held_out(problem: Problem, model: CandidateMaterial, shape: np.ndarray,
     docstring); a refit whose material cannot run predicts zero force."""
 
     def predict(left_out: int, trial: np.ndarray, worst_rss: float) -> np.ndarray | None:
-        others = [i for i in range(len(problem.tests)) if i != left_out]
+        fold = problem.fold_of(left_out)
+        others = [i for i in range(len(problem.tests)) if i not in fold]
+        if not others:
+            return None
         measured = np.concatenate([problem.thinned[i].force_n for i in others])
         chosen = (*(problem.thinned[i] for i in others), problem.tests[left_out])
         return _fold(problem, model, trial, chosen, measured, worst_rss)
 
     return one_step_held_out([len(t.force_n) for t in problem.thinned],
                              [len(t.force_n) for t in problem.tests], shape, residual, jacobian,
-                             bounds, predict)
+                             bounds, predict, problem.fold_of)
 
 
 def one_step_held_out(sizes: list[int], lengths: list[int], shape: np.ndarray,
                       residual: np.ndarray, jacobian: np.ndarray,
                       bounds: tuple[np.ndarray, np.ndarray],
-                      predict: Callable[[int, np.ndarray, float], np.ndarray | None]
+                      predict: Callable[[int, np.ndarray, float], np.ndarray | None],
+                      fold_of: Callable[[int], list[int]] = lambda k: [k]
                       ) -> list[np.ndarray]:
     """The leave-one-test-out scheme of the module docstring, for any model whose fit ended
     at ``shape`` with ``residual`` and ``jacobian`` over tests of ``sizes`` fitted samples
@@ -296,12 +310,15 @@ def one_step_held_out(sizes: list[int], lengths: list[int], shape: np.ndarray,
     at every sample with the closed-form parameters solved on the other tests at the shape
     ``trial`` (None when that fits them worse than ``worst_rss``, or cannot run), first at
     the damped Gauss-Newton step without test k's rows, then at ``shape``; zero force when
-    neither gives one. The cut tests' fits use it too (:mod:`cell.diagnosis.cut.fitting`)."""
+    neither gives one; ``fold_of(k)`` are the tests whose rows the step leaves out with test k
+    (test k alone by default). The cut tests' fits use it too
+    (:mod:`cell.diagnosis.cut.fitting`)."""
     rows = np.split(np.arange(sum(sizes)), np.cumsum(sizes)[:-1])
     damping = _STEP_DAMPING * (np.diag(jacobian.T @ jacobian) + 1e-300) if len(shape) else None
     heldout = []
     for left_out in range(len(sizes)):
-        keep = np.concatenate([rows[i] for i in range(len(sizes)) if i != left_out]
+        fold = fold_of(left_out)
+        keep = np.concatenate([rows[i] for i in range(len(sizes)) if i not in fold]
                               or [np.zeros(0, dtype=int)])
         prediction = None
         if len(shape):

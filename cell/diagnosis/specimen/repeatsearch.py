@@ -12,6 +12,12 @@ group. The factors between conditions stay for the causes to explain (anisotropy
 angles), and a test without a repeat keeps its prediction. Without a spread the factors are
 noise and the judgement is the plain one.
 
+Where the tests name their specimens (:mod:`cell.diagnosis.specimen.specimenids`), each
+held-out prediction (the fit to the other specimens) is judged at its specimen's own factor,
+one factor for all of the specimen's tests (:func:`at_own_factors` with ``pooled``): the
+spread between specimens is taken out, and what differs between one specimen's conditions
+stays for the causes.
+
 The fits themselves are the search's own; only what :meth:`RepeatSearch.run` returns to the
 steps is judged so, and :meth:`RepeatSearch.plain` gives back the fit a judged one came from.
 
@@ -39,8 +45,8 @@ from cell.measure.specimens import MechanicalTest
 
 class RepeatSearch(SpecimenSearch):
     """A :class:`~cell.diagnosis.specimen.search.SpecimenSearch` whose fits are judged between
-    repeats (module docstring); ``groups`` are the tests under equal conditions; ``judging``
-    off returns the plain fits.
+    repeats (module docstring); ``groups`` are the tests under equal conditions, or, with
+    ``pooled``, the tests of each named specimen; ``judging`` off returns the plain fits.
 
     Example:
         >>> from cell.measure.specimens import load_measurement_set
@@ -54,9 +60,10 @@ class RepeatSearch(SpecimenSearch):
     """
 
     def __init__(self, problem: Problem, params: DiagnosisParams, root: CandidateMaterial,
-                 pool: Executor | None, groups: list[list[int]]) -> None:
+                 pool: Executor | None, groups: list[list[int]], pooled: bool = False) -> None:
         super().__init__(problem, params, root, pool)
-        self.groups = [g for g in groups if len(g) >= 2]
+        self.pooled = pooled
+        self.groups = groups if pooled else [g for g in groups if len(g) >= 2]
         self.judging = bool(self.groups)
         # Keyed by id, each with the fit it is keyed by (kept alive, so its id is not reused).
         self._judged: dict[int, tuple[ModelFit, ModelFit]] = {}
@@ -75,23 +82,36 @@ class RepeatSearch(SpecimenSearch):
     def judged(self, fit: ModelFit) -> ModelFit:
         """``fit`` with its held-out predictions at each specimen's factor within its group."""
         if id(fit) not in self._judged:
-            judged = at_own_factors(fit, self.problem.tests, self.groups)
+            judged = at_own_factors(fit, self.problem.tests, self.groups, self.pooled)
             self._judged[id(fit)] = (fit, judged)
             self._plain[id(judged)] = (judged, fit)
         return self._judged[id(fit)][1]
 
 
 def at_own_factors(fit: ModelFit, tests: tuple[MechanicalTest, ...],
-                   groups: list[list[int]] | None) -> ModelFit:
+                   groups: list[list[int]] | None, pooled: bool = False) -> ModelFit:
     """``fit`` with each held-out prediction at its specimen's factor relative to its group
     (module docstring; a test in no group keeps its prediction), or at its own factor outright
-    when ``groups`` is None (what is left then is what no specimen's factor explains)."""
+    when ``groups`` is None (what is left then is what no specimen's factor explains); with
+    ``pooled``, each group is a named specimen and its tests share its one factor, outright."""
     u, _ = log_factors(tests, fit.heldout_force_n, fit.offset_n, 0.0)
     shift = u.copy() if groups is None else np.zeros(len(tests))
     for group in groups or []:
-        shift[group] = u[group] - u[group].mean()
+        shift[group] = (_pooled_log_factor(fit, tests, group) if pooled
+                        else u[group] - u[group].mean())
     heldout = tuple(fit.offset_n + np.exp(s) * (h - fit.offset_n)
                     for s, h in zip(shift, fit.heldout_force_n, strict=True))
     errors = np.concatenate([h - t.force_n for h, t in zip(heldout, tests, strict=True)])
     return replace(fit, heldout_force_n=heldout,
                    heldout_rmse_n=float(np.sqrt(np.mean(errors**2))))
+
+
+def _pooled_log_factor(fit: ModelFit, tests: tuple[MechanicalTest, ...],
+                       group: list[int]) -> float:
+    """The one log factor on the held-out material forces of ``group`` that fits them best
+    together (:func:`cell.diagnosis.specimen.spread.log_factors`, pooled)."""
+    material = [fit.heldout_force_n[k] - fit.offset_n for k in group]
+    residual = [tests[k].force_n - fit.heldout_force_n[k] for k in group]
+    energy = max(sum(float(m @ m) for m in material), 1e-300)
+    gain = sum(float(m @ r) for m, r in zip(material, residual, strict=True))
+    return float(np.log(max(1.0 + gain / energy, 1e-3)))

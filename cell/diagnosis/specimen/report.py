@@ -231,7 +231,18 @@ def _interval_lines(diagnosis: Diagnosis) -> list[str]:
     the coverage of each test's samples by its interval, the parts of the intervals."""
     spread, intervals = diagnosis.specimen, diagnosis.intervals
     lines = ["## Specimens and predictions with intervals", ""]
-    if spread.groups:
+    if spread.specimens:
+        lines += [f"{len(spread.specimens)} named specimens, each held out whole; the spread "
+                  f"of their modulus factor: coefficient of variation {shown(spread.cv, '.3g')} "
+                  f"(sd of the log factor {shown(spread.sd, '.3g')} "
+                  f"{_interval_text(*spread.ci95)}), likelihood ratio "
+                  f"{shown(spread.likelihood_ratio, '.3g')} against none (named above "
+                  f"{spread.critical:.3g}).", "",
+                  "| specimen | modulus factor | 95 % interval | tests |", "|---|---|---|---|"]
+        lines += [f"| {name} | {f.factor:.3g} | {f.low:.3g} to {f.high:.3g} | "
+                  f"{', '.join(f.tests)} |" for name, f in spread.specimens.items()]
+        lines.append("")
+    elif spread.groups:
         lines += [f"{len(spread.groups)} groups of tests under equal conditions; the spread "
                   f"between their specimens (sd of the log modulus factor) "
                   f"{shown(spread.sd, '.3g')} {_interval_text(*spread.ci95)}, likelihood ratio "

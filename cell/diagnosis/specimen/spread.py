@@ -25,7 +25,7 @@ Example:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -46,6 +46,31 @@ _CI_LEVEL = 0.95
 
 
 @dataclass(frozen=True)
+class SpecimenFactor:
+    """One named specimen's modulus factor on the population's material
+    (:mod:`cell.diagnosis.specimen.specimenids`).
+
+    Attributes:
+        factor: ``exp(b)``, ``b`` its log factor's best linear unbiased prediction.
+        ci95: the 95 % interval of the factor.
+        tests: the specimen's test ids.
+
+    Example:
+        >>> SpecimenFactor(1.1, 0.9, 1.3, ("t00-1",)).to_json()["factor"]
+        1.1
+    """
+
+    factor: float
+    low: float
+    high: float
+    tests: tuple[str, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The factor, its interval and tests."""
+        return {"factor": self.factor, "ci95": [self.low, self.high], "tests": list(self.tests)}
+
+
+@dataclass(frozen=True)
 class SpecimenSpread:
     """The specimen spread of a set (module docstring).
 
@@ -58,6 +83,10 @@ class SpecimenSpread:
         critical: the ratio that names it.
         groups: test ids of each group of repeats (two or more tests).
         log_factors: per test id, the log factor its own force asks of the fit.
+        specimens: per named specimen, its modulus factor (empty unless the tests name
+            their specimens: :mod:`cell.diagnosis.specimen.specimenids`).
+        within_sd: with named specimens, the tests' own sd of the log factor within a
+            specimen beyond the noise.
 
     Example:
         >>> SpecimenSpread.absent().named
@@ -71,24 +100,47 @@ class SpecimenSpread:
     critical: float
     groups: tuple[tuple[str, ...], ...]
     log_factors: dict[str, float]
+    specimens: dict[str, SpecimenFactor] = field(default_factory=dict)
+    within_sd: float = 0.0
+
+    @property
+    def cv(self) -> float:
+        """The spread as the coefficient of variation of the modulus factor (lognormal)."""
+        return _cv(self.sd)
 
     @classmethod
     def absent(cls) -> SpecimenSpread:
         """No spread measured (no repeats)."""
-        return cls(False, 0.0, (math.nan, math.nan), 0.0, _critical(), (), {})
+        return cls(False, 0.0, (math.nan, math.nan), 0.0, critical_ratio(), (), {})
 
     def to_json(self) -> dict[str, Any]:
         """The JSON's ``specimen_variability`` entry."""
-        unbounded = NOT_IDENTIFIABLE if self.groups else "no tests repeat a condition"
+        unbounded = (NOT_IDENTIFIABLE if self.groups or self.specimens
+                     else "no tests repeat a condition")
         return {"named": self.named, **determined("log_modulus_sd", self.sd),
                 **determined("ci95", list(self.ci95), unbounded),
                 **determined("likelihood_ratio", self.likelihood_ratio),
                 "critical": self.critical,
                 "repeat_groups": [list(g) for g in self.groups],
-                "log_modulus_factors": determined_each(self.log_factors)}
+                "log_modulus_factors": determined_each(self.log_factors),
+                **({"by_specimen": self._by_specimen_json()} if self.specimens else {})}
+
+    def _by_specimen_json(self) -> dict[str, Any]:
+        """The spread across named specimens: the coefficient of variation with its
+        interval, the tests' own sd within a specimen, each specimen's factor."""
+        return {**determined("modulus_cv", self.cv),
+                **determined("modulus_cv_ci95", [_cv(x) for x in self.ci95]),
+                **determined("within_specimen_log_sd", self.within_sd),
+                "held_out": "leave-one-specimen-out",
+                "specimens": {name: f.to_json() for name, f in self.specimens.items()}}
 
 
-def _critical() -> float:
+def _cv(sd: float) -> float:
+    """The coefficient of variation of ``exp(u)``, ``u ~ N(0, sd**2)``."""
+    return math.sqrt(math.expm1(sd**2)) if math.isfinite(sd) else math.nan
+
+
+def critical_ratio() -> float:
     """The likelihood ratio whose chance under no spread is ``LEVEL`` (the boundary's mixture:
     half of the time the ratio is 0)."""
     return float(chi2.isf(2.0 * LEVEL, 1))
@@ -148,7 +200,7 @@ def specimen_spread(tests: tuple[MechanicalTest, ...], fitted_n: tuple[np.ndarra
     if not repeated:
         return replace(SpecimenSpread.absent(), log_factors=factors)
     sd, ratio, ci95 = reml_sd(u, v, repeated)
-    critical = _critical()
+    critical = critical_ratio()
     return SpecimenSpread(ratio > critical and sd >= MIN_SD, sd, ci95, ratio, critical,
                           tuple(tuple(tests[i].test_id for i in g) for g in repeated), factors)
 
