@@ -5,12 +5,13 @@ own changes). A bench on these batches checks that what the diagnosis names is w
 changed, at the size it was changed.
 
 Each hidden change edits the keys one log cause maps to
-(:func:`~cell.logs.causes.scenario_keys`, the table of docs/logs.md) by one drawn size: a
-factor on a number (every number of a list), the natural log of the factor added to ``aponeurosis.toughness_gradient``
-(the ratio of the seam's toughness at its two ends), an angle about the vertical for
-``material.fibre_direction``. Factors are drawn from 0.4 to 2.5, either way, half of them
-beyond 0.6 or 1.8 (:func:`draw_size`). Each log's meat is a shape drawn from the documented
-shape ranges (:func:`~cell.bench.shapes.documented_shape`), its episode seed its own.
+(:func:`~cell.logs.causes.scenario_keys`, the table of docs/logs.md) by one drawn size: a factor
+on a number (every number of a list), the natural log of the factor added to
+``aponeurosis.toughness_gradient`` (the ratio of the seam's toughness at its two ends), an angle
+about the vertical for ``material.fibre_direction``. Factors are drawn from 0.4 to 2.5, either
+way, half of them beyond 0.6 or 1.8 (:func:`draw_size`). Each log's meat is a shape drawn from
+the documented shape ranges (:func:`~cell.bench.shapes.documented_shape`), its episode seed its
+own.
 
 Example:
     >>> import tempfile
