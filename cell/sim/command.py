@@ -101,7 +101,6 @@ def run_command(args: argparse.Namespace) -> int:
     from cell.outputs import write_json
     from cell.sim.episode import Episode
     from cell.sim.episodelog import LoggedEpisode, write_log
-    from cell.sim.liveview import LiveView
     from cell.sim.profiled import add_mujoco_stages, episode_profile, start_episode
     from cell.sim.trajectory import TrajectorySampler
     from cell.sim.trajectoryfiles import check_trajectory_path, limits_path
@@ -115,8 +114,11 @@ def run_command(args: argparse.Namespace) -> int:
                    args.log and Output(args.log, "--log", folder=True, whole=True,
                                        marks=("log.toml",))],
                   [args.scenario])
-    view = (LiveView(args.view, args.grpc_port, args.web_port, args.view_hold) if args.view
-            else None)
+    view = None
+    if args.view:
+        from cell.sim.liveview import LiveView  # Rerun loads only when a view is asked for
+
+        view = LiveView(args.view, args.grpc_port, args.web_port, args.view_hold)
     with episode_profile(args.profile) as profile:
         episode = start_episode(load(args), LoggedEpisode if args.log else Episode)
         sampler = TrajectorySampler.attach(episode) if args.trajectory else None

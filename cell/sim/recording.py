@@ -27,6 +27,9 @@ from cell.sim.liveview import LiveView
 
 _RELEASE_COLOURS = {"knife": [255, 200, 0], "tearing": [255, 60, 200],
                     "force": [60, 200, 255]}
+#: Frames of body poses and time series held before they are sent as columns (one
+#: ``send_columns`` per entity instead of one ``log`` per entity and frame).
+FRAMES_PER_BATCH = 64
 #: Mean curvature (1/m) shown at full colour in the perception mesh.
 _CURVATURE_SCALE_1_M = 30.0
 
@@ -86,6 +89,9 @@ class EpisodeRecorder:
         self._bodies = [b for b in range(1, self.model.nbody)
                         if b not in tissue and self.model.body_geomnum[b] > 0]
         self._executed: list[np.ndarray] = []
+        self._frame_times_s: list[float] = []
+        self._poses: list[tuple[np.ndarray, np.ndarray]] = []
+        self._scalars: dict[str, tuple[list[float], list[float]]] = {}
         self._log_static()
 
     def _geom_archetype(self, g: int) -> rr.AsComponents | None:
@@ -173,10 +179,10 @@ class EpisodeRecorder:
         """Body poses, muscle surfaces, bindings, executed path and time series, at
         ``data.time``."""
         m, s, scene = self.model, self.stream, self.scene
-        self.set_time(float(data.time))
-        for b in self._bodies:
-            s.log(_entity(m.body(b).name), rr.Transform3D(
-                translation=data.xpos[b], quaternion=_xyzw(data.xquat[b])))
+        time_s = float(data.time)
+        self.set_time(time_s)
+        self._frame_times_s.append(time_s)
+        self._poses.append((data.xpos[self._bodies].copy(), _xyzw(data.xquat[self._bodies])))
         for muscle in ("round", "shank"):
             f = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, muscle)
             start = m.flex_vertadr[f]
@@ -196,7 +202,29 @@ class EpisodeRecorder:
         s.log("world/knife_path/executed", rr.LineStrips3D(
             [np.array(self._executed)], colors=[[255, 80, 0]], radii=0.001))
         for name, value in scalars.items():
-            s.log(name, rr.Scalars(float(value)))
+            times, values = self._scalars.setdefault(name, ([], []))
+            times.append(time_s)
+            values.append(float(value))
+        if len(self._frame_times_s) >= FRAMES_PER_BATCH:
+            self._send_batch()
+
+    def _send_batch(self) -> None:
+        """Send the held body poses and time series as columns on ``sim_time``."""
+        if self._frame_times_s:
+            times = rr.TimeColumn("sim_time", duration=self._frame_times_s)
+            translations = np.stack([t for t, _ in self._poses], axis=1)
+            quaternions = np.stack([q for _, q in self._poses], axis=1)
+            for i, b in enumerate(self._bodies):
+                self.stream.send_columns(_entity(self.model.body(b).name), indexes=[times],
+                                         columns=rr.Transform3D.columns(
+                                             translation=translations[i],
+                                             quaternion=quaternions[i]))
+        for name, (times_s, values) in self._scalars.items():
+            if times_s:
+                column = rr.TimeColumn("sim_time", duration=times_s)
+                self.stream.send_columns(name, indexes=[column],
+                                         columns=rr.Scalars.columns(scalars=values))
+        self._frame_times_s, self._poses, self._scalars = [], [], {}
 
     def log_camera(self, data: mujoco.MjData, rig: CameraRig) -> None:
         """The camera's pose, intrinsics, RGB and metric depth at ``data.time``."""
@@ -213,6 +241,7 @@ class EpisodeRecorder:
     def close(self) -> Path | None:
         """Flush, hold a served live view (:meth:`LiveView.hold`), and move the recording into
         place (None: no file)."""
+        self._send_batch()
         self.stream.flush()
         if self.view is not None:
             try:
