@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
 from cell.diagnosis.engine.outcome import Evidence
 from cell.logs.fit import FORCE_CHANNELS, Rows, heldout, rmse_n, solve
 from cell.logs.search import OFFSET, fixed
@@ -94,8 +95,9 @@ class Indistinguishable:
     def to_json(self) -> dict[str, Any]:
         """The JSON's ``indistinguishable`` entry."""
         return {"cause": self.cause, "alternative": self.alternative,
-                "heldout_rmse_N": self.heldout_rmse_n,
-                "alternative_heldout_rmse_N": self.alternative_heldout_rmse_n,
+                **determined("heldout_rmse_N", self.heldout_rmse_n, NOT_PREDICTED),
+                **determined("alternative_heldout_rmse_N", self.alternative_heldout_rmse_n,
+                             NOT_PREDICTED),
                 "differs_most": self.differs_most}
 
 
