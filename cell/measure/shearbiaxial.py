@@ -60,10 +60,26 @@ Loads = dict[str, tuple[np.ndarray, float]]
 """Each measured force's column: the force, N, and the area it acts on, m^2."""
 
 
-def _frozen(array: object) -> np.ndarray:
-    values = np.array(array, dtype=float)
-    values.setflags(write=False)
-    return values
+def freeze_arrays(test: object, names: Sequence[str]) -> None:
+    """Each of ``test``'s (a frozen dataclass) attributes ``names`` that is set as a read-only
+    float array."""
+    for name in names:
+        if getattr(test, name) is not None:
+            values = np.array(getattr(test, name), dtype=float)
+            values.setflags(write=False)
+            object.__setattr__(test, name, values)
+
+
+def _sample_values(table: CsvTable, groups: dict[str, list[int]],
+                   numbers: dict[str, Plausible], also: Sequence[str] = ()
+                   ) -> tuple[CsvTable, dict[str, list[int]], dict[str, np.ndarray]]:
+    """The columns ``also`` and ``numbers`` required, the table and ``groups`` as
+    :func:`rows_of` gives them, and the time and each of ``numbers`` read as plausible
+    numbers."""
+    require_columns(table, (*also, *numbers))
+    table, groups = rows_of(table, groups)
+    return table, groups, {name: table.numbers(name, plausible.refusal)
+                           for name, plausible in {"time_s": TIME_S, **numbers}.items()}
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,9 +118,7 @@ class ShearTest(OwnSize):
         if self.shear_plane not in SHEAR_PLANES:
             raise InputError(None, "shear_plane", f"must be one of {', '.join(SHEAR_PLANES)}, "
                              f"got {self.shear_plane!r}")
-        for name in ("time_s", "displacement_m", "force_n", "normal_force_n"):
-            if getattr(self, name) is not None:
-                object.__setattr__(self, name, _frozen(getattr(self, name)))
+        freeze_arrays(self, ("time_s", "displacement_m", "force_n", "normal_force_n"))
 
     @property
     def fibre_axis(self) -> int:
@@ -167,8 +181,8 @@ class BiaxialTest(OwnSize):
     size_m: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        for name in ("time_s", "displacement_m", "displacement_x_m", "force_n", "force_x_n"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        freeze_arrays(self, ("time_s", "displacement_m", "displacement_x_m", "force_n",
+                             "force_x_n"))
 
     def strains(self, size_m: Sequence[float]) -> np.ndarray:
         """(n, 2) nominal strains at the samples: along z, then along x."""
@@ -195,10 +209,7 @@ def read_shear_tests(table: CsvTable, groups: dict[str, list[int]]) -> tuple[She
     """
     if not groups:
         return ()
-    require_columns(table, ("shear_plane", *_SHEAR_NUMBERS))
-    table, groups = rows_of(table, groups)
-    values = {name: table.numbers(name, plausible.refusal)
-              for name, plausible in {"time_s": TIME_S, **_SHEAR_NUMBERS}.items()}
+    table, groups, values = _sample_values(table, groups, _SHEAR_NUMBERS, ("shear_plane",))
     tests = []
     for test_id, rows in groups.items():
         check_rows(table, test_id, rows, values["time_s"][rows])
@@ -253,10 +264,7 @@ def read_biaxial_tests(table: CsvTable, groups: dict[str, list[int]]
     """
     if not groups:
         return ()
-    require_columns(table, tuple(_BIAXIAL_NUMBERS))
-    table, groups = rows_of(table, groups)
-    values = {name: table.numbers(name, plausible.refusal)
-              for name, plausible in {"time_s": TIME_S, **_BIAXIAL_NUMBERS}.items()}
+    table, groups, values = _sample_values(table, groups, _BIAXIAL_NUMBERS)
     tests = []
     for test_id, rows in groups.items():
         check_rows(table, test_id, rows, values["time_s"][rows])

@@ -58,6 +58,7 @@ from cell.measure.shearbiaxial import (
     BiaxialTest,
     Loads,
     ShearTest,
+    freeze_arrays,
     read_biaxial_tests,
     read_shear_tests,
 )
@@ -167,10 +168,7 @@ class MechanicalTest(OwnSize):
     size_m: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        for name in ("time_s", "displacement_m", "force_n"):
-            array = np.array(getattr(self, name), dtype=float)
-            array.setflags(write=False)
-            object.__setattr__(self, name, array)
+        freeze_arrays(self, ("time_s", "displacement_m", "force_n"))
 
     @property
     def force_N(self) -> np.ndarray:
