@@ -10,7 +10,7 @@ cell's own springs with that cause (:class:`~cell.diagnosis.specimen.causes.Cand
 simulates (:mod:`cell.diagnosis.specimen.shearbiaxial`, :mod:`cell.diagnosis.specimen.solve`),
 so the sets hold no model error; Gaussian noise of 1 % of each column's peak, and a hidden load
 cell's offset on every force column. The protocols, each what a lab runs (ramps at a base rate
-of 1/20 of the peak a second, a ramp ten times faster, ramp-and-hold relaxations to 100 s at
+of 1/20 of the peak a second, a ramp ten times faster, ramp-and-hold relaxations to 300 s at
 two strains, two load-unload cycles):
 
 - ``shear``: the six simple shear modes (fs, fn, sf, sn, nf, ns) to gamma 0.2, and in fs a
@@ -60,7 +60,7 @@ PLANE_KINDS: tuple[str, ...] = ("shear", "biaxial", "mixed")
 NOISE_FRACTION = 0.01
 _HEADER = ("test_id,mode,angle_deg,time_s,displacement_m,force_N,shear_plane,normal_force_N,"
            "displacement_x_m,force_x_N")
-_RAMP_S, _HOLD_S, _SAMPLES = 20.0, 100.0, 41
+_RAMP_S, _HOLD_S, _SAMPLES = 20.0, 300.0, 41
 
 
 @dataclass(frozen=True)
@@ -167,8 +167,13 @@ class PlaneTruth:
 
     def reported(self) -> dict[str, float]:
         """The truth's parameters as a diagnosis reports the fitted ones
-        (:meth:`~cell.diagnosis.specimen.causes.CandidateMaterial.reported`)."""
-        return self.model.reported(self.shape, self.modulus_pa, self.offset_n)
+        (:meth:`~cell.diagnosis.specimen.causes.CandidateMaterial.reported`), those its kind
+        can show: a biaxial set only stretches, so not the springs' moduli or stiffening in
+        compression."""
+        reported = self.model.reported(self.shape, self.modulus_pa, self.offset_n)
+        if self.kind == "biaxial":
+            return {name: v for name, v in reported.items() if "compression" not in name}
+        return reported
 
 
 Tests = tuple[list[ShearTest], list[BiaxialTest], list[MechanicalTest]]
