@@ -51,7 +51,7 @@ from cell.diagnosis.specimen.shearbiaxial import simulate_biaxial, simulate_shea
 from cell.diagnosis.specimen.solve import SpecimenLattice, simulate_tests
 from cell.errors import MeasurementError
 from cell.measure.shearbiaxial import BiaxialTest, ShearTest
-from cell.measure.specimens import MechanicalTest, Specimen
+from cell.measure.specimens import MechanicalTest, Mode, Specimen
 from cell.synthetic.specimen import ASPECT_SPREAD, DENSITY_KG_M3, write_set
 from cell.synthetic.truth import draw_magnitudes
 
@@ -177,6 +177,8 @@ class PlaneTruth:
 
 
 Tests = tuple[list[ShearTest], list[BiaxialTest], list[MechanicalTest]]
+#: A test with its forces by column.
+Run = tuple[ShearTest | BiaxialTest | MechanicalTest, dict[str, np.ndarray]]
 
 
 def _histories() -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -204,11 +206,10 @@ def _tests(kind: str, size_m: np.ndarray) -> Tests:
         return BiaxialTest(test_id, 0.0, time, z * height * path, x * width * path,
                            0.0 * time, 0.0 * time)
 
-    def uniaxial(test_id: str, mode: str, angle: float, history: str, strain: float
+    def uniaxial(test_id: str, mode: Mode, angle: float, history: str, strain: float
                  ) -> MechanicalTest:
         time, path = shape[history]
-        return MechanicalTest(test_id, mode, angle, time, strain * height * path,  # type: ignore[arg-type]
-                              0.0 * time)
+        return MechanicalTest(test_id, mode, angle, time, strain * height * path, 0.0 * time)
 
     if kind == "shear":
         planes = ("fs", "fn", "sf", "sn", "nf", "ns")
@@ -233,13 +234,12 @@ def _tests(kind: str, size_m: np.ndarray) -> Tests:
              uniaxial("y00", "cyclic", 0.0, "cycles", 0.1)])
 
 
-def _columns(tests: Tests, specimen: Specimen, truth: PlaneTruth
-             ) -> list[tuple[object, dict[str, np.ndarray]]]:
+def _columns(tests: Tests, specimen: Specimen, truth: PlaneTruth) -> list[Run]:
     """Each test with its forces under the truth, noise-free, by column."""
     material = truth.model.material(truth.shape, truth.modulus_pa, DENSITY_KG_M3)
     lattice = SpecimenLattice.of(specimen)
     shear, biaxial, uniaxial = tests
-    runs: list[tuple[object, dict[str, np.ndarray]]] = [
+    runs: list[Run] = [
         (t, simulate_shear(t, specimen, material, lattice).force_n) for t in shear]
     runs += [(t, simulate_biaxial(t, specimen, material, lattice).force_n) for t in biaxial]
     runs += [(t, {"force_N": run.force_n}) for t, run in
@@ -247,15 +247,14 @@ def _columns(tests: Tests, specimen: Specimen, truth: PlaneTruth
     return runs
 
 
-def _rows(runs: list[tuple[object, dict[str, np.ndarray]]], offset_n: float,
-          rng: np.random.Generator) -> list[str]:
+def _rows(runs: list[Run], offset_n: float, rng: np.random.Generator) -> list[str]:
     """The ``tests.csv`` rows: every force column with the offset and noise."""
     rows = []
     for test, clean in runs:
         f = {name: force + offset_n
              + rng.normal(0.0, NOISE_FRACTION * float(np.abs(force).max()), len(force))
              for name, force in clean.items()}
-        t, d = test.time_s, test.displacement_m  # type: ignore[attr-defined]
+        t, d = test.time_s, test.displacement_m
         if isinstance(test, ShearTest):
             rows += [f"{test.test_id},shear,,{t[i]:.3f},{d[i]:.9f},{f['force_N'][i]:.9f},"
                      f"{test.shear_plane},{f['normal_force_N'][i]:.9f},," for i in range(len(t))]
@@ -264,7 +263,7 @@ def _rows(runs: list[tuple[object, dict[str, np.ndarray]]], offset_n: float,
                      f"{test.displacement_x_m[i]:.9f},{f['force_x_N'][i]:.9f}"
                      for i in range(len(t))]
         else:
-            rows += [f"{test.test_id},{test.mode},{test.angle_deg:g},{t[i]:.3f},{d[i]:.9f},"  # type: ignore[attr-defined]
+            rows += [f"{test.test_id},{test.mode},{test.angle_deg:g},{t[i]:.3f},{d[i]:.9f},"
                      f"{f['force_N'][i]:.9f},,,," for i in range(len(t))]
     return rows
 
