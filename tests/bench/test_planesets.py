@@ -10,6 +10,7 @@ import pytest
 from cell.bench.planesets import (
     FIRST_SEED,
     bench_seeds,
+    by_time,
     parameter_errors,
     plane_bench,
     plane_report,
@@ -73,3 +74,11 @@ def test_a_bench_row_names_its_set_and_scores_it() -> None:
     assert (row["kind"], row["truth"]) == ("biaxial", ["plasticity"])
     assert set(row["parameter_errors"]) == {"young_pa", "yield_strain", "hardening"}
     assert row["exact"] and row["worst_parameter_error"] <= 0.15 and row["seconds"] > 0.0
+
+
+def test_relaxation_terms_are_compared_shortest_first() -> None:
+    truth = {"relaxation_weight_0": 0.3, "relaxation_time_0_s": 2.0,
+             "relaxation_weight_1": 0.2, "relaxation_time_1_s": 40.0}
+    swapped = {"relaxation_weight_0": 0.2, "relaxation_time_0_s": 40.0,
+               "relaxation_weight_1": 0.3, "relaxation_time_1_s": 2.0}
+    assert set(parameter_errors(by_time(truth), by_time(swapped)).values()) == {0.0}
