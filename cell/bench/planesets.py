@@ -2,14 +2,15 @@
 on synthetic shear, biaxial and mixed sets that hide one cause of the catalogue or nothing
 (:mod:`cell.synthetic.planesets`), on seeds the tests never use.
 
-Each kind's sets hide, in turn, every cause it can show (:data:`HIDDEN_CAUSES`: a biaxial set
-shows neither an asymmetry nor orthotropy) and nothing, one set per seed. A hidden set is exact
-when the diagnosis names its cause alone; its parameters are within 15 % when every parameter
-of the truth as the diagnosis reports them (:meth:`PlaneTruth.reported`: E and the cause's
-own, e.g. E_s / E_n, the relaxation's weights and times with its terms shortest first, the
-offset) is within 15 % of the fitted one; an unchanged set is right when nothing is named.
-Targets (issue 51): >= 95 % exact, parameters within 15 %, nothing named on >= 9 of 10
-unchanged sets, a set in <= 20 s (median).
+Each kind's sets hide, in turn, every cause it can show
+(:data:`~cell.synthetic.planesets.HIDDEN_CAUSES`: a biaxial set shows neither an asymmetry nor
+orthotropy) and nothing, one set per seed. A hidden set is exact when the diagnosis names its
+cause alone; its parameters are within 15 % when every parameter of the truth as the diagnosis
+reports them (:meth:`~cell.synthetic.planesets.PlaneTruth.reported`: E and the cause's own,
+e.g. E_s / E_n, the relaxation's weights and times with its terms shortest first, the offset)
+is within 15 % of the fitted one; an unchanged set is right when nothing is named. Targets
+(issue 51): >= 95 % exact, parameters within 15 %, nothing named on >= 9 of 10 unchanged sets,
+a set in <= 20 s (median).
 
 Usage::
 

@@ -5,8 +5,9 @@ Each set is drawn from one seed: a near-cubic specimen, a baseline modulus E and
 cause's magnitudes drawn as the uniaxial hidden-effect sets draw them
 (:func:`cell.synthetic.truth.draw_magnitudes`; orthotropy, which uniaxial sets cannot show,
 draws E_s / E_n from 1.5 to 2.7 or its inverse, log-uniform, either sign). The truth is the
-cell's own springs with that cause (:class:`~cell.diagnosis.specimen.causes.CandidateMaterial`,
-:data:`HIDDEN_CAUSES` maps the magnitudes onto its parameters), simulated as the diagnosis
+cell's own springs with that cause
+(:class:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial`, :data:`HIDDEN_CAUSES`
+maps the magnitudes onto its parameters), simulated as the diagnosis
 simulates (:mod:`cell.diagnosis.specimen.shearbiaxial`, :mod:`cell.diagnosis.specimen.solve`),
 so the sets hold no model error; Gaussian noise of 1 % of each column's peak, and a hidden load
 cell's offset on every force column. The protocols, each what a lab runs (ramps at a base rate
@@ -66,8 +67,8 @@ _RAMP_S, _HOLD_S, _SAMPLES = 20.0, 300.0, 41
 @dataclass(frozen=True)
 class HiddenCause:
     """How a plane set hides one cause: the kinds that can show it, its truth parameters
-    (:class:`~cell.diagnosis.specimen.causes.CandidateMaterial`'s, by name) from the drawn
-    magnitudes, and its own draw where the uniaxial sets do not draw it.
+    (:class:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial`'s, by name) from the
+    drawn magnitudes, and its own draw where the uniaxial sets do not draw it.
 
     Example:
         >>> HIDDEN_CAUSES["plasticity"].shape({"yield_strain": 0.03, "tangent_ratio": 0.2})
@@ -167,9 +168,9 @@ class PlaneTruth:
 
     def reported(self) -> dict[str, float]:
         """The truth's parameters as a diagnosis reports the fitted ones
-        (:meth:`~cell.diagnosis.specimen.causes.CandidateMaterial.reported`), those its kind
-        can show: a biaxial set only stretches, so not the springs' moduli or stiffening in
-        compression."""
+        (:meth:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial.reported`), those
+        its kind can show: a biaxial set only stretches, so not the springs' moduli or
+        stiffening in compression."""
         reported = self.model.reported(self.shape, self.modulus_pa, self.offset_n)
         if self.kind == "biaxial":
             return {name: v for name, v in reported.items() if "compression" not in name}
