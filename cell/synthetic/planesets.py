@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -77,7 +77,7 @@ class HiddenCause:
 
     kinds: tuple[str, ...]
     shape: Callable[[dict[str, float]], dict[str, float]]
-    draw: Callable[[np.random.Generator], dict[str, float]] | None = field(default=None)
+    draw: Callable[[np.random.Generator], dict[str, float]] | None = None
 
 
 def _relaxation(m: dict[str, float]) -> dict[str, float]:
