@@ -77,6 +77,10 @@ class ModulusCurve:
         if self.exponent and any(coefficients[1:]):
             raise MaterialError(None, "coefficients",
                                 "an exponential curve takes coefficients[0] only, the rest 0")
+        # A constant or exponential modulus is lowest at r = 1: positive where E(1) is (the
+        # search over the range is most of the cost of a curve, and a fit makes thousands).
+        if self.coefficients[0] > 0.0 and not any(self.coefficients[1:]):
+            return
         lowest, where = self._minimum()
         if not lowest > 0.0:
             raise MaterialError(
