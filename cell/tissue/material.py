@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
@@ -265,6 +266,12 @@ class MassSpringMaterial:
             >>> MassSpringMaterial().in_compression() == MassSpringMaterial()
             True
         """
+        return self if self.symmetric else self._compressed
+
+    @cached_property
+    def _compressed(self) -> MassSpringMaterial:
+        """:meth:`in_compression` of an asymmetric material, made once: every spring law of it
+        asks."""
         oblique = self.oblique if self.oblique_compression is None else self.oblique_compression
         return replace(self, longitudinal=self.longitudinal_compression or self.longitudinal,
                        transverse=self.transverse_compression or self.transverse,
