@@ -197,6 +197,22 @@ class AffineLattice:
                 f"({math.exp(lo + target):.3g} to {math.exp(hi + target):.3g})")
         return math.exp(brentq(mismatch, -_LOG_SHEET_BOUND, _LOG_SHEET_BOUND, xtol=1e-10))
 
+    def calibration_factors(self, material: MassSpringMaterial,
+                            sheet_factor: float = 1.0) -> tuple[float, float]:
+        """:func:`calibration_factors` of ``material`` on this lattice."""
+        el = material.longitudinal.small_strain_modulus_pa
+        et = material.transverse.small_strain_modulus_pa
+        el_in, et_in = self.calibrated(el, et, sheet_factor)
+        return el_in / el, et_in / et
+
+    def sheet_factor(self, material: MassSpringMaterial) -> float:
+        """:func:`sheet_factor` of ``material`` on this lattice."""
+        if not material.orthotropic:
+            return 1.0
+        return self.sheet_calibrated(material.longitudinal.small_strain_modulus_pa,
+                                     material.transverse.small_strain_modulus_pa,
+                                     material.sheet_over_normal)
+
 
 def calibration_factors(
     points: np.ndarray,
@@ -223,16 +239,15 @@ def calibration_factors(
         >>> [round(f, 3) for f in factors]
         [0.738, 0.738]
     """
-    lattice = _lattice(points, edges, edge_volume_m3, material, along, sheet_along)
-    el = material.longitudinal.small_strain_modulus_pa
-    et = material.transverse.small_strain_modulus_pa
-    el_in, et_in = lattice.calibrated(el, et, sheet_factor)
-    return el_in / el, et_in / et
+    return affine_lattice(points, edges, edge_volume_m3, material, along,
+                          sheet_along).calibration_factors(material, sheet_factor)
 
 
-def _lattice(points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
-             material: MassSpringMaterial, along: np.ndarray | Sequence[float],
-             sheet_along: np.ndarray | Sequence[float] | None) -> AffineLattice:
+def affine_lattice(points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
+                   material: MassSpringMaterial, along: np.ndarray | Sequence[float],
+                   sheet_along: np.ndarray | Sequence[float] | None) -> AffineLattice:
+    """The :class:`AffineLattice` that calibrates ``material`` with fibres ``along`` and sheets
+    ``sheet_along``: it depends on the material's ``oblique`` and ``orthotropic`` alone."""
     # A transversely isotropic material keeps the frame across its fibres it always had.
     orthotropic = sheet_along is not None and material.orthotropic
     sheet = np.asarray(sheet_along, dtype=float) if orthotropic else None
@@ -255,12 +270,8 @@ def sheet_factor(
     Raises:
         MaterialError: ``sheet_over_normal`` (or ``longitudinal``) beyond the lattice's reach.
     """
-    if not material.orthotropic:
-        return 1.0
-    lattice = _lattice(points, edges, edge_volume_m3, material, along, sheet_along)
-    return lattice.sheet_calibrated(material.longitudinal.small_strain_modulus_pa,
-                                    material.transverse.small_strain_modulus_pa,
-                                    material.sheet_over_normal)
+    return affine_lattice(points, edges, edge_volume_m3, material, along,
+                          sheet_along).sheet_factor(material)
 
 
 def calibrated_law(
