@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import brentq
@@ -130,6 +131,8 @@ class AffineLattice:
         self.quartic = u[:, _VOIGT[:, 0]] * u[:, _VOIGT[:, 1]]
         self.edge_volume_m3 = edge_volume_m3
         self.volume_m3 = float(edge_volume_m3.sum()) / len(_TET_EDGES)
+        # Every calibration on this lattice starts at the same two ends of its bracket.
+        self._log_anisotropy = lru_cache(maxsize=64)(self._log_anisotropy_at)
 
     def axial_moduli(self, el_pa: float, et_pa: float,
                      sheet_factor: float = 1.0) -> tuple[float, float, float]:
@@ -141,8 +144,9 @@ class AffineLattice:
         if sheet_factor != 1.0:
             weight = weight * sheet_gain(sheet_factor, self.sheet_sq)
         stiffness = (self.quartic * weight[:, None]).T @ self.quartic / self.volume_m3
-        compliance = np.diag(np.linalg.inv(stiffness))
-        return float(1.0 / compliance[0]), float(1.0 / compliance[1]), float(1.0 / compliance[2])
+        compliance = np.linalg.inv(stiffness)
+        return (float(1.0 / compliance[0, 0]), float(1.0 / compliance[1, 1]),
+                float(1.0 / compliance[2, 2]))
 
     def moduli(self, el_pa: float, et_pa: float,
                sheet_factor: float = 1.0) -> tuple[float, float]:
@@ -159,8 +163,7 @@ class AffineLattice:
         target = math.log(el_pa / et_pa)
 
         def mismatch(log_ratio: float) -> float:
-            el, et = self.moduli(math.exp(log_ratio), 1.0, sheet_factor)
-            return math.log(el / et) - target
+            return self._log_anisotropy(log_ratio, sheet_factor) - target
 
         lo, hi = mismatch(-_LOG_RATIO_BOUND), mismatch(_LOG_RATIO_BOUND)
         if lo > 0 or hi < 0:
@@ -174,6 +177,11 @@ class AffineLattice:
         ratio = math.exp(brentq(mismatch, -_LOG_RATIO_BOUND, _LOG_RATIO_BOUND, xtol=1e-12))
         scale = et_pa / self.moduli(ratio, 1.0, sheet_factor)[1]
         return ratio * scale, scale
+
+    def _log_anisotropy_at(self, log_ratio: float, sheet_factor: float) -> float:
+        """log(El / Et) of the lattice whose Eq. 10 springs have El / Et = exp(``log_ratio``)."""
+        el, et = self.moduli(math.exp(log_ratio), 1.0, sheet_factor)
+        return math.log(el / et)
 
     def sheet_calibrated(self, el_pa: float, et_pa: float, sheet_over_normal: float) -> float:
         """The sheet factor k for which the lattice, calibrated to ``el_pa`` and ``et_pa``
