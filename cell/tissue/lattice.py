@@ -29,6 +29,7 @@ tests (:mod:`cell.diagnosis.specimen.solve`) share it.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 from functools import lru_cache
@@ -127,12 +128,22 @@ class AffineLattice:
         u = d / np.linalg.norm(d, axis=1, keepdims=True) @ _fibre_frame(fibre, sheet).T
         self.cos_sq = u[:, 0] ** 2
         self.sheet_sq = u[:, 1] ** 2
-        self.oblique_gain = oblique_gain(oblique, self.cos_sq)
         self.quartic = u[:, _VOIGT[:, 0]] * u[:, _VOIGT[:, 1]]
         self.edge_volume_m3 = edge_volume_m3
         self.volume_m3 = float(edge_volume_m3.sum()) / len(_TET_EDGES)
+        self._set_oblique(oblique)
+
+    def _set_oblique(self, oblique: float) -> None:
+        self.oblique_gain = oblique_gain(oblique, self.cos_sq)
         # Every calibration on this lattice starts at the same two ends of its bracket.
         self._log_anisotropy = lru_cache(maxsize=64)(self._log_anisotropy_at)
+
+    def with_oblique(self, oblique: float) -> AffineLattice:
+        """This lattice with the oblique springs' factor ``oblique``: its geometry, the most
+        of its cost, kept."""
+        lattice = copy.copy(self)
+        lattice._set_oblique(oblique)
+        return lattice
 
     def axial_moduli(self, el_pa: float, et_pa: float,
                      sheet_factor: float = 1.0) -> tuple[float, float, float]:

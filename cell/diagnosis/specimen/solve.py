@@ -125,11 +125,12 @@ class SpecimenLattice:
     edges: np.ndarray
     edge_volume_m3: np.ndarray
     # Calibration factors and sheet factor by (El / Et, oblique, E_s / E_n), and the affine
-    # lattices that calibrate by (oblique, orthotropic): they depend on nothing else, and a
-    # diagnosis asks for the same ones thousands of times.
+    # lattices that calibrate by (oblique, orthotropic) and their geometry by orthotropy: they
+    # depend on nothing else, and a diagnosis asks for the same ones thousands of times.
     _factors: dict[tuple[float, ...], tuple[float, float, float]] = field(
         default_factory=dict, repr=False)
     _affine: dict[tuple[float, bool], AffineLattice] = field(default_factory=dict, repr=False)
+    _frames: dict[bool, AffineLattice] = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, specimen: Specimen) -> SpecimenLattice:
@@ -173,11 +174,16 @@ class SpecimenLattice:
 
     def _calibrated(self, material: MassSpringMaterial) -> tuple[float, float, float]:
         affine = _remembered(self._affine, (material.oblique, material.orthotropic),
-                             lambda: affine_lattice(self.mesh.points, self.edges,
-                                                    self.edge_volume_m3, material, _LOAD_AXIS,
-                                                    _SHEET_AXIS))
+                             lambda: self._frame(material).with_oblique(material.oblique))
         factor = affine.sheet_factor(material)
         return (*affine.calibration_factors(material, factor), factor)
+
+    def _frame(self, material: MassSpringMaterial) -> AffineLattice:
+        """An affine lattice of ``material``'s orthotropy, at any oblique factor."""
+        return _remembered(self._frames, material.orthotropic,
+                           lambda: affine_lattice(self.mesh.points, self.edges,
+                                                  self.edge_volume_m3, material, _LOAD_AXIS,
+                                                  _SHEET_AXIS))
 
 
 def _remembered(store: dict[Any, Any], key: Any, make: Callable[[], Any]) -> Any:
