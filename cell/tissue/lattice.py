@@ -32,7 +32,6 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Sequence
-from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import brentq
@@ -135,8 +134,9 @@ class AffineLattice:
 
     def _set_oblique(self, oblique: float) -> None:
         self.oblique_gain = oblique_gain(oblique, self.cos_sq)
-        # Every calibration on this lattice starts at the same two ends of its bracket.
-        self._log_anisotropy = lru_cache(maxsize=64)(self._log_anisotropy_at)
+        # :meth:`_log_anisotropy` at the ends of the calibration's bracket, by (log ratio,
+        # sheet factor): every calibration on this lattice starts there.
+        self._bracket_ends: dict[tuple[float, float], float] = {}
 
     def with_oblique(self, oblique: float) -> AffineLattice:
         """This lattice with the oblique springs' factor ``oblique``: its geometry, the most
@@ -189,10 +189,18 @@ class AffineLattice:
         scale = et_pa / self.moduli(ratio, 1.0, sheet_factor)[1]
         return ratio * scale, scale
 
-    def _log_anisotropy_at(self, log_ratio: float, sheet_factor: float) -> float:
+    def _log_anisotropy(self, log_ratio: float, sheet_factor: float) -> float:
         """log(El / Et) of the lattice whose Eq. 10 springs have El / Et = exp(``log_ratio``)."""
+        key = (log_ratio, sheet_factor)
+        if key in self._bracket_ends:
+            return self._bracket_ends[key]
         el, et = self.moduli(math.exp(log_ratio), 1.0, sheet_factor)
-        return math.log(el / et)
+        value = math.log(el / et)
+        if abs(log_ratio) == _LOG_RATIO_BOUND:
+            if len(self._bracket_ends) > 4096:  # an orthotropic fit's many sheet factors
+                self._bracket_ends.clear()
+            self._bracket_ends[key] = value
+        return value
 
     def sheet_calibrated(self, el_pa: float, et_pa: float, sheet_over_normal: float) -> float:
         """The sheet factor k for which the lattice, calibrated to ``el_pa`` and ``et_pa``

@@ -116,7 +116,7 @@ def _across_fibres(direction: Any, fibre_direction: tuple[float, float, float],
     return direction
 
 
-def _remembered(function: Any, *args: Any) -> Any:
+def _remembered_if_exact(function: Any, *args: Any) -> Any:
     """``function(*args)`` for one of the memoised frame functions above, remembered where
     every argument keys it exactly (a bool, or a tuple of floats without a negative zero,
     which equals and hashes as 0.0); worked out each time otherwise (a list, an array). A
@@ -252,7 +252,7 @@ class MassSpringMaterial:
             raise MaterialError(None, "relaxation_strain_slope",
                                 f"must be finite, got {self.relaxation_strain_slope}")
         object.__setattr__(self, "fibre_direction",
-                           _remembered(_unit_fibre, self.fibre_direction))
+                           _remembered_if_exact(_unit_fibre, self.fibre_direction))
         self._check_sheet()
 
     def _check_sheet(self) -> None:
@@ -260,7 +260,7 @@ class MassSpringMaterial:
         if not (math.isfinite(self.sheet_over_normal) and self.sheet_over_normal > 0):
             raise MaterialError(None, "sheet_over_normal",
                                 f"must be > 0 and finite, got {self.sheet_over_normal}")
-        object.__setattr__(self, "sheet_direction", _remembered(
+        object.__setattr__(self, "sheet_direction", _remembered_if_exact(
             _across_fibres, self.sheet_direction, self.fibre_direction, self.orthotropic))
 
     @property
