@@ -78,6 +78,11 @@ from cell.tissue.springlaw import (
 LATTICE_STIFFENING = 0.33
 
 
+# The columns of a packed curve that are moduli (scaled): coefficients, stresses, moduli.
+_SCALED = np.r_[CURVE_COEFFICIENTS:CURVE_COEFFICIENTS + CURVE_DEGREE + 1,
+                CURVE_STRESS_LOW:CURVE_STRESS_LOW + 2, CURVE_MODULUS_LOW:CURVE_MODULUS_LOW + 2]
+
+
 def pack_curve(curve: ModulusCurve, scale: float) -> np.ndarray:
     """(``CURVE_COLUMNS``,) a curve for :func:`~cell.tissue.springlaw.secant_modulus`, its
     moduli times ``scale``: the polynomial's stress coefficients, the x bounds, the stresses
@@ -91,11 +96,6 @@ def pack_curve(curve: ModulusCurve, scale: float) -> np.ndarray:
     packed = _unscaled(curve).copy()
     packed[_SCALED] *= scale
     return packed
-
-
-# The columns of a packed curve that are moduli (scaled): coefficients, stresses, moduli.
-_SCALED = np.r_[CURVE_COEFFICIENTS:CURVE_COEFFICIENTS + CURVE_DEGREE + 1,
-                CURVE_STRESS_LOW:CURVE_STRESS_LOW + 2, CURVE_MODULUS_LOW:CURVE_MODULUS_LOW + 2]
 
 
 @lru_cache(maxsize=4096)
