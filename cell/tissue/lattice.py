@@ -226,14 +226,15 @@ class AffineLattice:
 
     def calibration_factors(self, material: MassSpringMaterial,
                             sheet_factor: float = 1.0) -> tuple[float, float]:
-        """:func:`calibration_factors` of ``material`` on this lattice."""
+        """:func:`~cell.tissue.lattice.calibration_factors` of ``material`` on this
+        lattice."""
         el = material.longitudinal.small_strain_modulus_pa
         et = material.transverse.small_strain_modulus_pa
         el_in, et_in = self.calibrated(el, et, sheet_factor)
         return el_in / el, et_in / et
 
     def sheet_factor(self, material: MassSpringMaterial) -> float:
-        """:func:`sheet_factor` of ``material`` on this lattice."""
+        """:func:`~cell.tissue.lattice.sheet_factor` of ``material`` on this lattice."""
         if not material.orthotropic:
             return 1.0
         return self.sheet_calibrated(material.longitudinal.small_strain_modulus_pa,
