@@ -38,14 +38,15 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from cell.errors import DivergenceError
 from cell.measure.specimens import MeasurementSet, MechanicalTest, Specimen
-from cell.tissue.lattice import calibration_factors, sheet_factor, sheet_gain, tet_edges
+from cell.tissue.lattice import AffineLattice, affine_lattice, sheet_gain, tet_edges
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.packedlaw import SpringLaw
 from cell.tissue.springlaw import homogeneous_stress
@@ -123,10 +124,13 @@ class SpecimenLattice:
     mesh: TetMesh
     edges: np.ndarray
     edge_volume_m3: np.ndarray
-    # Calibration factors and sheet factor by (El / Et, oblique, E_s / E_n): they depend on
-    # nothing else, and a diagnosis asks for the same ones thousands of times.
+    # Calibration factors and sheet factor by (El / Et, oblique, E_s / E_n), and the affine
+    # lattices that calibrate by (oblique, orthotropic) and their geometry by orthotropy: they
+    # depend on nothing else, and a diagnosis asks for the same ones thousands of times.
     _factors: dict[tuple[float, ...], tuple[float, float, float]] = field(
         default_factory=dict, repr=False)
+    _affine: dict[tuple[float, bool], AffineLattice] = field(default_factory=dict, repr=False)
+    _frames: dict[bool, AffineLattice] = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, specimen: Specimen) -> SpecimenLattice:
@@ -166,14 +170,30 @@ class SpecimenLattice:
         key = (material.longitudinal.small_strain_modulus_pa
                / material.transverse.small_strain_modulus_pa, material.oblique,
                material.sheet_over_normal)
-        if key not in self._factors:
-            if len(self._factors) > 4096:
-                self._factors.clear()
-            geometry = (self.mesh.points, self.edges, self.edge_volume_m3)
-            factor = sheet_factor(*geometry, material, _LOAD_AXIS, _SHEET_AXIS)
-            self._factors[key] = (*calibration_factors(*geometry, material, _LOAD_AXIS,
-                                                       _SHEET_AXIS, factor), factor)
-        return self._factors[key]
+        return _remembered(self._factors, key, lambda: self._calibrated(material))
+
+    def _calibrated(self, material: MassSpringMaterial) -> tuple[float, float, float]:
+        affine = _remembered(self._affine, (material.oblique, material.orthotropic),
+                             lambda: self._frame(material).with_oblique(material.oblique))
+        factor = affine.sheet_factor(material)
+        return (*affine.calibration_factors(material, factor), factor)
+
+    def _frame(self, material: MassSpringMaterial) -> AffineLattice:
+        """An affine lattice of ``material``'s orthotropy, at any oblique factor."""
+        return _remembered(self._frames, material.orthotropic,
+                           lambda: affine_lattice(self.mesh.points, self.edges,
+                                                  self.edge_volume_m3, material, _LOAD_AXIS,
+                                                  _SHEET_AXIS))
+
+
+def _remembered(store: dict[Any, Any], key: Any, make: Callable[[], Any]) -> Any:
+    """``store[key]``, made by ``make()`` the first time (a store past 4096 entries starts
+    over: a long diagnosis meets many keys once)."""
+    if key not in store:
+        if len(store) > 4096:
+            store.clear()
+        store[key] = make()
+    return store[key]
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,12 +1,14 @@
 """Simulated specimen tests: the quasi-static lattice against closed forms, each part of the
 spring law, and against the fine, slow reference (the meshed specimen in MuJoCo)."""
 
+import pickle
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from cell.diagnosis.specimen.solve import (
+    SpecimenLattice,
     fibre_direction,
     simulate_set,
     simulate_test,
@@ -119,6 +121,23 @@ def test_a_compression_oblique_factor_acts_at_mid_angles_in_compression() -> Non
         assert _secant_pa(_ramp(angle_deg, strain), apart) == pytest.approx(
             _secant_pa(_ramp(angle_deg, strain), oblique), rel=0.04)
     assert _secant_pa(_ramp(45.0, -0.01), apart) > 1.8 * _secant_pa(_ramp(45.0, -0.01), oblique)
+
+
+def test_a_reused_or_pickled_lattice_gives_the_forces_of_a_fresh_one() -> None:
+    # A fit reuses one lattice for thousands of materials (it remembers their calibrations),
+    # and the workers get it pickled after the parent used it.
+    materials = (ANISOTROPIC, replace(ANISOTROPIC, oblique=-0.5),
+                 replace(ANISOTROPIC, oblique_compression=0.5),
+                 replace(ANISOTROPIC, sheet_over_normal=1.5))
+    test = _ramp(30.0, 0.02)
+    used = SpecimenLattice.of(CUBE)
+    for material in materials:
+        simulate_test(test, CUBE, material, used)
+    travelled = pickle.loads(pickle.dumps(used))
+    for material in reversed(materials):
+        fresh = simulate_test(test, CUBE, material).force_n
+        assert np.array_equal(simulate_test(test, CUBE, material, used).force_n, fresh)
+        assert np.array_equal(simulate_test(test, CUBE, material, travelled).force_n, fresh)
 
 
 def test_relaxation_under_a_hold_tends_to_g_infinity() -> None:

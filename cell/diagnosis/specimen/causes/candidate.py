@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
@@ -140,13 +141,14 @@ class CandidateMaterial:
         """Whether the load cell's offset is fitted."""
         return "force_offset" in self.causes
 
-    @property
+    # Cached: a fit reads them at every step, and the model never changes.
+    @cached_property
     def parameters(self) -> tuple[Parameter, ...]:
         """The shape parameters, each cause's in catalogue order, as its cause declares
         them."""
         return tuple(p for c in self.causes for p in REGISTRY[c].parameters(self))
 
-    @property
+    @cached_property
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the shape parameters, in vector order."""
         return tuple(p.name for p in self.parameters)
