@@ -3,10 +3,12 @@ the ``orthotropy`` cause (:mod:`cell.diagnosis.specimen.causes.orthotropy`).
 
 Each set is drawn from one seed: a near-cubic specimen, a baseline modulus E (log-uniform,
 5 to 50 kPa), and with ``hidden`` a sheet-over-normal ratio E_s / E_n of 1.5 to 2.7 or its
-inverse (log-uniform in magnitude, either sign). The forces are the cell's own springs'
-(:mod:`cell.diagnosis.specimen.shearbiaxial`, :mod:`cell.diagnosis.specimen.solve`: the forward
-model of the diagnosis, whose baseline the truth extends), with Gaussian noise of 1 % of each
-column's peak. The protocols:
+inverse (log-uniform in magnitude, either sign); with ``turned`` as well the specimen's fibres
+(and sheets) turned about the sheets' normal by 8 to 30 degrees, either sign (the cause
+``fibre_direction``; the turn shows only with the orthotropy). The forces are the cell's own
+springs' (:mod:`cell.diagnosis.specimen.shearbiaxial`, :mod:`cell.diagnosis.specimen.solve`:
+the forward model of the diagnosis, whose baseline the truth extends), with Gaussian noise of
+1 % of each column's peak. The protocols:
 
 - ``shear``: the six simple shear modes (fs, fn, sf, sn, nf, ns) to gamma 0.2;
 - ``mixed``: four shear modes (fs, fn, sf, sn), equibiaxial and 1:0.5 and 0.5:1 biaxial
@@ -56,6 +58,7 @@ class PlaneTruth:
         kind: its protocol (module docstring).
         modulus_pa: the baseline's small-strain modulus E, Pa.
         sheet_over_normal: E_s / E_n (1 when nothing is hidden).
+        fibre_turn_deg: the fibres' turn from the declared axes, degrees (0: none).
 
     Example:
         >>> PlaneTruth(0, "shear", 1e4, 1.0).effect is None
@@ -66,11 +69,18 @@ class PlaneTruth:
     kind: str
     modulus_pa: float
     sheet_over_normal: float
+    fibre_turn_deg: float = 0.0
 
     @property
     def effect(self) -> str | None:
         """``orthotropy`` when the sheets and their normal differ, else None."""
         return None if self.sheet_over_normal == 1.0 else "orthotropy"
+
+    @property
+    def causes(self) -> tuple[str, ...]:
+        """Every hidden cause, in catalogue order."""
+        turn = ("fibre_direction",) if self.fibre_turn_deg != 0.0 else ()
+        return (*((self.effect,) if self.effect else ()), *turn)
 
 
 def _tests(kind: str, time_s: np.ndarray, size_m: np.ndarray
@@ -123,27 +133,32 @@ def _rows(tests: tuple[list[ShearTest], list[BiaxialTest], list[MechanicalTest]]
     return rows
 
 
-def write_plane_set(folder: Path, seed: int, kind: str, hidden: bool) -> PlaneTruth:
+def write_plane_set(folder: Path, seed: int, kind: str, hidden: bool,
+                    turned: bool = False) -> PlaneTruth:
     """Draw a ``kind`` set (one of :data:`PLANE_KINDS`) from ``seed``, orthotropy ``hidden``
-    or not, write it in ``folder`` (module docstring) and return its truth.
+    or not (and ``turned`` fibres with it), write it in ``folder`` (module docstring) and
+    return its truth.
 
     Raises:
-        MeasurementError: an unknown ``kind``.
+        MeasurementError: an unknown ``kind``, or ``turned`` without ``hidden``.
     """
     if kind not in PLANE_KINDS:
         raise MeasurementError(None, "kind", f"must be one of {PLANE_KINDS}, got {kind!r}")
-    rng = np.random.default_rng([seed, PLANE_KINDS.index(kind), int(hidden)])
+    if turned and not hidden:
+        raise MeasurementError(None, "turned", "a fibre turn shows only with the orthotropy")
+    rng = np.random.default_rng([seed, PLANE_KINDS.index(kind), int(hidden) + int(turned)])
     edge = rng.uniform(0.008, 0.012)
     size = edge * (1.0 + rng.uniform(-ASPECT_SPREAD, ASPECT_SPREAD, 3))
     modulus = float(math.exp(rng.uniform(math.log(5e3), math.log(5e4))))
     log_ratio = (float(rng.choice((-1.0, 1.0)) * rng.uniform(math.log(1.5), math.log(2.7)))
                  if hidden else 0.0)
+    turn = float(rng.choice((-1.0, 1.0)) * rng.uniform(8.0, 30.0)) if turned else 0.0
     specimen = Specimen(f"plane-{kind}-{seed}", tuple(float(s) for s in size))
-    truth = CandidateMaterial(("orthotropy",))
+    truth = CandidateMaterial(("orthotropy", "fibre_direction"))
     time_s = np.linspace(0.0, 20.0, _SAMPLES)
-    rows = _rows(_tests(kind, time_s, size), specimen, truth, np.array([log_ratio]), modulus,
-                 rng)
+    rows = _rows(_tests(kind, time_s, size), specimen, truth, np.array([log_ratio, turn]),
+                 modulus, rng)
     sizes = ", ".join(f"{s:.6f}" for s in size)
     write_set(folder, f'[specimen]\nname = "{specimen.name}"\nsize_m = [{sizes}]\n'
               f"density_kg_m3 = {DENSITY_KG_M3:.1f}\n", "\n".join([_HEADER, *rows]) + "\n")
-    return PlaneTruth(seed, kind, modulus, math.exp(log_ratio))
+    return PlaneTruth(seed, kind, modulus, math.exp(log_ratio), turn)

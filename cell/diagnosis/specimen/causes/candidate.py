@@ -35,6 +35,9 @@ cause                              change to the material (shape parameters)
 ``orthotropy``                     the sheets' modulus over their normal's, E_s / E_n, their
                                    geometric mean Et (shear and biaxial sets only)
                                    (log E_s / E_n)
+``fibre_direction``                the fibres (and sheets) turned about the sheets' normal from
+                                   the axes the tests declare (shear and biaxial sets only)
+                                   (the turn, degrees)
 =================================  ==============================================================
 
 Example:
@@ -237,6 +240,8 @@ class CandidateMaterial:
             params["hardening"] = material.hardening
         if "orthotropy" in self.causes:
             params["sheet_over_normal"] = material.sheet_over_normal
+        if "fibre_direction" in self.causes:
+            params["fibre_turn_deg"] = value["fibre_turn_deg"]
         if self.has_offset:
             params["force_offset_n"] = offset_n
         return params
