@@ -4,8 +4,12 @@ nothing): the answer key of the diagnosis on tests in several planes.
 Each set is drawn from one seed: a near-cubic specimen, a baseline modulus E and the hidden
 cause's magnitudes drawn as the uniaxial hidden-effect sets draw them
 (:func:`cell.synthetic.truth.draw_magnitudes`; orthotropy, which uniaxial sets cannot show,
-draws E_s / E_n from 1.5 to 2.7 or its inverse, log-uniform, either sign). The truth is the
-cell's own springs with that cause
+draws E_s / E_n from 1.5 to 2.7 or its inverse, log-uniform, either sign). A fibre turn
+(``fibre_direction``: the fibres and sheets turned about the sheets' normal by 8 to 30 degrees,
+either sign) shows only beside an anisotropy of the lattice in the fibres' and sheets' plane,
+so it is hidden as a pair with ``orthotropy`` or ``anisotropy``
+(:attr:`HiddenCause.beside`), never alone. The truth is the cell's own springs with those
+causes
 (:class:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial`, :data:`HIDDEN_CAUSES`
 maps the magnitudes onto its parameters), simulated as the diagnosis
 simulates (:mod:`cell.diagnosis.specimen.shearbiaxial`, :mod:`cell.diagnosis.specimen.solve`),
@@ -27,7 +31,9 @@ only stretches, so no tension-compression asymmetry (the thickness' springs shor
 edge forces hardly feel them); and it loads the fibres and the sheets, never their normal (the
 thickness), so E_s / E_n and El / Et give the same edge forces up to E: no orthotropy. Simple
 shear shortens one diagonal as it stretches the other, so an asymmetry shows in its normal
-force; the mixed kind has a compression test as labs run beside tension and shear.
+force; the mixed kind has a compression test as labs run beside tension and shear. A turn
+hides only in shear and mixed sets: a biaxial test's edge forces are the same for a turn
+either way (a mirror of the specimen), so its sign is the shear tests'.
 
 The files (``specimen.toml``, ``tests.csv``) hold no truth parameter; the diagnosis never
 imports this module.
@@ -47,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cell.diagnosis.specimen.causes import UNIAXIAL_CAUSES, CandidateMaterial
+from cell.diagnosis.specimen.causes import CAUSES, UNIAXIAL_CAUSES, CandidateMaterial
 from cell.diagnosis.specimen.shearbiaxial import simulate_biaxial, simulate_shear
 from cell.diagnosis.specimen.solve import SpecimenLattice, simulate_tests
 from cell.errors import MeasurementError
@@ -68,7 +74,8 @@ _RAMP_S, _HOLD_S, _SAMPLES = 20.0, 300.0, 41
 class HiddenCause:
     """How a plane set hides one cause: the kinds that can show it, its truth parameters
     (:class:`~cell.diagnosis.specimen.causes.candidate.CandidateMaterial`'s, by name) from the
-    drawn magnitudes, and its own draw where the uniaxial sets do not draw it.
+    drawn magnitudes, its own draw where the uniaxial sets do not draw it, and the causes it
+    shows only beside (``beside``: hidden as a pair with each of them, never alone).
 
     Example:
         >>> HIDDEN_CAUSES["plasticity"].shape({"yield_strain": 0.03, "tangent_ratio": 0.2})
@@ -78,6 +85,7 @@ class HiddenCause:
     kinds: tuple[str, ...]
     shape: Callable[[dict[str, float]], dict[str, float]]
     draw: Callable[[np.random.Generator], dict[str, float]] | None = None
+    beside: tuple[str, ...] = ()
 
 
 def _relaxation(m: dict[str, float]) -> dict[str, float]:
@@ -89,6 +97,10 @@ def _relaxation(m: dict[str, float]) -> dict[str, float]:
 def _draw_orthotropy(rng: np.random.Generator) -> dict[str, float]:
     sign = float(rng.choice((-1.0, 1.0)))
     return {"sheet_over_normal": math.exp(sign * rng.uniform(math.log(1.5), math.log(2.7)))}
+
+
+def _draw_turn(rng: np.random.Generator) -> dict[str, float]:
+    return {"fibre_turn_deg": float(rng.choice((-1.0, 1.0)) * rng.uniform(8.0, 30.0))}
 
 
 #: Every cause a plane set can hide (adding one is one entry here).
@@ -109,9 +121,41 @@ HIDDEN_CAUSES: dict[str, HiddenCause] = {
     "force_offset": HiddenCause(PLANE_KINDS, lambda m: {}),
     "orthotropy": HiddenCause(("shear", "mixed"), lambda m: {
         "log_sheet_over_normal": math.log(m["sheet_over_normal"])}, _draw_orthotropy),
+    "fibre_direction": HiddenCause(("shear", "mixed"), lambda m: {
+        "fibre_turn_deg": m["fibre_turn_deg"]}, _draw_turn, ("orthotropy", "anisotropy")),
 }
-HIDDEN: tuple[str | None, ...] = (*HIDDEN_CAUSES, None)
-"""What a plane set can hide: one cause, or None."""
+#: What a set can hide, as ``write_plane_set`` takes it.
+Hidden = str | tuple[str, ...] | None
+HIDDEN: tuple[Hidden, ...] = (
+    *(c for c, h in HIDDEN_CAUSES.items() if not h.beside), None,
+    *((other, c) for c, h in HIDDEN_CAUSES.items() for other in h.beside))
+"""What a plane set can hide: one cause, None, or a cause beside another (the pairs last,
+so that a single's or none's seeds draw as before they came)."""
+
+
+def hidden_causes(hidden: Hidden) -> tuple[str, ...]:
+    """The causes ``hidden`` names, in catalogue order.
+
+    Example:
+        >>> hidden_causes(None), hidden_causes("plasticity")
+        ((), ('plasticity',))
+        >>> hidden_causes(("fibre_direction", "orthotropy"))
+        ('orthotropy', 'fibre_direction')
+    """
+    causes = () if hidden is None else (hidden,) if isinstance(hidden, str) else hidden
+    return tuple(sorted(causes, key=lambda c: CAUSES.index(c) if c in CAUSES else len(CAUSES)))
+
+
+def shows(kind: str, hidden: Hidden) -> bool:
+    """Whether a ``kind`` set can hide ``hidden`` (one of :data:`HIDDEN`, every cause shown).
+
+    Example:
+        >>> shows("biaxial", "orthotropy"), shows("shear", ("orthotropy", "fibre_direction"))
+        (False, True)
+    """
+    causes = hidden_causes(hidden)
+    return (causes in map(hidden_causes, HIDDEN)
+            and all(kind in HIDDEN_CAUSES[c].kinds for c in causes))
 
 
 @dataclass(frozen=True)
@@ -121,27 +165,28 @@ class PlaneTruth:
     Attributes:
         seed: the set's seed.
         kind: its protocol (module docstring).
-        cause: the hidden cause, None for none.
-        magnitudes: ``young_pa`` (the baseline's small-strain modulus E, Pa) and the cause's
+        causes: the hidden causes, in catalogue order (none, one, or a cause beside
+            another: :data:`HIDDEN`).
+        magnitudes: ``young_pa`` (the baseline's small-strain modulus E, Pa) and the causes'
             drawn magnitudes (:func:`cell.synthetic.truth.draw_magnitudes`).
         offset_n: the load cell's offset on every force column, N (0 without
             ``force_offset``).
 
     Example:
-        >>> PlaneTruth(0, "shear", None, {"young_pa": 1e4}).effect is None
+        >>> PlaneTruth(0, "shear", (), {"young_pa": 1e4}).effect is None
         True
     """
 
     seed: int
     kind: str
-    cause: str | None
+    causes: tuple[str, ...]
     magnitudes: dict[str, float]
     offset_n: float = 0.0
 
     @property
     def effect(self) -> str | None:
-        """The hidden cause (None for none)."""
-        return self.cause
+        """The hidden cause, the first of a pair (None for none)."""
+        return self.causes[0] if self.causes else None
 
     @property
     def modulus_pa(self) -> float:
@@ -154,16 +199,20 @@ class PlaneTruth:
         return self.magnitudes.get("sheet_over_normal", 1.0)
 
     @property
+    def fibre_turn_deg(self) -> float:
+        """The fibres' turn from the declared axes, degrees (0 unless a turn is hidden)."""
+        return self.magnitudes.get("fibre_turn_deg", 0.0)
+
+    @property
     def model(self) -> CandidateMaterial:
-        """The truth's springs: the baseline with the hidden cause."""
-        return CandidateMaterial(() if self.cause is None else (self.cause,))
+        """The truth's springs: the baseline with the hidden causes."""
+        return CandidateMaterial(self.causes)
 
     @property
     def shape(self) -> np.ndarray:
         """The truth's shape parameters, in :attr:`model`'s order."""
-        if self.cause is None:
-            return np.zeros(0)
-        values = HIDDEN_CAUSES[self.cause].shape(self.magnitudes)
+        values = {name: v for c in self.causes
+                  for name, v in HIDDEN_CAUSES[c].shape(self.magnitudes).items()}
         return np.array([values[name] for name in self.model.parameter_names])
 
     def reported(self) -> dict[str, float]:
@@ -269,33 +318,35 @@ def _rows(runs: list[Run], offset_n: float, rng: np.random.Generator) -> list[st
     return rows
 
 
-def write_plane_set(folder: Path, seed: int, kind: str, hidden: str | None) -> PlaneTruth:
-    """Draw a ``kind`` set (one of :data:`PLANE_KINDS`) from ``seed`` with the cause
-    ``hidden`` (one of :data:`HIDDEN_CAUSES`, or None for none), write it in ``folder``
-    (module docstring) and return its truth.
+def write_plane_set(folder: Path, seed: int, kind: str, hidden: Hidden) -> PlaneTruth:
+    """Draw a ``kind`` set (one of :data:`PLANE_KINDS`) from ``seed`` hiding ``hidden`` (one
+    of :data:`HIDDEN`: a cause of :data:`HIDDEN_CAUSES`, None for none, or a pair such as
+    ``("orthotropy", "fibre_direction")``), write it in ``folder`` (module docstring) and
+    return its truth.
 
     Raises:
-        MeasurementError: an unknown ``kind``, or a cause that is unknown or that ``kind``
-            cannot show.
+        MeasurementError: an unknown ``kind``, or causes that are unknown, that ``kind``
+            cannot show, or that hide only beside another.
     """
     if kind not in PLANE_KINDS:
         raise MeasurementError(None, "kind", f"must be one of {PLANE_KINDS}, got {kind!r}")
-    if hidden is not None and kind not in getattr(HIDDEN_CAUSES.get(hidden), "kinds", ()):
+    if not shows(kind, hidden):
         raise MeasurementError(None, "hidden", f"{kind} sets hide one of "
-                               f"{[c for c, h in HIDDEN_CAUSES.items() if kind in h.kinds]} "
-                               f"or None, got {hidden!r}")
-    rng = np.random.default_rng([seed, PLANE_KINDS.index(kind), HIDDEN.index(hidden)])
+                               f"{[h for h in HIDDEN if shows(kind, h)]}, got {hidden!r}")
+    causes = hidden_causes(hidden)
+    key = [hidden_causes(h) for h in HIDDEN].index(causes)
+    rng = np.random.default_rng([seed, PLANE_KINDS.index(kind), key])
     edge = rng.uniform(0.008, 0.012)
     size = edge * (1.0 + rng.uniform(-ASPECT_SPREAD, ASPECT_SPREAD, 3))
-    cause = HIDDEN_CAUSES.get(hidden) if hidden is not None else None
-    magnitudes = draw_magnitudes(rng, (hidden,) if hidden in UNIAXIAL_CAUSES else (), 1.0)
-    if cause is not None and cause.draw is not None:
-        magnitudes.update(cause.draw(rng))
+    magnitudes = draw_magnitudes(rng, tuple(c for c in causes if c in UNIAXIAL_CAUSES), 1.0)
+    for cause in causes:
+        if HIDDEN_CAUSES[cause].draw is not None:
+            magnitudes.update(HIDDEN_CAUSES[cause].draw(rng))
     specimen = Specimen(f"plane-{kind}-{seed}", tuple(float(s) for s in size))
-    truth = PlaneTruth(seed, kind, hidden, magnitudes)
+    truth = PlaneTruth(seed, kind, causes, magnitudes)
     runs = _columns(_tests(kind, size), specimen, truth)
     peak = max(float(np.abs(force).max()) for _, forces in runs for force in forces.values())
-    truth = PlaneTruth(seed, kind, hidden, magnitudes,
+    truth = PlaneTruth(seed, kind, causes, magnitudes,
                        magnitudes.get("offset_fraction", 0.0) * peak)
     sizes = ", ".join(f"{s:.6f}" for s in size)
     write_set(folder, f'[specimen]\nname = "{specimen.name}"\nsize_m = [{sizes}]\n'

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.polynomial import polynomial as P
@@ -77,7 +78,11 @@ class ModulusCurve:
         if self.exponent and any(coefficients[1:]):
             raise MaterialError(None, "coefficients",
                                 "an exponential curve takes coefficients[0] only, the rest 0")
-        lowest, where = self._minimum()
+        # A constant or exponential modulus is lowest at r = 1: positive where E(1) is (the
+        # search over the range is most of the cost of a curve, and a fit makes thousands).
+        if self.coefficients[0] > 0.0 and not any(self.coefficients[1:]):
+            return
+        lowest, where = _lowest(self)
         if not lowest > 0.0:
             raise MaterialError(
                 None,
@@ -206,3 +211,10 @@ class ModulusCurve:
     def max_modulus_pa(self) -> float:
         """Largest modulus at any stretch, Pa (it is reached inside the range)."""
         return float(self._modulus_inside(self._candidates(2)).max())
+
+
+@lru_cache(maxsize=4096)
+def _lowest(curve: ModulusCurve) -> tuple[float, float]:
+    """``curve``'s lowest modulus in its range and where it is, remembered by its fields: a fit
+    makes the same curves again at every step that leaves them."""
+    return curve._minimum()

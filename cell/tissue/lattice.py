@@ -29,6 +29,7 @@ tests (:mod:`cell.diagnosis.specimen.solve`) share it.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 
@@ -126,10 +127,23 @@ class AffineLattice:
         u = d / np.linalg.norm(d, axis=1, keepdims=True) @ _fibre_frame(fibre, sheet).T
         self.cos_sq = u[:, 0] ** 2
         self.sheet_sq = u[:, 1] ** 2
-        self.oblique_gain = oblique_gain(oblique, self.cos_sq)
         self.quartic = u[:, _VOIGT[:, 0]] * u[:, _VOIGT[:, 1]]
         self.edge_volume_m3 = edge_volume_m3
         self.volume_m3 = float(edge_volume_m3.sum()) / len(_TET_EDGES)
+        self._set_oblique(oblique)
+
+    def _set_oblique(self, oblique: float) -> None:
+        self.oblique_gain = oblique_gain(oblique, self.cos_sq)
+        # :meth:`_log_anisotropy` at the ends of the calibration's bracket, by (log ratio,
+        # sheet factor): every calibration on this lattice starts there.
+        self._bracket_ends: dict[tuple[float, float], float] = {}
+
+    def with_oblique(self, oblique: float) -> AffineLattice:
+        """This lattice with the oblique springs' factor ``oblique``: its geometry, the most
+        of its cost, kept."""
+        lattice = copy.copy(self)
+        lattice._set_oblique(oblique)
+        return lattice
 
     def axial_moduli(self, el_pa: float, et_pa: float,
                      sheet_factor: float = 1.0) -> tuple[float, float, float]:
@@ -141,8 +155,9 @@ class AffineLattice:
         if sheet_factor != 1.0:
             weight = weight * sheet_gain(sheet_factor, self.sheet_sq)
         stiffness = (self.quartic * weight[:, None]).T @ self.quartic / self.volume_m3
-        compliance = np.diag(np.linalg.inv(stiffness))
-        return float(1.0 / compliance[0]), float(1.0 / compliance[1]), float(1.0 / compliance[2])
+        compliance = np.linalg.inv(stiffness)
+        return (float(1.0 / compliance[0, 0]), float(1.0 / compliance[1, 1]),
+                float(1.0 / compliance[2, 2]))
 
     def moduli(self, el_pa: float, et_pa: float,
                sheet_factor: float = 1.0) -> tuple[float, float]:
@@ -159,8 +174,7 @@ class AffineLattice:
         target = math.log(el_pa / et_pa)
 
         def mismatch(log_ratio: float) -> float:
-            el, et = self.moduli(math.exp(log_ratio), 1.0, sheet_factor)
-            return math.log(el / et) - target
+            return self._log_anisotropy(log_ratio, sheet_factor) - target
 
         lo, hi = mismatch(-_LOG_RATIO_BOUND), mismatch(_LOG_RATIO_BOUND)
         if lo > 0 or hi < 0:
@@ -174,6 +188,19 @@ class AffineLattice:
         ratio = math.exp(brentq(mismatch, -_LOG_RATIO_BOUND, _LOG_RATIO_BOUND, xtol=1e-12))
         scale = et_pa / self.moduli(ratio, 1.0, sheet_factor)[1]
         return ratio * scale, scale
+
+    def _log_anisotropy(self, log_ratio: float, sheet_factor: float) -> float:
+        """log(El / Et) of the lattice whose Eq. 10 springs have El / Et = exp(``log_ratio``)."""
+        key = (log_ratio, sheet_factor)
+        if key in self._bracket_ends:
+            return self._bracket_ends[key]
+        el, et = self.moduli(math.exp(log_ratio), 1.0, sheet_factor)
+        value = math.log(el / et)
+        if abs(log_ratio) == _LOG_RATIO_BOUND:
+            if len(self._bracket_ends) > 4096:  # an orthotropic fit's many sheet factors
+                self._bracket_ends.clear()
+            self._bracket_ends[key] = value
+        return value
 
     def sheet_calibrated(self, el_pa: float, et_pa: float, sheet_over_normal: float) -> float:
         """The sheet factor k for which the lattice, calibrated to ``el_pa`` and ``et_pa``
@@ -196,6 +223,23 @@ class AffineLattice:
                 f"E_s/E_n = {sheet_over_normal:.4g} is outside what this mesh's springs can give "
                 f"({math.exp(lo + target):.3g} to {math.exp(hi + target):.3g})")
         return math.exp(brentq(mismatch, -_LOG_SHEET_BOUND, _LOG_SHEET_BOUND, xtol=1e-10))
+
+    def calibration_factors(self, material: MassSpringMaterial,
+                            sheet_factor: float = 1.0) -> tuple[float, float]:
+        """:func:`~cell.tissue.lattice.calibration_factors` of ``material`` on this
+        lattice."""
+        el = material.longitudinal.small_strain_modulus_pa
+        et = material.transverse.small_strain_modulus_pa
+        el_in, et_in = self.calibrated(el, et, sheet_factor)
+        return el_in / el, et_in / et
+
+    def sheet_factor(self, material: MassSpringMaterial) -> float:
+        """:func:`~cell.tissue.lattice.sheet_factor` of ``material`` on this lattice."""
+        if not material.orthotropic:
+            return 1.0
+        return self.sheet_calibrated(material.longitudinal.small_strain_modulus_pa,
+                                     material.transverse.small_strain_modulus_pa,
+                                     material.sheet_over_normal)
 
 
 def calibration_factors(
@@ -223,16 +267,15 @@ def calibration_factors(
         >>> [round(f, 3) for f in factors]
         [0.738, 0.738]
     """
-    lattice = _lattice(points, edges, edge_volume_m3, material, along, sheet_along)
-    el = material.longitudinal.small_strain_modulus_pa
-    et = material.transverse.small_strain_modulus_pa
-    el_in, et_in = lattice.calibrated(el, et, sheet_factor)
-    return el_in / el, et_in / et
+    return affine_lattice(points, edges, edge_volume_m3, material, along,
+                          sheet_along).calibration_factors(material, sheet_factor)
 
 
-def _lattice(points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
-             material: MassSpringMaterial, along: np.ndarray | Sequence[float],
-             sheet_along: np.ndarray | Sequence[float] | None) -> AffineLattice:
+def affine_lattice(points: np.ndarray, edges: np.ndarray, edge_volume_m3: np.ndarray,
+                   material: MassSpringMaterial, along: np.ndarray | Sequence[float],
+                   sheet_along: np.ndarray | Sequence[float] | None) -> AffineLattice:
+    """The :class:`AffineLattice` that calibrates ``material`` with fibres ``along`` and sheets
+    ``sheet_along``: it depends on the material's ``oblique`` and ``orthotropic`` alone."""
     # A transversely isotropic material keeps the frame across its fibres it always had.
     orthotropic = sheet_along is not None and material.orthotropic
     sheet = np.asarray(sheet_along, dtype=float) if orthotropic else None
@@ -255,12 +298,8 @@ def sheet_factor(
     Raises:
         MaterialError: ``sheet_over_normal`` (or ``longitudinal``) beyond the lattice's reach.
     """
-    if not material.orthotropic:
-        return 1.0
-    lattice = _lattice(points, edges, edge_volume_m3, material, along, sheet_along)
-    return lattice.sheet_calibrated(material.longitudinal.small_strain_modulus_pa,
-                                    material.transverse.small_strain_modulus_pa,
-                                    material.sheet_over_normal)
+    return affine_lattice(points, edges, edge_volume_m3, material, along,
+                          sheet_along).sheet_factor(material)
 
 
 def calibrated_law(

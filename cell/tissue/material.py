@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property, lru_cache
 from typing import Any, Literal
 
 import numpy as np
@@ -81,6 +82,48 @@ class ContinuumMaterial:
 
 def _meat_modulus() -> ModulusCurve:
     return ModulusCurve.constant(3.0e4)
+
+
+@lru_cache(maxsize=256)
+def _unit_fibre(direction: Any) -> tuple[float, float, float]:
+    """The fibre ``direction`` normalised."""
+    fibre = np.asarray(direction, dtype=float)
+    norm = float(np.linalg.norm(fibre)) if fibre.shape == (3,) else math.nan
+    if not (math.isfinite(norm) and norm > 1e-12):
+        raise MaterialError(None, "fibre_direction",
+                            f"must be a finite non-zero 3-vector, got {direction!r}")
+    return tuple((fibre / norm).tolist())
+
+
+@lru_cache(maxsize=256)
+def _across_fibres(direction: Any, fibre_direction: tuple[float, float, float],
+                   orthotropic: bool) -> Any:
+    """The sheet ``direction`` made orthogonal to the unit ``fibre_direction`` and normalised
+    (``direction`` itself where it lies along the fibres and the material is not
+    orthotropic)."""
+    sheet = np.asarray(direction, dtype=float)
+    if not (sheet.shape == (3,) and np.isfinite(sheet).all()):
+        raise MaterialError(None, "sheet_direction",
+                            f"must be a finite 3-vector, got {direction!r}")
+    fibre = np.asarray(fibre_direction)
+    across = sheet - (sheet @ fibre) * fibre
+    norm = float(np.linalg.norm(across))
+    if norm > 1e-9 * max(float(np.linalg.norm(sheet)), 1e-300):
+        return tuple((across / norm).tolist())
+    if orthotropic:
+        raise MaterialError(None, "sheet_direction", "must be a non-zero vector not along "
+                            f"the fibres, got {direction!r}")
+    return direction
+
+
+def _remembered_if_exact(function: Any, *args: Any) -> Any:
+    """``function(*args)`` for one of the memoised frame functions above, remembered where
+    every argument keys it exactly (a bool, or a tuple of floats without a negative zero,
+    which equals and hashes as 0.0); worked out each time otherwise (a list, an array). A
+    fit makes thousands of materials, all with the same few directions."""
+    exact = all(type(a) is bool or (type(a) is tuple and all(
+        type(v) is float and (v or math.copysign(1.0, v) > 0) for v in a)) for a in args)
+    return function(*args) if exact else function.__wrapped__(*args)
 
 
 @dataclass(frozen=True)
@@ -208,15 +251,8 @@ class MassSpringMaterial:
         if not math.isfinite(self.relaxation_strain_slope):
             raise MaterialError(None, "relaxation_strain_slope",
                                 f"must be finite, got {self.relaxation_strain_slope}")
-        fibre = np.asarray(self.fibre_direction, dtype=float)
-        norm = float(np.linalg.norm(fibre)) if fibre.shape == (3,) else math.nan
-        if not (math.isfinite(norm) and norm > 1e-12):
-            raise MaterialError(
-                None,
-                "fibre_direction",
-                f"must be a finite non-zero 3-vector, got {self.fibre_direction!r}",
-            )
-        object.__setattr__(self, "fibre_direction", tuple((fibre / norm).tolist()))
+        object.__setattr__(self, "fibre_direction",
+                           _remembered_if_exact(_unit_fibre, self.fibre_direction))
         self._check_sheet()
 
     def _check_sheet(self) -> None:
@@ -224,18 +260,8 @@ class MassSpringMaterial:
         if not (math.isfinite(self.sheet_over_normal) and self.sheet_over_normal > 0):
             raise MaterialError(None, "sheet_over_normal",
                                 f"must be > 0 and finite, got {self.sheet_over_normal}")
-        sheet = np.asarray(self.sheet_direction, dtype=float)
-        if not (sheet.shape == (3,) and np.isfinite(sheet).all()):
-            raise MaterialError(None, "sheet_direction",
-                                f"must be a finite 3-vector, got {self.sheet_direction!r}")
-        fibre = np.asarray(self.fibre_direction)
-        across = sheet - (sheet @ fibre) * fibre
-        norm = float(np.linalg.norm(across))
-        if norm > 1e-9 * max(float(np.linalg.norm(sheet)), 1e-300):
-            object.__setattr__(self, "sheet_direction", tuple((across / norm).tolist()))
-        elif self.orthotropic:
-            raise MaterialError(None, "sheet_direction", "must be a non-zero vector not along "
-                                f"the fibres, got {self.sheet_direction!r}")
+        object.__setattr__(self, "sheet_direction", _remembered_if_exact(
+            _across_fibres, self.sheet_direction, self.fibre_direction, self.orthotropic))
 
     @property
     def orthotropic(self) -> bool:
@@ -265,6 +291,12 @@ class MassSpringMaterial:
             >>> MassSpringMaterial().in_compression() == MassSpringMaterial()
             True
         """
+        return self if self.symmetric else self._compressed
+
+    @cached_property
+    def _compressed(self) -> MassSpringMaterial:
+        """:meth:`in_compression` of an asymmetric material, made once: every spring law of it
+        asks."""
         oblique = self.oblique if self.oblique_compression is None else self.oblique_compression
         return replace(self, longitudinal=self.longitudinal_compression or self.longitudinal,
                        transverse=self.transverse_compression or self.transverse,

@@ -42,6 +42,7 @@ Example:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -77,6 +78,11 @@ from cell.tissue.springlaw import (
 LATTICE_STIFFENING = 0.33
 
 
+# The columns of a packed curve that are moduli (scaled): coefficients, stresses, moduli.
+_SCALED = np.r_[CURVE_COEFFICIENTS:CURVE_COEFFICIENTS + CURVE_DEGREE + 1,
+                CURVE_STRESS_LOW:CURVE_STRESS_LOW + 2, CURVE_MODULUS_LOW:CURVE_MODULUS_LOW + 2]
+
+
 def pack_curve(curve: ModulusCurve, scale: float) -> np.ndarray:
     """(``CURVE_COLUMNS``,) a curve for :func:`~cell.tissue.springlaw.secant_modulus`, its
     moduli times ``scale``: the polynomial's stress coefficients, the x bounds, the stresses
@@ -87,14 +93,24 @@ def pack_curve(curve: ModulusCurve, scale: float) -> np.ndarray:
         >>> pack_curve(MassSpringMaterial().longitudinal, 2.0).shape
         (13,)
     """
+    packed = _unscaled(curve).copy()
+    packed[_SCALED] *= scale
+    return packed
+
+
+@lru_cache(maxsize=4096)
+def _unscaled(curve: ModulusCurve) -> np.ndarray:
+    """:func:`pack_curve` at scale 1, read-only: a fit packs the same few curves at every
+    step, each time with other calibration factors."""
     bounds = np.array([curve.r_min, curve.r_max])
     packed = np.empty(CURVE_COLUMNS)
     packed[CURVE_COEFFICIENTS:CURVE_COEFFICIENTS + CURVE_DEGREE + 1] = (
-        scale * curve.stress_coefficients()[1:])
+        curve.stress_coefficients()[1:])
     packed[CURVE_X_LOW:CURVE_X_LOW + 2] = bounds - 1.0
-    packed[CURVE_STRESS_LOW:CURVE_STRESS_LOW + 2] = scale * curve.stress_pa(bounds)
-    packed[CURVE_MODULUS_LOW:CURVE_MODULUS_LOW + 2] = scale * curve.modulus_pa(bounds)
+    packed[CURVE_STRESS_LOW:CURVE_STRESS_LOW + 2] = curve.stress_pa(bounds)
+    packed[CURVE_MODULUS_LOW:CURVE_MODULUS_LOW + 2] = curve.modulus_pa(bounds)
     packed[CURVE_EXPONENT] = curve.exponent
+    packed.flags.writeable = False
     return packed
 
 

@@ -22,10 +22,14 @@ from cell.synthetic.planesets import HIDDEN_CAUSES
 
 
 def test_each_kind_is_benched_on_every_cause_it_can_show_and_none() -> None:
-    assert shown("shear") == (*HIDDEN_CAUSES, None)
+    alone = tuple(c for c in HIDDEN_CAUSES if c != "fibre_direction")
+    # A turn shows only beside an anisotropy of the lattice: benched as a pair, never alone.
+    assert shown("shear") == (*alone, None, ("orthotropy", "fibre_direction"),
+                              ("anisotropy", "fibre_direction"))
     assert set(shown("mixed")) == set(shown("shear"))
     assert "tension_compression_asymmetry" not in shown("biaxial")
     assert "orthotropy" not in shown("biaxial") and None in shown("biaxial")
+    assert ("anisotropy", "fibre_direction") not in shown("biaxial")
     # Seeds no test uses (the tests' seeds are below 10 000).
     assert bench_seeds(2) == [FIRST_SEED, FIRST_SEED + 1] and FIRST_SEED >= 10_000
 
@@ -37,9 +41,10 @@ def test_a_parameter_the_fit_lacks_is_no_error_of_zero() -> None:
 
 
 def _row(kind: str, truth: list[str], causes: list[str], worst: float | None,
-         seconds: float) -> dict[str, Any]:
+         seconds: float, turn_error_deg: float | None = None) -> dict[str, Any]:
     return {"kind": kind, "seed": FIRST_SEED, "truth": truth, "causes": causes,
-            "exact": causes == truth, "worst_parameter_error": worst, "seconds": seconds}
+            "exact": causes == truth, "worst_parameter_error": worst,
+            "turn_error_deg": turn_error_deg, "seconds": seconds}
 
 
 def test_the_summary_counts_exact_sets_their_parameters_and_the_unchanged_ones() -> None:
@@ -60,6 +65,21 @@ def test_the_summary_counts_exact_sets_their_parameters_and_the_unchanged_ones()
     assert report["confusion"]["none"] == {"none": 1, "plasticity": 1}
     assert not report["targets"]["exact"]["pass"]
     assert report["targets"]["time_per_set_median"]["pass"]
+
+
+def test_a_turn_is_scored_in_degrees_beside_its_companion() -> None:
+    turned = ["orthotropy", "fibre_direction"]
+    rows = [_row("shear", turned, turned, 0.01, 9.0, turn_error_deg=2.0),
+            _row("mixed", turned, turned, 0.02, 9.0, turn_error_deg=12.0),
+            _row("mixed", turned, ["orthotropy"], 0.02, 9.0)]
+    figures = summary(rows)
+    assert figures["exact_by_cause"] == {"fibre_direction + orthotropy": pytest.approx(2 / 3)}
+    # The turn's error is not a relative one: it counts apart, against 10 degrees.
+    assert figures["params_within_15pct"] == 1.0
+    assert (figures["turns_within_10deg"], figures["worst_turn_error_deg"]) == (0.5, 12.0)
+    report = plane_report(rows, ("shear", "mixed"))
+    assert not report["targets"]["turns_within_10_degrees"]["pass"]
+    assert "turns_within_10_degrees" not in plane_report(rows[2:], ("mixed",))["targets"]
 
 
 def test_the_command_takes_planes_alone(capsys: pytest.CaptureFixture[str]) -> None:

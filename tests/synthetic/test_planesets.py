@@ -1,6 +1,7 @@
-"""Synthetic shear, biaxial and mixed sets that hide one cause of the catalogue: what they
-hold, that the truth stays out of the files, and that the diagnosis names a hidden cause with
-its parameters (and nothing on an unchanged set)."""
+"""Synthetic shear, biaxial and mixed sets that hide one cause of the catalogue, or turned
+fibres beside an orthotropy: what they hold, that the truth stays out of the files, and that
+the diagnosis names a hidden cause with its parameters and the turn with its angle (and nothing
+on an unchanged set)."""
 
 from pathlib import Path
 
@@ -9,9 +10,14 @@ import pytest
 
 from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.sets import diagnose_set
+from cell.diagnosis.specimen.causes import CandidateMaterial
+from cell.diagnosis.specimen.fitting import Problem, fit
+from cell.diagnosis.specimen.planeseries import fitted_series
+from cell.diagnosis.specimen.solve import fibre_turn_deg
 from cell.errors import MeasurementError
 from cell.measure.specimens import load_measurement_set
 from cell.synthetic.planesets import HIDDEN_CAUSES, PLANE_KINDS, write_plane_set
+from cell.tissue.materialfile import load_material, material_to_toml
 
 
 def test_a_hidden_orthotropy_parts_the_sheet_and_normal_shear_modes(tmp_path: Path) -> None:
@@ -81,3 +87,33 @@ def test_the_diagnosis_names_a_hidden_orthotropy_with_its_ratio(tmp_path: Path,
     write_plane_set(tmp_path / "plain", 1001, kind, None)
     assert diagnose_set(load_measurement_set(tmp_path / "plain"),
                         DiagnosisParams(workers=1)).uniaxial.causes == ()
+
+
+def test_a_turned_set_hides_a_fibre_turn_that_a_fit_finds_and_the_material_file_keeps(
+        tmp_path: Path) -> None:
+    truth = write_plane_set(tmp_path / "turned", 51, "shear", ("orthotropy", "fibre_direction"))
+    assert truth.causes == ("orthotropy", "fibre_direction")
+    assert 8.0 <= abs(truth.fibre_turn_deg) <= 30.0
+    data = load_measurement_set(tmp_path / "turned")
+    model = CandidateMaterial(("orthotropy", "fibre_direction"))
+    fitted = fit(Problem.of(data.specimen, fitted_series(data), 16), model, model.initial, 100)
+    assert fibre_turn_deg(fitted.material) == pytest.approx(truth.fibre_turn_deg, abs=3.0)
+    (tmp_path / "material.toml").write_text(material_to_toml(fitted.material))
+    loaded = load_material(tmp_path / "material.toml")
+    assert fibre_turn_deg(loaded) == pytest.approx(fibre_turn_deg(fitted.material), abs=1e-6)
+    assert loaded.sheet_direction == pytest.approx(fitted.material.sheet_direction, abs=1e-6)
+    # A turn shows only beside an anisotropy of the lattice: never hidden alone.
+    with pytest.raises(MeasurementError, match="got 'fibre_direction'"):
+        write_plane_set(tmp_path / "bad", 51, "shear", "fibre_direction")
+    with pytest.raises(MeasurementError, match="biaxial sets hide one of"):
+        write_plane_set(tmp_path / "bad", 51, "biaxial", ("anisotropy", "fibre_direction"))
+
+
+@pytest.mark.slow  # two whole diagnoses
+@pytest.mark.parametrize("kind", ["shear", "mixed"])
+def test_the_diagnosis_names_a_fibre_turn_with_its_angle(tmp_path: Path, kind: str) -> None:
+    truth = write_plane_set(tmp_path, 1002, kind, ("orthotropy", "fibre_direction"))
+    result = diagnose_set(load_measurement_set(tmp_path), DiagnosisParams(workers=1)).uniaxial
+    assert result.causes == ("orthotropy", "fibre_direction")
+    assert result.extended.params["fibre_turn_deg"] == pytest.approx(truth.fibre_turn_deg,
+                                                                     abs=10.0)

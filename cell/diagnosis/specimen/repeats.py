@@ -1,6 +1,7 @@
 """Tests repeated under equal conditions, recognised from the tests themselves: their mode,
-fibre angle and displacement path (peak strains, the rate to the first peak, the hold, the
-number of load reversals, the duration), never from their names.
+fibre angle and displacement path (peak strains, each measured column's own included: a biaxial
+test's two edges; the rate to the first peak, the hold, the number of load reversals, the
+duration), never from their names.
 
 Two tests are repeats when the mode is the same, the angles agree within
 :data:`ANGLE_TOLERANCE_DEG` and every feature of the path agrees within
@@ -23,7 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.measure.specimens import MechanicalTest, Specimen
+from cell.diagnosis.specimen.planeseries import PlaneSeries, Series
+from cell.measure.specimens import Specimen
 
 #: Fibre angles closer than this are one condition, degrees.
 ANGLE_TOLERANCE_DEG = 1.0
@@ -54,6 +56,8 @@ class Condition:
         hold_s: time spent (nearly) at that strain after it is first reached, s.
         reversals: how many times the displacement turns.
         duration_s: the test's duration, s.
+        column_peaks: the largest absolute strain of each measured column (a biaxial test's
+            z and x edges; one for a uniaxial test).
 
     Example:
         >>> from cell.measure.specimens import load_measurement_set
@@ -70,9 +74,10 @@ class Condition:
     hold_s: float
     reversals: int
     duration_s: float
+    column_peaks: tuple[float, ...] = ()
 
     @classmethod
-    def of(cls, test: MechanicalTest, specimen: Specimen) -> Condition:
+    def of(cls, test: Series, specimen: Specimen) -> Condition:
         """The condition of ``test`` on ``specimen``."""
         strain = test.strain(specimen)
         time = test.time_s - test.time_s[0]
@@ -83,17 +88,22 @@ class Condition:
         # Hold: the run of samples near the peak that starts where the peak is reached.
         last = first + (int(np.argmin(near[first:])) if not near[first:].all()
                         else len(near) - first) - 1
+        columns = np.split(size, len(test.columns)) if isinstance(test, PlaneSeries) else [size]
         return cls(test.mode, float(test.angle_deg), float(strain.max()), float(strain.min()),
                    float(time[first]), float(time[last] - time[first]),
-                   _reversals(strain, _TURN_SHARE * peak), float(time[-1]))
+                   _reversals(strain, _TURN_SHARE * peak), float(time[-1]),
+                   tuple(float(c.max()) for c in columns))
 
     def matches(self, other: Condition) -> bool:
         """Whether ``other`` is the same condition (module docstring)."""
         if (self.mode != other.mode or self.reversals != other.reversals
                 or abs(self.angle_deg - other.angle_deg) > ANGLE_TOLERANCE_DEG):
             return False
+        if len(self.column_peaks) != len(other.column_peaks):
+            return False
         strains = ((self.peak_strain, other.peak_strain),
-                   (self.trough_strain, other.trough_strain))
+                   (self.trough_strain, other.trough_strain),
+                   *zip(self.column_peaks, other.column_peaks, strict=True))
         times = ((self.time_to_peak_s, other.time_to_peak_s), (self.hold_s, other.hold_s),
                  (self.duration_s, other.duration_s))
         return (all(_close(a, b, STRAIN_TOLERANCE) for a, b in strains)
@@ -119,7 +129,7 @@ def _close(a: float, b: float, absolute: float) -> bool:
     return abs(a - b) <= max(RELATIVE_TOLERANCE * max(abs(a), abs(b)), absolute)
 
 
-def repeat_groups(tests: tuple[MechanicalTest, ...],
+def repeat_groups(tests: tuple[Series, ...],
                   specimen: Specimen) -> list[list[int]]:
     """The tests grouped by condition (indices into ``tests``, in their order): each test
     joins the first group whose first test it matches."""

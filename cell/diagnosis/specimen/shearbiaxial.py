@@ -14,7 +14,10 @@ traction (:func:`~cell.diagnosis.specimen.solve.solve_path`).
   Piola-Kirchhoff stress ``P = tau F^-T`` times the edges' initial areas.
 
 The sheets lie along the axis that ``shear_plane`` names ``s`` in shear, and across the fibres
-in the sheet's x-z plane in a biaxial test (their normal along its thickness y). A transversely
+in the sheet's x-z plane in a biaxial test (their normal along its thickness y). A material whose
+fibres are turned (:func:`~cell.diagnosis.specimen.solve.fibre_turn_deg`, the cause
+``fibre_direction``: a specimen cut at an angle to its fibres) has both turned by that angle about
+the sheets' normal, the fibres towards the sheets, in every test. A transversely
 isotropic material (``sheet_over_normal`` 1) makes the sheets and their normal alike, so its
 shear modes pair up (``fs`` and ``fn``, ``sf`` and ``nf``, ``sn`` and ``ns`` give the same
 forces); an orthotropic one parts them.
@@ -40,8 +43,10 @@ import numpy as np
 from cell.diagnosis.specimen.solve import (
     SpecimenLattice,
     fibre_direction,
+    fibre_turn_deg,
     sheet_direction,
     solve_path,
+    turned,
 )
 from cell.measure.shearbiaxial import BiaxialTest, ShearTest
 from cell.measure.specimens import MeasurementSet, Specimen
@@ -86,9 +91,10 @@ def simulate_shear(test: ShearTest, specimen: Specimen, material: MassSpringMate
     size = test.size_of(specimen)
     path = np.zeros((len(test.time_s), 4))
     path[:, _XZ] = test.gamma(size)
+    fibre, sheet = turned(np.eye(3)[test.fibre_axis], np.eye(3)[test.sheet_axis],
+                          fibre_turn_deg(material))
     tau, gradient = solve_path(lattice, lattice.law(material), test.test_id, test.time_s, path,
-                               (), np.eye(3)[test.fibre_axis], np.eye(3)[test.sheet_axis],
-                               lattice.sheet_factor(material))
+                               (), fibre, sheet, lattice.sheet_factor(material))
     area = size[0] * size[1]
     return SimulatedForces(test.test_id, test.time_s,
                            {"force_N": area * tau[:, _XZ], "normal_force_N": area * tau[:, _ZZ]},
@@ -109,9 +115,10 @@ def simulate_biaxial(test: BiaxialTest, specimen: Specimen, material: MassSpring
     strains = test.strains(size)
     path = np.zeros((len(test.time_s), 4))
     path[:, _ZZ], path[:, _XX] = strains[:, 0], strains[:, 1]
+    angle = test.angle_deg + fibre_turn_deg(material)
     tau, gradient = solve_path(lattice, lattice.law(material), test.test_id, test.time_s, path,
-                               _BIAXIAL_FREE, fibre_direction(test.angle_deg),
-                               sheet_direction(test.angle_deg), lattice.sheet_factor(material))
+                               _BIAXIAL_FREE, fibre_direction(angle), sheet_direction(angle),
+                               lattice.sheet_factor(material))
     along_z, along_x = face_stress(tau, gradient)
     return SimulatedForces(test.test_id, test.time_s,
                            {"force_N": size[0] * size[1] * along_z,

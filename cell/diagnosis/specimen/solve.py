@@ -38,14 +38,15 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from cell.errors import DivergenceError
 from cell.measure.specimens import MeasurementSet, MechanicalTest, Specimen
-from cell.tissue.lattice import calibration_factors, sheet_factor, sheet_gain, tet_edges
+from cell.tissue.lattice import AffineLattice, affine_lattice, sheet_gain, tet_edges
 from cell.tissue.material import MassSpringMaterial
 from cell.tissue.packedlaw import SpringLaw
 from cell.tissue.springlaw import homogeneous_stress
@@ -100,6 +101,53 @@ def sheet_direction(angle_deg: float) -> tuple[float, float, float]:
     return (math.cos(angle), 0.0, -math.sin(angle))
 
 
+def turned(fibre: Sequence[float], sheet: Sequence[float], turn_deg: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The fibre and sheet directions turned by ``turn_deg`` about the sheets' normal, the
+    fibres towards the sheets (the turn of :func:`fibre_turn_deg`).
+
+    Example:
+        >>> [v.round(6).tolist() for v in turned((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), 90.0)]
+        [[1.0, 0.0, 0.0], [-0.0, 0.0, -1.0]]
+    """
+    angle = math.radians(turn_deg)
+    fibre, sheet = np.asarray(fibre, dtype=float), np.asarray(sheet, dtype=float)
+    return (math.cos(angle) * fibre + math.sin(angle) * sheet,
+            math.cos(angle) * sheet - math.sin(angle) * fibre)
+
+
+def fibre_turn_deg(material: MassSpringMaterial) -> float:
+    """How far ``material``'s fibres are turned from the fibre axis a test declares, degrees:
+    the angle of its ``fibre_direction`` from x towards z (a diagnosis's materials have their
+    fibres along x and their sheets along z, as the candidate material builds them; the cause
+    ``fibre_direction`` turns both about their normal).
+
+    Example:
+        >>> round(fibre_turn_deg(MassSpringMaterial(fibre_direction=(1.0, 0.0, 1.0))), 6)
+        45.0
+    """
+    fibre = material.fibre_direction
+    return math.degrees(math.atan2(fibre[2], fibre[0]))
+
+
+def _grouped(units: np.ndarray, volume_m3: np.ndarray, total_m3: float, mirror: bool
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """The unit rest directions of springs ``units`` (E, 3) grouped, with each group's volume
+    share (``volume_m3`` summed over the group, over ``total_m3``): springs strain alike when
+    parallel (either sign) and, with ``mirror``, when mirror images across y = 0 (where F, the
+    fibres and the sheets keep it a plane of symmetry)."""
+    units = units.copy()
+    if mirror:
+        units[:, 1] = np.abs(units[:, 1])
+    signed = [0, 2] if mirror else [0, 1, 2]
+    part = units[:, signed]
+    lead = part[np.arange(len(units)), np.argmax(np.abs(part) > 1e-9, axis=1)]
+    units[:, signed] *= np.where(lead < 0.0, -1.0, 1.0)[:, None]
+    keys, group = np.unique(np.round(units, 9), axis=0, return_inverse=True)
+    return (keys / np.linalg.norm(keys, axis=1, keepdims=True),
+            np.bincount(group.ravel(), weights=volume_m3) / total_m3)
+
+
 @dataclass(frozen=True, eq=False)
 class SpecimenLattice:
     """The specimen's springs grouped by rest direction, for homogeneous deformation.
@@ -108,6 +156,9 @@ class SpecimenLattice:
         directions: (J, 3) unit rest directions, one per group of parallel springs.
         weights: (J,) each group's volume share, ``sum(sum(V)) / V`` over its springs
             (dimensionless; ``K0 l0**2 = sum(V)`` for every spring).
+        parallel_directions: (J', 3) and
+        parallel_weights: (J',) the same with only parallel springs grouped, for fibres or
+            sheets that leave y no plane of symmetry (:func:`solve_path`).
         mesh: the specimen's mesh.
         edges: (E, 2) its springs.
         edge_volume_m3: (E,) volume of the tets sharing each spring, m^3.
@@ -116,17 +167,24 @@ class SpecimenLattice:
         >>> lattice = SpecimenLattice.of(Specimen("cube", (0.01,) * 3))
         >>> len(lattice.directions), round(float(lattice.weights.sum()), 6)
         (9, 6.0)
+        >>> len(lattice.parallel_directions), round(float(lattice.parallel_weights.sum()), 6)
+        (13, 6.0)
     """
 
     directions: np.ndarray
     weights: np.ndarray
+    parallel_directions: np.ndarray
+    parallel_weights: np.ndarray
     mesh: TetMesh
     edges: np.ndarray
     edge_volume_m3: np.ndarray
-    # Calibration factors and sheet factor by (El / Et, oblique, E_s / E_n): they depend on
-    # nothing else, and a diagnosis asks for the same ones thousands of times.
+    # Calibration factors and sheet factor by (El / Et, oblique, E_s / E_n), and the affine
+    # lattices that calibrate by (oblique, orthotropic) and their geometry by orthotropy: they
+    # depend on nothing else, and a diagnosis asks for the same ones thousands of times.
     _factors: dict[tuple[float, ...], tuple[float, float, float]] = field(
         default_factory=dict, repr=False)
+    _affine: dict[tuple[float, bool], AffineLattice] = field(default_factory=dict, repr=False)
+    _frames: dict[bool, AffineLattice] = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, specimen: Specimen) -> SpecimenLattice:
@@ -137,16 +195,8 @@ class SpecimenLattice:
         edges, volume = tet_edges(mesh.points, mesh.tets)
         vectors = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
         units = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
-        # Springs strain alike when parallel (either sign) or mirror images across y = 0, which
-        # F keeps a plane of symmetry: one group per direction up to both.
-        units[:, 1] = np.abs(units[:, 1])
-        in_plane = units[:, [0, 2]]
-        lead = in_plane[np.arange(len(units)), np.argmax(np.abs(in_plane) > 1e-9, axis=1)]
-        units[:, [0, 2]] *= np.where(lead < 0.0, -1.0, 1.0)[:, None]
-        keys, group = np.unique(np.round(units, 9), axis=0, return_inverse=True)
-        weights = np.bincount(group.ravel(), weights=volume) / mesh.volume_m3
-        return cls(keys / np.linalg.norm(keys, axis=1, keepdims=True), weights, mesh, edges,
-                   volume)
+        return cls(*_grouped(units, volume, mesh.volume_m3, True),
+                   *_grouped(units, volume, mesh.volume_m3, False), mesh, edges, volume)
 
     def law(self, material: MassSpringMaterial) -> SpringLaw:
         """``material``'s spring law on this lattice, calibrated with its fibres along the load
@@ -166,14 +216,30 @@ class SpecimenLattice:
         key = (material.longitudinal.small_strain_modulus_pa
                / material.transverse.small_strain_modulus_pa, material.oblique,
                material.sheet_over_normal)
-        if key not in self._factors:
-            if len(self._factors) > 4096:
-                self._factors.clear()
-            geometry = (self.mesh.points, self.edges, self.edge_volume_m3)
-            factor = sheet_factor(*geometry, material, _LOAD_AXIS, _SHEET_AXIS)
-            self._factors[key] = (*calibration_factors(*geometry, material, _LOAD_AXIS,
-                                                       _SHEET_AXIS, factor), factor)
-        return self._factors[key]
+        return _remembered(self._factors, key, lambda: self._calibrated(material))
+
+    def _calibrated(self, material: MassSpringMaterial) -> tuple[float, float, float]:
+        affine = _remembered(self._affine, (material.oblique, material.orthotropic),
+                             lambda: self._frame(material).with_oblique(material.oblique))
+        factor = affine.sheet_factor(material)
+        return (*affine.calibration_factors(material, factor), factor)
+
+    def _frame(self, material: MassSpringMaterial) -> AffineLattice:
+        """An affine lattice of ``material``'s orthotropy, at any oblique factor."""
+        return _remembered(self._frames, material.orthotropic,
+                           lambda: affine_lattice(self.mesh.points, self.edges,
+                                                  self.edge_volume_m3, material, _LOAD_AXIS,
+                                                  _SHEET_AXIS))
+
+
+def _remembered(store: dict[Any, Any], key: Any, make: Callable[[], Any]) -> Any:
+    """``store[key]``, made by ``make()`` the first time (a store past 4096 entries starts
+    over: a long diagnosis meets many keys once)."""
+    if key not in store:
+        if len(store) > 4096:
+            store.clear()
+        store[key] = make()
+    return store[key]
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,7 +284,8 @@ def simulate_test(
     """Simulate ``test`` on ``specimen`` made of ``material`` (module docstring).
 
     The material's fibres are turned to the test's ``angle_deg`` from the load axis, in the
-    x-z plane. ``lattice`` may be passed to reuse the specimen's.
+    x-z plane, and by the material's own turn (:func:`fibre_turn_deg`) further. ``lattice``
+    may be passed to reuse the specimen's.
 
     Raises:
         MaterialError: an anisotropy the lattice's springs cannot give.
@@ -250,14 +317,16 @@ def simulate_tests(
     """
     lattice = SpecimenLattice.of(specimen) if lattice is None else lattice
     law = lattice.law(material)
+    turn = fibre_turn_deg(material)
     runs = []
     for test in tests:
         strain = np.ascontiguousarray(test.strain(specimen))
         path = np.zeros((len(strain), 4))
         path[:, 2] = strain
         tau, gradient = solve_path(lattice, law, test.test_id, test.time_s, path,
-                                   _UNIAXIAL_FREE, fibre_direction(test.angle_deg),
-                                   sheet_direction(test.angle_deg), lattice.sheet_factor(material))
+                                   _UNIAXIAL_FREE, fibre_direction(test.angle_deg + turn),
+                                   sheet_direction(test.angle_deg + turn),
+                                   lattice.sheet_factor(material))
         runs.append(SimulatedTest(test.test_id, test.time_s,
                                   tau[:, 2] / (1.0 + strain) * test.area_m2(specimen),
                                   gradient[:, :2]))
@@ -271,28 +340,38 @@ def solve_path(lattice: SpecimenLattice, law: SpringLaw, test_id: str, time_s: n
     """The homogeneous lattice along ``path`` ((n, 4): the displacement gradient F - I's xx,
     yy, zz and xz at the samples of ``time_s``; F's other entries 0), the components listed in
     ``free`` solved for zero stress in the same components, fibres along ``fibre``, sheets
-    along ``sheet`` (x or z, or y: F keeps y a plane of symmetry) with the springs' sheet gain
-    ``sheet_factor`` (:func:`~cell.tissue.springlaw.homogeneous_stress`): the Kirchhoff stress
+    along ``sheet`` with the springs' sheet gain ``sheet_factor`` (the free components keep y
+    a plane of symmetry; where the fibres or sheets leave it one, only parallel springs are
+    grouped) (:func:`~cell.tissue.springlaw.homogeneous_stress`): the Kirchhoff stress
     (n, 4; xx, yy, zz, xz; Pa) and F (n, 4; xx, yy, zz, xz) at the samples.
 
     Raises:
         DivergenceError: no equilibrium at some sample (naming ``test_id``).
     """
-    cos_sq = (lattice.directions @ np.asarray(fibre, dtype=float)) ** 2
-    weights = (lattice.weights if sheet_factor == 1.0 else lattice.weights * sheet_gain(
-        sheet_factor, (lattice.directions @ np.asarray(sheet, dtype=float)) ** 2))
+    fibre, sheet = np.asarray(fibre, dtype=float), np.asarray(sheet, dtype=float)
+    directions, weights = ((lattice.directions, lattice.weights)
+                           if _mirrored(fibre) and _mirrored(sheet) else
+                           (lattice.parallel_directions, lattice.parallel_weights))
+    cos_sq = (directions @ fibre) ** 2
+    if sheet_factor != 1.0:
+        weights = weights * sheet_gain(sheet_factor, (directions @ sheet) ** 2)
     time = np.ascontiguousarray(time_s - time_s[0])
     path = np.ascontiguousarray(path, dtype=float)
     tau, gradient = np.empty((len(time), 4)), np.empty((len(time), 4))
     failed = homogeneous_stress(time, path, np.asarray(free, dtype=np.int64),
-                                lattice.directions, weights, cos_sq, law.curves,
-                                law.params, law.history(len(lattice.directions)), tau, gradient)
+                                directions, weights, cos_sq, law.curves, law.params,
+                                law.history(len(directions)), tau, gradient)
     if failed >= 0:
         moved = ", ".join(f"{name} {path[failed, i]:.4g}" for i, name in enumerate(_COMPONENTS)
                           if i not in free and path[failed, i] != 0.0)
         raise DivergenceError(float(time[failed]), f"test {test_id!r}: the specimen has no "
                               f"equilibrium at {moved or 'rest'}")
     return tau, gradient
+
+
+def _mirrored(direction: np.ndarray) -> bool:
+    """Whether ``direction`` keeps y a plane of symmetry (in the x-z plane, or along y)."""
+    return abs(direction[1]) < 1e-12 or (abs(direction[0]) < 1e-12 and abs(direction[2]) < 1e-12)
 
 
 def simulate_set(measurements: MeasurementSet,

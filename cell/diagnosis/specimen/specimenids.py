@@ -149,8 +149,8 @@ def crossed_reml(u: np.ndarray, v: np.ndarray, conditions: list[list[int]],
     peak = min(float(best.fun), null)
     ratio = max(2.0 * (null - peak), 0.0)
     grid = np.linspace(0.0, min(_MAX_SD, 3.0 * sd + 0.2), _GRID)
-    inside = grid[[2.0 * (model.profiled(g)[0] - peak) <= chi2.ppf(_CI_LEVEL, 1)
-                   for g in grid]]
+    limit = chi2.ppf(_CI_LEVEL, 1)
+    inside = grid[[2.0 * (model.profiled(g)[0] - peak) <= limit for g in grid]]
     p, _ = model.projection(sd, tau)
     blup = sd**2 * z.T @ p @ u
     error = sd**2 - sd**4 * np.einsum("ks,kl,ls->s", z, p, z)

@@ -186,7 +186,8 @@ def reml_sd(u: np.ndarray, v: np.ndarray, groups: list[list[int]]
     peak = -loss(sd)
     ratio = max(2.0 * (peak + loss(0.0)), 0.0)
     grid = np.linspace(0.0, min(_MAX_SD, 3.0 * sd + 0.2), 601)
-    inside = grid[[2.0 * (peak + loss(g)) <= chi2.ppf(_CI_LEVEL, 1) for g in grid]]
+    limit = chi2.ppf(_CI_LEVEL, 1)
+    inside = grid[[2.0 * (peak + loss(g)) <= limit for g in grid]]
     return sd, ratio, (float(inside.min()), float(inside.max()))
 
 

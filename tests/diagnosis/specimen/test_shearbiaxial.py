@@ -2,6 +2,7 @@
 small-strain elastic constants, and against the meshed specimen in MuJoCo
 (:mod:`tests.shear_reference`) within 2 %."""
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -11,8 +12,10 @@ from cell.diagnosis.specimen.shearbiaxial import simulate_biaxial, simulate_shea
 from cell.diagnosis.specimen.solve import (
     SpecimenLattice,
     fibre_direction,
+    fibre_turn_deg,
     sheet_direction,
     simulate_tests,
+    turned,
 )
 from cell.errors import DivergenceError
 from cell.measure.shearbiaxial import SHEAR_PLANES, BiaxialTest, ShearTest
@@ -45,17 +48,22 @@ def _biaxial(angle_deg: float, strain_z: float, strain_x: float) -> BiaxialTest:
                        strain_x * ramp * CUBE.size_m[0], 0.0 * TIME, 0.0 * TIME)
 
 
+def _turned(material: MassSpringMaterial, turn_deg: float) -> MassSpringMaterial:
+    """``material`` with its fibres turned by ``turn_deg`` from x towards z (its sheets)."""
+    angle = math.radians(turn_deg)
+    return replace(material, fibre_direction=(math.cos(angle), 0.0, math.sin(angle)))
+
+
 def _elastic_constants(material: MassSpringMaterial, fibre: np.ndarray) -> np.ndarray:
     """The lattice's small-strain stiffness C_ijkl = sum_j w_j k_j n_i n_j n_k n_l, Pa (k_j the
     springs' small-strain modulus along rest direction n_j)."""
     lattice = SpecimenLattice.of(CUBE)
     law = lattice.law(material)
     strain = 1e-9
+    n = lattice.parallel_directions
     moduli = np.array([spring_stress(strain, float(c), law.curves, law.params, law.history(1),
-                                     0, 0.0, False)[0] / strain
-                       for c in (lattice.directions @ fibre) ** 2])
-    n = lattice.directions
-    return np.einsum("j,ja,jb,jc,jd->abcd", lattice.weights * moduli, n, n, n, n)
+                                     0, 0.0, False)[0] / strain for c in (n @ fibre) ** 2])
+    return np.einsum("j,ja,jb,jc,jd->abcd", lattice.parallel_weights * moduli, n, n, n, n)
 
 
 @pytest.mark.parametrize("material", [ISOTROPIC, ANISOTROPIC], ids=["isotropic", "anisotropic"])
@@ -68,6 +76,45 @@ def test_small_shear_stress_is_the_lattice_shear_modulus_times_gamma(
     assert run.force_n["force_N"][-1] / CUBE.area_m2 == pytest.approx(modulus * 1e-4, rel=1e-4)
     # The normal stress of simple shear is second order in gamma.
     assert abs(run.force_n["normal_force_N"][-1]) < 1e-3 * abs(run.force_n["force_N"][-1])
+
+
+@pytest.mark.parametrize("plane", SHEAR_PLANES)
+def test_small_shear_stresses_of_turned_fibres_follow_the_lattice_with_the_fibres_turned(
+        plane: str) -> None:
+    gamma = 1e-6  # oblique springs strain at first order: their second-order terms apart
+    test, material = _shear(plane, gamma), _turned(ANISOTROPIC, 20.0)
+    run = simulate_shear(test, CUBE, material)
+    fibre, _ = turned(np.eye(3)[test.fibre_axis], np.eye(3)[test.sheet_axis], 20.0)
+    c = _elastic_constants(material, fibre) * gamma
+    assert run.force_n["force_N"][-1] / CUBE.area_m2 == pytest.approx(c[0, 2, 0, 2], rel=1e-4)
+    # Fibres oblique in the sheared plane load the plates' normal at first order in gamma.
+    assert run.force_n["normal_force_N"][-1] / CUBE.area_m2 == pytest.approx(
+        c[2, 2, 0, 2], rel=1e-3, abs=1e-4 * c[0, 2, 0, 2])
+
+
+def test_a_turn_is_about_the_sheets_normal_the_fibres_towards_the_sheets_in_every_test() -> None:
+    material = replace(ANISOTROPIC, sheet_over_normal=2.0)
+
+    def shear(plane: str, turn_deg: float) -> dict[str, np.ndarray]:
+        return simulate_shear(_shear(plane, 0.2), CUBE, _turned(material, turn_deg)).force_n
+
+    assert fibre_turn_deg(_turned(material, -25.0)) == pytest.approx(-25.0)
+    # sf's fibres turned by 25 degrees lie where fs's turned by 65 do, and so do the sheets.
+    for name, force in shear("sf", 25.0).items():
+        np.testing.assert_allclose(force, shear("fs", 65.0)[name], rtol=1e-9)
+    # y mirrors fn's shear: either way of turning is alike; in fs's plane the normal force tells
+    # the two apart (the fibres stretched by the shear, or squeezed).
+    np.testing.assert_allclose(shear("fn", 25.0)["force_N"], shear("fn", -25.0)["force_N"],
+                               rtol=1e-9)
+    assert shear("fs", 25.0)["normal_force_N"][-1] > 1.2 * shear("fs", -25.0)["normal_force_N"][-1]
+    # A tension test at 30 degrees of fibres turned by 25 is one at 55 of the declared fibres.
+    tension = [MechanicalTest(f"t{a}", "tension", a, TIME, 1e-3 * TIME, 0.0 * TIME)
+               for a in (30.0, 55.0)]
+    np.testing.assert_array_equal(simulate_tests(tension[:1], CUBE, _turned(material, 25.0))[0]
+                                  .force_n, simulate_tests(tension[1:], CUBE, material)[0].force_n)
+    biaxial = simulate_biaxial(_biaxial(10.0, 0.05, 0.02), CUBE, _turned(material, 20.0))
+    np.testing.assert_array_equal(biaxial.force_n["force_N"], simulate_biaxial(
+        _biaxial(30.0, 0.05, 0.02), CUBE, material).force_n["force_N"])
 
 
 def test_the_shear_modes_pair_up_in_a_transversely_isotropic_material() -> None:
@@ -136,18 +183,20 @@ def _against_mesh(test: ShearTest | BiaxialTest, material: MassSpringMaterial,
     if isinstance(test, ShearTest):
         fast = simulate_shear(test, CUBE, material)
         path[:, 3] = test.gamma(CUBE.size_m)
-        fibre = np.eye(3)[test.fibre_axis]
+        fibre, sheet = turned(np.eye(3)[test.fibre_axis], np.eye(3)[test.sheet_axis],
+                              fibre_turn_deg(material))
         meshed_material = replace(material, fibre_direction=tuple(fibre),
-                                  sheet_direction=tuple(np.eye(3)[test.sheet_axis]))
+                                  sheet_direction=tuple(sheet))
         mesh = simulate_gradient(CUBE, meshed_material, fibre, TIME, path, True, params)
         meshed = {"force_N": mesh.top_N[:, 0], "normal_force_N": mesh.top_N[:, 1]}
     else:
         fast = simulate_biaxial(test, CUBE, material)
         path[:, 2], path[:, 0] = test.strains(CUBE.size_m).T
-        meshed_material = replace(material, fibre_direction=fibre_direction(test.angle_deg),
-                                  sheet_direction=sheet_direction(test.angle_deg))
-        mesh = simulate_gradient(CUBE, meshed_material, fibre_direction(test.angle_deg), TIME,
-                                 path, False, params)
+        angle = test.angle_deg + fibre_turn_deg(material)
+        meshed_material = replace(material, fibre_direction=fibre_direction(angle),
+                                  sheet_direction=sheet_direction(angle))
+        mesh = simulate_gradient(CUBE, meshed_material, fibre_direction(angle), TIME, path,
+                                 False, params)
         meshed = {"force_N": mesh.top_N[:, 1], "force_x_N": mesh.side_N[:, 0]}
     return {name: float(np.abs(fast.force_n[name] - force).max() / np.abs(force).max())
             for name, force in meshed.items()}
@@ -165,6 +214,9 @@ CASES = [
     pytest.param(_shear("fs", 0.1), ORTHOTROPIC, id="shear fs orthotropic"),
     pytest.param(_shear("fn", 0.1), ORTHOTROPIC, id="shear fn orthotropic"),
     pytest.param(_biaxial(0.0, 0.05, 0.025), ORTHOTROPIC, id="biaxial 1:0.5 orthotropic"),
+    # Fibres turned 20 degrees towards the sheets: out of the x-z plane in fn.
+    pytest.param(_shear("fs", 0.1), _turned(ANISOTROPIC, 20.0), id="shear fs turned"),
+    pytest.param(_shear("fn", 0.1), _turned(ANISOTROPIC, 20.0), id="shear fn turned"),
 ]
 
 

@@ -1,15 +1,18 @@
 """Simulated specimen tests: the quasi-static lattice against closed forms, each part of the
 spring law, and against the fine, slow reference (the meshed specimen in MuJoCo)."""
 
+import pickle
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from cell.diagnosis.specimen.solve import (
+    SpecimenLattice,
     fibre_direction,
     simulate_set,
     simulate_test,
+    simulate_tests,
     specimen_mesh,
 )
 from cell.errors import DivergenceError
@@ -121,6 +124,23 @@ def test_a_compression_oblique_factor_acts_at_mid_angles_in_compression() -> Non
     assert _secant_pa(_ramp(45.0, -0.01), apart) > 1.8 * _secant_pa(_ramp(45.0, -0.01), oblique)
 
 
+def test_a_reused_or_pickled_lattice_gives_the_forces_of_a_fresh_one() -> None:
+    # A fit reuses one lattice for thousands of materials (it remembers their calibrations),
+    # and the workers get it pickled after the parent used it.
+    materials = (ANISOTROPIC, replace(ANISOTROPIC, oblique=-0.5),
+                 replace(ANISOTROPIC, oblique_compression=0.5),
+                 replace(ANISOTROPIC, sheet_over_normal=1.5))
+    test = _ramp(30.0, 0.02)
+    used = SpecimenLattice.of(CUBE)
+    for material in materials:
+        simulate_test(test, CUBE, material, used)
+    travelled = pickle.loads(pickle.dumps(used))
+    for material in reversed(materials):
+        fresh = simulate_test(test, CUBE, material).force_n
+        assert np.array_equal(simulate_test(test, CUBE, material, used).force_n, fresh)
+        assert np.array_equal(simulate_test(test, CUBE, material, travelled).force_n, fresh)
+
+
 def test_relaxation_under_a_hold_tends_to_g_infinity() -> None:
     material = replace(ISOTROPIC, relaxation_weights=(0.3, 0.2), relaxation_times_s=(0.5, 5.0))
     run = simulate_test(_ramp(0.0, 0.05, duration_s=0.01, hold_s=100.0), CUBE, material)
@@ -159,6 +179,21 @@ def test_plasticity_leaves_a_permanent_set() -> None:
     assert run.force_n[40] < 0.6 * elastic.force_n[40]  # past yield, softer
     assert run.force_n[-1] < -0.1 * run.force_n[40]  # back at zero displacement: pushed
     assert elastic.force_n[-1] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_parallel_springs_alone_grouped_give_what_mirror_images_grouped_do() -> None:
+    # The grouping fibres out of the x-z plane need (shear modes of turned fibres), on a path
+    # where both hold: plastic, relaxing, oblique, every sample alike but for round-off.
+    material = replace(ANISOTROPIC, yield_strain=0.02, hardening=0.2, relaxation_weights=(0.3,),
+                       relaxation_times_s=(1.0,))
+    lattice = SpecimenLattice.of(CUBE)
+    parallel = replace(lattice, directions=lattice.parallel_directions,
+                       weights=lattice.parallel_weights)
+    assert len(parallel.directions) > len(lattice.directions)
+    tests = [_cycle(35.0, 0.08, 8.0), _ramp(60.0, -0.1, hold_s=4.0)]
+    for mirrored, alone in zip(simulate_tests(tests, CUBE, material, lattice),
+                               simulate_tests(tests, CUBE, material, parallel), strict=True):
+        np.testing.assert_allclose(alone.force_n, mirrored.force_n, rtol=1e-9, atol=1e-12)
 
 
 def test_a_collapsed_specimen_is_a_divergence_not_data() -> None:

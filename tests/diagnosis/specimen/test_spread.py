@@ -14,9 +14,11 @@ from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.specimen.causes import CandidateMaterial
 from cell.diagnosis.specimen.diagnosis import diagnose, noise_n
 from cell.diagnosis.specimen.fitting import Problem, fit
+from cell.diagnosis.specimen.planeseries import PlaneSeries
 from cell.diagnosis.specimen.repeats import repeat_groups
 from cell.diagnosis.specimen.spread import specimen_spread
-from cell.measure.specimens import MeasurementSet, load_measurement_set
+from cell.measure.shearbiaxial import BiaxialTest
+from cell.measure.specimens import MeasurementSet, Specimen, load_measurement_set
 from cell.synthetic.specimen import Repeats, write_hidden_effect_set
 
 # Five ramps of the hidden-effect protocol, three specimens each.
@@ -41,6 +43,17 @@ def test_repeats_are_found_when_the_names_are_shuffled(tmp_path: Path) -> None:
     found = sorted(sorted(condition(order[i]) for i in g) for g in groups)
     assert found == sorted([c] * 3 for c in {condition(i) for i in range(len(data.tests))})
     assert len(found) == 5
+
+
+def test_biaxial_stretches_in_other_ratios_are_other_conditions() -> None:
+    time = np.linspace(0.0, 20.0, 41)
+    ramp = 1e-3 * time / time[-1]
+    specimen = Specimen("cube", (0.01,) * 3)
+    tests = tuple(PlaneSeries(BiaxialTest(name, 0.0, time, z * ramp, x * ramp, 0 * time,
+                                          0 * time), specimen.size_m)
+                  for name, z, x in (("1:1", 1.0, 1.0), ("1:0.5", 1.0, 0.5), ("0.5:1", 0.5, 1.0),
+                                     ("1:1 again", 1.0, 1.0)))
+    assert repeat_groups(tests, specimen) == [[0, 3], [1], [2]]
 
 
 def _spread_of_baseline_fit(data: MeasurementSet):

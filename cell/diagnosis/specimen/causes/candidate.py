@@ -35,6 +35,9 @@ cause                              change to the material (shape parameters)
 ``orthotropy``                     the sheets' modulus over their normal's, E_s / E_n, their
                                    geometric mean Et (shear and biaxial sets only)
                                    (log E_s / E_n)
+``fibre_direction``                the fibres (and sheets) turned about the sheets' normal from
+                                   the axes the tests declare (shear and biaxial sets only)
+                                   (the turn, degrees)
 =================================  ==============================================================
 
 Example:
@@ -49,6 +52,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
@@ -140,13 +144,14 @@ class CandidateMaterial:
         """Whether the load cell's offset is fitted."""
         return "force_offset" in self.causes
 
-    @property
+    # Cached: a fit reads them at every step, and the model never changes.
+    @cached_property
     def parameters(self) -> tuple[Parameter, ...]:
         """The shape parameters, each cause's in catalogue order, as its cause declares
         them."""
         return tuple(p for c in self.causes for p in REGISTRY[c].parameters(self))
 
-    @property
+    @cached_property
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the shape parameters, in vector order."""
         return tuple(p.name for p in self.parameters)
@@ -235,6 +240,8 @@ class CandidateMaterial:
             params["hardening"] = material.hardening
         if "orthotropy" in self.causes:
             params["sheet_over_normal"] = material.sheet_over_normal
+        if "fibre_direction" in self.causes:
+            params["fibre_turn_deg"] = value["fibre_turn_deg"]
         if self.has_offset:
             params["force_offset_n"] = offset_n
         return params

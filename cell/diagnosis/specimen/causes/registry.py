@@ -6,6 +6,7 @@ from __future__ import annotations
 from cell.diagnosis.specimen.causes.anisotropy import Anisotropy
 from cell.diagnosis.specimen.causes.asymmetry import TensionCompressionAsymmetry
 from cell.diagnosis.specimen.causes.base import Cause
+from cell.diagnosis.specimen.causes.fibre_direction import FibreDirection
 from cell.diagnosis.specimen.causes.nonlinear_viscoelasticity import NonlinearViscoelasticity
 from cell.diagnosis.specimen.causes.offset import ForceOffset
 from cell.diagnosis.specimen.causes.orthotropy import Orthotropy
@@ -23,6 +24,7 @@ REGISTRY: dict[str, Cause] = {cause.name: cause for cause in (
     Plasticity(),
     ForceOffset(),
     Orthotropy(),
+    FibreDirection(),
 )}
 
 
