@@ -74,8 +74,8 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
                        "(five specimens running five ramps each, a modulus spread of 5-25 %%)")
     bench.add_argument("--planes", choices=("shear", "biaxial", "mixed", "all"),
                        help="diagnose suite: synthetic shear, biaxial or mixed sets (or all "
-                       "three) hiding each cause they can show, and none (--seeds sets of "
-                       "each)")
+                       "three) hiding each cause they can show, a fibre turn beside "
+                       "orthotropy or anisotropy, and none (--seeds sets of each)")
     bench.add_argument("--cut", action="store_true",
                        help="diagnose suite: hidden-effect cut sets, made by the full "
                        "simulation of a cut (with --pairs: two causes at once)")
