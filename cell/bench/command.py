@@ -48,7 +48,8 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--markdown", type=Path,
                        help="tissue suite: Markdown tables out; diagnose: the confusion table")
     bench.add_argument("--seeds", type=int,
-                       help="diagnose suite: number of sets (default 10, --quick 3)")
+                       help="diagnose suite: number of sets (default 10, --quick 3; with "
+                       "--planes: per kind and cause, default 2, --quick 1)")
     bench.add_argument("--pairs", action="store_true",
                        help="diagnose suite: sets hiding two causes at once")
     bench.add_argument("--subtle", action="store_true",
@@ -71,6 +72,10 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--by-specimen", action="store_true",
                        help="diagnose suite, with --spread: sets that name their specimens "
                        "(five specimens running five ramps each, a modulus spread of 5-25 %%)")
+    bench.add_argument("--planes", choices=("shear", "biaxial", "mixed", "all"),
+                       help="diagnose suite: synthetic shear, biaxial or mixed sets (or all "
+                       "three) hiding each cause they can show, a fibre turn beside "
+                       "orthotropy or anisotropy, and none (--seeds sets of each)")
     bench.add_argument("--cut", action="store_true",
                        help="diagnose suite: hidden-effect cut sets, made by the full "
                        "simulation of a cut (with --pairs: two causes at once)")
@@ -108,7 +113,7 @@ def bench_command(args: argparse.Namespace) -> int:
     suite = args.suite
     if suite not in ("tissue", "diagnose", "sweep"):
         for flag in ("seeds", "pairs", "subtle", "spread", "by_specimen", "triples",
-                     "including", "suggest", "logs", "lab_protocol", "scenario_keys"):
+                     "including", "suggest", "logs", "lab_protocol", "scenario_keys", "planes"):
             if getattr(args, flag) not in (None, False):
                 option = f"--{flag.replace('_', '-')}"
                 raise InputError(None, option, f"only `musclecell bench diagnose` takes {option}")
@@ -245,6 +250,8 @@ def _diagnose_kind(args: argparse.Namespace) -> str:
         raise InputError(None, "--scenario-keys", "goes with --logs")
     if args.by_specimen and not args.spread:
         raise InputError(None, "--by-specimen", "goes with --spread")
+    if args.planes is not None and (kinds or args.cut or args.logs or args.lab_protocol):
+        raise InputError(None, "--planes", "goes with --seeds, --workers and --quick alone")
     if args.lab_protocol and (args.cut or args.logs or args.suggest or args.spread):
         raise InputError(None, "--lab-protocol", "goes with the uniaxial sets alone")
     if (args.cut or args.logs) and kinds not in ([], ["pairs"]):
@@ -266,7 +273,9 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
     from cell.outputs import write_atomic, write_json
 
     kind = _diagnose_kind(args)
-    count = args.seeds if args.seeds is not None else (3 if args.quick else 10)
+    # A plane bench's count is per kind and cause (25 sets a seed over the three kinds).
+    default = (1, 2) if args.planes is not None else (3, 10)
+    count = args.seeds if args.seeds is not None else default[0 if args.quick else 1]
     if count < 1:
         raise InputError(None, "--seeds", f"must be >= 1, got {count}")
     workers = args.workers if args.workers is not None else os.cpu_count() or 1
@@ -283,6 +292,13 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
                                          by_specimen=args.by_specimen)
     elif args.logs:
         report = _log_bench(args, kind, count, workers)
+    elif args.planes is not None:
+        from cell.bench import planesets
+
+        kinds = planesets.PLANE_KINDS if args.planes == "all" else (args.planes,)
+        rows = planesets.plane_bench(planesets.bench_seeds(count), kinds, workers=workers,
+                                     progress=_progress(args))
+        report = planesets.plane_report(rows, kinds)
     elif args.cut:
         from cell.bench import diagnose_cuts
 

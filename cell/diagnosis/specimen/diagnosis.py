@@ -90,6 +90,7 @@ from cell.diagnosis.specimen.repeatsearch import RepeatSearch, at_own_factors
 from cell.diagnosis.specimen.specimenids import specimen_folds, spread_by_specimen
 from cell.diagnosis.specimen.spread import SpecimenSpread, specimen_spread
 from cell.errors import DiagnosisError
+from cell.measure.shearbiaxial import SHEAR_MODE
 from cell.measure.specimens import MeasurementSet, MechanicalTest
 
 _RELAXATION_TERMS = 2
@@ -181,9 +182,13 @@ def _time_range_s(measurements: MeasurementSet) -> tuple[float, float]:
 
 
 def _stretch_range(measurements: MeasurementSet) -> tuple[float, float]:
-    """The set's stretches, widened by 10% of their span and to contain 1."""
-    strains = np.concatenate([t.strain(measurements.specimen)
-                              for t in fitted_series(measurements)])
+    """The set's stretches, widened by 10% of their span and to contain 1. A simple shear
+    stretches one diagonal and shortens the other by about as much: its strains count both
+    ways (a shear-only set's springs are compressed too)."""
+    tests = fitted_series(measurements)
+    strains = np.concatenate([t.strain(measurements.specimen) for t in tests]
+                             + [-t.strain(measurements.specimen) for t in tests
+                                if t.mode.startswith(SHEAR_MODE)])
     margin = 0.1 * max(float(np.ptp(strains)), 0.01)
     return (max(1.0 + min(float(strains.min()), 0.0) - margin, 0.05),
             1.0 + max(float(strains.max()), 0.0) + margin)
