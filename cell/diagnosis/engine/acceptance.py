@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from cell.diagnosis.engine.fit import Fit
+from cell.diagnosis.engine.outcome import force_noise_n
 from cell.diagnosis.engine.settings import DiagnosisParams
 
 #: The tests a fit is judged on: per test, its measured ``force_n`` and ``rest_samples``
@@ -115,6 +116,9 @@ def accepts(richer: Fit, poorer: Fit, *, first: bool, noise: float, tests: Tests
     else:
         judged = rules.judged(richer, poorer, tests)
         rich, poor = (_heldout_rmse_n(f, tests, judged) for f in (richer, poorer))
+        if len(judged) < len(tests):
+            # The variance a cause must remove is the noise of the samples it is judged on.
+            noise = force_noise_n(tests[i].force_n for i in judged)
         improved = np.mean(richer.heldout_mse_per_test(tests)[judged]
                            < poorer.heldout_mse_per_test(tests)[judged])
     ratio = params.max_rmse_ratio if first else params.later_rmse_ratio

@@ -23,24 +23,34 @@ from cell.diagnosis.engine.search import Search
 from cell.diagnosis.specimen.causes import EXCLUSIVE, CandidateMaterial, catalogue
 from cell.diagnosis.specimen.fitting import ModelFit, fit
 from cell.diagnosis.specimen.planeseries import PlaneSeries
+from cell.measure.shearbiaxial import SHEAR_MODE
 
 #: The load cell's offset: judged on the samples at rest.
 OFFSET = "force_offset"
+#: The fibres' turn: judged on the shear tests (:func:`_judged`).
+TURN = "fibre_direction"
 # Causes that the other causes' parameters absorb in part while they are missing: added to a
 # model, they are also fitted from the model's own start.
 _ABSORBED = (*EXCLUSIVE, OFFSET)
 
 
 def _judged(richer: Fit, poorer: Fit, tests: Tests) -> list[int]:
-    """The tests on which ``richer`` is judged against ``poorer``: the ramp-and-hold ones when
-    all it adds is to make poorer's relaxation non-linear (a relaxed fraction that depends on
-    the strain shows in holds alone; on the other tests its slope only trades misfit with the
-    other causes), every test otherwise (and when the set has no hold)."""
+    """The tests on which ``richer`` is judged against ``poorer``: those that show what it adds
+    to first order, where they are fewer than the set's. The ramp-and-hold ones when all it
+    adds is to make poorer's relaxation non-linear (a relaxed fraction that depends on the
+    strain shows in holds alone; on the other tests its slope only trades misfit with the
+    other causes); the shear tests when all it adds is the fibres' turn (a turn shears the
+    fibre-sheet plane's stiffness into the shear modes, while a stretch along or across the
+    plane sees it only through the square of its cosine); every test otherwise (and when the
+    set has none of those)."""
     causes, other = set(richer.model.causes), set(poorer.model.causes)
-    holds = [i for i, test in enumerate(tests) if test.mode == "relaxation"]
     if EXCLUSIVE[1] in causes and EXCLUSIVE[0] in other and causes - {EXCLUSIVE[1]} <= other:
-        return holds or list(range(len(tests)))
-    return list(range(len(tests)))
+        shown = [i for i, test in enumerate(tests) if test.mode == "relaxation"]
+    elif causes - other == {TURN}:
+        shown = [i for i, test in enumerate(tests) if test.mode.startswith(SHEAR_MODE)]
+    else:
+        shown = []
+    return shown or list(range(len(tests)))
 
 
 def _mirrored(fitted: ModelFit) -> tuple[tuple[str, ...], np.ndarray]:

@@ -1,5 +1,6 @@
 """Whether a cause earns its place: non-linear viscoelasticity in place of the quasi-linear kind
-is judged on the ramp-and-hold tests alone; everything else on every test."""
+is judged on the ramp-and-hold tests alone, the fibres' turn on the shear tests alone, each
+against the noise of the tests it is judged on; everything else on every test."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from cell.diagnosis.engine.settings import DiagnosisParams
 from cell.diagnosis.specimen.causes import CandidateMaterial
 from cell.diagnosis.specimen.fitting import ModelFit
 from cell.diagnosis.specimen.search import SpecimenSearch
+from cell.measure.shearbiaxial import ShearTest
 from cell.measure.specimens import MechanicalTest
 from cell.tissue.material import MassSpringMaterial
 
@@ -60,3 +62,43 @@ def test_without_holds_the_non_linearity_is_judged_on_every_test() -> None:
     quasi = _fit(("viscoelasticity",), 0.05, 0.10, bic=0.0)
     non_linear = _fit(("nonlinear_viscoelasticity",), 0.07, 0.05, bic=-10.0)
     assert not _later_accepts(non_linear, quasi, ramps)
+
+
+_RNG = np.random.default_rng(0)
+#: A tension test whose force carries noise of 0.05 N and a shear test whose force carries 0.005
+#: N (smaller forces, the same relative noise): the set's noise is the tension's.
+NOISY = (
+    MechanicalTest("t00", "tension", 0.0, _TIME, 1e-5 * _TIME,
+                   np.sin(_TIME) + _RNG.normal(0.0, 0.05, 50)),
+    ShearTest("fs", "fs", _TIME, 1e-5 * _TIME, 0.1 * np.sin(_TIME) + _RNG.normal(0.0, 0.005, 50),
+              None),
+)
+
+
+def _plane_fit(causes: tuple[str, ...], tension_error_n: float, shear_error_n: float,
+               bic: float) -> ModelFit:
+    """A fit of :data:`NOISY` whose held-out predictions miss each test by the given constant."""
+    heldout = (NOISY[0].force_n + tension_error_n, NOISY[1].force_n + shear_error_n)
+    rmse = float(np.sqrt((tension_error_n**2 + shear_error_n**2) / 2.0))
+    return ModelFit(CandidateMaterial(causes), np.zeros(0), np.zeros((0, 2)), 1e4, 0.0,
+                    MassSpringMaterial(), rmse_n=rmse, heldout_rmse_n=rmse, bic=bic,
+                    fitted_force_n=heldout, heldout_force_n=heldout)
+
+
+def _accepts_among_noisy(richer: ModelFit, poorer: ModelFit) -> bool:
+    return accepts(richer, poorer, first=False, noise=0.05, tests=NOISY,
+                   params=DiagnosisParams(workers=1), rules=SpecimenSearch.rules)
+
+
+def test_a_fibre_turn_is_judged_on_the_shear_tests_against_their_noise() -> None:
+    # The turn removes a 0.02 N misfit of the shear test: far more than its own noise's
+    # variance, far less than the tension's, and nothing on the tension test.
+    orthotropic = _plane_fit(("orthotropy",), 0.0, 0.02, bic=0.0)
+    turned = _plane_fit(("orthotropy", "fibre_direction"), 0.0, 0.001, bic=-10.0)
+    assert _accepts_among_noisy(turned, orthotropic)
+
+
+def test_another_cause_with_the_same_misfits_is_judged_on_every_test() -> None:
+    orthotropic = _plane_fit(("orthotropy",), 0.0, 0.02, bic=0.0)
+    anisotropic = _plane_fit(("orthotropy", "anisotropy"), 0.0, 0.001, bic=-10.0)
+    assert not _accepts_among_noisy(anisotropic, orthotropic)
