@@ -4,6 +4,8 @@ against the noise of the tests it is judged on; everything else on every test.""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from cell.diagnosis.engine.acceptance import accepts
@@ -23,17 +25,18 @@ TESTS = (
 NOISE_N = 0.01
 
 
-def _later_accepts(richer: ModelFit, poorer: ModelFit, tests: tuple[MechanicalTest, ...]) -> bool:
+def _later_accepts(richer: ModelFit, poorer: ModelFit, tests: tuple[Any, ...],
+                   noise_n: float = NOISE_N) -> bool:
     """Whether ``richer`` earns a later cause beside ``poorer`` under the specimen's rules."""
-    return accepts(richer, poorer, first=False, noise=NOISE_N, tests=tests,
+    return accepts(richer, poorer, first=False, noise=noise_n, tests=tests,
                    params=DiagnosisParams(workers=1), rules=SpecimenSearch.rules)
 
 
-def _fit(causes: tuple[str, ...], ramp_error_n: float, hold_error_n: float,
-         bic: float) -> ModelFit:
-    """A fit whose held-out predictions miss each test by the given constant, N."""
-    heldout = (TESTS[0].force_n + ramp_error_n, TESTS[1].force_n + hold_error_n)
-    rmse = float(np.sqrt((ramp_error_n**2 + hold_error_n**2) / 2.0))
+def _fit(causes: tuple[str, ...], first_error_n: float, second_error_n: float,
+         bic: float, tests: tuple[Any, ...] = TESTS) -> ModelFit:
+    """A fit of two ``tests`` whose held-out predictions miss each by the given constant, N."""
+    heldout = (tests[0].force_n + first_error_n, tests[1].force_n + second_error_n)
+    rmse = float(np.sqrt((first_error_n**2 + second_error_n**2) / 2.0))
     return ModelFit(CandidateMaterial(causes), np.zeros(0), np.zeros((0, 2)), 1e4, 0.0,
                     MassSpringMaterial(), rmse_n=rmse, heldout_rmse_n=rmse, bic=bic,
                     fitted_force_n=heldout, heldout_force_n=heldout)
@@ -75,30 +78,16 @@ NOISY = (
 )
 
 
-def _plane_fit(causes: tuple[str, ...], tension_error_n: float, shear_error_n: float,
-               bic: float) -> ModelFit:
-    """A fit of :data:`NOISY` whose held-out predictions miss each test by the given constant."""
-    heldout = (NOISY[0].force_n + tension_error_n, NOISY[1].force_n + shear_error_n)
-    rmse = float(np.sqrt((tension_error_n**2 + shear_error_n**2) / 2.0))
-    return ModelFit(CandidateMaterial(causes), np.zeros(0), np.zeros((0, 2)), 1e4, 0.0,
-                    MassSpringMaterial(), rmse_n=rmse, heldout_rmse_n=rmse, bic=bic,
-                    fitted_force_n=heldout, heldout_force_n=heldout)
-
-
-def _accepts_among_noisy(richer: ModelFit, poorer: ModelFit) -> bool:
-    return accepts(richer, poorer, first=False, noise=0.05, tests=NOISY,
-                   params=DiagnosisParams(workers=1), rules=SpecimenSearch.rules)
-
 
 def test_a_fibre_turn_is_judged_on_the_shear_tests_against_their_noise() -> None:
     # The turn removes a 0.02 N misfit of the shear test: far more than its own noise's
     # variance, far less than the tension's, and nothing on the tension test.
-    orthotropic = _plane_fit(("orthotropy",), 0.0, 0.02, bic=0.0)
-    turned = _plane_fit(("orthotropy", "fibre_direction"), 0.0, 0.001, bic=-10.0)
-    assert _accepts_among_noisy(turned, orthotropic)
+    orthotropic = _fit(("orthotropy",), 0.0, 0.02, bic=0.0, tests=NOISY)
+    turned = _fit(("orthotropy", "fibre_direction"), 0.0, 0.001, bic=-10.0, tests=NOISY)
+    assert _later_accepts(turned, orthotropic, NOISY, noise_n=0.05)
 
 
 def test_another_cause_with_the_same_misfits_is_judged_on_every_test() -> None:
-    orthotropic = _plane_fit(("orthotropy",), 0.0, 0.02, bic=0.0)
-    anisotropic = _plane_fit(("orthotropy", "anisotropy"), 0.0, 0.001, bic=-10.0)
-    assert not _accepts_among_noisy(anisotropic, orthotropic)
+    orthotropic = _fit(("orthotropy",), 0.0, 0.02, bic=0.0, tests=NOISY)
+    anisotropic = _fit(("orthotropy", "anisotropy"), 0.0, 0.001, bic=-10.0, tests=NOISY)
+    assert not _later_accepts(anisotropic, orthotropic, NOISY, noise_n=0.05)
