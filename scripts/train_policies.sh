@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The training runs behind the learned rows of docs/learning.md's table (issue 11): PPO on
+# The training runs behind the learned rows of docs/learning.md's table: PPO on
 # Cut-v2 and Pull-v2, each warm-started from its hand-written demonstrator and anchored to it,
 # side by side on two cores for 30 minutes, then each evaluated on the 50 unseen seeds beside
 # the random, best constant, scripted and demonstrator policies, with the paired comparison of

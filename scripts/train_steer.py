@@ -1,4 +1,4 @@
-"""``Steer-v2``'s learned policy in one run (issue 36): DAgger from the expert that steers on
+"""``Steer-v2``'s learned policy in one run: DAgger from the expert that steers on
 the true interface (cell.learning.dagger), the learner seeing only its own observation, on
 training seeds from ``--seed``; its learning curve in OUT/run; then the learned policy beside
 no steering, the steering rule and the ceiling on the evaluation seeds (100000 on), paired on

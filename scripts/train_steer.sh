@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The learned policy of Steer-v2 (issue 36) in one run of under 60 minutes on a 2-core
+# The learned policy of Steer-v2 in one run of under 60 minutes on a 2-core
 # machine (scripts/train_steer.py): DAgger from the expert that steers on the true interface,
 # the learner seeing only its own observation, 40 minutes on training seeds (its learning
 # curve in OUT/run/learning_curve.csv); the last network or the rounds' average, whichever

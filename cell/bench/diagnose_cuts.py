@@ -14,7 +14,7 @@ model with the set's true cutting model and offset against the measured force, i
 the set's noise taken out, over the set's peak force; and the reduced model's wall time for
 the set's tests beside the full simulation's (``cut_reduced_seconds_per_set_median``).
 
-Targets (issue 33): exact on >= 90 % of single sets and >= 70 % of pairs, the parameters
+Targets: exact on >= 90 % of single sets and >= 70 % of pairs, the parameters
 within 15 % in >= 80 % of the single sets with a cause, none named in >= 90 % of sets with
 none, a diagnosis median <= 60 s and max <= 120 s per ten-test set, the reduced model within
 10 % of the peak force on every set.

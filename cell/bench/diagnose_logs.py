@@ -18,7 +18,7 @@ magnitude against the truth (:func:`magnitude_error`); the held-out gain; the di
 and CPU seconds split into the replays' and the fits' (the replays run in worker processes:
 their CPU is the workers'); and the seconds of the episodes that made the batch.
 
-Targets (issue 34): exact on >= 80 % of single batches and >= 60 % of pairs, the fitted
+Targets: exact on >= 80 % of single batches and >= 60 % of pairs, the fitted
 magnitude within 20 % of the truth in >= 75 % of the single batches with a cause, none named in
 every batch with none, a median held-out gain >= 0.5 on the single batches with a cause, a
 diagnosis median <= 5 min and max <= 10 min per batch of three logs. The key-edit kinds: exact

@@ -34,9 +34,9 @@ import numpy as np
 from cell.learning.environments import START_METHOD
 from cell.tissue.geometry import MuscleShape
 
-#: Target for one env at the coarse resolution on one core, env steps per second (issue 11).
+#: Target for one env at the coarse resolution on one core, env steps per second.
 TARGET_STEPS_PER_S = 500.0
-#: Target of ``learn --envs 2`` over ``--envs 1``, env steps per second (issue 36).
+#: Target of ``learn --envs 2`` over ``--envs 1``, env steps per second.
 LEARN_SCALING_TARGET = 1.6
 #: The full bench's ``learn`` runs: env steps per env and per env between updates (about five
 #: minutes of ``--envs 1`` on one core, PPO's default rollout).

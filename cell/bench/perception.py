@@ -25,7 +25,7 @@ Entries (``value`` in ``unit``; where a peer applies, ``peer`` in the same unit 
   parameter transform applied to the noiseless cloud, recovered by the fit (the worst over
   trials of the model vertices' error and of the rotation's); targets 1 mm and 1 degree.
 - ``perceive_ms``: the whole chain, capture to interface, median over the seeds, with stages;
-  target 300 ms (issue 13: an update between passes must not hold the cell up).
+  target 300 ms (an update between passes must not hold the cell up).
 - ``interface_y_error_other_shape_m``: how far the predicted interface lies from the true one
   on meat of another shape than the generic model's (the fit's honest test), mean and max.
 

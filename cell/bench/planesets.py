@@ -10,7 +10,7 @@ what it hides and nothing else; its parameters are within 15 % when every parame
 truth as the diagnosis reports them (:meth:`~cell.synthetic.planesets.PlaneTruth.reported`: E
 and the causes' own, e.g. E_s / E_n, the relaxation's weights and times with its terms
 shortest first, the offset) is within 15 % of the fitted one, the turn apart: its error is in
-degrees. An unchanged set is right when nothing is named. Targets (issue 51): >= 95 % exact,
+degrees. An unchanged set is right when nothing is named. Targets: >= 95 % exact,
 parameters within 15 %, fibre turns within 10 degrees, nothing named on >= 9 of 10 unchanged
 sets, a set in <= 20 s (median).
 

@@ -17,7 +17,7 @@ and the set diagnosed again; and, for comparison, a candidate test drawn at rand
 the same set instead. A set counts when the diagnosis then names exactly the hidden effect
 (``unexplained`` and ``specimen_variability`` aside).
 
-Targets (issue 35): the truth named after the suggested test in >= 80 % of the sets and in
+Targets: the truth named after the suggested test in >= 80 % of the sets and in
 more of them than after the random test; the suggestion (rivals, candidate tests, scores)
 within 60 s.
 """

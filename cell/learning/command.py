@@ -51,7 +51,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
                        '\'{"n_steps": 512}\'')
     learn.add_argument("--warm-start", metavar="DEMONSTRATOR", help="clone this policy of "
                        "the observation before PPO: table-skimming-knife (Cut), "
-                       "hold-then-pull-away (Pull), steering-knife (Steer-v2)")
+                       "hold-then-pull-away (Pull), steering-knife (Steer)")
     learn.add_argument("--warm-start-episodes", type=int, default=24,
                        help="the demonstrator's episodes to clone (default 24)")
     learn.add_argument("--warm-start-anchor", type=int, default=0, metavar="EPOCHS",

@@ -10,6 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from cell.options import add_out
 from cell.outputs import Output, check_outputs
 
 
@@ -19,15 +20,14 @@ def add_import(commands: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "import", help="turn robot logs (rostopic dumps, ROS 1/2 bags, MCAP) into a cut-test "
         "set, one test per log, or a whole cell's log into a separation log, as a mapping "
         "file says")
-    parser.add_argument("mapping", type=Path,
+    parser.add_argument("mapping", type=Path, metavar="MAPPING",
                         help="the mapping file (TOML): a cut's topics, frames, block and blade; "
                         "or, with [channels], a whole cell's sensors")
-    parser.add_argument("logs", type=Path, nargs="+",
+    parser.add_argument("logs", type=Path, nargs="+", metavar="LOG",
                         help="one log per cut or per episode: a folder of rostopic echo -p "
                         "dumps, a ROS 2 bag's folder, a .bag or a .mcap file")
-    parser.add_argument("--out", "-o", type=Path, required=True,
-                        help="the folder to write: the set (specimen.toml and tests.csv), or "
-                        "the separation log (several logs: a folder each in it)")
+    add_out(parser, "the folder to write: the set (specimen.toml and tests.csv), or the "
+            "separation log (several logs: a folder each in it)", required=True, folder=True)
     parser.set_defaults(handler=import_command, uses_mujoco=False)
     return parser
 
