@@ -38,14 +38,14 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
                        "with peers; env: Gymnasium env steps per second; diagnose: the "
                        "diagnosis on unseen hidden-effect measurement sets; sweep: what Ray "
                        "costs per run, two workers against one")
-    bench.add_argument("--scenario", type=Path,
+    bench.add_argument("--scenario", type=Path, metavar="FILE",
                        help="scenario of the cell and perception suites (default: the "
                        "package's default scenario, `musclecell scenarios copy default`)")
     add_out(bench, "write the report JSON here (default out/bench.json, tissue: "
             "out/bench_tissue.json, perception: out/bench_perception.json, env: "
             "out/bench_env.json, diagnose: out/bench_diagnose.json, sweep: "
             "out/bench_sweep.json)", old=("--json",))
-    bench.add_argument("--markdown", type=Path,
+    bench.add_argument("--markdown", type=Path, metavar="FILE",
                        help="tissue suite: Markdown tables out; diagnose: the confusion table")
     bench.add_argument("--seeds", type=int,
                        help="diagnose suite: number of sets (default 10, --quick 3; with "

@@ -21,14 +21,14 @@ def add_diagnose(commands: argparse._SubParsersAction) -> argparse.ArgumentParse
     diagnosis = commands.add_parser(
         "diagnose", help="diagnose a measurement set: what the simulation gets wrong, the "
         "cause, the extended material and the gain on held-out tests")
-    diagnosis.add_argument("set_dir", type=Path, nargs="?",
+    diagnosis.add_argument("set_dir", type=Path, nargs="?", metavar="SET_DIR",
                            help="folder with specimen.toml and tests.csv")
     add_out(diagnosis, "one set: write the diagnosis JSON here; --batch: the results folder "
             "(sets already in it are skipped)", required=True, old=("--json",))
-    diagnosis.add_argument("--material", type=Path,
+    diagnosis.add_argument("--material", type=Path, metavar="FILE",
                            help="write the extended material TOML here (default: next to the "
                            "JSON of --out, <name>-material.toml)")
-    diagnosis.add_argument("--report", type=Path,
+    diagnosis.add_argument("--report", type=Path, metavar="DIR",
                            help="write plots and a Markdown report in this folder")
     diagnosis.add_argument("--suggest", action="store_true",
                            help="when other models explain the set about as well, name the "
@@ -43,8 +43,8 @@ def diagnose_command(args: argparse.Namespace) -> int:
     """``musclecell diagnose SET_DIR --out FILE``: every output checked, then the set read
     whole, then the diagnosis, then the files."""
     if args.set_dir is None:
-        raise InputError(None, "set_dir",
-                         "missing: diagnose SET_DIR --out FILE, or --batch PARENT --out DIR")
+        raise InputError(None, "SET_DIR",
+                         "missing: diagnose SET_DIR --out FILE, or --batch DIR --out DIR")
     if getattr(args, "address", None) is not None:
         raise InputError(None, "--address", "only --batch runs on Ray")
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers

@@ -74,9 +74,9 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
                             help=f"first evaluation seed (default {EVAL_SEED_START})")
     add_out(evaluation, "folder of evaluation.json, evaluation.md and episodes.csv (default: "
             "POLICY's folder/evaluation; needed without POLICY)", folder=True)
-    evaluation.add_argument("--json", type=Path,
+    evaluation.add_argument("--json", type=Path, metavar="FILE",
                             help="the report JSON here instead of in --out's folder")
-    evaluation.add_argument("--markdown", type=Path,
+    evaluation.add_argument("--markdown", type=Path, metavar="FILE",
                             help="the Markdown table here instead of in --out's folder")
     evaluation.add_argument("--workers", type=int, help="processes (default: one per core)")
     evaluation.add_argument("--env-kwargs", help="JSON keyword arguments of the env")

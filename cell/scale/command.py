@@ -43,7 +43,7 @@ def add_batch(diagnosis: argparse.ArgumentParser) -> None:
     is then the results folder): with ``--batch`` the command diagnoses many sets, else the
     one-set handler it had runs."""
     one_set = diagnosis.get_default("handler")
-    diagnosis.add_argument("--batch", type=Path,
+    diagnosis.add_argument("--batch", type=Path, metavar="DIR",
                            help="diagnose every set in this folder, one Ray task each, into "
                            "one table in --out (needs the scale extra unless --workers 1)")
     add_workers(diagnosis, "; one set: processes fitting candidates side by side (default: "

@@ -27,11 +27,12 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     """The ``run``, ``plan``, ``export-mjcf`` and ``render`` subcommands."""
     run = commands.add_parser("run", help="run a scripted cutting episode")
     run.add_argument("scenario", type=Path, help="scenario TOML file")
-    run.add_argument("--rerun", type=Path, help="write a Rerun recording (.rrd) here")
+    run.add_argument("--rerun", type=Path, metavar="FILE",
+                     help="write a Rerun recording (.rrd) here")
     add_out(run, "write the summary JSON here", old=("--summary",))
     run.add_argument("--seed", type=int, help="override the scenario's seed")
-    run.add_argument("--log", type=Path, help="write the episode's separation log (sensors "
-                     "over time, docs/logs.md) into this folder")
+    run.add_argument("--log", type=Path, metavar="DIR", help="write the episode's separation "
+                     "log (sensors over time, docs/logs.md) into this folder")
     run.add_argument("--trajectory", type=Path, metavar="FILE",
                      help="write the arms' planned and executed joint trajectories, tool poses "
                      "and wrenches here: .mcap (ROS 2 messages) or .csv; and their limits "
