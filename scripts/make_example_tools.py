@@ -1,6 +1,6 @@
 """Write the example CAD tools: a boning knife's curved handle and a U-shaped fixture clamp,
 as binary STL in metres, each in its own frame (see ``[knife] handle_mesh`` and
-``[fixture] clamp_mesh`` in the README). Both are non-convex, so coacd cuts them into
+``[fixture] clamp_mesh`` in docs/scenarios.md). Both are non-convex, so coacd cuts them into
 several convex pieces.
 
 - The handle: a capsule of radius ``HANDLE_RADIUS_M`` along +z from 0 to

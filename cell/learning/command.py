@@ -107,7 +107,8 @@ def _require_learn_extra() -> None:
 
     if importlib.util.find_spec("stable_baselines3") is None:
         raise LearningError(None, None, "training and evaluation need the learn extra: "
-                            "pip install -e '.[learn]' (see README)")
+                            "pip install -e '.[learn]', torch's CPU wheel first "
+                            "(docs/getting-started.md)")
 
 
 def learn_command(args: argparse.Namespace) -> int:
