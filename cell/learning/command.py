@@ -27,7 +27,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
 
     learn = commands.add_parser(
         "learn", help="train a PPO policy on an env (needs the learn extra)")
-    learn.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v2 (or Cut-v2)")
+    learn.add_argument("env", metavar="ENV", help="Gymnasium id, e.g. musclecell/Cut-v2 or Cut-v2")
     learn.add_argument("--algo", choices=("ppo",), default="ppo", help="algorithm (ppo)")
     learn.add_argument("--steps", type=int, required=True,
                        help="env steps of the whole run, those before a --resume included")
@@ -64,11 +64,12 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
         "evaluate", help="evaluate a learned policy beside the random, best constant, "
         "scripted and hand-written (demonstrator) policies on the same seeds; without a "
         "policy, the baselines alone")
-    evaluation.add_argument("policy", type=Path, nargs="?",
+    evaluation.add_argument("policy", type=Path, nargs="?", metavar="POLICY",
                             help="learn output folder (or a checkpoint's, or its policy.json); "
                             "leave it out to evaluate the baselines alone (then --out is "
                             "needed)")
-    evaluation.add_argument("env", help="Gymnasium id, e.g. musclecell/Cut-v2")
+    evaluation.add_argument("env", metavar="ENV",
+                            help="Gymnasium id, e.g. musclecell/Cut-v2 or Cut-v2")
     evaluation.add_argument("--episodes", type=int, default=50, help="per policy (default 50)")
     evaluation.add_argument("--seed-start", type=int, default=EVAL_SEED_START,
                             help=f"first evaluation seed (default {EVAL_SEED_START})")
@@ -95,7 +96,8 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
         "convert-policy", help="convert a run saved by an earlier release (pickled "
         "policy.zip, vecnormalize.pkl) to the numbers-and-JSON policy files; unpickling runs "
         "the files' code, so it needs --trust-pickle")
-    convert.add_argument("run", type=Path, help="learn output folder (its checkpoints too)")
+    convert.add_argument("run", type=Path, metavar="RUN",
+                         help="learn output folder (its checkpoints too)")
     convert.add_argument("--trust-pickle", action="store_true",
                          help="you trust the run's source: its pickles may be loaded")
     convert.set_defaults(handler=convert_command)

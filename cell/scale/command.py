@@ -27,7 +27,7 @@ def add_sweep(commands: argparse._SubParsersAction) -> None:
     sweep = commands.add_parser(
         "sweep", help="run every episode of a sweep file, one Ray task each (needs the scale "
         "extra unless --workers 1)")
-    sweep.add_argument("sweep", type=Path,
+    sweep.add_argument("sweep", type=Path, metavar="SWEEP",
                        help="sweep TOML file (its keys: docs/sweeps.md, A sweep file)")
     add_out(sweep, "results folder; runs already in it are skipped", required=True,
             folder=True)

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 def add_simulation(commands: argparse._SubParsersAction) -> None:
     """The ``run``, ``plan``, ``export-mjcf`` and ``render`` subcommands."""
     run = commands.add_parser("run", help="run a scripted cutting episode")
-    run.add_argument("scenario", type=Path, help="scenario TOML file")
+    run.add_argument("scenario", type=Path, metavar="SCENARIO", help="scenario TOML file")
     run.add_argument("--rerun", type=Path, metavar="FILE",
                      help="write a Rerun recording (.rrd) here")
     add_out(run, "write the summary JSON here", old=("--summary",))
@@ -56,14 +56,14 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
 
     plan = commands.add_parser(
         "plan", help="perceive the cut and plan the knife at the ready poses (no physics)")
-    plan.add_argument("scenario", type=Path, help="scenario TOML file")
+    plan.add_argument("scenario", type=Path, metavar="SCENARIO", help="scenario TOML file")
     add_out(plan, "write the plan's figures (JSON) here", required=True, old=("--json",))
     plan.add_argument("--seed", type=int, help="override the scenario's seed (sensor noise)")
     plan.set_defaults(handler=plan_command)
 
     export = commands.add_parser("export-mjcf", help="write the scene as MJCF",
-                                 usage="%(prog)s [-h] scenario -o FILE")
-    export.add_argument("scenario", type=Path, help="scenario TOML file")
+                                 usage="%(prog)s [-h] SCENARIO -o FILE")
+    export.add_argument("scenario", type=Path, metavar="SCENARIO", help="scenario TOML file")
     export.add_argument("output", type=Path, nargs="?", metavar="OUTPUT",
                         help="deprecated: the old place of --out")
     add_out(export, "write the MJCF here (required; the deprecated positional OUTPUT in "
@@ -73,7 +73,7 @@ def add_simulation(commands: argparse._SubParsersAction) -> None:
     render = commands.add_parser(
         "render", help="draw the scenario's cell at its start (arms at their ready poses) "
         "as a PNG picture")
-    render.add_argument("scenario", type=Path, help="scenario TOML file")
+    render.add_argument("scenario", type=Path, metavar="SCENARIO", help="scenario TOML file")
     add_out(render, "write the PNG picture here", required=True, old=("--png",))
     render.add_argument("--width", type=int, default=1280, help="px (default 1280)")
     render.add_argument("--height", type=int, default=720, help="px (default 720)")
