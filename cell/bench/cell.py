@@ -39,6 +39,7 @@ import mink
 import mujoco
 import numpy as np
 
+from cell.bench.parts import Progress, measured
 from cell.profiling import Profile
 from cell.robots.arms import build_arm
 from cell.robots.dh import VIPER_S1700D
@@ -238,19 +239,21 @@ def bench_ik(scenario: Scenario, solves: int) -> dict[str, Any]:
             "joints": int(episode.robot_model.nv)}
 
 
-def run_bench(scenario_path: str | Path, quick: bool = False) -> dict[str, Any]:
-    """Run every entry on the scenario; returns the JSON-ready report."""
+def run_bench(scenario_path: str | Path, quick: bool = False,
+              progress: Progress = None) -> dict[str, Any]:
+    """Run every entry on the scenario (``progress`` hears of each as it finishes); returns
+    the JSON-ready report."""
     scenario = load_scenario(scenario_path)
-    entries = {
-        "physics_us_per_node_step": bench_physics(scenario, 50 if quick else 300),
-        "ik_ms_per_control_step": bench_ik(scenario, 50 if quick else 500),
-        "episode_real_time_factor": bench_episode(scenario, quick),
-        "trajectory_s": bench_trajectory(scenario, quick),
-        "episode_stepping_share": bench_profile(scenario, quick),
-        "contact_load_us": bench_contacts(scenario, 200 if quick else 2000),
-        "mesh_build_s": bench_mesh_build(scenario, 2 if quick else 5),
-        "episode_growth_exponent": bench_growth(scenario, quick),
-    }
+    entries = measured({
+        "physics_us_per_node_step": lambda: bench_physics(scenario, 50 if quick else 300),
+        "ik_ms_per_control_step": lambda: bench_ik(scenario, 50 if quick else 500),
+        "episode_real_time_factor": lambda: bench_episode(scenario, quick),
+        "trajectory_s": lambda: bench_trajectory(scenario, quick),
+        "episode_stepping_share": lambda: bench_profile(scenario, quick),
+        "contact_load_us": lambda: bench_contacts(scenario, 200 if quick else 2000),
+        "mesh_build_s": lambda: bench_mesh_build(scenario, 2 if quick else 5),
+        "episode_growth_exponent": lambda: bench_growth(scenario, quick),
+    }, progress)
     return {
         "scenario": str(scenario_path),
         "machine": {"python": platform.python_version(), "processor": platform.machine(),

@@ -150,7 +150,7 @@ def _cell(args: argparse.Namespace, json_path: Path, scenario: Path) -> int:
     from cell.bench.cell import run_bench
     from cell.outputs import write_json
 
-    report = run_bench(scenario, quick=args.quick)
+    report = run_bench(scenario, quick=args.quick, progress=_progress(args))
     write_json(json_path, report)
     _print_entries(report["entries"])
     print(f"wrote {json_path}")
@@ -180,7 +180,7 @@ def _perception(args: argparse.Namespace, json_path: Path, scenario: Path) -> in
     from cell.outputs import write_json
 
     report = run_perception_bench(scenario, quick=args.quick, shapes=args.shapes,
-                                  shape_seed=args.shape_seed)
+                                  shape_seed=args.shape_seed, progress=_progress(args))
     write_json(json_path, report)
     _print_entries(report["entries"])
     if "shapes" in report:
@@ -213,7 +213,8 @@ def _env(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> in
         from cell.extras import require
 
         require("stable_baselines3", "learn", "bench env --learn")
-    report = run_env_bench(quick=args.quick, learn=args.learn, address=args.address)
+    report = run_env_bench(quick=args.quick, learn=args.learn, address=args.address,
+                           progress=_progress(args))
     write_json(json_path, report)
     _print_entries(report["entries"])
     print(f"wrote {json_path}")
@@ -229,7 +230,7 @@ def _sweep(args: argparse.Namespace, json_path: Path, scenario: Path | None) -> 
         if value:
             raise InputError(None, name, "`musclecell bench sweep` runs the whole example "
                              "sweep and takes only --out")
-    report = run_sweep_bench()
+    report = run_sweep_bench(progress=_progress(args))
     write_json(json_path, report)
     _print_entries(report["entries"])
     print(f"wrote {json_path}")

@@ -31,6 +31,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from cell.bench.parts import Progress, measured
 from cell.learning.environments import START_METHOD
 from cell.tissue.geometry import MuscleShape
 
@@ -164,29 +165,30 @@ def _cluster_cpus(address: str) -> int:
         return int(ray.cluster_resources().get("CPU", 1))
 
 
-def run_env_bench(quick: bool = False, learn: bool = False, address: str | None = None
-                  ) -> dict[str, Any]:
+def run_env_bench(quick: bool = False, learn: bool = False, address: str | None = None,
+                  progress: Progress = None) -> dict[str, Any]:
     """Every entry (``learn_scaling_2_over_1`` with ``learn`` only: it trains, and needs the
-    learn extra; ``learn_ray_over_1`` with ``address`` too); returns the JSON-ready
-    report."""
+    learn extra; ``learn_ray_over_1`` with ``address`` too; ``progress`` hears of each as it
+    finishes); returns the JSON-ready report."""
     steps = 30 if quick else 200
     coarse, default = 0.05, MuscleShape().cell_size_m
-    entries = {
-        "single_coarse": bench_single(coarse, steps),
-        "single_default": bench_single(default, steps),
-        "vector8_coarse": bench_vector(coarse, steps // 2),
-        "vector8_default": bench_vector(default, steps // 4),
-    }
     cores = os.cpu_count() or 1
-    entries[f"processes{cores}_coarse"] = bench_processes(coarse, steps, cores)
-    entries[f"async{cores}_coarse"] = bench_vector(coarse, steps, cores, mode="async")
+    parts = {
+        "single_coarse": lambda: bench_single(coarse, steps),
+        "single_default": lambda: bench_single(default, steps),
+        "vector8_coarse": lambda: bench_vector(coarse, steps // 2),
+        "vector8_default": lambda: bench_vector(default, steps // 4),
+        f"processes{cores}_coarse": lambda: bench_processes(coarse, steps, cores),
+        f"async{cores}_coarse": lambda: bench_vector(coarse, steps, cores, mode="async"),
+    }
+    if learn:
+        sizes = (128, 64) if quick else LEARN_SCALING_STEPS
+        parts["learn_scaling_2_over_1"] = lambda: bench_learn_scaling(*sizes)
+        if address is not None:
+            parts["learn_ray_over_1"] = lambda: bench_learn_scaling(*sizes, address=address)
+    entries = measured(parts, progress)
     for name in (f"processes{cores}_coarse", f"async{cores}_coarse"):
         entries[name]["scaling"] = entries[name]["value"] / entries["single_coarse"]["value"]
     entries["single_coarse"]["target"] = TARGET_STEPS_PER_S
     entries["single_coarse"]["pass"] = entries["single_coarse"]["value"] >= TARGET_STEPS_PER_S
-    if learn:
-        sizes = (128, 64) if quick else LEARN_SCALING_STEPS
-        entries["learn_scaling_2_over_1"] = bench_learn_scaling(*sizes)
-        if address is not None:
-            entries["learn_ray_over_1"] = bench_learn_scaling(*sizes, address=address)
     return {"env": "musclecell/Cut-v2", "entries": entries}

@@ -48,6 +48,7 @@ import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
+from cell.bench.parts import Progress, measured
 from cell.bench.shapes import bench_shapes
 from cell.perception.curvature import surface_curvature
 from cell.perception.guideline import find_cut_path
@@ -259,24 +260,33 @@ def bench_other_shape(scenario: Scenario, seed: int) -> dict[str, Any]:
 
 
 def run_perception_bench(scenario_path: str | Path, quick: bool = False, shapes: int = 0,
-                         shape_seed: int = SHAPE_SEED) -> dict[str, Any]:
+                         shape_seed: int = SHAPE_SEED, progress: Progress = None
+                         ) -> dict[str, Any]:
     """Run every entry on the scenario's cell, and the episode on ``shapes`` documented shapes
-    from seed ``shape_seed`` on; returns the JSON-ready report."""
+    from seed ``shape_seed`` on (``progress`` hears of each part and shape as it finishes);
+    returns the JSON-ready report."""
     scenario = load_scenario(scenario_path)
     episode = Episode(scenario)
     params = PerceptionParams()
     with CameraRig(episode.scene.model, CAMERA, scenario.camera.width_px,
                    scenario.camera.height_px) as rig:
-        seeds = range(3 if quick else 5)
-        entries = bench_guideline(episode, rig, seeds)
-        plan = perceive(rig, episode.sim.data, episode.scene.mesh,
-                        generic_model(scenario.layout.meat_origin_m), params,
-                        np.random.default_rng(0))
-        entries |= bench_curvature(plan.mesh, plan.marker_m, params.curvature_radius_m,
+        def curvature() -> dict[str, Any]:
+            plan = perceive(rig, episode.sim.data, episode.scene.mesh,
+                            generic_model(scenario.layout.meat_origin_m), params,
+                            np.random.default_rng(0))
+            return bench_curvature(plan.mesh, plan.marker_m, params.curvature_radius_m,
                                    5 if quick else 20)
-        noiseless = capture(rig, episode.sim.data).points_m(params.bin_px)
-        entries |= bench_fit_recovery(noiseless, episode, 1 if quick else 3)
-    entries["interface_y_error_other_shape_m"] = bench_other_shape(scenario, 0)
+
+        def fit_recovery() -> dict[str, Any]:
+            noiseless = capture(rig, episode.sim.data).points_m(params.bin_px)
+            return bench_fit_recovery(noiseless, episode, 1 if quick else 3)
+
+        parts = measured({"guideline": lambda: bench_guideline(episode, rig,
+                                                               range(3 if quick else 5)),
+                          "curvature": curvature, "fit_recovery": fit_recovery,
+                          "other_shape": lambda: bench_other_shape(scenario, 0)}, progress)
+    entries = parts["guideline"] | parts["curvature"] | parts["fit_recovery"]
+    entries["interface_y_error_other_shape_m"] = parts["other_shape"]
     report = {
         "scenario": str(scenario_path),
         "machine": {"python": platform.python_version(), "processor": platform.machine(),
@@ -284,5 +294,6 @@ def run_perception_bench(scenario_path: str | Path, quick: bool = False, shapes:
         "entries": entries,
     }
     if shapes > 0:
-        report["shapes"] = bench_shapes(scenario, range(shape_seed, shape_seed + shapes))
+        report["shapes"] = bench_shapes(scenario, range(shape_seed, shape_seed + shapes),
+                                        progress)
     return report

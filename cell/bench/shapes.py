@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from cell.bench.parts import Progress, measured
 from cell.errors import MusclecellError
 from cell.sim.episode import Episode
 from cell.sim.scenario import Scenario
@@ -84,12 +85,15 @@ def _shape_row(seed: int, shape: MuscleShape, scenario: Scenario) -> dict[str, A
     }
 
 
-def bench_shapes(scenario: Scenario, seeds: range) -> dict[str, Any]:
+def bench_shapes(scenario: Scenario, seeds: range, progress: Progress = None
+                 ) -> dict[str, Any]:
     """The scenario's episode on one documented shape per seed: per shape its parameters,
     the tip's distance to the true interface (mean and max, per pass), released and torn
-    fractions and flesh damage, and how many met the targets (:data:`TARGETS`)."""
-    rows = [_shape_row(seed, documented_shape(seed, scenario.tissue), scenario)
-            for seed in seeds]
+    fractions and flesh damage, and how many met the targets (:data:`TARGETS`);
+    ``progress`` hears of each shape as it finishes."""
+    rows = list(measured({f"shape {seed}": lambda seed=seed: _shape_row(
+        seed, documented_shape(seed, scenario.tissue), scenario) for seed in seeds},
+        progress).values())
     met = [row for row in rows if row["status"] == "ok"
            and row["tip_to_interface_m"]["mean"] <= TARGETS["tip_mean_m"]
            and row["tip_to_interface_m"]["max"] <= TARGETS["tip_max_m"]

@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from cell.bench.parts import Progress, measured
 from cell.scale.pool import RunPool, Workers
 from cell.scale.sweep import SweepOutcome, run_sweep
 from cell.sim.examples import SCENARIOS
@@ -29,15 +30,19 @@ TARGET_OVERHEAD_S = 1.0
 _ROUND_TRIPS = 50
 
 
-def run_sweep_bench(sweep_file: Path = EXAMPLE_SWEEP) -> dict[str, Any]:
-    """Both sweeps, one after the other, each into a fresh folder; the JSON-ready report."""
+def run_sweep_bench(sweep_file: Path = EXAMPLE_SWEEP, progress: Progress = None
+                    ) -> dict[str, Any]:
+    """Both sweeps, one after the other, each into a fresh folder (``progress`` hears of each
+    as it finishes); the JSON-ready report."""
     round_trip_s = task_round_trip_s()
-    outcomes: dict[int, SweepOutcome] = {}
-    for workers in (1, 2):
+
+    def sweep(workers: int) -> SweepOutcome:
         with tempfile.TemporaryDirectory() as out:
-            outcomes[workers] = run_sweep(sweep_file, out, Workers(workers, ray=True),
-                                          progress=False)
-    one, two = outcomes[1], outcomes[2]
+            return run_sweep(sweep_file, out, Workers(workers, ray=True), progress=False)
+
+    outcomes = measured({"sweep with 1 worker": lambda: sweep(1),
+                         "sweep with 2 workers": lambda: sweep(2)}, progress)
+    one, two = outcomes["sweep with 1 worker"], outcomes["sweep with 2 workers"]
     runs = len(one.rows)
     run_s = sum(row.get("wall_s", 0.0) for row in one.rows)
     overhead = (one.play_s - one.startup_s - run_s) / runs
