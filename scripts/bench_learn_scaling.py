@@ -4,10 +4,11 @@ env steps per second and ratio, with the load average, as JSON. Run it on otherw
 cores; the benchmarks page gives its duration."""
 
 import argparse
-import json
 from pathlib import Path
 
 from cell.bench.env import LEARN_SCALING_STEPS, bench_learn_scaling
+from cell.options import add_out
+from cell.outputs import write_json
 
 
 def main() -> None:
@@ -15,15 +16,16 @@ def main() -> None:
     parser.add_argument("--steps-per-env", type=int, default=LEARN_SCALING_STEPS[0])
     parser.add_argument("--n-steps", type=int, default=LEARN_SCALING_STEPS[1],
                         help="env steps per env between updates")
-    parser.add_argument("--json", type=Path, default=Path("out/bench_learn_scaling.json"))
+    add_out(parser, "the report JSON (default out/bench_learn_scaling.json)", old=("--json",))
     args = parser.parse_args()
+    out = args.out or Path("out/bench_learn_scaling.json")
     entry = bench_learn_scaling(args.steps_per_env, args.n_steps)
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(entry, indent=2) + "\n")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_json(out, entry)
     print(f"learn --envs 2 over --envs 1: {entry['value']:.2f} (target {entry['target']}: "
           f"{'pass' if entry['pass'] else 'FAIL'}); envs 1 {entry['envs1']['value']:.0f}, "
           f"envs 2 {entry['envs2']['value']:.0f} env steps/s; load {entry['load_1min']}; "
-          f"wrote {args.json}")
+          f"wrote {out}")
 
 
 if __name__ == "__main__":

@@ -8,8 +8,8 @@ time, and ``pass``: growth under 5 %.
 
 Usage (about 1 to 1.5 s a reset on one core)::
 
-    .venv/bin/python scripts/soak_env.py --json out/soak_env.json
-    .venv/bin/python scripts/soak_env.py --resets 200 --steps-per-reset 5 --json out/soak.json
+    .venv/bin/python scripts/soak_env.py --out out/soak_env.json
+    .venv/bin/python scripts/soak_env.py --resets 200 --steps-per-reset 5 --out out/soak.json
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from pathlib import Path
 import gymnasium as gym
 
 import envs  # noqa: F401  (registers the ids)
+from cell.options import add_out
 from cell.outputs import write_json
 
 #: Most RSS growth, in percent, from the warm-up reset to the last, for a pass.
@@ -69,12 +70,13 @@ def main() -> None:
     parser.add_argument("--steps-per-reset", type=int, default=5)
     parser.add_argument("--warmup", type=int, default=100,
                         help="the reset whose RSS the growth is measured from")
-    parser.add_argument("--json", type=Path, default=Path("out/soak_env.json"))
+    add_out(parser, "the report JSON (default out/soak_env.json)", old=("--json",))
     args = parser.parse_args()
+    out = args.out or Path("out/soak_env.json")
     if not 1 <= args.warmup < args.resets:
         parser.error("--warmup must be at least 1 and below --resets")
     report = soak(args.resets, args.steps_per_reset, args.warmup)
-    write_json(args.json, report)
+    write_json(out, report)
     print(f"RSS {report['rss_at_warmup_mib']:.1f} MiB at reset {args.warmup}, "
           f"{report['rss_at_end_mib']:.1f} MiB at the end: {report['growth_percent']:+.2f} % "
           f"({'pass' if report['pass'] else 'FAIL'}), {report['wall_time_s']:.0f} s")

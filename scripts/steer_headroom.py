@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 from cell.learning.headroom import baseline_table, summary_lines, tune_rule
+from cell.options import add_out
 from cell.outputs import write_json
 
 
@@ -22,8 +23,9 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--env-kwargs", default="{}", help="JSON keyword arguments of the env")
     parser.add_argument("--learned", default="", help="a learn run's folder: its policy too")
-    parser.add_argument("--json", type=Path, default=Path("out/steer_headroom.json"))
+    add_out(parser, "the report JSON (default out/steer_headroom.json)", old=("--json",))
     args = parser.parse_args()
+    out = args.out or Path("out/steer_headroom.json")
     env_kwargs = json.loads(args.env_kwargs)
     report = {}
     if args.rule is None:
@@ -34,10 +36,10 @@ def main() -> None:
     seeds = range(args.seed_start, args.seed_start + args.episodes)
     report["evaluation"] = baseline_table(rule, seeds, args.workers, env_kwargs,
                                           args.learned)
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    write_json(args.json, report)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_json(out, report)
     print("\n".join(summary_lines(report["evaluation"])))
-    print(f"wrote {args.json}")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":
