@@ -19,6 +19,7 @@ from cell.bench.command import DEFAULT_SCENARIO as BENCH_SCENARIO
 from cell.cli import main
 from cell.errors import LearningError, OutputError
 from cell.outputs import Output, check_outputs
+from tests.interactive import CTRL_C_RAISES
 from tests.paths import DEFAULT_SCENARIO, EXAMPLE_SET, PROJECT_ROOT
 
 #: A short run on coarse tissue: seconds, with a recording.
@@ -190,8 +191,8 @@ def _stop_when(process: subprocess.Popen, ready: callable, number: int,
 def _musclecell(argv: list[str], cwd: Path) -> subprocess.Popen:
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
            "PYTHONPATH": str(PROJECT_ROOT)}
-    return subprocess.Popen([sys.executable, "-c", "import sys; from cell.cli import main; "
-                             "sys.exit(main(sys.argv[1:]))", *argv], cwd=cwd, env=env,
+    return subprocess.Popen([sys.executable, "-c", CTRL_C_RAISES + "import sys; from cell.cli "
+                             "import main; sys.exit(main(sys.argv[1:]))", *argv], cwd=cwd, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 

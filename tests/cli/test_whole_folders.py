@@ -22,6 +22,7 @@ from cell.cli import main
 from cell.errors import Stopped
 from cell.folders import AtomicFolder, write_files_and_folders, write_folder
 from cell.outputs import write_atomic
+from tests.interactive import CTRL_C_RAISES
 from tests.paths import EXAMPLE_SET, PROJECT_ROOT
 
 WRITTEN = "written before the stop\n"
@@ -229,8 +230,8 @@ def test_a_stop_signal_midway_leaves_the_folder_there_as_it_was(work: Path,
                                                                 number: int) -> None:
     kept = old_output(work, "diagnosis.json")
     process = subprocess.Popen(
-        [sys.executable, "-c", STOPPED_WRITER, "diagnose-logs", "a", "b", "--out", "out",
-         "--no-plots"], cwd=work, stderr=subprocess.PIPE, text=True,
+        [sys.executable, "-c", CTRL_C_RAISES + STOPPED_WRITER, "diagnose-logs", "a", "b",
+         "--out", "out", "--no-plots"], cwd=work, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "PYTHONPATH": str(PROJECT_ROOT)})
     deadline = time.monotonic() + 60.0
     while not list(work.glob(".out.*.tmp/first.txt")):
