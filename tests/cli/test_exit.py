@@ -45,7 +45,38 @@ stream.flush()
 stream.disconnect()
 """
 
-#: The same, then a local Ray started and stopped (its gRPC threads outlive ray.shutdown).
+#: Two LLVMs in one process (numba's JIT and Mesa's llvmpipe behind EGL), torch's OpenMP
+#: threads, and a renderer alive at exit with its context still current: MuJoCo's own atexit
+#: hook terminates the EGL display first, then the renderer's finaliser frees its GL objects.
+RENDERER_LEFT_CURRENT = """
+import mujoco
+import numba
+import numpy as np
+import torch
+
+from OpenGL import EGL
+
+
+@numba.njit(cache=False)
+def total(values):
+    return values.sum()
+
+
+total(np.arange(10.0))
+torch.ones(64, 64) @ torch.ones(64, 64)
+spec = mujoco.MjSpec()
+spec.worldbody.add_camera(name="eye", pos=[0.0, 0.0, 1.0])
+spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1.0, 1.0, 0.01])
+model = spec.compile()
+data = mujoco.MjData(model)
+mujoco.mj_forward(model, data)
+renderer = mujoco.Renderer(model, 48, 64)
+renderer.update_scene(data, "eye")
+renderer.render()
+assert EGL.eglGetCurrentContext()
+"""
+
+#: The first, then a local Ray started and stopped (its gRPC threads outlive ray.shutdown).
 WITH_RAY = RENDER_AND_RECORD + """
 from cell.scale.pool import RunPool, Workers
 
@@ -72,6 +103,13 @@ def _exits_cleanly(code: str) -> None:
 
 def test_rendering_and_recording_exit_cleanly() -> None:
     _exits_cleanly(RENDER_AND_RECORD)
+
+
+def test_a_renderer_left_current_beside_two_llvms_exits_cleanly() -> None:
+    pytest.importorskip("torch")
+    if os.environ.get("MUJOCO_GL", "egl") != "egl":
+        pytest.skip("the EGL display's teardown at exit is the case checked")
+    _exits_cleanly(RENDERER_LEFT_CURRENT)
 
 
 @pytest.mark.slow
