@@ -18,17 +18,9 @@ from tests.paths import PROJECT_ROOT
 
 ROOT = PROJECT_ROOT
 
-#: Headless rendering (EGL, its context left to the display's teardown at exit) and a Rerun
-#: recording (its background threads alive at exit), as the suite's tests do.
-RENDER_AND_RECORD = """
-import tempfile
-from pathlib import Path
-
+#: A scene of one camera over a box, put forward: what each sequence below draws.
+SCENE = """
 import mujoco
-import numpy as np
-import rerun as rr
-
-from cell.robots.camera import CameraRig
 
 spec = mujoco.MjSpec()
 spec.worldbody.add_camera(name="eye", pos=[0.0, 0.0, 1.0])
@@ -36,6 +28,19 @@ spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1.0, 1.0, 0.01])
 model = spec.compile()
 data = mujoco.MjData(model)
 mujoco.mj_forward(model, data)
+"""
+
+#: Headless rendering (EGL, its context left to the display's teardown at exit) and a Rerun
+#: recording (its background threads alive at exit), as the suite's tests do.
+RENDER_AND_RECORD = SCENE + """
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+
+from cell.robots.camera import CameraRig
+
 with CameraRig(model, "eye", 64, 48) as rig:
     image = rig.rgb(data)
 stream = rr.RecordingStream("musclecell-exit-check")
@@ -48,8 +53,7 @@ stream.disconnect()
 #: Two LLVMs in one process (numba's JIT and Mesa's llvmpipe behind EGL), torch's OpenMP
 #: threads, and a renderer alive at exit with its context still current: MuJoCo's own atexit
 #: hook terminates the EGL display first, then the renderer's finaliser frees its GL objects.
-RENDERER_LEFT_CURRENT = """
-import mujoco
+RENDERER_LEFT_CURRENT = SCENE + """
 import numba
 import numpy as np
 import torch
@@ -64,19 +68,14 @@ def total(values):
 
 total(np.arange(10.0))
 torch.ones(64, 64) @ torch.ones(64, 64)
-spec = mujoco.MjSpec()
-spec.worldbody.add_camera(name="eye", pos=[0.0, 0.0, 1.0])
-spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1.0, 1.0, 0.01])
-model = spec.compile()
-data = mujoco.MjData(model)
-mujoco.mj_forward(model, data)
 renderer = mujoco.Renderer(model, 48, 64)
 renderer.update_scene(data, "eye")
 renderer.render()
 assert EGL.eglGetCurrentContext()
 """
 
-#: The first, then a local Ray started and stopped (its gRPC threads outlive ray.shutdown).
+#: Rendering and recording, then a local Ray started and stopped (its gRPC threads outlive
+#: ray.shutdown).
 WITH_RAY = RENDER_AND_RECORD + """
 from cell.scale.pool import RunPool, Workers
 
