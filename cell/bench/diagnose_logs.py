@@ -123,11 +123,11 @@ def log_pairs(kind: Kind = "pairs") -> tuple[tuple[str, str], ...]:
 
 def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
     """The causes hidden in the batch of ``seed``: the log table in turn, then none three
-    times (single: 17 batches hold each cause twice and none five times, the acceptance's
-    counts), or every pair of it in turn.
+    times (single: 20 batches hold each cause twice and none six times), or every pair of it
+    in turn.
 
     Example:
-        >>> hidden(70_000, "single"), hidden(70_008, "single"), hidden(70_009, "single")
+        >>> hidden(70_000, "single"), hidden(70_009, "single"), hidden(70_010, "single")
         (('binding_strength',), (), ('binding_strength',))
     """
     return cycled_causes(seed - FIRST_SEED[kind], log_table(kind), NONES_PER_CYCLE,
