@@ -229,8 +229,11 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
             rows.append(row)
             if progress is not None:
                 split = row["split"]
+                errors = ", ".join(f"{c} {'not fitted' if e is None else f'{e:.1%} off'}"
+                                   for c, e in row["magnitude_error"].items())
                 progress(f"seed {seed}: truth {cause_label(row['truth']['causes'])}, named "
-                         f"{cause_label(row['causes'])}, gain {row['gain']:.2f}, "
+                         f"{cause_label(row['causes'])}"
+                         f"{f' ({errors})' if errors else ''}, gain {row['gain']:.2f}, "
                          f"{row['seconds']:.0f} s ({row['replays']} replays "
                          f"{split['replay_wall_s']:.0f} s, fits {split['fit_wall_s']:.0f} s; "
                          f"CPU {row['cpu_seconds']:.0f} s; simulated in "
