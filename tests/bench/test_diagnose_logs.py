@@ -44,7 +44,7 @@ def test_the_single_batches_cycle_through_the_log_table_and_none() -> None:
     twenty = [hidden(s, "single") for s in bench_seeds(20)]
     assert twenty.count(()) == 6 and all(twenty.count((c,)) == 2 for c in LOG_TABLE)
     assert {hidden(FIRST_SEED["pairs"] + k, "pairs") for k in range(len(PAIRS))} == set(PAIRS)
-    assert len(PAIRS) == 15
+    assert len(PAIRS) == 21
     bench = set(bench_seeds(100)) | set(bench_seeds(100, "pairs"))
     assert not bench & set(TUNING_SEEDS) and min(bench) >= 10_000
 
