@@ -123,11 +123,11 @@ def log_pairs(kind: Kind = "pairs") -> tuple[tuple[str, str], ...]:
 
 def hidden(seed: int, kind: Kind) -> tuple[str, ...]:
     """The causes hidden in the batch of ``seed``: the log table in turn, then none three
-    times (single: 17 batches hold each cause twice and none five times, the acceptance's
-    counts), or every pair of it in turn.
+    times (single: 20 batches hold each cause twice and none six times), or every pair of it
+    in turn.
 
     Example:
-        >>> hidden(70_000, "single"), hidden(70_008, "single"), hidden(70_009, "single")
+        >>> hidden(70_000, "single"), hidden(70_009, "single"), hidden(70_010, "single")
         (('binding_strength',), (), ('binding_strength',))
     """
     return cycled_causes(seed - FIRST_SEED[kind], log_table(kind), NONES_PER_CYCLE,
@@ -229,8 +229,11 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
             rows.append(row)
             if progress is not None:
                 split = row["split"]
+                errors = ", ".join(f"{c} {'not fitted' if e is None else f'{e:.1%} off'}"
+                                   for c, e in row["magnitude_error"].items())
                 progress(f"seed {seed}: truth {cause_label(row['truth']['causes'])}, named "
-                         f"{cause_label(row['causes'])}, gain {row['gain']:.2f}, "
+                         f"{cause_label(row['causes'])}"
+                         f"{f' ({errors})' if errors else ''}, gain {row['gain']:.2f}, "
                          f"{row['seconds']:.0f} s ({row['replays']} replays "
                          f"{split['replay_wall_s']:.0f} s, fits {split['fit_wall_s']:.0f} s; "
                          f"CPU {row['cpu_seconds']:.0f} s; simulated in "

@@ -37,6 +37,7 @@ from cell.logs.fit import (
     FORCE_CHANNELS,
     Rows,
     Step,
+    broyden,
     decorrelation_rows,
     forward_selection,
     heldout,
@@ -44,7 +45,7 @@ from cell.logs.fit import (
     rmse_n,
     solve,
 )
-from cell.logs.outcome import EVIDENCE_ROWS, evidence_weight
+from cell.logs.outcome import EVIDENCE_ROWS, count_entries, evidence_weight
 from cell.logs.replays import Progress, Replayer, ReplayPool
 from cell.logs.search import (
     OFFSET,
@@ -52,6 +53,7 @@ from cell.logs.search import (
     fixed,
     gauss_newton,
     heldout_replays,
+    outcome_locators,
     replayed_fit,
     screening_worlds,
     second_look,
@@ -185,7 +187,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     jobs = len(batch.logs) * (sum(len(CAUSES[c].probes(True)) for c in names) + 1)
     with Replayer(batch, min(workers, jobs), cluster) as replayer:
         replayer.progress = progress
-        base, blocks = _screen(replayer, measured, rows, names)
+        base, blocks, locators = _screen(replayer, measured, rows, names)
         residual = measured - base
         blocks.update({OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})
         steps = forward_selection(residual, blocks, rows, params.min_heldout_gain,
@@ -194,7 +196,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         world = [c for c in chosen if c in CAUSES]
         offsets = {c: blocks[c] for c in chosen if c.startswith(OFFSET)}
         start = replayed_fit(measured, base, {}, offsets)
-        fit = _first_fit(replayer, measured, start, blocks, world, offsets, params)
+        fit = _first_fit(replayer, measured, start, blocks, world, offsets, params, locators)
         without = heldout(residual, offsets, rows, fixed(offsets))
         left = (heldout_replays(replayer, measured, rows, fit, world, offsets)
                 if fit["confirmed"] else without)
@@ -238,16 +240,39 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
 
 def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
                blocks: dict[str, np.ndarray], world: list[str], offsets: dict[str, np.ndarray],
-               params: LogDiagnosisParams) -> Fit:
-    """Gauss-Newton from the lab's world (``start``) on the causes selected, from their
-    screening signatures, and whether its replays beat the lab's world by the gain asked."""
+               params: LogDiagnosisParams, locators: dict[str, float]) -> Fit:
+    """Gauss-Newton on the causes selected, from their screening signatures, from the lab's
+    world (``start``) or, where its replay fits better, from where the causes' outcome
+    locators put them (:func:`~cell.logs.search.outcome_locators`); and whether its replays
+    beat the lab's world by the gain asked."""
     if not world:
         return {**start, "confirmed": False}
     replayer.round = "fit"
     jacobian = np.concatenate([blocks[c] for c in world], axis=1)
-    fit = gauss_newton(replayer, measured, offsets, start, world, jacobian, params.newton_steps)
+    begin = _located(replayer, measured, start, world, jacobian, offsets, locators)
+    fit = gauss_newton(replayer, measured, offsets, begin, world,
+                       begin.get("jacobian", jacobian), params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
             <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}
+
+
+def _located(replayer: Replayer, measured: np.ndarray, start: Fit, world: list[str],
+             jacobian: np.ndarray, offsets: dict[str, np.ndarray],
+             locators: dict[str, float]) -> Fit:
+    """The world where ``locators`` put ``world``'s causes (the others at 0), replayed, with
+    the signatures Broyden-updated to it, where it fits better than ``start``; else
+    ``start``."""
+    at = {c: locators[c] for c in world if c in locators}
+    if not at:
+        return start
+    (replayed,) = replayer.batches([at])
+    if replayed is None:
+        return start
+    trial = replayed_fit(measured, replayed, at, offsets)
+    if rmse_n(trial["left"]) >= rmse_n(start["left"]):
+        return start
+    step = np.array([at.get(c, 0.0) for c in world])
+    return {**trial, "jacobian": broyden(jacobian, step, replayed - start["simulated"])}
 
 
 def _second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
@@ -289,12 +314,12 @@ def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str,
 
 
 def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str]
-            ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """The baseline's simulated vector and each cause's signature (:func:`signatures`), from
-    one batch replay in the lab's world and one at each of every cause's probes, near and far
-    (:func:`screening_worlds`, ``wide``). The misfits beyond the forces are weighed by the
-    baseline's force residual (:func:`~cell.logs.outcome.evidence_weight`), from here on in
-    every replay."""
+            ) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, float]]:
+    """The baseline's simulated vector, each cause's signature (:func:`signatures`) and
+    outcome locator (:func:`outcome_locators`), from one batch replay in the lab's world and
+    one at each of every cause's probes, near and far (:func:`screening_worlds`, ``wide``).
+    The misfits beyond the forces are weighed by the baseline's force residual
+    (:func:`~cell.logs.outcome.evidence_weight`), from here on in every replay."""
     base, *screened = replayer.batches([{}, *screening_worlds(names, {}, wide=True)])
     if base is None:
         from cell.errors import DivergenceError
@@ -308,7 +333,7 @@ def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[st
     base = base * scale
     screened = [None if vector is None else vector * scale for vector in screened]
     blocks = signatures(measured - base, base, names, screened, wide=True)
-    return base, blocks
+    return base, blocks, outcome_locators(base, names, screened, count_entries(~rows.force))
 
 
 def _offset_n(column: np.ndarray, rows: Rows, scale: np.ndarray) -> list[float]:

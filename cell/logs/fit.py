@@ -36,6 +36,7 @@ class Rows:
         axis: (n,) its component (0, 1, 2).
         resting: (n,) whether it was sampled before its sensor's tare and the knife's first
             cut (None: all).
+        tared: (n,) whether it was sampled at or after its sensor's tare (None: none was).
 
     An entry on the channel index ``len(FORCE_CHANNELS)`` is a misfit beyond the forces (a
     count or an event, :mod:`cell.logs.outcome`).
@@ -50,6 +51,7 @@ class Rows:
     channel: np.ndarray
     axis: np.ndarray
     resting: np.ndarray | None = None
+    tared: np.ndarray | None = None
 
     @property
     def force(self) -> np.ndarray:
@@ -57,9 +59,12 @@ class Rows:
         return self.channel < len(FORCE_CHANNELS)
 
     def offset_columns(self, channel: str) -> np.ndarray:
-        """The three columns of a constant offset of ``channel`` (N, its frame)."""
+        """The three columns of a constant offset of ``channel`` (N, its frame), on its samples
+        before its tare: after it, the replays are re-tared to the log (:func:`retared`), which
+        takes any constant there."""
         index = FORCE_CHANNELS.index(channel)
-        return np.stack([((self.channel == index) & (self.axis == k)).astype(float)
+        untared = True if self.tared is None else ~self.tared
+        return np.stack([((self.channel == index) & (self.axis == k) & untared).astype(float)
                          for k in range(3)], axis=1)
 
     def resting_offset(self, residual: np.ndarray, channel: str) -> np.ndarray:
@@ -80,7 +85,7 @@ def logged_vector(logs: Sequence[SeparationLog], evidence: int = 0
     ``evidence``, that many entries after each log's channels (on the channel index
     ``len(FORCE_CHANNELS)``, 0: the log is their reference), where a replay's misfits beyond
     the forces go (:mod:`cell.logs.outcome`)."""
-    parts, log_index, channel_index, axis_index, resting = [], [], [], [], []
+    parts, log_index, channel_index, axis_index, resting, tared = [], [], [], [], [], []
     for i, log in enumerate(logs):
         first_cut = log.cut_windows_s[0][0] if log.cut_windows_s else np.inf
         for c, name in enumerate(FORCE_CHANNELS):
@@ -91,23 +96,50 @@ def logged_vector(logs: Sequence[SeparationLog], evidence: int = 0
             axis_index.append(np.tile([0, 1, 2], len(force)))
             until = min(first_cut, log.sensors.get(f"{name}_tare_s", np.inf))
             resting.append(np.repeat(log.channels[name].time_s < until, 3))
+            tared.append(np.repeat(tared_samples(log, name), 3))
         parts.append(np.zeros(evidence))
         log_index.append(np.full(evidence, i))
         channel_index.append(np.full(evidence, len(FORCE_CHANNELS)))
         axis_index.append(np.zeros(evidence, int))
         resting.append(np.zeros(evidence, bool))
-    rows = Rows(*(np.concatenate(a) for a in (log_index, channel_index, axis_index, resting)))
+        tared.append(np.zeros(evidence, bool))
+    rows = Rows(*(np.concatenate(a) for a in (log_index, channel_index, axis_index, resting,
+                                              tared)))
     return np.concatenate(parts), rows
 
 
+def tared_samples(log: SeparationLog, channel: str) -> np.ndarray:
+    """(samples,) whether each of ``channel``'s samples was read at or after its sensor's tare
+    (none where the log names no tare: its sensor's zero was set before the log began, so no
+    tare's draw is in it)."""
+    return log.channels[channel].time_s >= log.sensors.get(f"{channel}_tare_s", np.inf)
+
+
+def retared(log: SeparationLog, channel: str, simulated_n: np.ndarray) -> np.ndarray:
+    """``simulated_n`` (samples, 3; N), ``channel`` replayed at the log's times, re-tared to
+    the log: its samples from the tare on moved by a constant so that their mean is the log's
+    there. A tare zeroes a sensor at its load of that instant, and while the meat still rings
+    from being laid down (newtons on the fixture) that load is a draw of the ringing's phase,
+    which a replay in a changed world never draws alike: left in, it would put a constant
+    misfit on every later sample, larger than most causes' effects. The level after a tare is
+    not evidence; how the force moves from there is."""
+    after = tared_samples(log, channel)
+    if not after.any():
+        return simulated_n
+    out = simulated_n.copy()
+    out[after] += (log.channels[channel].force_n[after] - simulated_n[after]).mean(axis=0)
+    return out
+
+
 def simulated_vector(log: SeparationLog, simulated: dict[str, Channel]) -> np.ndarray:
-    """One log's simulated force channels at its logged times, as :func:`logged_vector`
-    stacks them."""
+    """One log's simulated force channels at its logged times, each re-tared to the log
+    (:func:`retared`), as :func:`logged_vector` stacks them."""
     parts = []
     for name in FORCE_CHANNELS:
         t, ours = log.channels[name].time_s, simulated[name]
-        parts.append(np.stack([np.interp(t, ours.time_s, ours.force_n[:, k]) for k in range(3)],
-                              axis=1).ravel())
+        at_log = np.stack([np.interp(t, ours.time_s, ours.force_n[:, k]) for k in range(3)],
+                          axis=1)
+        parts.append(retared(log, name, at_log).ravel())
     return np.concatenate(parts)
 
 

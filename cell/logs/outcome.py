@@ -94,6 +94,16 @@ def evidence_misfits(log: SeparationLog, simulated: dict[str, Channel],
                            event_misfits(log, simulated)])
 
 
+def count_entries(evidence: np.ndarray) -> np.ndarray:
+    """(n,) whether each entry of a batch vector is a count's misfit, given ``evidence``
+    ((n,) whether it is a misfit beyond the forces: each log's :data:`EVIDENCE_ROWS`, its
+    counts first)."""
+    out = np.zeros(evidence.size, bool)
+    at = np.flatnonzero(evidence)
+    out[at[np.arange(at.size) % EVIDENCE_ROWS < len(COUNTS)]] = True
+    return out
+
+
 def evidence_weight(force_rmse_n: float, stretch: int) -> float:
     """The weight (N a noise width) that puts a standardised misfit beside the force
     residual: the force residual's per-component RMS (its error scale) times the square root

@@ -10,6 +10,7 @@ causes' signatures at the fit, Broyden-updated).
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -67,6 +68,35 @@ def signatures(residual: np.ndarray, reference: np.ndarray, names: list[str],
         if column is not None:
             blocks[c] = column
     return blocks
+
+
+def outcome_locators(base: np.ndarray, names: list[str], replayed: list[np.ndarray | None],
+                     counts: np.ndarray, wide: bool = True) -> dict[str, float]:
+    """Where each of ``names`` brings the logs' outcome closest: the magnitude between its
+    screening probes (:func:`screening_worlds`, ``wide`` as there; ``base`` at 0) where the
+    replays' count misfits (the entries ``counts``), taken linear between neighbouring
+    probes, are least in sum of squares; a cause whose least is at 0 has none. A tearing
+    threshold or a binding's stiffness moves the counts smoothly and steadily, where the
+    forces' error has plateaus (tears that come in a burst, a pull that loses its grip) that a
+    slope taken at the screening steps stops on: this is the global step before the fit."""
+    out: dict[str, float] = {}
+    start = 0
+    for c in names:
+        probes = CAUSES[c].probes(wide)
+        points = sorted([(0.0, base), *[(p, v) for p, v in zip(
+            probes, replayed[start:start + len(probes)], strict=True) if v is not None]],
+            key=lambda point: point[0])
+        start += len(probes)
+        best, best_cost = 0.0, float(base[counts] @ base[counts])
+        for (a, low), (b, high) in itertools.pairwise(points):
+            e0, de = low[counts], high[counts] - low[counts]
+            t = float(np.clip(-(e0 @ de) / (de @ de), 0.0, 1.0)) if de @ de > 0.0 else 0.0
+            cost = float((e0 + t * de) @ (e0 + t * de))
+            if cost < best_cost:
+                best, best_cost = a + t * (b - a), cost
+        if best != 0.0:
+            out[c] = best
+    return out
 
 
 def replayed_fit(measured: np.ndarray, simulated: np.ndarray, magnitudes: dict[str, float],

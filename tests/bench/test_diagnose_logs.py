@@ -36,14 +36,15 @@ def _row(truth: tuple[str, ...], named: tuple[str, ...], gain: float, seconds: f
 
 def test_the_single_batches_cycle_through_the_log_table_and_none() -> None:
     LOG_TABLE, PAIRS = log_table(), log_pairs()
-    assert LOG_TABLE == ("binding_strength", "binding_gradient", "tearing_threshold",
-                         "tissue_stiffness", "fibre_direction", "sensor_offset")
+    assert LOG_TABLE == ("binding_strength", "binding_stiffness", "binding_gradient",
+                         "tearing_threshold", "tissue_stiffness", "fibre_direction",
+                         "sensor_offset")
     seeds = bench_seeds(len(LOG_TABLE) + 3)
     assert [hidden(s, "single") for s in seeds] == [(c,) for c in LOG_TABLE] + [()] * 3
-    seventeen = [hidden(s, "single") for s in bench_seeds(17)]
-    assert seventeen.count(()) == 5 and all(seventeen.count((c,)) == 2 for c in LOG_TABLE)
+    twenty = [hidden(s, "single") for s in bench_seeds(20)]
+    assert twenty.count(()) == 6 and all(twenty.count((c,)) == 2 for c in LOG_TABLE)
     assert {hidden(FIRST_SEED["pairs"] + k, "pairs") for k in range(len(PAIRS))} == set(PAIRS)
-    assert len(PAIRS) == 15
+    assert len(PAIRS) == 21
     bench = set(bench_seeds(100)) | set(bench_seeds(100, "pairs"))
     assert not bench & set(TUNING_SEEDS) and min(bench) >= 10_000
 

@@ -47,8 +47,12 @@ def _model_and_statistics():
 
     normalize = VecNormalize(DummyVecEnv([lambda: gym.make("Pendulum-v1")]))
     normalize.obs_rms.update(np.random.default_rng(0).normal(1.0, 2.0, size=(50, 3)))
+    from stable_baselines3.common.logger import Logger
+
     model = PPO("MlpPolicy", normalize, n_steps=16, batch_size=16, n_epochs=1, seed=0,
                 device="cpu", policy_kwargs={"net_arch": [8], "log_std_init": -1.0})
+    # A logger of its own: SB3's default makes a folder in the system's temporary directory.
+    model.set_logger(Logger(None, []))
     return model, normalize
 
 

@@ -29,6 +29,7 @@ from cell.logs.fit import (
     signature,
     simulated_vector,
     solve,
+    tared_samples,
 )
 from cell.logs.outcome import EVIDENCE_ROWS
 from cell.logs.report import MATERIAL, SCENARIO, write_log_diagnosis
@@ -106,6 +107,26 @@ def test_the_stacked_channels_and_a_sensors_offset_in_closed_form() -> None:
     assert not column[rows.channel != 2].any()
     taken, left = solve(residual, {"rest": column}, None, frozenset({"rest"}))
     assert taken["rest"].tolist() == [1.0] and rmse_n(left) < 1e-4
+
+
+def test_a_replay_is_retared_to_the_log_after_its_tare_and_an_offset_shows_before_it() -> None:
+    # The replay's tare caught the ringing 1.5 N lower than the log's: a constant after it.
+    log = replace(wave_log(50, (0.5, -1.0, 2.0)), sensors={"fixture_tare_s": 0.5})
+    tare_draw = np.where(tared_samples(log, "fixture")[:, None], [0.0, 0.0, -1.5], 0.0)
+    ours = replace(wave_log(50), channels={**wave_log(50).channels, "fixture": replace(
+        wave_log(50).channels["fixture"], force_n=wave_log(50).channels["fixture"].force_n
+        + tare_draw)})
+    measured, rows = logged_vector([log])
+    residual = measured - simulated_vector(log, ours.channels)
+    after = rows.tared & (rows.channel == 2)
+    assert after.sum() == 3 * 25 and not rows.tared[rows.channel != 2].any()
+    assert np.allclose(residual[after].reshape(-1, 3).mean(axis=0), 0.0, atol=1e-12)
+    assert np.allclose(residual[(rows.channel == 2) & ~rows.tared].reshape(-1, 3),
+                       (0.5, -1.0, 2.0))
+    columns = rows.offset_columns("fixture")
+    assert not columns[rows.tared].any()
+    fitted, left = solve(residual, {"fixture": columns})
+    assert np.allclose(fitted["fixture"], (0.5, -1.0, 2.0)) and rmse_n(left) < 1e-9
 
 
 def test_the_forward_selection_names_what_shows_and_nothing_else() -> None:

@@ -17,11 +17,12 @@ from cell.logs.outcome import (
     EVENT_CAP,
     EVENT_CHANNELS,
     EVIDENCE_ROWS,
+    count_entries,
     count_misfits,
     event_misfits,
     evidence_weight,
 )
-from cell.logs.search import screening_worlds
+from cell.logs.search import outcome_locators, screening_worlds
 from cell.measure.logs import Channel
 from tests.logcases import wave_log
 
@@ -92,3 +93,25 @@ def test_the_wide_probes_reach_a_threshold_halved_and_a_stiffness_two_and_a_half
     assert CAUSES["tissue_stiffness"].probes(wide=False) == (0.3, -0.3)
     worlds = screening_worlds(["tearing_threshold", "tissue_stiffness"], {}, wide=True)
     assert len(worlds) == 8
+
+
+def test_the_outcome_locates_a_cause_between_its_probes_where_the_counts_agree() -> None:
+    # Two logs, each a force sample and its evidence: the counts' misfits run linear in the
+    # magnitude, zero at -0.6 (a threshold lowered to 0.55 times); the forces say nothing.
+    evidence = np.tile(np.r_[False, np.ones(EVIDENCE_ROWS, bool)], 2)
+    counts = count_entries(evidence)
+    assert counts.sum() == 2 * len(COUNTS) and not counts[~evidence].any()
+
+    def replayed(magnitude: float) -> np.ndarray:
+        vector = np.zeros(evidence.size)
+        vector[counts] = np.tile([0.0, 2.0 * (magnitude + 0.6)], 2)
+        return vector
+
+    probes = CAUSES["tearing_threshold"].probes(True)
+    located = outcome_locators(replayed(0.0), ["tearing_threshold"],
+                               [replayed(p) for p in probes], counts)
+    assert located["tearing_threshold"] == pytest.approx(-0.6)
+    # Counts already the log's in the lab's world: no locator, whatever the probes give.
+    agreeing = outcome_locators(np.zeros(evidence.size), ["tearing_threshold"],
+                                [replayed(p) for p in probes], counts)
+    assert agreeing == {}

@@ -36,6 +36,7 @@ __all__ = ["CAUSES", "MAX_MAGNITUDE", "REGISTERED", "SENSOR_OFFSET", "LogCause",
 #: the diagnosis screens them. A new cause is one module and one line here.
 REGISTERED = (
     "binding_strength",
+    "binding_stiffness",
     "binding_gradient",
     "tearing_threshold",
     "tissue_stiffness",
