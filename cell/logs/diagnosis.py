@@ -53,6 +53,7 @@ from cell.logs.search import (
     fixed,
     gauss_newton,
     heldout_replays,
+    mirrored,
     outcome_locators,
     replayed_fit,
     screening_worlds,
@@ -243,8 +244,9 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
                params: LogDiagnosisParams, locators: dict[str, float]) -> Fit:
     """Gauss-Newton on the causes selected, from their screening signatures, from the lab's
     world (``start``) or, where its replay fits better, from where the causes' outcome
-    locators put them (:func:`~cell.logs.search.outcome_locators`); and whether its replays
-    beat the lab's world by the gain asked."""
+    locators put them (:func:`~cell.logs.search.outcome_locators`), an angle then tried the
+    other way (:func:`~cell.logs.search.mirrored`); and whether its replays beat the lab's
+    world by the gain asked."""
     if not world:
         return {**start, "confirmed": False}
     replayer.round = "fit"
@@ -252,6 +254,7 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
     begin = _located(replayer, measured, start, world, jacobian, offsets, locators)
     fit = gauss_newton(replayer, measured, offsets, begin, world,
                        begin.get("jacobian", jacobian), params.newton_steps)
+    fit = mirrored(replayer, measured, offsets, fit, world, params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
             <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}
 

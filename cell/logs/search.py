@@ -130,6 +130,32 @@ def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
     return stretch(replayer, measured, offsets, world, best) if best is not start else start
 
 
+def mirrored(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+             fit: Fit, world: list[str], steps: int) -> Fit:
+    """``fit`` with each of ``world``'s angles (:attr:`~cell.logs.causes.cause.LogCause.kind`
+    ``"angle"``) turned the other way where that replays closer, then Gauss-Newton from there
+    (its signature's sign turned with it). A fibre turned either way stiffens a pull across
+    it nearly alike, so the fit can settle on the side it started from; only the small uneven
+    part tells the sides apart, and one replay of the mirror reads it."""
+    if "jacobian" not in fit:
+        return fit
+    for k, c in enumerate(world):
+        magnitude = fit["magnitudes"].get(c, 0.0)
+        if CAUSES[c].kind != "angle" or magnitude == 0.0:
+            continue
+        at = {**fit["magnitudes"], c: -magnitude}
+        (replayed,) = replayer.batches([at])
+        if replayed is None:
+            continue
+        trial = replayed_fit(measured, replayed, at, offsets)
+        if rmse_n(trial["left"]) < rmse_n(fit["left"]):
+            jacobian = fit["jacobian"].copy()
+            jacobian[:, k] *= -1.0
+            fit = gauss_newton(replayer, measured, offsets, {**trial, "jacobian": jacobian},
+                               world, jacobian, steps)
+    return fit
+
+
 def stretch(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
             world: list[str], best: Fit) -> Fit:
     """A line search along the lab's world to the best fit (:func:`_line_search` on every

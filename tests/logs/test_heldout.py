@@ -14,8 +14,9 @@ import pytest
 import cell.logs.diagnosis as logdiagnosis
 from cell.logs.batch import LogBatch
 from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
-from cell.logs.fit import logged_vector
+from cell.logs.fit import logged_vector, rmse_n
 from cell.logs.outcome import EVIDENCE_ROWS
+from cell.logs.search import mirrored, replayed_fit
 from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario
 
@@ -177,3 +178,27 @@ def test_a_single_cause_is_not_joined_by_another_at_the_second_look(linear_world
     result = diagnose_logs(BATCH, PARAMS).to_json()
     assert result["causes"] == ["tearing_threshold"]
     assert "second_look" not in result["extended"]
+
+
+class TurnedWorld(LinearWorld):
+    """A world where the fibres turned either way act nearly alike: the square of the angle
+    on one pattern, a small uneven part on another; the logs measured with them turned
+    -0.9 rad."""
+
+    truth: ClassVar[dict[str, float]] = {"fibre_direction": -0.9}
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        angle = world.get("fibre_direction", 0.0)
+        return (angle ** 2 * self.patterns["tearing_threshold"][log]
+                + 0.2 * angle * self.patterns["tissue_stiffness"][log])
+
+
+def test_an_angle_fitted_on_the_wrong_side_is_turned_the_other_way() -> None:
+    world = TurnedWorld(BATCH, 1)
+    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
+    wrong, nearer = world.batches([{"fibre_direction": 0.9}, {"fibre_direction": 0.5}])
+    fit = {**replayed_fit(measured, wrong, {"fibre_direction": 0.9}, {}),
+           "jacobian": ((wrong - nearer) / 0.4)[:, None]}
+    turned = mirrored(world, measured, {}, fit, ["fibre_direction"], steps=2)
+    assert turned["magnitudes"]["fibre_direction"] == pytest.approx(-0.9, rel=0.02)
+    assert rmse_n(turned["left"]) < 0.1 * rmse_n(fit["left"])
