@@ -236,7 +236,9 @@ class Simulation(TissueSimulation):
         if count == 0:
             return np.zeros(3), np.zeros(3)
         geoms, flexes = data.contact.geom[:count], data.contact.flex[:count]
-        on_tool = (geoms >= 0) & np.isin(model.geom_bodyid[np.maximum(geoms, 0)], bodies)
+        member = np.zeros(model.nbody, bool)
+        member[bodies] = True
+        on_tool = (geoms >= 0) & member[model.geom_bodyid[np.maximum(geoms, 0)]]
         on_tool &= (flexes >= 0).any(axis=1)[:, None]
         return contact_load(model, data, on_tool, point_m)
 
