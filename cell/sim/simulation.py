@@ -231,8 +231,7 @@ class Simulation(TissueSimulation):
         vertices) put on the geoms of ``bodies``, world frame. MuJoCo 4.0 leaves these
         contacts out of ``cfrc_ext``, so out of its force and torque sensors: the knife body's
         ``cfrc_ext`` equals its ``xfrc_applied`` while the blade presses into the flesh."""
-        model, data = self.model, self.data
-        count = data.ncon
+        model, data, count = self.model, self.data, self.data.ncon
         if count == 0:
             return np.zeros(3), np.zeros(3)
         geoms, flexes = data.contact.geom[:count], data.contact.flex[:count]
