@@ -79,13 +79,7 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--cut", action="store_true",
                        help="diagnose suite: hidden-effect cut sets, made by the full "
                        "simulation of a cut (with --pairs: two causes at once)")
-    bench.add_argument("--logs", action="store_true",
-                       help="diagnose suite: hidden-effect batches of separation logs, "
-                       "diagnosed as diagnose-logs does (with --pairs: two causes at once)")
-    bench.add_argument("--scenario-keys", action="store_true",
-                       help="diagnose suite with --logs: the batches' worlds made by editing "
-                       "the scenario keys each cause maps to (factors 0.4 to 2.5, drawn "
-                       "shapes), as a user changes a world")
+    _add_log_options(bench)
     bench.add_argument("--workers", type=int,
                        help="diagnose suite: processes per diagnosis (default: every core; "
                        "with --address, the whole cluster)")
@@ -107,13 +101,29 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
     bench.set_defaults(handler=bench_command)
 
 
+def _add_log_options(bench: argparse.ArgumentParser) -> None:
+    """The options of the diagnose suite's log batches."""
+    bench.add_argument("--logs", action="store_true",
+                       help="diagnose suite: hidden-effect batches of separation logs, "
+                       "diagnosed as diagnose-logs does (with --pairs: two causes at once)")
+    bench.add_argument("--scenario-keys", action="store_true",
+                       help="diagnose suite with --logs: the batches' worlds made by editing "
+                       "the scenario keys each cause maps to (factors 0.4 to 2.5, drawn "
+                       "shapes), as a user changes a world")
+    bench.add_argument("--first-seed", type=int,
+                       help="diagnose suite with --logs: the first batch's seed (default: the "
+                       "kind's own, 70000 single, 71000 pairs, 72000 and 73000 with "
+                       "--scenario-keys); fresh seeds for a bench the diagnosis has not seen")
+
+
 def bench_command(args: argparse.Namespace) -> int:
     """``musclecell bench``: the options the suite takes checked, its outputs checked, then
     the suite."""
     suite = args.suite
     if suite not in ("tissue", "diagnose", "sweep"):
         for flag in ("seeds", "pairs", "subtle", "spread", "by_specimen", "triples",
-                     "including", "suggest", "logs", "lab_protocol", "scenario_keys", "planes"):
+                     "including", "suggest", "logs", "lab_protocol", "scenario_keys", "planes",
+                     "first_seed"):
             if getattr(args, flag) not in (None, False):
                 option = f"--{flag.replace('_', '-')}"
                 raise InputError(None, option, f"only `musclecell bench diagnose` takes {option}")
@@ -249,6 +259,11 @@ def _diagnose_kind(args: argparse.Namespace) -> str:
         raise InputError(None, "--logs", "give one of --cut --logs, not both")
     if args.scenario_keys and not args.logs:
         raise InputError(None, "--scenario-keys", "goes with --logs")
+    if args.first_seed is not None and not args.logs:
+        raise InputError(None, "--first-seed", "goes with --logs")
+    if args.first_seed is not None and args.first_seed < 100:
+        raise InputError(None, "--first-seed", f"seeds below 100 are the tests', got "
+                         f"{args.first_seed}")
     if args.by_specimen and not args.spread:
         raise InputError(None, "--by-specimen", "goes with --spread")
     if args.planes is not None and (kinds or args.cut or args.logs or args.lab_protocol):
@@ -340,8 +355,9 @@ def _log_bench(args: argparse.Namespace, kind: str, count: int, workers: int
     params = (diagnose_logs.LogBenchParams.quick(asked) if args.quick
               else diagnose_logs.LogBenchParams(workers=asked))
     with cluster or nullcontext() as pool:
-        return diagnose_logs.run_log_diagnose_bench(diagnose_logs.bench_seeds(count, kind), kind,
-                                                  params, progress=_progress(args), cluster=pool)
+        return diagnose_logs.run_log_diagnose_bench(
+            diagnose_logs.bench_seeds(count, kind, args.first_seed), kind, params,
+            progress=_progress(args), cluster=pool)
 
 
 _SUITES: dict[str, Callable[[argparse.Namespace, Path, Path | None], int]] = {

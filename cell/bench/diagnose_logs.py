@@ -102,9 +102,11 @@ class LogBenchParams:
         return cls(end_s=QUICK_END_S, workers=workers)
 
 
-def bench_seeds(count: int, kind: Kind = "single") -> list[int]:
-    """The seeds of ``count`` bench batches of ``kind``."""
-    return [FIRST_SEED[kind] + i for i in range(count)]
+def bench_seeds(count: int, kind: Kind = "single", first: int | None = None) -> list[int]:
+    """The seeds of ``count`` bench batches of ``kind``, from ``first`` (default the kind's
+    :data:`FIRST_SEED`)."""
+    start = FIRST_SEED[kind] if first is None else first
+    return [start + i for i in range(count)]
 
 
 def log_table(kind: Kind = "single") -> tuple[str, ...]:

@@ -199,8 +199,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         start = replayed_fit(measured, base, {}, offsets)
         fit = _first_fit(replayer, measured, start, blocks, world, offsets, params, locators)
         without = heldout(residual, offsets, rows, fixed(offsets))
-        left = (heldout_replays(replayer, measured, rows, fit, world, offsets)
-                if fit["confirmed"] else without)
+        left = (heldout_replays(replayer, measured, rows, fit, world, offsets, start, without,
+                                params.min_heldout_gain) if fit["confirmed"] else without)
         second: list[Step] = []
         if world and (not fit["confirmed"] or rmse_n(left)
                       > (1.0 - params.min_heldout_gain) * rmse_n(without)):
@@ -292,8 +292,8 @@ def _second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     if not selected:
         return fit, left, []
     confirmed = rmse_n(moved["left"]) <= (1.0 - params.min_heldout_gain) * rmse_n(fit["left"])
-    moved_left = (heldout_replays(replayer, measured, rows, moved, world + selected, offsets)
-                  if confirmed else None)
+    moved_left = (heldout_replays(replayer, measured, rows, moved, world + selected, offsets,
+                                  fit, left, params.min_heldout_gain) if confirmed else None)
     kept = moved_left is not None and (
         rmse_n(moved_left) <= (1.0 - params.min_heldout_gain) * rmse_n(left))
     tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":

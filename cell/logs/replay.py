@@ -10,8 +10,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from cell.logs.batch import log_scenario
 from cell.measure.logs import CHANNELS, Channel, SeparationLog
@@ -85,24 +85,39 @@ def _offset(episode: Episode, sensor: str, site: str) -> tuple[np.ndarray, np.nd
             rotation.T @ data.site_xmat[t].reshape(3, 3))
 
 
-def _quaternion_matrix(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+def _rotation_matrix(quaternion: np.ndarray) -> np.ndarray:
+    """The rotation of ``quaternion`` (w, x, y, z; normalised here)."""
+    matrix = np.empty(9)
+    mujoco.mju_quat2Mat(matrix, quaternion / np.linalg.norm(quaternion))
+    return matrix.reshape(3, 3)
+
+
+def _rotation_vector(matrix: np.ndarray) -> np.ndarray:
+    """The axis times the angle (rad, at most pi) of the rotation ``matrix``."""
+    quaternion, vector = np.empty(4), np.empty(3)
+    mujoco.mju_mat2Quat(quaternion, matrix.ravel())
+    mujoco.mju_quat2Vel(vector, quaternion, 1.0)
+    return vector
+
+
+def _vector_rotation(vector: np.ndarray) -> np.ndarray:
+    """The rotation matrix of a rotation vector (axis times angle, rad)."""
+    quaternion = np.array([1.0, 0.0, 0.0, 0.0])
+    mujoco.mju_quatIntegrate(quaternion, vector, 1.0)
+    return _rotation_matrix(quaternion)
 
 
 def _target(channel: Channel, time_s: float, offset: tuple[np.ndarray, np.ndarray]
             ) -> tuple[np.ndarray, np.ndarray]:
     """The IK site's pose at ``time_s`` from the logged sensor pose (positions interpolated,
-    quaternions by the normalised blend of the two samples around it)."""
+    held at the ends; quaternions by the normalised blend of the two samples around it)."""
     t = channel.time_s
-    position = np.array([np.interp(time_s, t, channel.position_m[:, k]) for k in range(3)])
     i = int(np.clip(np.searchsorted(t, time_s), 1, len(t) - 1))
     share = float(np.clip((time_s - t[i - 1]) / (t[i] - t[i - 1]), 0.0, 1.0))
+    position = (1 - share) * channel.position_m[i - 1] + share * channel.position_m[i]
     a, b = channel.quaternion[i - 1], channel.quaternion[i]
     b = b if np.dot(a, b) >= 0 else -b
-    rotation = _quaternion_matrix((1 - share) * a + share * b)
+    rotation = _rotation_matrix((1 - share) * a + share * b)
     return position + rotation @ offset[0], rotation @ offset[1]
 
 
@@ -128,14 +143,14 @@ class _ToolTracking:
         position, rotation = _target(self.channel, time_s, _AT_SENSOR)
         self.position_m += TRACKING_GAIN * (position - self.data.site_xpos[self.site])
         error = rotation @ self.data.site_xmat[self.site].reshape(3, 3).T
-        self.rotation_rad += TRACKING_GAIN * Rotation.from_matrix(error).as_rotvec()
+        self.rotation_rad += TRACKING_GAIN * _rotation_vector(error)
 
     def target(self, time_s: float, offset: tuple[np.ndarray, np.ndarray]
                ) -> tuple[np.ndarray, np.ndarray]:
         """The IK site's target at ``time_s``: the logged pose (:func:`_target`) turned about
         the sensor and moved by the integrated error."""
         sensor, rotation = _target(self.channel, time_s, _AT_SENSOR)
-        turn = Rotation.from_rotvec(self.rotation_rad).as_matrix() @ rotation
+        turn = _vector_rotation(self.rotation_rad) @ rotation
         return sensor + self.position_m + turn @ offset[0], turn @ offset[1]
 
 

@@ -231,12 +231,13 @@ class Simulation(TissueSimulation):
         vertices) put on the geoms of ``bodies``, world frame. MuJoCo 4.0 leaves these
         contacts out of ``cfrc_ext``, so out of its force and torque sensors: the knife body's
         ``cfrc_ext`` equals its ``xfrc_applied`` while the blade presses into the flesh."""
-        model, data = self.model, self.data
-        count = data.ncon
+        model, data, count = self.model, self.data, self.data.ncon
         if count == 0:
             return np.zeros(3), np.zeros(3)
         geoms, flexes = data.contact.geom[:count], data.contact.flex[:count]
-        on_tool = (geoms >= 0) & np.isin(model.geom_bodyid[np.maximum(geoms, 0)], bodies)
+        member = np.zeros(model.nbody, bool)
+        member[bodies] = True
+        on_tool = (geoms >= 0) & member[model.geom_bodyid[np.maximum(geoms, 0)]]
         on_tool &= (flexes >= 0).any(axis=1)[:, None]
         return contact_load(model, data, on_tool, point_m)
 

@@ -106,3 +106,15 @@ def test_the_key_kinds_cycle_through_the_world_causes_on_seeds_of_their_own() ->
 def test_scenario_keys_go_with_the_log_batches_only(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", "diagnose", "--scenario-keys", "--out", "x.json"]) == 2
     assert "--scenario-keys" in capsys.readouterr().err
+
+
+def test_a_first_seed_starts_the_log_batches_elsewhere_and_goes_with_them_only(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    fresh = bench_seeds(18, "keys", first=72_100)
+    assert fresh == list(range(72_100, 72_118))
+    assert sorted(hidden(s, "keys") for s in fresh) == sorted(
+        hidden(s, "keys") for s in bench_seeds(18, "keys"))
+    assert main(["bench", "diagnose", "--first-seed", "72100", "--out", "x.json"]) == 2
+    assert "--first-seed" in capsys.readouterr().err
+    assert main(["bench", "diagnose", "--logs", "--first-seed", "5", "--out", "x.json"]) == 2
+    assert "the tests'" in capsys.readouterr().err

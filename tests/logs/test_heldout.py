@@ -16,7 +16,7 @@ from cell.logs.batch import LogBatch
 from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
 from cell.logs.fit import logged_vector, rmse_n
 from cell.logs.outcome import EVIDENCE_ROWS
-from cell.logs.search import mirrored, replayed_fit
+from cell.logs.search import heldout_replays, mirrored, replayed_fit
 from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario
 
@@ -96,8 +96,7 @@ def test_a_cause_that_predicts_the_logs_left_out_is_named(linear_world: None) ->
 def test_a_cause_that_fits_but_predicts_no_log_left_out_is_dropped(
         linear_world: None, monkeypatch: pytest.MonkeyPatch) -> None:
     # The replays of the logs left out miss by twice what the lab's world misses.
-    def worse(replayer: Any, measured: np.ndarray, rows: Any, fit: dict[str, Any],
-              world: list[str], offsets: dict[str, np.ndarray]) -> np.ndarray:
+    def worse(replayer: Any, measured: np.ndarray, *_: Any) -> np.ndarray:
         return 2.0 * (measured - np.concatenate(replayer.base))
 
     monkeypatch.setattr(logdiagnosis, "heldout_replays", worse)
@@ -107,6 +106,35 @@ def test_a_cause_that_fits_but_predicts_no_log_left_out_is_dropped(
     assert dropped["causes"] == ["tearing_threshold"]
     assert dropped["heldout_rmse_N"] > dropped["without_N"]
     assert result["extended"]["params"] == {} and result["gain"] == 0.0
+
+
+class OneLogWorld(LinearWorld):
+    """A world whose tearing threshold shows in the first log alone (the others' bindings are
+    far from tearing): the first log's misfit, one tear the lab's world replays without,
+    goes with the threshold, which the other logs neither ask for nor mind."""
+
+    def __init__(self, batch: LogBatch, workers: int, cluster: object = None) -> None:
+        super().__init__(batch, workers, cluster)
+        for pattern in self.patterns["tearing_threshold"][1:]:
+            pattern[:] = 0.0
+
+
+def test_a_log_left_out_keeps_the_lab_s_world_where_the_others_do_not_ask_for_the_change(
+        ) -> None:
+    world = OneLogWorld(BATCH, 1)
+    measured, rows = logged_vector(BATCH.logs, EVIDENCE_ROWS)
+    lab = replayed_fit(measured, np.concatenate(world.base), {}, {})
+    (changed,) = world.batches([world.truth])
+    fit = {**replayed_fit(measured, changed, world.truth, {}),
+           "jacobian": np.concatenate(world.patterns["tearing_threshold"])[:, None]}
+    left = heldout_replays(world, measured, rows, fit, ["tearing_threshold"], {}, lab,
+                           lab["left"], PARAMS.min_heldout_gain)
+    first = rows.log == 0
+    # Fitted on the other two logs, the threshold is where the lab put it: the first log's
+    # misfit stands; each other log, left out, is replayed in the world fitted with the first.
+    assert np.array_equal(left[first], lab["left"][first])
+    assert rmse_n(fit["left"][first]) < 0.1 * rmse_n(lab["left"][first])
+    assert world.count == 3 + 2
 
 
 class FlatteningWorld(LinearWorld):
