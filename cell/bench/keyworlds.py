@@ -94,8 +94,18 @@ def _set(table: dict[str, Any], path: Sequence[str], size: float, key: str) -> N
 
 
 def cause_edits(base: Scenario, sizes: dict[str, float]) -> dict[str, float]:
-    """The key edits of causes (cause -> size): each key the cause maps to, its size."""
-    return {key: size for cause, size in sizes.items() for key in scenario_keys(cause, base)}
+    """The key edits of causes (cause -> size): each key the cause maps to, its size; a key
+    two causes map to (``binding_strength`` and ``binding_stiffness`` both scale the bindings'
+    stiffness) edited by both, as the causes' own changes compose (factors multiply, angles
+    add)."""
+    edits: dict[str, float] = {}
+    for cause, size in sizes.items():
+        for key in scenario_keys(cause, base):
+            if key not in edits:
+                edits[key] = size
+            else:
+                edits[key] = edits[key] + size if key in ANGLE_KEYS else edits[key] * size
+    return edits
 
 
 def world_files(folder: Path, base: Scenario, tables: dict[str, Any],

@@ -52,6 +52,21 @@ def test_editing_a_causes_keys_makes_the_world_the_cause_makes(cause: str) -> No
     assert edited.material != base.material or edited.aponeurosis != base.aponeurosis
 
 
+def test_two_causes_editing_one_key_make_the_world_both_causes_make() -> None:
+    base = load_scenario(QUICK)
+    sizes = {"binding_strength": 2.31, "binding_stiffness": 0.68}
+    with tempfile.TemporaryDirectory() as folder:
+        edited = load_scenario(world_files(Path(folder), base, resolved_tables(
+            read_toml(QUICK), base), cause_edits(base, sizes)))
+    expected = changed_world(base, {c: math.log(size) for c, size in sizes.items()})
+    assert edited.aponeurosis.stiffness_n_m == pytest.approx(
+        expected.aponeurosis.stiffness_n_m, rel=1e-12)
+    assert edited.aponeurosis.stiffness_n_m == pytest.approx(
+        base.aponeurosis.stiffness_n_m * 2.31 * 0.68, rel=1e-12)
+    assert edited.aponeurosis.toughness_j_m2 == pytest.approx(
+        expected.aponeurosis.toughness_j_m2, rel=1e-12)
+
+
 def test_one_key_alone_is_edited_and_a_key_that_is_no_number_is_named() -> None:
     base = load_scenario(QUICK)
     tables = resolved_tables(read_toml(QUICK), base)
