@@ -40,3 +40,18 @@ def test_a_worker_that_crashes_at_its_exit_fails_the_run(tmp_path: Path) -> None
 def test_workers_that_exit_cleanly_leave_the_run_green(tmp_path: Path) -> None:
     done = _run(tmp_path, "def test_one():\n    pass\n\ndef test_two():\n    pass\n")
     assert done.returncode == 0, done.stderr
+
+
+SLOW_TO_EXIT = """
+import atexit, time
+
+def test_that_leaves_a_slow_exit():
+    atexit.register(lambda: time.sleep(60))
+"""
+
+
+def test_a_worker_that_xdist_stops_for_exiting_slowly_is_named_not_failed(
+        tmp_path: Path) -> None:
+    done = _run(tmp_path, SLOW_TO_EXIT)
+    assert done.returncode == 0, done.stderr
+    assert "slow to exit" in done.stderr

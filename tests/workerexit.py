@@ -2,7 +2,8 @@
 after the run, and a worker that crashes then (a segmentation fault at interpreter exit, as
 issue 53 saw one run in nine do before the suite ran on workers) would leave the run green.
 The controller reads each worker's exit status once they are down and fails the run on a
-crash, naming the worker and the signal."""
+crash, naming the worker and the signal; a worker xdist itself killed for exiting slowly is
+named, not failed."""
 
 from __future__ import annotations
 
@@ -36,8 +37,14 @@ def pytest_sessionfinish(session: pytest.Session) -> Generator[None, None, None]
     manager = getattr(dsession, "nodemanager", None)
     workers = list(manager.group) if manager is not None else []
     yield  # xdist's own hook stops the workers and waits for them
-    crashed = {gateway.id: code for gateway in workers
-               if (code := _exit_status(gateway)) not in (0, None)}
+    statuses = {gateway.id: _exit_status(gateway) for gateway in workers}
+    # xdist kills a worker still up after its exit timeout: slow (a loaded machine), no crash.
+    stopped = [name for name, code in statuses.items() if code == -signal.SIGKILL]
+    if stopped:
+        sys.stderr.write("xdist stopped workers slow to exit (SIGKILL after its timeout): "
+                         + ", ".join(stopped) + "\n")
+    crashed = {name: code for name, code in statuses.items()
+               if code not in (0, None, -signal.SIGKILL)}
     if crashed:
         sys.stderr.write("xdist workers exited badly after the run: " + ", ".join(
             f"{name} ({_described(code)})" for name, code in crashed.items()) + "\n")

@@ -53,6 +53,7 @@ from cell.logs.search import (
     fixed,
     gauss_newton,
     heldout_replays,
+    located_sides,
     mirrored,
     outcome_locators,
     replayed_fit,
@@ -319,8 +320,9 @@ def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str,
 def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str]
             ) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, float]]:
     """The baseline's simulated vector, each cause's signature (:func:`signatures`) and
-    outcome locator (:func:`outcome_locators`), from one batch replay in the lab's world and
-    one at each of every cause's probes, near and far (:func:`screening_worlds`, ``wide``).
+    outcome locator (:func:`outcome_locators`), from one batch replay in the lab's world, one
+    at each of every cause's probes, near and far (:func:`screening_worlds`, ``wide``), and
+    one at the locator of each cause the counts point to (:func:`located_sides`).
     The misfits beyond the forces are weighed by the baseline's force residual
     (:func:`~cell.logs.outcome.evidence_weight`), from here on in every replay."""
     base, *screened = replayer.batches([{}, *screening_worlds(names, {}, wide=True)])
@@ -335,8 +337,10 @@ def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[st
     scale = np.where(rows.force, 1.0, replayer.weight)
     base = base * scale
     screened = [None if vector is None else vector * scale for vector in screened]
-    blocks = signatures(measured - base, base, names, screened, wide=True)
-    return base, blocks, outcome_locators(base, names, screened, count_entries(~rows.force))
+    counts = count_entries(~rows.force)
+    located = located_sides(replayer, base, names, screened, counts)
+    blocks = signatures(measured - base, base, names, screened, wide=True, located=located)
+    return base, blocks, outcome_locators(base, names, screened, counts)
 
 
 def _offset_n(column: np.ndarray, rows: Rows, scale: np.ndarray) -> list[float]:

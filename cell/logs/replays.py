@@ -120,6 +120,8 @@ class Replayer:
         self.round = "screening"
         self._cluster = cluster
         self._shipped: Any = None
+        #: Every replay done, unweighed, by log and world: a replay is a function of them.
+        self._done: dict[tuple[int, Magnitudes], np.ndarray | None] = {}
         self._pool = (ProcessPoolExecutor(workers, mp_context=get_context("spawn"),
                                           initializer=_one_thread)
                       if workers > 1 and cluster is None else None)
@@ -133,24 +135,31 @@ class Replayer:
             self._pool.shutdown(cancel_futures=True)
 
     def run(self, jobs: Sequence[tuple[int, dict[str, float]]]) -> list[np.ndarray | None]:
-        """The simulated vectors of ``jobs`` (a log's index and the world's magnitudes).
+        """The simulated vectors of ``jobs`` (a log's index and the world's magnitudes); a job
+        replayed before (the same log in the same world) is not replayed again.
 
         Raises:
             PoolError: on a cluster, a replay that came back without a result (its worker or
                 node died, or it failed otherwise).
         """
-        self._planned(len(jobs))
+        keys = [(i, tuple(sorted(m.items()))) for i, m in jobs]
+        new = list(dict.fromkeys(key for key in keys if key not in self._done))
+        self._planned(len(new))
         if self._cluster is not None:
-            return self._on_cluster(self._cluster, jobs)
-        tasks = [(self.folders[i], tuple(sorted(m.items()))) for i, m in jobs]
-        started = time.perf_counter()
-        mapped = (self._pool.map(_replay_task, tasks) if self._pool is not None
-                  else map(_replay_task, tasks))
-        results = []
-        for result in mapped:
-            results.append(result)
-            self._replayed()
-        return self._counted(results, started)
+            vectors = self._on_cluster(self._cluster, new)
+        else:
+            tasks = [(self.folders[i], magnitudes) for i, magnitudes in new]
+            started = time.perf_counter()
+            mapped = (self._pool.map(_replay_task, tasks) if self._pool is not None
+                      else map(_replay_task, tasks))
+            results = []
+            for result in mapped:
+                results.append(result)
+                self._replayed()
+            vectors = self._counted(results, started)
+        self._done.update(zip(new, vectors, strict=True))
+        return [None if self._done[key] is None else self.weighed(self._done[key])
+                for key in keys]
 
     def _planned(self, jobs: int) -> None:
         if self.progress is not None:
@@ -161,15 +170,14 @@ class Replayer:
         if self.progress is not None:
             self.progress.update(1)
 
-    def _on_cluster(self, cluster: ReplayPool, jobs: Sequence[tuple[int, dict[str, float]]]
+    def _on_cluster(self, cluster: ReplayPool, tasks: Sequence[tuple[int, Magnitudes]]
                     ) -> list[np.ndarray | None]:
         """:meth:`run` on ``cluster``; sending it the batch counts as replay time."""
         started = time.perf_counter()
         if self._shipped is None:
             self._shipped = cluster.share(self.batch)
-        tasks = [(i, tuple(sorted(m.items()))) for i, m in jobs]
         names = [f"replay-{self.count + k}-{self.batch.logs[i].name}"
-                 for k, (i, _) in enumerate(jobs)]
+                 for k, (i, _) in enumerate(tasks)]
         results: list[Any] = [None] * len(tasks)
         for position, result, error in cluster.play(_replay_shipped, tasks, names,
                                                     shared=self._shipped):
@@ -186,7 +194,7 @@ class Replayer:
         self.count += len(results)
         self.wall_s += time.perf_counter() - started
         self.cpu_s += sum(cpu for _, cpu in results)
-        return [None if vector is None else self.weighed(vector) for vector, _ in results]
+        return [vector for vector, _ in results]
 
     def weighed(self, vector: np.ndarray) -> np.ndarray:
         """One log's replayed vector with its misfits beyond the forces times

@@ -24,6 +24,9 @@ from cell.logs.replays import Replayer
 STRETCH = 1.3
 STRETCH_REPLAYS = 3
 OFFSET = SENSOR_OFFSET + ":"
+#: The fall of the logs' count misfits' sum of squares (noise widths squared) at which the
+#: screening replays a cause at its outcome locator: one parameter's likelihood ratio at 95 %.
+COUNT_EVIDENCE = 3.84
 
 Fit = dict[str, Any]
 
@@ -51,10 +54,12 @@ def screening_worlds(names: list[str], at: dict[str, float], wide: bool = False
 
 
 def signatures(residual: np.ndarray, reference: np.ndarray, names: list[str],
-               replayed: list[np.ndarray | None], wide: bool = False
+               replayed: list[np.ndarray | None], wide: bool = False,
+               located: dict[str, tuple[float, np.ndarray]] | None = None
                ) -> dict[str, np.ndarray]:
     """Each of ``names``' signature (:func:`signature` on ``residual``) from the replays of
-    its :func:`screening_worlds` (``wide`` as there), their changes taken against the
+    its :func:`screening_worlds` (``wide`` as there) and of ``located`` (a cause's further
+    magnitude and replay, :func:`located_sides`), their changes taken against the
     ``reference`` replay; a cause whose replays all blew up has none."""
     blocks: dict[str, np.ndarray] = {}
     start = 0
@@ -63,6 +68,8 @@ def signatures(residual: np.ndarray, reference: np.ndarray, names: list[str],
         sides = [(probe, None if vector is None else vector - reference)
                  for probe, vector in zip(probes, replayed[start:start + len(probes)],
                                           strict=True)]
+        if located and c in located:
+            sides.append((located[c][0], located[c][1] - reference))
         start += len(probes)
         column = signature(residual, sides)
         if column is not None:
@@ -71,32 +78,50 @@ def signatures(residual: np.ndarray, reference: np.ndarray, names: list[str],
 
 
 def outcome_locators(base: np.ndarray, names: list[str], replayed: list[np.ndarray | None],
-                     counts: np.ndarray, wide: bool = True) -> dict[str, float]:
+                     counts: np.ndarray, wide: bool = True, min_fall: float = 0.0
+                     ) -> dict[str, float]:
     """Where each of ``names`` brings the logs' outcome closest: the magnitude between its
     screening probes (:func:`screening_worlds`, ``wide`` as there; ``base`` at 0) where the
     replays' count misfits (the entries ``counts``), taken linear between neighbouring
     probes, are least in sum of squares; a cause whose least is at 0 has none. A tearing
     threshold or a binding's stiffness moves the counts smoothly and steadily, where the
     forces' error has plateaus (tears that come in a burst, a pull that loses its grip) that a
-    slope taken at the screening steps stops on: this is the global step before the fit."""
+    slope taken at the screening steps stops on: this is the global step before the fit. Only
+    the causes whose least falls below the lab's world's by ``min_fall`` are given."""
     out: dict[str, float] = {}
-    start = 0
+    start, at_zero = 0, float(base[counts] @ base[counts])
     for c in names:
         probes = CAUSES[c].probes(wide)
         points = sorted([(0.0, base), *[(p, v) for p, v in zip(
             probes, replayed[start:start + len(probes)], strict=True) if v is not None]],
             key=lambda point: point[0])
         start += len(probes)
-        best, best_cost = 0.0, float(base[counts] @ base[counts])
+        best, best_cost = 0.0, at_zero
         for (a, low), (b, high) in itertools.pairwise(points):
             e0, de = low[counts], high[counts] - low[counts]
             t = float(np.clip(-(e0 @ de) / (de @ de), 0.0, 1.0)) if de @ de > 0.0 else 0.0
             cost = float((e0 + t * de) @ (e0 + t * de))
             if cost < best_cost:
                 best, best_cost = a + t * (b - a), cost
-        if best != 0.0:
+        if best != 0.0 and at_zero - best_cost >= min_fall:
             out[c] = best
     return out
+
+
+def located_sides(replayer: Replayer, base: np.ndarray, names: list[str],
+                  replayed: list[np.ndarray | None], counts: np.ndarray
+                  ) -> dict[str, tuple[float, np.ndarray]]:
+    """The causes whose outcome locator (:func:`outcome_locators` on the wide screening)
+    brings the logs' counts closer than the lab's world by :data:`COUNT_EVIDENCE`, each
+    replayed there: its magnitude and replay, a further side of its signature. A tearing
+    threshold's forces answer in a narrow valley (past it the tears come in a burst): both
+    screening steps can overshoot it and read worse than the lab's world, where the counts
+    say how far to go."""
+    sharp = outcome_locators(base, names, replayed, counts,
+                             min_fall=COUNT_EVIDENCE * replayer.weight ** 2)
+    vectors = replayer.batches([{c: m} for c, m in sharp.items()]) if sharp else []
+    return {c: (m, vector) for (c, m), vector in zip(sharp.items(), vectors, strict=True)
+            if vector is not None}
 
 
 def replayed_fit(measured: np.ndarray, simulated: np.ndarray, magnitudes: dict[str, float],
