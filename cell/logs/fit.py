@@ -24,6 +24,13 @@ from cell.measure.logs import CHANNELS, Channel, SeparationLog
 #: The force channels compared and fitted (``heldout_rmse_N`` is over these): every channel
 #: of the log format (:data:`~cell.measure.logs.CHANNELS`).
 FORCE_CHANNELS = tuple(CHANNELS)
+#: The time over which the logged and the replayed forces are compared, s: both are averaged
+#: over it (:func:`averaged`). A replay's tools follow the logged poses within a tenth of a
+#: millimetre, but the meat's sharp events (the edge through a binding, a tear) fall a control
+#: step or two from the log's, in the true world as in any other: chaos of contact, not a
+#: cause, which sample by sample costs newtons at every spike. The causes act over seconds of
+#: cutting and pulling, and outlast the average.
+COMPARED_WINDOW_S = 0.2
 
 
 @dataclass(frozen=True)
@@ -79,6 +86,35 @@ class Rows:
         return columns @ fitted["offset"][:, None]
 
 
+def averaged(time_s: np.ndarray, force_n: np.ndarray, split_s: float = np.inf,
+             window_s: float = COMPARED_WINDOW_S) -> np.ndarray:
+    """``force_n`` (samples, 3; N) at each sample the mean of the samples within
+    ``window_s / 2`` of it (``time_s``, increasing, at any rate), never across ``split_s`` (a
+    sensor's tare: its zero moves there).
+
+    Example:
+        >>> averaged(np.arange(5) * 0.1, np.array([[0.0], [0.0], [3.0], [0.0], [0.0]]))[:, 0]
+        array([0., 1., 1., 1., 0.])
+    """
+    out = np.empty(force_n.shape)
+    for part in (time_s < split_s, time_s >= split_s):
+        if not part.any():
+            continue
+        t, values = time_s[part], force_n[part]
+        sums = np.vstack([np.zeros((1, values.shape[1])), np.cumsum(values, axis=0)])
+        low = np.searchsorted(t, t - window_s / 2 - 1e-12, "left")
+        high = np.searchsorted(t, t + window_s / 2 + 1e-12, "right")
+        out[part] = (sums[high] - sums[low]) / (high - low)[:, None]
+    return out
+
+
+def _compared(log: SeparationLog, channel: str, force_n: np.ndarray) -> np.ndarray:
+    """``force_n`` of ``channel`` at the log's times as the diagnosis compares it
+    (:func:`averaged`, split at the sensor's tare)."""
+    return averaged(log.channels[channel].time_s, force_n,
+                    log.sensors.get(f"{channel}_tare_s", np.inf))
+
+
 def logged_vector(logs: Sequence[SeparationLog], evidence: int = 0
                   ) -> tuple[np.ndarray, Rows]:
     """The batch's logged force channels as one vector, and where each entry lies; with
@@ -90,7 +126,7 @@ def logged_vector(logs: Sequence[SeparationLog], evidence: int = 0
         first_cut = log.cut_windows_s[0][0] if log.cut_windows_s else np.inf
         for c, name in enumerate(FORCE_CHANNELS):
             force = log.channels[name].force_n
-            parts.append(force.ravel())
+            parts.append(_compared(log, name, force).ravel())
             log_index.append(np.full(force.size, i))
             channel_index.append(np.full(force.size, c))
             axis_index.append(np.tile([0, 1, 2], len(force)))
@@ -127,7 +163,8 @@ def retared(log: SeparationLog, channel: str, simulated_n: np.ndarray) -> np.nda
     if not after.any():
         return simulated_n
     out = simulated_n.copy()
-    out[after] += (log.channels[channel].force_n[after] - simulated_n[after]).mean(axis=0)
+    logged = _compared(log, channel, log.channels[channel].force_n)
+    out[after] += (logged[after] - simulated_n[after]).mean(axis=0)
     return out
 
 
@@ -139,7 +176,7 @@ def simulated_vector(log: SeparationLog, simulated: dict[str, Channel]) -> np.nd
         t, ours = log.channels[name].time_s, simulated[name]
         at_log = np.stack([np.interp(t, ours.time_s, ours.force_n[:, k]) for k in range(3)],
                           axis=1)
-        parts.append(retared(log, name, at_log).ravel())
+        parts.append(retared(log, name, _compared(log, name, at_log)).ravel())
     return np.concatenate(parts)
 
 

@@ -15,7 +15,7 @@ from cell.config import read_toml
 from cell.diagnosis.engine.determined import NOT_DETERMINED, shown
 from cell.extras import require
 from cell.logs.causes import CAUSES, SENSOR_OFFSET, changed_keys, changed_world, scenario_keys
-from cell.logs.fit import FORCE_CHANNELS, logged_vector
+from cell.logs.fit import COMPARED_WINDOW_S, FORCE_CHANNELS, logged_vector
 from cell.logs.outcome import EVIDENCE_ROWS
 from cell.outputs import figure_png, write_atomic, write_json
 from cell.sim.scenario import Scenario
@@ -121,7 +121,8 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) ->
     causes = ", ".join(data["causes"]) or "none: the lab's world explains the logs"
     lines = ["# Diagnosis of a batch of separation logs", "",
              f"Logs: {', '.join(data['logs'])}.", "", f"Causes, most important first: {causes}.",
-             "", f"Held-out force RMSE (leave one log out): baseline "
+             "", f"Held-out force RMSE (leave one log out; the forces averaged over "
+             f"{COMPARED_WINDOW_S:g} s): baseline "
              f"{shown(data['baseline']['heldout_rmse_N'], '.3f')} N, extended "
              f"{shown(data['extended']['heldout_rmse_N'], '.3f')} N, gain "
              f"{shown(data['gain'], '.2f')}.", "",
