@@ -47,20 +47,23 @@ class CutSeries:
         force_n: the measured force, channel after channel, N.
         rest_samples: indices into ``force_n`` of the samples with the edge above the top
             face, where no cutting model puts a force on the blade (every channel).
+        slides: whether the edge slides along itself in the material
+            (:attr:`~cell.diagnosis.cut.reduced.CutKinematics.slides`).
     """
 
     test_id: str
     mode: str
     force_n: np.ndarray
     rest_samples: np.ndarray
+    slides: bool = True
 
     @classmethod
-    def of(cls, test: CutTest, block: Block) -> CutSeries:
-        """The series of ``test`` cut in ``block``."""
+    def of(cls, test: CutTest, block: Block, slides: bool = True) -> CutSeries:
+        """The series of ``test`` cut in ``block``, its edge sliding along itself or not."""
         above = np.flatnonzero(test.depth_m(block) < 0.0)
         samples = len(test.time_s)
         return cls(test.test_id, "cut", flat(test.force_n),
-                   np.concatenate([above + k * samples for k in range(3)]))
+                   np.concatenate([above + k * samples for k in range(3)]), slides)
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,7 +94,9 @@ class CutProblem:
         kinematics = tuple(CutKinematics.of(t, block, blade) for t in tests)
         rows = [np.unique(np.searchsorted(t.time_s, np.linspace(
             t.time_s[0], t.time_s[-1], samples)).clip(0, len(t.time_s) - 1)) for t in tests]
-        return cls(block, blade, tuple(CutSeries.of(t, block) for t in tests), kinematics,
+        return cls(block, blade, tuple(CutSeries.of(t, block, k.slides)
+                                       for t, k in zip(tests, kinematics, strict=True)),
+                   kinematics,
                    tuple(k.rows(r) for k, r in zip(kinematics, rows, strict=True)),
                    tuple(flat(t.force_n[r]) for t, r in zip(tests, rows, strict=True)))
 

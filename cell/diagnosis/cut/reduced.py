@@ -62,6 +62,9 @@ STRIPS = 96
 #: a logged position's noise (encoders read to micrometres) must not make a sample that the
 #: edge reached while sinking look like one it had passed already.
 FRONT_TOLERANCE_M = 1e-5
+#: A test saws when its edge travels along itself at least this fraction of its travel into the
+#: block while in the material; a press cut's travel along itself is its path's noise.
+SLIDING_RATIO = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,6 +209,16 @@ class CutKinematics:
         """(n,) :attr:`wedged_area_m2` (zero where kinematics were made without it), m^2."""
         return (np.zeros_like(self.face_area_m2) if self.wedged_area_m2 is None
                 else self.wedged_area_m2)
+
+    @property
+    def slides(self) -> bool:
+        """Whether the edge slides along itself while in the material: its travel along itself
+        at least :data:`SLIDING_RATIO` of its travel into the block."""
+        cutting = self.inside.any(axis=1)
+        if not cutting.any():
+            return False
+        along, into = (float(np.ptp(v[cutting])) for v in (self.along_m, self.middle_depth_m))
+        return along >= SLIDING_RATIO * into
 
     @property
     def engaged_length_m(self) -> np.ndarray:

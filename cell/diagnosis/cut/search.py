@@ -29,6 +29,7 @@ import numpy as np
 
 from cell.diagnosis.cut.causes import (
     FACE_PRESSURE_PA,
+    REGISTRY,
     CutCandidate,
     catalogue,
     cause_of,
@@ -41,7 +42,8 @@ from cell.diagnosis.cut.residuals import (
     cut_residual_trends,
     scales_between_tests,
 )
-from cell.diagnosis.engine.acceptance import Rules, improved_fraction
+from cell.diagnosis.engine.acceptance import Rules, Tests, improved_fraction
+from cell.diagnosis.engine.fit import Fit
 from cell.diagnosis.engine.outcome import Evidence, SearchOutcome, force_noise_n
 from cell.diagnosis.engine.search import Search
 from cell.diagnosis.engine.selection import Swap, forward, second_start, unexplained
@@ -62,6 +64,17 @@ def fit_best(problem: CutProblem, model: CutCandidate, start: np.ndarray,
     return fit_cut(problem, model, start, max_evaluations)
 
 
+def _judged(richer: Fit, poorer: Fit, tests: Tests) -> list[int]:
+    """The tests on which ``richer`` is judged against ``poorer``: the sawing ones
+    (:attr:`~cell.diagnosis.cut.fitting.CutSeries.slides`) when all it adds acts only while
+    the edge slides along itself (a press cut's held-out error can only tie with and without
+    it, and would count against it); every test otherwise, and when no test saws."""
+    added = set(richer.model.causes) - set(poorer.model.causes)
+    sliding = bool(added) and all(REGISTRY[c].needs_sliding for c in added)
+    shown = [i for i, test in enumerate(tests) if test.slides] if sliding else []
+    return shown or list(range(len(tests)))
+
+
 class CutSearch(Search):
     """The engine's :class:`~cell.diagnosis.engine.search.Search` over the cut catalogue,
     fitting cutting models (:func:`fit_best`) in this process; no pair of cut causes
@@ -72,7 +85,7 @@ class CutSearch(Search):
         ('blade_force_offset',)
     """
 
-    rules = Rules(offsets=("blade_force_offset",))
+    rules = Rules(offsets=("blade_force_offset",), judged=_judged)
     fit_model = staticmethod(fit_best)
 
     @property

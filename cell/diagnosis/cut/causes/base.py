@@ -34,6 +34,8 @@ class CutCause:
     Attributes:
         column: where its linear parameters go among a model's: 0 with the toughness, 1
             after it, 2 last (a sensor's offset).
+        needs_sliding: whether it acts only while the edge slides along itself (nothing on a
+            press cut), so that only the tests that saw show it.
 
     Example:
         >>> CutCause().linear(None)
@@ -42,6 +44,7 @@ class CutCause:
 
     name: ClassVar[str] = ""
     column: ClassVar[int] = 1
+    needs_sliding: ClassVar[bool] = False
 
     def parameters(self, model: CutSettings) -> tuple[Parameter, ...]:
         """The shape parameters the cause adds to ``model``, in vector order."""

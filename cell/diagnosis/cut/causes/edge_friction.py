@@ -19,6 +19,7 @@ class EdgeFriction(CutCause):
     """
 
     name = "edge_friction"
+    needs_sliding = True
 
     def parameters(self, model: CutSettings) -> tuple[Parameter, ...]:
         """Its shape parameters."""

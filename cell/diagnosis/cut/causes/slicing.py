@@ -18,6 +18,7 @@ class Slicing(CutCause):
     """
 
     name = "slicing"
+    needs_sliding = True
 
     def parameters(self, model: CutSettings) -> tuple[Parameter, ...]:
         """Its shape parameters."""
