@@ -51,6 +51,7 @@ from cell.logs.search import (
     OFFSET,
     Fit,
     fixed,
+    from_probes,
     gauss_newton,
     heldout_replays,
     located_sides,
@@ -246,8 +247,9 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
     """Gauss-Newton on the causes selected, from their screening signatures, from the lab's
     world (``start``) or, where its replay fits better, from where the causes' outcome
     locators put them (:func:`~cell.logs.search.outcome_locators`), an angle then tried the
-    other way (:func:`~cell.logs.search.mirrored`); and whether its replays beat the lab's
-    world by the gain asked."""
+    other way (:func:`~cell.logs.search.mirrored`) and the fit started again from a
+    screening replay that fits closer (:func:`~cell.logs.search.from_probes`); and whether
+    its replays beat the lab's world by the gain asked."""
     if not world:
         return {**start, "confirmed": False}
     replayer.round = "fit"
@@ -256,6 +258,7 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
     fit = gauss_newton(replayer, measured, offsets, begin, world,
                        begin.get("jacobian", jacobian), params.newton_steps)
     fit = mirrored(replayer, measured, offsets, fit, world, params.newton_steps)
+    fit = from_probes(replayer, measured, offsets, fit, world, jacobian, params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
             <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}
 

@@ -181,6 +181,28 @@ def mirrored(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.nda
     return fit
 
 
+def from_probes(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+                fit: Fit, world: list[str], jacobian: np.ndarray, steps: int) -> Fit:
+    """``fit``, or where a world the screening replayed for one of ``world``'s causes (that
+    cause at a probe, the others at 0: :func:`screening_worlds`, wide) fits the logs closer,
+    Gauss-Newton again from the closest such world, the better of the two kept. A cause whose
+    effect is nearly even about the lab's world (a fibre turned either way) gives the fit no
+    slope there, and a cause beside it takes the step; the screening's replay near the
+    cause's size is a replay done already, and a fit must not end farther than it."""
+    worlds = screening_worlds(world, {}, wide=True)
+    best = fit
+    for at, replayed in zip(worlds, replayer.batches(worlds), strict=True):
+        if replayed is None:
+            continue
+        trial = replayed_fit(measured, replayed, at, offsets)
+        if rmse_n(trial["left"]) < rmse_n(best["left"]):
+            best = trial
+    if best is fit:
+        return fit
+    again = gauss_newton(replayer, measured, offsets, best, world, jacobian, steps)
+    return again if rmse_n(again["left"]) < rmse_n(fit["left"]) else fit
+
+
 def stretch(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
             world: list[str], best: Fit) -> Fit:
     """A line search along the lab's world to the best fit (:func:`_line_search` on every

@@ -16,7 +16,7 @@ from cell.logs.batch import LogBatch
 from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
 from cell.logs.fit import logged_vector, rmse_n
 from cell.logs.outcome import EVIDENCE_ROWS
-from cell.logs.search import heldout_replays, mirrored, replayed_fit
+from cell.logs.search import from_probes, heldout_replays, mirrored, replayed_fit
 from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario
 
@@ -230,3 +230,25 @@ def test_an_angle_fitted_on_the_wrong_side_is_turned_the_other_way() -> None:
     turned = mirrored(world, measured, {}, fit, ["fibre_direction"], steps=2)
     assert turned["magnitudes"]["fibre_direction"] == pytest.approx(-0.9, rel=0.02)
     assert rmse_n(turned["left"]) < 0.1 * rmse_n(fit["left"])
+
+
+def test_a_fit_that_ends_farther_than_a_screening_replay_starts_again_from_it() -> None:
+    """Near no turn the fibres' effect is nearly even in the angle: a fit that stopped there
+    has no slope to follow, and the screening's replay near the turn is closer."""
+    world = TurnedWorld(BATCH, 1)
+    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
+    stuck, lab = world.batches([{"fibre_direction": -0.05}, {}])
+    fit = replayed_fit(measured, stuck, {"fibre_direction": -0.05}, {})
+    slope = ((stuck - lab) / -0.05)[:, None]
+    again = from_probes(world, measured, {}, fit, ["fibre_direction"], slope, steps=4)
+    assert again["magnitudes"]["fibre_direction"] == pytest.approx(-0.9, rel=0.05)
+    assert rmse_n(again["left"]) < 0.1 * rmse_n(fit["left"])
+
+
+def test_a_fit_as_close_as_every_screening_replay_stands() -> None:
+    world = TurnedWorld(BATCH, 1)
+    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
+    (near,) = world.batches([TurnedWorld.truth])
+    fit = replayed_fit(measured, near, dict(TurnedWorld.truth), {})
+    assert from_probes(world, measured, {}, fit, ["fibre_direction"], near[:, None],
+                       steps=2) is fit
