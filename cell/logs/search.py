@@ -188,7 +188,9 @@ def from_probes(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.
     Gauss-Newton again from the closest such world, the better of the two kept. A cause whose
     effect is nearly even about the lab's world (a fibre turned either way) gives the fit no
     slope there, and a cause beside it takes the step; the screening's replay near the
-    cause's size is a replay done already, and a fit must not end farther than it."""
+    cause's size is a replay done already, and a fit must not end farther than it. The
+    screening's signatures (``jacobian``) are secants through those replays, so they start
+    the fit there (:func:`gauss_newton` keeps its start where no step beats it)."""
     worlds = screening_worlds(world, {}, wide=True)
     best = fit
     for at, replayed in zip(worlds, replayer.batches(worlds), strict=True):
@@ -196,11 +198,10 @@ def from_probes(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.
             continue
         trial = replayed_fit(measured, replayed, at, offsets)
         if rmse_n(trial["left"]) < rmse_n(best["left"]):
-            best = trial
+            best = {**trial, "jacobian": jacobian}
     if best is fit:
         return fit
-    again = gauss_newton(replayer, measured, offsets, best, world, jacobian, steps)
-    return again if rmse_n(again["left"]) < rmse_n(fit["left"]) else fit
+    return gauss_newton(replayer, measured, offsets, best, world, jacobian, steps)
 
 
 def stretch(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],

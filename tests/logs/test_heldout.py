@@ -243,6 +243,7 @@ def test_a_fit_that_ends_farther_than_a_screening_replay_starts_again_from_it() 
     again = from_probes(world, measured, {}, fit, ["fibre_direction"], slope, steps=4)
     assert again["magnitudes"]["fibre_direction"] == pytest.approx(-0.9, rel=0.05)
     assert rmse_n(again["left"]) < 0.1 * rmse_n(fit["left"])
+    assert again["jacobian"].shape == slope.shape  # the held-out replays step with it
 
 
 def test_a_fit_as_close_as_every_screening_replay_stands() -> None:
