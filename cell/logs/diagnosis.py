@@ -248,13 +248,12 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
                blocks: dict[str, np.ndarray], world: list[str], offsets: dict[str, np.ndarray],
                params: LogDiagnosisParams, locators: dict[str, float]
                ) -> tuple[Fit, list[str]]:
-    """Gauss-Newton on the causes selected, from their screening signatures, from the lab's
-    world (``start``) or, where its replay fits better, from where the causes' outcome
-    locators put them (:func:`~cell.logs.search.outcome_locators`), an angle then tried the
-    other way (:func:`~cell.logs.search.mirrored`) and the fit started again from a
-    screening replay that fits closer (:func:`~cell.logs.search.from_probes`), less the causes
-    that do not earn their place (:func:`~cell.logs.search.pruned`, the causes left returned);
-    and whether its replays beat the lab's world by the gain asked."""
+    """Gauss-Newton on the causes selected from their screening signatures, from the lab's
+    world (``start``) or, where it fits better, where the causes' outcome locators put them
+    (:func:`~cell.logs.search.outcome_locators`), an angle tried the other way (``mirrored``),
+    the fit started again from a closer screening replay (``from_probes``), less the causes
+    that do not earn their place (``pruned``; the causes left returned); and whether its
+    replays beat the lab's world by the gain asked (:mod:`cell.logs.search`)."""
     if not world:
         return {**start, "confirmed": False}, world
     replayer.round = "fit"
@@ -264,7 +263,8 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
                        begin.get("jacobian", jacobian), params.newton_steps)
     fit = mirrored(replayer, measured, offsets, fit, world, params.newton_steps)
     fit = from_probes(replayer, measured, offsets, fit, world, jacobian, params.newton_steps)
-    fit, world = pruned(replayer, measured, offsets, fit, world, params.min_heldout_gain)
+    fit, world = pruned(replayer, measured, offsets, fit, world, params.min_heldout_gain,
+                        params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
             <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}, world
 

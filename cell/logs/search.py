@@ -205,32 +205,33 @@ def from_probes(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.
 
 
 def pruned(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
-           fit: Fit, world: list[str], min_gain: float) -> tuple[Fit, list[str]]:
-    """``fit`` and ``world`` less each cause that does not earn its place in the replays: of
-    two or more causes, the one whose removal (the others kept where fitted) leaves the
-    replayed error closest to the fit's goes while that error stays within ``min_gain`` of
-    it, one at a time; what went is listed under the fit's ``pruned``. The selection is
-    linearised at the lab's world, where a cause beside the one the logs show can take a
-    share of its effect that the replayed fit then hands back (a muscle a few percent stiffer
-    beside a turned fibre); the bar is the one every cause meets to be named."""
+           fit: Fit, world: list[str], min_gain: float, steps: int) -> tuple[Fit, list[str]]:
+    """``fit`` and ``world`` less each cause that does not earn its place in the replays
+    (backward elimination): of two or more causes, the one whose removal (the others kept
+    where fitted) leaves the replayed error least is taken out, the others fitted again
+    without it (:func:`gauss_newton`), and it goes where that fit's error is within
+    ``min_gain`` of ``fit``'s; then again, one at a time. What went is listed under the fit's
+    ``pruned``. The selection is linearised at the lab's world, where a cause beside the one
+    the logs show can take a share of its effect, and a replayed fit can then end where the
+    two make up for each other (a fibre turned short of the truth beside a muscle a little
+    stiffer); the bar is the one every cause meets to be named."""
     gone = []
     while len(world) > 1 and "jacobian" in fit:
         worlds = [{c: m for c, m in fit["magnitudes"].items() if c != cause} for cause in world]
-        closest = None
-        for k, (at, replayed) in enumerate(zip(worlds, replayer.batches(worlds), strict=True)):
-            if replayed is None:
-                continue
-            trial = replayed_fit(measured, replayed, at, offsets)
-            if (1.0 - min_gain) * rmse_n(trial["left"]) <= rmse_n(fit["left"]) and (
-                    closest is None or rmse_n(trial["left"]) < rmse_n(closest[1]["left"])):
-                closest = (k, trial)
-        if closest is None:
+        trials = [(k, replayed_fit(measured, replayed, at, offsets)) for k, (at, replayed)
+                  in enumerate(zip(worlds, replayer.batches(worlds), strict=True))
+                  if replayed is not None]
+        if not trials:
             break
-        k, trial = closest
+        k, trial = min(trials, key=lambda item: rmse_n(item[1]["left"]))
+        rest, jacobian = world[:k] + world[k + 1:], np.delete(fit["jacobian"], k, axis=1)
+        refit = gauss_newton(replayer, measured, offsets, {**trial, "jacobian": jacobian}, rest,
+                             jacobian, steps)
+        if (1.0 - min_gain) * rmse_n(refit["left"]) > rmse_n(fit["left"]):
+            break
         gone.append({"cause": world[k], **CAUSES[world[k]].to_json(fit["magnitudes"][world[k]]),
-                     "rmse_N": rmse_n(trial["left"]), "with_rmse_N": rmse_n(fit["left"])})
-        fit = {**trial, "jacobian": np.delete(fit["jacobian"], k, axis=1)}
-        world = world[:k] + world[k + 1:]
+                     "rmse_N": rmse_n(refit["left"]), "with_rmse_N": rmse_n(fit["left"])})
+        fit, world = refit, rest
     return ({**fit, "pruned": gone} if gone else fit), world
 
 
