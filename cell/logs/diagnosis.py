@@ -57,6 +57,7 @@ from cell.logs.search import (
     located_sides,
     mirrored,
     outcome_locators,
+    pruned,
     replayed_fit,
     screening_worlds,
     second_look,
@@ -199,7 +200,9 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         world = [c for c in chosen if c in CAUSES]
         offsets = {c: blocks[c] for c in chosen if c.startswith(OFFSET)}
         start = replayed_fit(measured, base, {}, offsets)
-        fit = _first_fit(replayer, measured, start, blocks, world, offsets, params, locators)
+        fit, world = _first_fit(replayer, measured, start, blocks, world, offsets, params,
+                                locators)
+        chosen = [c for c in chosen if c in world or c not in CAUSES]
         without = heldout(residual, offsets, rows, fixed(offsets))
         left = (heldout_replays(replayer, measured, rows, fit, world, offsets, start, without,
                                 params.min_heldout_gain) if fit["confirmed"] else without)
@@ -230,7 +233,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                            **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
                 "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
                 "evidence_weight_N": replayer.weight,
-                **{key: fit[key] for key in ("dropped", "second_look") if key in fit}}
+                **{key: fit[key] for key in ("dropped", "second_look", "pruned") if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
         _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
@@ -243,15 +246,16 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
 
 def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
                blocks: dict[str, np.ndarray], world: list[str], offsets: dict[str, np.ndarray],
-               params: LogDiagnosisParams, locators: dict[str, float]) -> Fit:
-    """Gauss-Newton on the causes selected, from their screening signatures, from the lab's
-    world (``start``) or, where its replay fits better, from where the causes' outcome
-    locators put them (:func:`~cell.logs.search.outcome_locators`), an angle then tried the
-    other way (:func:`~cell.logs.search.mirrored`) and the fit started again from a
-    screening replay that fits closer (:func:`~cell.logs.search.from_probes`); and whether
-    its replays beat the lab's world by the gain asked."""
+               params: LogDiagnosisParams, locators: dict[str, float]
+               ) -> tuple[Fit, list[str]]:
+    """Gauss-Newton on the causes selected from their screening signatures, from the lab's
+    world (``start``) or, where it fits better, where the causes' outcome locators put them
+    (:func:`~cell.logs.search.outcome_locators`), an angle tried the other way (``mirrored``),
+    the fit started again from a closer screening replay (``from_probes``), less the causes
+    that do not earn their place (``pruned``; the causes left returned); and whether its
+    replays beat the lab's world by the gain asked (:mod:`cell.logs.search`)."""
     if not world:
-        return {**start, "confirmed": False}
+        return {**start, "confirmed": False}, world
     replayer.round = "fit"
     jacobian = np.concatenate([blocks[c] for c in world], axis=1)
     begin = _located(replayer, measured, start, world, jacobian, offsets, locators)
@@ -259,8 +263,10 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
                        begin.get("jacobian", jacobian), params.newton_steps)
     fit = mirrored(replayer, measured, offsets, fit, world, params.newton_steps)
     fit = from_probes(replayer, measured, offsets, fit, world, jacobian, params.newton_steps)
+    fit, world = pruned(replayer, measured, offsets, fit, world, params.min_heldout_gain,
+                        params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
-            <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}
+            <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}, world
 
 
 def _located(replayer: Replayer, measured: np.ndarray, start: Fit, world: list[str],

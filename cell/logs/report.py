@@ -151,6 +151,10 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) ->
                      f"{shown(pair['alternative_heldout_rmse_N'], '.3f')} N (linearised); they "
                      f"differ most in the {place}: a log where that differs tells them apart "
                      "(docs/logs.md, \"Causes told apart\")")
+    for gone in data["extended"].get("pruned", []):
+        lines.append(f"- {gone['cause']} left out of the fit: the replays fit "
+                     f"{gone['rmse_N']:.3f} N without it, {gone['with_rmse_N']:.3f} N with it "
+                     "(a cause named must lower the replayed error by the gain asked)")
     t = data["timing"]
     lines += ["", f"{t['replays']} replays, {t['replay_wall_s']:.0f} s; the fits "
               f"{t['fit_s']:.1f} s.", ""]

@@ -192,7 +192,9 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
     diagnosis = LogDiagnosis(
         ["log-1", "log-2"], [1.0, 1.0], ["binding_strength", "binding_gradient",
                                          "sensor_offset"], [],
-        {"params": {**strength, "sensor_offset": {"knife": [0.5, 0.0, 0.0]}}},
+        {"params": {**strength, "sensor_offset": {"knife": [0.5, 0.0, 0.0]}},
+         "pruned": [{"cause": "tissue_stiffness", "magnitude": 0.068, "factor": 1.07,
+                     "rmse_N": 0.52, "with_rmse_N": 0.5}]},
         {"baseline": 2.0, "extended": 1.0}, evidence, [],
         {"baseline": measured + 1.0, "extended": measured + 0.1, "measured": measured},
         {"replays": 9, "replay_wall_s": 1.0, "fit_s": 0.1, "total_s": 1.1},
@@ -215,6 +217,8 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
     assert ("- binding_strength cannot be told from tearing_threshold on these logs: held-out "
             "1.000 N against 1.050 N (linearised); they differ most in the gripper force"
             in report)
+    assert ("- tissue_stiffness left out of the fit: the replays fit 0.520 N without it, "
+            "0.500 N with it" in report)
     data = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
     assert {"causes", "candidates", "steps", "evidence", "gain", "noise_N", "baseline",
             "extended", "second_look", "indistinguishable"} <= set(data)

@@ -16,7 +16,7 @@ from cell.logs.batch import LogBatch
 from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
 from cell.logs.fit import logged_vector, rmse_n
 from cell.logs.outcome import EVIDENCE_ROWS
-from cell.logs.search import from_probes, heldout_replays, mirrored, replayed_fit
+from cell.logs.search import from_probes, heldout_replays, mirrored, pruned, replayed_fit
 from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario
 
@@ -253,3 +253,59 @@ def test_a_fit_as_close_as_every_screening_replay_stands() -> None:
     fit = replayed_fit(measured, near, dict(TurnedWorld.truth), {})
     assert from_probes(world, measured, {}, fit, ["fibre_direction"], near[:, None],
                        steps=2) is fit
+
+
+def test_a_cause_that_does_not_earn_its_place_in_the_replays_is_left_out() -> None:
+    """The fit handed a sliver of the threshold's effect to a muscle a little stiffer: without
+    it the replays fit as well, so it goes, its signature with it."""
+    world = LinearWorld(BATCH, 1)
+    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
+    at = {"tearing_threshold": 0.49, "tissue_stiffness": 0.004}
+    (replayed,) = world.batches([at])
+    signatures = np.stack([np.concatenate(world.patterns[c]) for c in at], axis=1)
+    fit = {**replayed_fit(measured, replayed, at, {}), "jacobian": signatures}
+    kept, causes = pruned(world, measured, {}, fit, list(at), PARAMS.min_heldout_gain, 2)
+    assert causes == ["tearing_threshold"]
+    assert kept["magnitudes"]["tearing_threshold"] == pytest.approx(TRUE_MAGNITUDE, rel=0.02)
+    assert kept["jacobian"].shape == (measured.size, 1)
+    assert [gone["cause"] for gone in kept["pruned"]] == ["tissue_stiffness"]
+
+
+class MakingUpWorld(LinearWorld):
+    """A world whose stiffer muscles make up for part of a threshold fitted short: the
+    stiffness' pattern is a share of the threshold's, and a fit that stopped short of the
+    threshold fits better with the stiffness than without it, though the threshold alone,
+    fitted again, fits best."""
+
+    def __init__(self, batch: LogBatch, workers: int, cluster: object = None) -> None:
+        super().__init__(batch, workers, cluster)
+        self.patterns["tissue_stiffness"] = [0.8 * threshold + 0.2 * other for threshold, other
+                                             in zip(self.patterns["tearing_threshold"],
+                                                    self.patterns["tissue_stiffness"],
+                                                    strict=True)]
+
+
+def test_causes_that_make_up_for_each_other_are_fitted_again_without_the_one_not_needed(
+        ) -> None:
+    world = MakingUpWorld(BATCH, 1)
+    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
+    at = {"tearing_threshold": 0.3, "tissue_stiffness": 0.2}
+    (replayed,) = world.batches([at])
+    signatures = np.stack([np.concatenate(world.patterns[c]) for c in at], axis=1)
+    fit = {**replayed_fit(measured, replayed, at, {}), "jacobian": signatures}
+    (alone,) = world.batches([{"tearing_threshold": 0.3}])
+    # Taken out without a fit, the stiffness looks needed: the threshold stopped short.
+    assert rmse_n(measured - alone) > 2 * rmse_n(fit["left"])
+    kept, causes = pruned(world, measured, {}, fit, list(at), PARAMS.min_heldout_gain, 2)
+    assert causes == ["tearing_threshold"]
+    assert kept["magnitudes"]["tearing_threshold"] == pytest.approx(TRUE_MAGNITUDE, rel=0.02)
+
+
+def test_causes_the_replays_need_are_all_kept() -> None:
+    world = TwoCauseFlatteningWorld(BATCH, 1)
+    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
+    at = dict(TwoCauseFlatteningWorld.truth)
+    (replayed,) = world.batches([at])
+    fit = {**replayed_fit(measured, replayed, at, {}), "jacobian": np.ones((measured.size, 2))}
+    kept, causes = pruned(world, measured, {}, fit, list(at), PARAMS.min_heldout_gain, 2)
+    assert kept is fit and causes == list(at)
