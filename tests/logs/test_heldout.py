@@ -255,15 +255,21 @@ def test_a_fit_as_close_as_every_screening_replay_stands() -> None:
                        steps=2) is fit
 
 
+def _fitted_at(world: LinearWorld, at: dict[str, float]) -> tuple[np.ndarray, dict[str, Any]]:
+    """The logged vector and a fit of ``world`` replayed at ``at``, the causes' own patterns
+    its signatures."""
+    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
+    (replayed,) = world.batches([at])
+    signatures = np.stack([np.concatenate(world.patterns[c]) for c in at], axis=1)
+    return measured, {**replayed_fit(measured, replayed, at, {}), "jacobian": signatures}
+
+
 def test_a_cause_that_does_not_earn_its_place_in_the_replays_is_left_out() -> None:
     """The fit handed a sliver of the threshold's effect to a muscle a little stiffer: without
     it the replays fit as well, so it goes, its signature with it."""
     world = LinearWorld(BATCH, 1)
-    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
     at = {"tearing_threshold": 0.49, "tissue_stiffness": 0.004}
-    (replayed,) = world.batches([at])
-    signatures = np.stack([np.concatenate(world.patterns[c]) for c in at], axis=1)
-    fit = {**replayed_fit(measured, replayed, at, {}), "jacobian": signatures}
+    measured, fit = _fitted_at(world, at)
     kept, causes = pruned(world, measured, {}, fit, list(at), PARAMS.min_heldout_gain, 2)
     assert causes == ["tearing_threshold"]
     assert kept["magnitudes"]["tearing_threshold"] == pytest.approx(TRUE_MAGNITUDE, rel=0.02)
@@ -288,11 +294,8 @@ class MakingUpWorld(LinearWorld):
 def test_causes_that_make_up_for_each_other_are_fitted_again_without_the_one_not_needed(
         ) -> None:
     world = MakingUpWorld(BATCH, 1)
-    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
     at = {"tearing_threshold": 0.3, "tissue_stiffness": 0.2}
-    (replayed,) = world.batches([at])
-    signatures = np.stack([np.concatenate(world.patterns[c]) for c in at], axis=1)
-    fit = {**replayed_fit(measured, replayed, at, {}), "jacobian": signatures}
+    measured, fit = _fitted_at(world, at)
     (alone,) = world.batches([{"tearing_threshold": 0.3}])
     # Taken out without a fit, the stiffness looks needed: the threshold stopped short.
     assert rmse_n(measured - alone) > 2 * rmse_n(fit["left"])
@@ -303,9 +306,7 @@ def test_causes_that_make_up_for_each_other_are_fitted_again_without_the_one_not
 
 def test_causes_the_replays_need_are_all_kept() -> None:
     world = TwoCauseFlatteningWorld(BATCH, 1)
-    measured, _ = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
     at = dict(TwoCauseFlatteningWorld.truth)
-    (replayed,) = world.batches([at])
-    fit = {**replayed_fit(measured, replayed, at, {}), "jacobian": np.ones((measured.size, 2))}
+    measured, fit = _fitted_at(world, at)
     kept, causes = pruned(world, measured, {}, fit, list(at), PARAMS.min_heldout_gain, 2)
     assert kept is fit and causes == list(at)
