@@ -19,6 +19,7 @@ import shutil
 import sys
 from pathlib import Path
 
+from sphinx.domains.python import PythonDomain
 from sphinx.util import logging
 
 DOCS = Path(__file__).resolve().parent
@@ -132,6 +133,30 @@ def _warn_unresolved_role(app, env, node, contnode) -> None:
                        type="ref", subtype="py")
 
 
+class IndexedPythonDomain(PythonDomain):
+    """Sphinx's Python domain, whose search for a short name (a docstring's argument types,
+    its ``Raises:``) first asks an index of every object's dotted endings: Sphinx scans every
+    object for each such reference, three times for a class it does not find (``float``,
+    ``np.ndarray``), which took a fifth of the build. Names the index holds are searched as
+    Sphinx does; the others find nothing either way."""
+
+    _endings: tuple[int, frozenset[str]] = (-1, frozenset())
+
+    def find_obj(self, env, modname, classname, name, type, searchmode=0):
+        if searchmode == 1 and name.removesuffix("()") not in self._known_endings():
+            return []
+        return super().find_obj(env, modname, classname, name, type, searchmode)
+
+    def _known_endings(self) -> frozenset[str]:
+        # The objects only grow while the pages are read; the references resolve after.
+        if self._endings[0] != len(self.objects):
+            parts = (name.split(".") for name in self.objects)
+            self._endings = (len(self.objects), frozenset(
+                ".".join(p[i:]) for p in parts for i in range(len(p))))
+        return self._endings[1]
+
+
 def setup(app) -> None:
+    app.add_domain(IndexedPythonDomain, override=True)
     app.connect("autodoc-process-bases", _drop_object_base)
     app.connect("missing-reference", _warn_unresolved_role)

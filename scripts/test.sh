@@ -15,4 +15,4 @@ export MUSCLECELL_DOCS_SITE="$site"
 # the run on it).
 export PYTHONFAULTHANDLER=1
 # One test process per core (pytest-xdist): the tests share nothing but the read-only tree.
-python -m pytest -n auto "$@"
+python -m pytest -n auto --dist worksteal "$@"

@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from cell.cores import WORKERS_VARIABLE
+
 #: A worker that crashes at its exit fails the run (tests/workerexit.py).
 pytest_plugins = ["tests.workerexit"]
+
+# The run already keeps every core busy (one test process per core): a diagnosis or an
+# evaluation that started a pool of its own would add only processes and their start-up.
+# A test of the pools passes its worker count.
+os.environ.setdefault(WORKERS_VARIABLE, "1")
 
 
 @pytest.fixture

@@ -16,7 +16,7 @@ from pathlib import Path
 BASE = ("cell.errors", "cell.io", "cell.folders", "cell.outputs", "cell.config",
         "cell.collision", "cell.polyline", "cell.memory", "cell.assets", "cell.scenarios",
         "cell.extras", "cell.options", "cell.progress", "cell.profiling", "cell.moved",
-        "cell.rayconnect")
+        "cell.cores", "cell.rayconnect")
 #: The MuJoCo-free part of the tissue that a diagnosis simulates with.
 TISSUE_LAWS = ("cell.tissue.curves", "cell.tissue.material", "cell.tissue.materialfile",
                "cell.tissue.cutmodel", "cell.tissue.edgestate", "cell.tissue.springlaw",

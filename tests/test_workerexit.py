@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from tests.paths import PROJECT_ROOT
 
 CRASHES_AT_EXIT = """
@@ -50,6 +52,7 @@ def test_that_leaves_a_slow_exit():
 """
 
 
+@pytest.mark.slow  # xdist waits out its exit timeout
 def test_a_worker_that_xdist_stops_for_exiting_slowly_is_named_not_failed(
         tmp_path: Path) -> None:
     done = _run(tmp_path, SLOW_TO_EXIT)

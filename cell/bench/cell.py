@@ -28,7 +28,6 @@ Entries (``value`` in ``unit``; ``peer`` and ``ratio`` = value / peer where a pe
 
 from __future__ import annotations
 
-import os
 import platform
 import time
 from dataclasses import replace
@@ -40,6 +39,7 @@ import mujoco
 import numpy as np
 
 from cell.bench.parts import Progress, measured
+from cell.cores import usable_cores
 from cell.profiling import Profile
 from cell.robots.arms import build_arm
 from cell.robots.dh import VIPER_S1700D
@@ -257,11 +257,7 @@ def run_bench(scenario_path: str | Path, quick: bool = False,
     return {
         "scenario": str(scenario_path),
         "machine": {"python": platform.python_version(), "processor": platform.machine(),
-                    "mujoco": mujoco.__version__, "cpus": cpu_count()},
+                    "mujoco": mujoco.__version__, "cpus": usable_cores()},
         "entries": entries,
     }
 
-
-def cpu_count() -> int:
-    """CPUs this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()

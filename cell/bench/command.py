@@ -7,12 +7,12 @@ suite checks its outputs (:mod:`cell.outputs`) before it measures anything.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from cell.cores import default_workers
 from cell.errors import InputError
 from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
@@ -81,8 +81,8 @@ def add_bench(commands: argparse._SubParsersAction) -> None:
                        "simulation of a cut (with --pairs: two causes at once)")
     _add_log_options(bench)
     bench.add_argument("--workers", type=int,
-                       help="diagnose suite: processes per diagnosis (default: every core; "
-                       "with --address, the whole cluster)")
+                       help="diagnose suite: processes per diagnosis (default: one per core, or "
+                       "MUSCLECELL_WORKERS; with --address, the whole cluster)")
     bench.add_argument("--address",
                        help="diagnose suite with --logs: replay on this Ray cluster; env "
                        "suite with --learn: also learn --address on one env per CPU of it "
@@ -294,7 +294,7 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
     count = args.seeds if args.seeds is not None else default[0 if args.quick else 1]
     if count < 1:
         raise InputError(None, "--seeds", f"must be >= 1, got {count}")
-    workers = args.workers if args.workers is not None else os.cpu_count() or 1
+    workers = args.workers if args.workers is not None else default_workers()
     if args.suggest:
         from cell.bench import suggestbench
 

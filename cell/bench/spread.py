@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from cell.bench.diagnose import check_request, hidden, time_summary
+from cell.cores import default_workers
 from cell.synthetic import specimen as generator
 
 #: The spread's standard deviation (of the log modulus factor) is drawn in this range.
@@ -129,11 +130,9 @@ def run_spread_bench(seeds: Sequence[int], workers: int | None = None,
     Raises:
         MeasurementError: no seed, or an unknown kind.
     """
-    import os
-
     for kind in kinds:
         check_request(seeds, kind, KINDS)
-    workers = workers or os.cpu_count() or 1
+    workers = workers or default_workers()
     rows = []
     with tempfile.TemporaryDirectory(prefix="bench-spread-") as scratch:
         for seed in seeds:

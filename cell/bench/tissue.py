@@ -54,7 +54,6 @@ from typing import Any
 
 import mujoco
 
-from cell.bench.cell import cpu_count
 from cell.bench.tissue_accuracy import force_errors
 from cell.bench.tissue_peers import stock_flex_run
 from cell.bench.tissue_profile import step_profile
@@ -66,6 +65,7 @@ from cell.bench.tissue_variants import (
     tissue_run,
     tissue_variants,
 )
+from cell.cores import usable_cores
 from cell.tissue.material import default_meat
 
 #: The paper's Table 1 (Nabil et al. 2015, Core 2 Duo 3 GHz), wall time per node per iteration,
@@ -194,7 +194,7 @@ def run_tissue_bench(params: TissueBenchParams | None = None,
         "suite": "tissue",
         "profile": _profile(params),
         "machine": {"python": platform.python_version(), "processor": platform.machine(),
-                    "mujoco": mujoco.__version__, "cpus": cpu_count(),
+                    "mujoco": mujoco.__version__, "cpus": usable_cores(),
                     "threads_per_step": 1, "load_average": list(os.getloadavg())},
         "settings": asdict(params),
         "paper_table_1": {

@@ -8,9 +8,9 @@ the rest. The ``--batch`` of many sets is added on top by the sweeps' package
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
+from cell.cores import default_workers
 from cell.errors import InputError
 from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
@@ -47,7 +47,7 @@ def diagnose_command(args: argparse.Namespace) -> int:
                          "missing: diagnose SET_DIR --out FILE, or --batch DIR --out DIR")
     if getattr(args, "address", None) is not None:
         raise InputError(None, "--address", "only --batch runs on Ray")
-    workers = (os.cpu_count() or 1) if args.workers is None else args.workers
+    workers = default_workers() if args.workers is None else args.workers
     if workers < 1:
         raise InputError(None, "--workers", f"must be >= 1, got {workers}")
     material_path = args.material or args.out.with_name(f"{args.out.stem}-material.toml")

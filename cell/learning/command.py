@@ -7,12 +7,12 @@ Stable-Baselines3 (the ``learn`` extra) only when it is there.
 from __future__ import annotations
 
 import argparse
-import os
 from collections.abc import Callable
 from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from cell.cores import default_workers, usable_cores
 from cell.errors import LearningError
 from cell.options import add_out, add_quiet
 from cell.outputs import Output, check_outputs
@@ -79,7 +79,7 @@ def add_learning(commands: argparse._SubParsersAction) -> None:
                             help="the report JSON here instead of in --out's folder")
     evaluation.add_argument("--markdown", type=Path, metavar="FILE",
                             help="the Markdown table here instead of in --out's folder")
-    evaluation.add_argument("--workers", type=int, help="processes (default: one per core)")
+    evaluation.add_argument("--workers", type=int, help="processes (default: MUSCLECELL_WORKERS)")
     evaluation.add_argument("--env-kwargs", help="JSON keyword arguments of the env")
     evaluation.add_argument("--constant-search-seeds", type=int, default=10,
                             help=f"tuning episodes per constant action, seeds "
@@ -122,7 +122,7 @@ def learn_command(args: argparse.Namespace) -> int:
 
     env_id = resolve_env_id(args.env)
     with ExitStack() as session:  # joined once: training itself joins this session
-        envs = args.envs if args.envs is not None else os.cpu_count() or 1
+        envs = args.envs if args.envs is not None else usable_cores()
         if args.address is not None:
             from cell.learning.environments import WITHOUT_RAY
             from cell.rayconnect import ray_session
@@ -176,7 +176,7 @@ def evaluate_command(args: argparse.Namespace) -> int:
     from cell.learning.hyper import parse_json_object
 
     settings = EvaluationSettings(
-        args.episodes, args.seed_start, args.workers or os.cpu_count() or 1,
+        args.episodes, args.seed_start, args.workers or default_workers(),
         args.constant_search_seeds, parse_constant_actions(args.constant_actions))
     if args.policy is None and args.out is None:
         raise LearningError(None, "--out", "needed when no POLICY is given (the baselines "

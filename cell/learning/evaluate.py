@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -29,6 +29,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from cell.cores import default_workers
 from cell.errors import LearningError
 from cell.learning.baselines import (
     BASELINES,
@@ -79,7 +80,7 @@ class EvaluationSettings:
 
     episodes: int = 50
     seed_start: int = EVAL_SEED_START
-    workers: int = os.cpu_count() or 1
+    workers: int = field(default_factory=default_workers)
     constant_search_seeds: int = 10
     constant_actions: tuple[tuple[float, ...], ...] | None = None
 

@@ -21,13 +21,13 @@ fitted world, where a cause the first hid may show, and kept on the same terms
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from cell.cores import default_workers
 from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
 from cell.diagnosis.engine.outcome import force_noise_n
 from cell.logs.batch import LogBatch
@@ -186,7 +186,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     names = [c for c in applicable(batch.scenarios[0])
              if params.causes is None or c in params.causes]
-    workers = params.workers or os.cpu_count() or 1
+    workers = params.workers or default_workers()
     started, cpu_started = time.perf_counter(), time.process_time()
     jobs = len(batch.logs) * (sum(len(CAUSES[c].probes(True)) for c in names) + 1)
     with Replayer(batch, min(workers, jobs), cluster) as replayer:

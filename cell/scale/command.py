@@ -47,7 +47,7 @@ def add_batch(diagnosis: argparse.ArgumentParser) -> None:
                            help="diagnose every set in this folder, one Ray task each, into "
                            "one table in --out (needs the scale extra unless --workers 1)")
     add_workers(diagnosis, "; one set: processes fitting candidates side by side (default: "
-                "every core)")
+                "one per core, or MUSCLECELL_WORKERS)")
 
     def handler(args: argparse.Namespace) -> int:
         return diagnose_batch_command(args) if args.batch is not None else one_set(args)

@@ -13,9 +13,9 @@ Usage::
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 
+from cell.cores import default_workers
 from cell.errors import DiagnosisError
 
 
@@ -38,7 +38,8 @@ class DiagnosisParams:
         unexplained_ratio: held-out RMSE over the noise above which left structure counts.
         structure_correlation: lag-one autocorrelation of held-out residuals above which
             they have structure.
-        workers: processes fitting candidates side by side (default: every core).
+        workers: processes fitting candidates side by side (default:
+            :func:`~cell.cores.default_workers`).
         max_evaluations: cap on a fit's simulations of the set.
 
     Raises:
@@ -56,7 +57,7 @@ class DiagnosisParams:
     min_improved_fraction: float = 0.5
     unexplained_ratio: float = 2.0
     structure_correlation: float = 0.5
-    workers: int = field(default_factory=lambda: os.cpu_count() or 1)
+    workers: int = field(default_factory=default_workers)
     max_evaluations: int = 400
 
     def __post_init__(self) -> None:
