@@ -7,8 +7,17 @@ cd "$(dirname "$0")/.."
 source scripts/setup.sh
 ruff check .
 site="$(mktemp -d)"
-trap 'rm -rf "$site"' EXIT
+scratch="$(mktemp -d)"
+trap 'rm -rf "$site" "$scratch"' EXIT
+# While the docs build on one core, an episode on the other compiles the tissue's numba
+# kernels into numba's cache, which the test processes then load instead of each compiling
+# them at its first episode.
+python -m cell.cli run scenarios/quick.toml --out "$scratch/warm.json" --quiet \
+  > "$scratch/warm.log" 2>&1 &
+warm=$!
 sphinx-build -W --keep-going -q -b html docs "$site"
+wait "$warm" || echo "test.sh: the warm-up episode failed, the tests compile the kernels" \
+  "themselves: $(tail -n 1 "$scratch/warm.log")" >&2
 # tests/test_docs.py checks this build's API reference instead of building the site again.
 export MUSCLECELL_DOCS_SITE="$site"
 # A crash in a process's native teardown prints its Python stack (tests/workerexit.py fails

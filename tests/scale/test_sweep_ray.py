@@ -95,6 +95,7 @@ def test_a_killed_worker_fails_its_run_and_the_others_match_a_sweep_without_ray(
         assert _without_timing(on_ray[k]) == _without_timing(plain[k])
 
 
+@pytest.mark.slow  # a two-node cluster started here
 def test_a_sweep_runs_on_a_cluster_given_its_address(cluster: str, tmp_path: Path,
                                                      capsys: pytest.CaptureFixture) -> None:
     path = tmp_path / "sweep.toml"
