@@ -21,6 +21,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from cell.cores import usable_cores
 from cell.errors import PoolError
 
 #: A cluster's address: its head's ``HOST:PORT`` or its client server's ``ray://HOST:PORT``.
@@ -81,7 +82,7 @@ def _init_options(address: str | None, cpus: int | None) -> dict[str, Any]:
     if address is not None:
         return {**options, "address": address}
     # "local": a Ray of its own, even where `ray start` left one running on this machine.
-    return {**options, "address": "local", "num_cpus": cpus or os.cpu_count() or 1,
+    return {**options, "address": "local", "num_cpus": cpus or usable_cores(),
             "include_dashboard": False}
 
 

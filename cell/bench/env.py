@@ -32,6 +32,7 @@ import gymnasium as gym
 import numpy as np
 
 from cell.bench.parts import Progress, measured
+from cell.cores import usable_cores
 from cell.learning.environments import START_METHOD
 from cell.tissue.geometry import MuscleShape
 
@@ -154,7 +155,7 @@ def bench_learn_scaling(steps_per_env: int, n_steps: int, address: str | None = 
     ratio = spread["value"] / one["value"]
     return {"value": ratio, "unit": "ratio", "envs1": one, f"envs{many}": spread,
             "target": LEARN_SCALING_TARGET, "pass": ratio >= LEARN_SCALING_TARGET,
-            "load_1min": [load_before, os.getloadavg()[0]], "cores": os.cpu_count()}
+            "load_1min": [load_before, os.getloadavg()[0]], "cores": usable_cores()}
 
 
 def _cluster_cpus(address: str) -> int:
@@ -172,7 +173,7 @@ def run_env_bench(quick: bool = False, learn: bool = False, address: str | None 
     finishes); returns the JSON-ready report."""
     steps = 30 if quick else 200
     coarse, default = 0.05, MuscleShape().cell_size_m
-    cores = os.cpu_count() or 1
+    cores = usable_cores()
     parts = {
         "single_coarse": lambda: bench_single(coarse, steps),
         "single_default": lambda: bench_single(default, steps),

@@ -11,13 +11,13 @@ round trip on a running Ray is reported beside it.
 
 from __future__ import annotations
 
-import os
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 from cell.bench.parts import Progress, measured
+from cell.cores import usable_cores
 from cell.scale.pool import RunPool, Workers
 from cell.scale.sweep import SweepOutcome, run_sweep
 from cell.sim.examples import SCENARIOS
@@ -60,7 +60,7 @@ def run_sweep_bench(sweep_file: Path = EXAMPLE_SWEEP, progress: Progress = None
     }
     statuses = {s: sum(row["status"] == s for row in two.rows) for s in ("ok", "diverged",
                                                                         "failed")}
-    return {"sweep": str(sweep_file), "runs": runs, "cores": os.cpu_count(),
+    return {"sweep": str(sweep_file), "runs": runs, "cores": usable_cores(),
             "statuses_2_workers": statuses, "entries": entries}
 
 
