@@ -1,8 +1,7 @@
 """The envs as ``dm_env.Environment`` s, for the DeepMind stack (Acme and the like).
 
-dm-control's own environment layers do not run on MuJoCo 4 (its ``Physics`` reads model
-fields MuJoCo 4 removed, see docs/learning.md), so each task here is the Gymnasium env of
-:mod:`envs.separation` behind the ``dm_env`` API that dm-control's environments implement:
+Each task here is the Gymnasium env of :mod:`envs.separation` behind the ``dm_env`` API that
+dm-control's environments implement (docs/design-notes.md says why not a dm-control task):
 the same cell, observations, actions, rewards and episode ends, with specs. A step after the
 last of an episode starts the next (``dm_env``'s contract); termination (success, failure,
 protective stop, divergence) has discount 0, the time limit is a truncation with discount 1

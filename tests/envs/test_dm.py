@@ -10,6 +10,9 @@ from absl.testing import absltest
 from dm_env import test_utils
 
 from cell.errors import InputError
+from cell.sim.assembly import build_scene, export_mjcf
+from cell.sim.scenario import Scenario
+from cell.tissue.geometry import MuscleShape
 from envs.dm import make
 from envs.tasks import CutEnv
 
@@ -81,12 +84,15 @@ def test_an_unknown_task_is_named() -> None:
         make("Slice-v0")
 
 
-def test_dm_control_builds_mjcf_but_its_physics_fails_on_mujoco_4() -> None:
-    # What the README says of dm-control 1.0.50 on MuJoCo 4: this test fails once it changes.
-    from dm_control import mjcf
+def test_dm_controls_physics_steps_the_exported_cell(tmp_path) -> None:
+    # dm-control 1.0.52 runs on MuJoCo 4 (1.0.50's Physics read a field MuJoCo 4 removed):
+    # the cell as `musclecell export-mjcf` writes it loads and steps there.
+    from dm_control.mujoco import Physics
 
-    root = mjcf.RootElement()
-    root.worldbody.add("geom", type="sphere", size=[0.1])
-    assert "<geom" in root.to_xml_string()
-    with pytest.raises(AttributeError, match="flex_vertedge"):
-        mjcf.Physics.from_mjcf_model(root)
+    scene = build_scene(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
+    physics = Physics.from_xml_path(str(export_mjcf(scene, tmp_path / "cell.xml")))
+    assert (physics.model.nbody, physics.model.nflex) == (scene.model.nbody, scene.model.nflex)
+    for _ in range(20):
+        physics.step()
+    assert physics.data.time == pytest.approx(20 * scene.model.opt.timestep)
+    assert np.isfinite(physics.data.qpos).all()
