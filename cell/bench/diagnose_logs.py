@@ -16,7 +16,9 @@ acceptance figures.
 Per batch: whether the causes named are exactly the hidden ones; each hidden cause's fitted
 magnitude against the truth (:func:`magnitude_error`); the held-out gain; the diagnosis's wall
 and CPU seconds split into the replays' and the fits' (the replays run in worker processes:
-their CPU is the workers'); and the seconds of the episodes that made the batch.
+their CPU is the workers'); the seconds of the episodes that made the batch; and which hidden
+changes its logs show at all (:func:`visibility`), with the exact rate where they do beside the
+exact rate (the target).
 
 Targets: exact on >= 80 % of single batches and >= 60 % of pairs, the fitted
 magnitude within 20 % of the truth in >= 75 % of the single batches with a cause, none named in
@@ -45,10 +47,12 @@ from cell.bench.diagnose import (
     fraction,
     time_summary,
 )
+from cell.cores import default_workers
 from cell.logs.causes import SENSOR_OFFSET, table_causes
 from cell.sim.examples import SCENARIOS
 
 if TYPE_CHECKING:
+    from cell.logs.batch import LogBatch
     from cell.logs.replays import ReplayPool
 
 Kind = Literal["single", "pairs", "keys", "key-pairs"]
@@ -170,10 +174,42 @@ def magnitude_error(cause: str, truth: Mapping[str, Any], offset_channel: str,
     return abs(value - truth[cause]) / max(abs(truth[cause]), 1e-12)
 
 
+def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
+               min_gain: float, cluster: ReplayPool | None = None) -> dict[str, Any]:
+    """Which of the hidden world ``changes`` (cause -> magnitude, as
+    :func:`~cell.logs.causes.changed_world` takes them) the batch shows at all: the batch is
+    replayed in the lab's world, in the true one and, of two or more changes, in the true one
+    less each. A change whose removal leaves the force RMSE within ``min_gain`` of the true
+    world's (for one change alone: the lab's world within that share of the true one) is not
+    in these logs, and a diagnosis that asks a cause to lower the error by that share cannot
+    name it (a tearing threshold raised where nothing tore either way). The replays run as the
+    diagnosis's do (``workers``, ``cluster``). Returns ``visible`` (cause -> bool) and the force
+    RMSE of the lab's and the true world, N."""
+    from cell.logs.fit import logged_vector, rmse_n
+    from cell.logs.outcome import EVIDENCE_ROWS
+    from cell.logs.replays import Replayer
+
+    if not changes:
+        return {"visible": {}, "lab_rmse_N": None, "truth_rmse_N": None}
+    measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
+    less = [{k: v for k, v in changes.items() if k != c} for c in changes] if len(changes) > 1 \
+        else []
+    with Replayer(batch, workers or default_workers(), cluster) as replayer:
+        vectors = replayer.batches([{}, dict(changes), *less])
+    errors = [math.inf if v is None else rmse_n((measured - v)[rows.force]) for v in vectors]
+    without = errors[2:] if less else errors[:1]
+    return {"visible": {c: errors[1] <= (1.0 - min_gain) * error
+                        for c, error in zip(changes, without, strict=True)},
+            "lab_rmse_N": errors[0], "truth_rmse_N": errors[1]}
+
+
 def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str, Any],
-               tolerance: float) -> dict[str, Any]:
-    """One batch's JSON row from its truth and its ``diagnosis.json`` contract."""
+               tolerance: float, seen: dict[str, Any]) -> dict[str, Any]:
+    """One batch's JSON row from its truth, its ``diagnosis.json`` contract and what of the
+    truth its logs show (:func:`visibility`)."""
     timing = data["timing"]
+    shown = {c for c in expected if seen["visible"].get(c, True)}
+    named = set(data["causes"])
     errors = {c: magnitude_error(c, truth.magnitudes, truth.offset_channel,
                                  data["extended"]["params"])
               for c in expected}
@@ -185,6 +221,9 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "magnitude_error": {c: (None if math.isinf(e) else e) for c, e in errors.items()},
             "magnitude_within": bool(expected) and all(e <= tolerance
                                                        for e in errors.values()),
+            "visible": seen["visible"], "lab_rmse_N": seen["lab_rmse_N"],
+            "truth_rmse_N": seen["truth_rmse_N"],
+            "correct_where_visible": shown <= named <= set(expected),
             "gain": float(data["gain"]),
             "heldout_rmse_N": {"baseline": data["baseline"]["heldout_rmse_N"],
                                "extended": data["extended"]["heldout_rmse_N"]},
@@ -202,14 +241,18 @@ def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
     from cell.bench.keyworlds import write_key_change_batch
     from cell.logs.batch import read_log_batch
     from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
-    from cell.synthetic.logs import LOG_COUNT, write_hidden_log_batch
+    from cell.synthetic.logs import LOG_COUNT, world_changes, write_hidden_log_batch
 
     expected = hidden(seed, kind)
     write = write_key_change_batch if kind in KEY_KINDS else write_hidden_log_batch
     truth = write(folder, seed, params.base, expected, end_s=params.end_s)
     batch = read_log_batch([folder / f"log-{k}" for k in range(1, LOG_COUNT + 1)])
-    diagnosis = diagnose_logs(batch, LogDiagnosisParams(workers=params.workers), cluster)
-    return _batch_row(seed, expected, truth, diagnosis.to_json(), MAGNITUDE_TOLERANCE[kind])
+    search = LogDiagnosisParams(workers=params.workers)
+    diagnosis = diagnose_logs(batch, search, cluster)
+    seen = visibility(batch, world_changes(expected, truth.magnitudes), params.workers,
+                      search.min_heldout_gain, cluster)
+    return _batch_row(seed, expected, truth, diagnosis.to_json(), MAGNITUDE_TOLERANCE[kind],
+                      seen)
 
 
 def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
@@ -235,7 +278,8 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
                                    for c, e in row["magnitude_error"].items())
                 progress(f"seed {seed}: truth {cause_label(row['truth']['causes'])}, named "
                          f"{cause_label(row['causes'])}"
-                         f"{f' ({errors})' if errors else ''}, gain {row['gain']:.2f}, "
+                         f"{f' ({errors})' if errors else ''}{_unseen(row)}, "
+                         f"gain {row['gain']:.2f}, "
                          f"{row['seconds']:.0f} s ({row['replays']} replays "
                          f"{split['replay_wall_s']:.0f} s, fits {split['fit_wall_s']:.0f} s; "
                          f"CPU {row['cpu_seconds']:.0f} s; simulated in "
@@ -244,6 +288,11 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
     return {**report, "seeds": list(seeds), "quick": params.end_s is not None,
             "params": {"base": params.base.name, "end_s": params.end_s,
                        "workers": params.workers}}
+
+
+def _unseen(row: dict[str, Any]) -> str:
+    hidden_away = [c for c, shown in row["visible"].items() if not shown]
+    return f", not in these logs: {', '.join(hidden_away)}" if hidden_away else ""
 
 
 def _target(value: float, target: float, unit: str, at_least: bool = True) -> dict[str, Any]:
@@ -276,6 +325,11 @@ def summary(rows: Sequence[dict[str, Any]], kind: str) -> dict[str, Any]:
             "value": statistics.median(r["simulation_seconds"] for r in rows), "unit": "s"},
         "correct": {"value": correct, "unit": "fraction",
                     "count": sum(r["correct"] for r in rows), "of": len(rows)},
+        "correct_where_visible": {
+            "value": fraction([r["correct_where_visible"] for r in rows]), "unit": "fraction",
+            "count": sum(r["correct_where_visible"] for r in rows), "of": len(rows)},
+        "changes_not_in_logs": {"value": sum(not v for r in rows for v in r["visible"].values()),
+                                "unit": "changes"},
     }
     targets = {"correct": _target(correct, TARGET_CORRECT[kind], "fraction"),
                **{name.replace("per_set", "per_batch"): target

@@ -117,9 +117,15 @@ def _draw_world(seed: int) -> tuple[dict[str, Any], str, np.random.Generator]:
     return magnitudes, channel, rng
 
 
-def _world_changes(causes: Sequence[str], magnitudes: dict[str, Any]) -> dict[str, float]:
+def world_changes(causes: Sequence[str], magnitudes: dict[str, Any]) -> dict[str, float]:
     """The hidden world causes as :func:`~cell.logs.causes.changed_world` takes them: the
-    log of a factor, an angle."""
+    log of a factor, an angle (the sensor's offset is not a change of the world).
+
+    Example:
+        >>> world_changes(("tearing_threshold", "sensor_offset"),
+        ...               {"tearing_threshold": 1.0, "sensor_offset": (0.0, 0.0, 1.0)})
+        {'tearing_threshold': 0.0}
+    """
     return {cause: (magnitudes[cause] if CAUSES[cause].kind == "angle"
                     else float(np.log(magnitudes[cause])))
             for cause in causes if cause != SENSOR_OFFSET}
@@ -157,7 +163,7 @@ def write_hidden_log_batch(folder: Path, seed: int, base: str | Path,
     scenario = load_scenario(base)
     causes = _check(causes, scenario, logs)
     magnitudes, offset_channel, rng = _draw_world(seed)
-    changes = _world_changes(causes, magnitudes)
+    changes = world_changes(causes, magnitudes)
     raw = resolved_tables(read_toml(base), scenario)
     folder.mkdir(parents=True, exist_ok=True)
     write_atomic(folder / "material.toml", material_to_toml(scenario.material, _HEADER))

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from cell.bench.diagnose_logs import (
+    BASE_SCENARIO,
     FIRST_SEED,
     TUNING_SEEDS,
     LogBenchParams,
@@ -19,15 +20,21 @@ from cell.bench.diagnose_logs import (
     magnitude_error,
     run_log_diagnose_bench,
     summary,
+    visibility,
 )
+from cell.bench.keyworlds import write_key_change_batch
 from cell.cli import main
 from cell.errors import MeasurementError
+from cell.logs.batch import read_log_batch
+from cell.synthetic.logs import world_changes
 
 
 def _row(truth: tuple[str, ...], named: tuple[str, ...], gain: float, seconds: float,
          within: bool = True) -> dict:
     return {"truth": {"causes": list(truth)}, "causes": list(named),
             "correct": sorted(truth) == sorted(named), "magnitude_within": within,
+            "visible": dict.fromkeys(truth, True),
+            "correct_where_visible": sorted(truth) == sorted(named),
             "gain": gain, "seconds": seconds, "cpu_seconds": seconds / 2, "replays": 39,
             "simulation_seconds": 60.0,
             "split": {"replay_wall_s": seconds - 2.0, "fit_wall_s": 2.0,
@@ -83,6 +90,26 @@ def test_the_summary_counts_rates_medians_and_the_confusion() -> None:
     assert not targets["none_named_without_cause"]["pass"]
     assert report["confusion"]["none"] == {"none": 1, "sensor_offset": 1}
     assert "| tissue_stiffness |" in report["markdown"]
+
+
+def test_a_change_the_logs_do_not_show_is_counted_apart() -> None:
+    unseen = {**_row(("tearing_threshold",), (), 0.0, 100.0, within=False),
+              "visible": {"tearing_threshold": False}, "correct_where_visible": True}
+    report = summary([unseen, _row(("binding_strength",), ("binding_strength",), 0.8, 100.0)],
+                     "keys")
+    entries = report["entries"]
+    assert entries["correct"]["value"] == 0.5 and entries["correct_where_visible"]["value"] == 1
+    assert entries["changes_not_in_logs"]["value"] == 1
+    assert not report["targets"]["correct"]["pass"]
+
+
+def test_a_change_before_anything_happens_is_not_in_the_logs(tmp_path: Path) -> None:
+    truth = write_key_change_batch(tmp_path / "batch", seed=3, base=BASE_SCENARIO,
+                                   causes=("tearing_threshold",), logs=2, end_s=0.04)
+    batch = read_log_batch([tmp_path / "batch" / "log-1", tmp_path / "batch" / "log-2"])
+    seen = visibility(batch, world_changes(truth.causes, truth.magnitudes), 1, 0.08)
+    assert seen["visible"] == {"tearing_threshold": False}
+    assert seen["truth_rmse_N"] == pytest.approx(seen["lab_rmse_N"])
 
 
 def test_pairs_have_no_magnitude_or_gain_targets() -> None:
