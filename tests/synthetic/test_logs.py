@@ -14,7 +14,7 @@ from cell.logs.batch import read_log_batch
 from cell.logs.causes import changed_world
 from cell.measure.logs import read_log
 from cell.sim.scenario import load_scenario
-from cell.synthetic.logs import _world_changes, write_hidden_log_batch
+from cell.synthetic.logs import world_changes, write_hidden_log_batch
 from tests.paths import PROJECT_ROOT
 
 QUICK = PROJECT_ROOT / "scenarios" / "quick.toml"
@@ -40,7 +40,7 @@ def test_the_hidden_world_differs_from_the_belief_by_its_causes() -> None:
     belief = load_scenario(QUICK)
     magnitudes = {"binding_strength": 1.5, "tearing_threshold": 0.6, "tissue_stiffness": 1.3,
                   "fibre_direction": np.pi / 2, "sensor_offset": (1.0, 0.0, 0.0)}
-    world = changed_world(belief, _world_changes(tuple(magnitudes), magnitudes))
+    world = changed_world(belief, world_changes(tuple(magnitudes), magnitudes))
     assert world.aponeurosis.toughness_j_m2 == pytest.approx(
         1.5 * belief.aponeurosis.toughness_j_m2)
     assert world.aponeurosis.tearing_stretch_m == pytest.approx(
@@ -48,7 +48,7 @@ def test_the_hidden_world_differs_from_the_belief_by_its_causes() -> None:
     assert world.material.longitudinal.coefficients[0] == pytest.approx(
         1.3 * belief.material.longitudinal.coefficients[0])
     assert np.allclose(world.material.fibre_direction, (0.0, 1.0, 0.0), atol=1e-12)
-    assert changed_world(belief, _world_changes((), magnitudes)) == belief
+    assert changed_world(belief, world_changes((), magnitudes)) == belief
 
 
 def test_unknown_causes_are_refused(tmp_path: Path) -> None:
