@@ -39,6 +39,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
+import numpy as np
+
 from cell.bench.diagnose import (
     cause_label,
     check_request,
@@ -175,7 +177,8 @@ def magnitude_error(cause: str, truth: Mapping[str, Any], offset_channel: str,
 
 
 def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
-               min_gain: float, cluster: ReplayPool | None = None) -> dict[str, Any]:
+               min_gain: float, cluster: ReplayPool | None = None,
+               lab: np.ndarray | None = None) -> dict[str, Any]:
     """Which of the hidden world ``changes`` (cause -> magnitude, as
     :func:`~cell.logs.causes.changed_world` takes them) the batch shows at all: the batch is
     replayed in the lab's world, in the true one and, of two or more changes, in the true one
@@ -183,8 +186,9 @@ def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
     world's (for one change alone: the lab's world within that share of the true one) is not
     in these logs, and a diagnosis that asks a cause to lower the error by that share cannot
     name it (a tearing threshold raised where nothing tore either way). The replays run as the
-    diagnosis's do (``workers``, ``cluster``). Returns ``visible`` (cause -> bool) and the force
-    RMSE of the lab's and the true world, N."""
+    diagnosis's do (``workers``, ``cluster``); ``lab``, the batch's vector in the lab's world
+    where a diagnosis replayed it already, is not replayed again. Returns ``visible`` (cause ->
+    bool) and the force RMSE of the lab's and the true world, N."""
     from cell.logs.fit import logged_vector, rmse_n
     from cell.logs.outcome import EVIDENCE_ROWS
     from cell.logs.replays import Replayer
@@ -195,7 +199,8 @@ def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
     less = [{k: v for k, v in changes.items() if k != c} for c in changes] if len(changes) > 1 \
         else []
     with Replayer(batch, workers or default_workers(), cluster) as replayer:
-        vectors = replayer.batches([{}, dict(changes), *less])
+        vectors = ([lab] if lab is not None else []) + replayer.batches(
+            [{}] * (lab is None) + [dict(changes), *less])
     errors = [math.inf if v is None else rmse_n((measured - v)[rows.force]) for v in vectors]
     without = errors[2:] if less else errors[:1]
     return {"visible": {c: errors[1] <= (1.0 - min_gain) * error
@@ -250,7 +255,7 @@ def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
     search = LogDiagnosisParams(workers=params.workers)
     diagnosis = diagnose_logs(batch, search, cluster)
     seen = visibility(batch, world_changes(expected, truth.magnitudes), params.workers,
-                      search.min_heldout_gain, cluster)
+                      search.min_heldout_gain, cluster, diagnosis.simulated["baseline"])
     return _batch_row(seed, expected, truth, diagnosis.to_json(), MAGNITUDE_TOLERANCE[kind],
                       seen)
 
