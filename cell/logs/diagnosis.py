@@ -14,13 +14,12 @@ out, in the world fitted on the others: unless those lower the held-out error by
 asked, the world's causes are not named (a change that fits the logs it was fitted to but no
 log left out). A confirmed fit gets a second look: the other causes screened again in the
 fitted world, where a cause the first hid may show, and kept on the same terms
-(:mod:`cell.logs.search`). Replays run side by side on every core, or on a Ray cluster
+(:mod:`cell.logs.second_look`). Replays run side by side on every core, or on a Ray cluster
 (:mod:`cell.logs.replays`).
 """
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -60,9 +59,9 @@ from cell.logs.search import (
     pruned,
     replayed_fit,
     screening_worlds,
-    second_look,
     signatures,
 )
+from cell.logs.second_look import confirmed_second_look
 
 
 @dataclass(frozen=True)
@@ -218,10 +217,13 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             world, left = [], without
             fit = {**start, "confirmed": False, **({"dropped": dropped} if dropped else {})}
         elif world:
-            fit, left, second = _second_look(replayer, measured, rows, fit, world, left,
-                                             [c for c in names if c in blocks], offsets, params)
-            added = [step.added for step in second]
-            world, chosen = world + added, chosen + added
+            lab = {c: blocks[c] for c in names if c in blocks}
+            fit, left, kept, second = confirmed_second_look(
+                replayer, measured, rows, fit, world, left, lab, offsets,
+                params.min_heldout_gain, params.newton_steps)
+            chosen = [c for c in chosen if c in kept or c not in CAUSES]
+            chosen += [c for c in kept if c not in chosen]
+            world = kept
     steps_json = _steps_json(steps, second)
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
@@ -286,34 +288,6 @@ def _located(replayer: Replayer, measured: np.ndarray, start: Fit, world: list[s
         return start
     step = np.array([at.get(c, 0.0) for c in world])
     return {**trial, "jacobian": broyden(jacobian, step, replayed - start["simulated"])}
-
-
-def _second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
-                 world: list[str], left: np.ndarray, names: list[str],
-                 offsets: dict[str, np.ndarray], params: LogDiagnosisParams
-                 ) -> tuple[Fit, np.ndarray, list[Step]]:
-    """:func:`second_look` on a confirmed fit: the fit, the held-out residual and the steps
-    of the causes it adds, kept only where the replays of each log left out confirm them
-    too (else ``fit`` says what was tried)."""
-    replayer.round = "second look"
-    selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
-                                             offsets, params.min_heldout_gain,
-                                             params.newton_steps)
-    if not selected:
-        return fit, left, []
-    confirmed = rmse_n(moved["left"]) <= (1.0 - params.min_heldout_gain) * rmse_n(fit["left"])
-    moved_left = (heldout_replays(replayer, measured, rows, moved, world + selected, offsets,
-                                  fit, left, params.min_heldout_gain) if confirmed else None)
-    kept = moved_left is not None and (
-        rmse_n(moved_left) <= (1.0 - params.min_heldout_gain) * rmse_n(left))
-    tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
-             rmse_n(fit["left"]), **determined(
-                 "heldout_rmse_N", math.nan if moved_left is None else rmse_n(moved_left),
-                 "not replayed: the logs fitted do not confirm the causes"),
-             "without_heldout_rmse_N": rmse_n(left), "kept": kept}
-    if not kept:
-        return {**fit, "second_look": tried}, left, []
-    return {**moved, "confirmed": True, "second_look": tried}, moved_left, selection[1:]
 
 
 def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str, float]:

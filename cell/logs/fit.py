@@ -281,6 +281,16 @@ class Step:
     heldout_rmse_n: float
 
 
+def scored_step(residual: np.ndarray, blocks: dict[str, np.ndarray], added: str, rows: Rows,
+                fixed: frozenset[str] = frozenset()) -> Step:
+    """The step that brings ``blocks`` (``added`` the last of them; "" for none) into the
+    fit of ``residual``: its information criterion and linearised held-out RMSE."""
+    _, left = solve(residual, blocks, None, fixed)
+    size = sum(3 if b in fixed else blocks[b].shape[1] for b in blocks)
+    return Step(added, information(left, size, decorrelation_rows(residual, rows)),
+                rmse_n(heldout(residual, blocks, rows, fixed)))
+
+
 def forward_selection(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
                       min_heldout_gain: float, fixed: frozenset[str] = frozenset()
                       ) -> list[Step]:
@@ -288,17 +298,11 @@ def forward_selection(residual: np.ndarray, blocks: dict[str, np.ndarray], rows:
     as the information criterion falls and the held-out RMSE falls by ``min_heldout_gain``
     (a share) of the current one (``fixed`` blocks as in :func:`solve`, three parameters
     each). The first step is the start: ``added`` is ""."""
-    stretch = decorrelation_rows(residual, rows)
     chosen: dict[str, np.ndarray] = {}
-    steps = [Step("", information(residual, 0, stretch), rmse_n(heldout(residual, {}, rows)))]
+    steps = [scored_step(residual, {}, "", rows)]
     while len(chosen) < len(blocks):
-        trials = []
-        for name in blocks.keys() - chosen.keys():
-            trial = {**chosen, name: blocks[name]}
-            _, left = solve(residual, trial, None, fixed)
-            size = sum(3 if b in fixed else trial[b].shape[1] for b in trial)
-            trials.append(Step(name, information(left, size, stretch),
-                               rmse_n(heldout(residual, trial, rows, fixed))))
+        trials = [scored_step(residual, {**chosen, name: blocks[name]}, name, rows, fixed)
+                  for name in blocks.keys() - chosen.keys()]
         best = min(trials, key=lambda step: step.heldout_rmse_n)
         last = steps[-1]
         if (best.information >= last.information

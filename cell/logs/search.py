@@ -1,6 +1,7 @@
 """The replayed search of the log diagnosis (:mod:`cell.logs.diagnosis`): Gauss-Newton on
 world causes' magnitudes, each step confirmed by replaying the batch, a line search along the
-fit, a second look for the causes the first fit hid, and the replays of each log left out.
+fit, and the replays of each log left out (the second look for the causes a first fit hid:
+:mod:`cell.logs.second_look`).
 
 A fit is a dict: ``magnitudes`` (cause -> magnitude), ``simulated`` (the batch's replayed
 vector there), ``offsets`` (the sensors' offsets fitted on it, closed form), ``left`` (what is
@@ -16,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from cell.logs.causes import CAUSES, SENSOR_OFFSET
-from cell.logs.fit import Rows, Step, broyden, forward_selection, rmse_n, signature, solve
+from cell.logs.fit import Rows, broyden, rmse_n, signature, solve
 from cell.logs.replays import Replayer
 
 #: The line search's factor on the fitted magnitudes (:func:`stretch`) and its most replays
@@ -273,35 +274,6 @@ def _line_search(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
                 break
             factor = 1.0 / STRETCH
     return best
-
-
-def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
-                world: list[str], names: list[str], offsets: dict[str, np.ndarray],
-                min_heldout_gain: float, steps: int) -> tuple[list[str], Fit, list[Step]]:
-    """The causes a first fit hid: each of ``names`` not in ``world`` screened again in the
-    fitted world (its signature there, one replay each way), the forward selection on what
-    the fit leaves (of both, the part the fitted causes' signatures cannot take), and
-    Gauss-Newton on ``world`` with those it adds. A cause may show only beside another (a
-    binding's tearing under stiffer muscles, a gradient under a stronger seam). Returns the
-    causes selected, the best replayed fit with them (``fit`` where none was selected or
-    none beat it) and the selection's steps."""
-    others = [c for c in names if c not in world]
-    replayed = replayer.batches(screening_worlds(others, fit["magnitudes"]))
-    blocks = signatures(fit["left"], fit["simulated"], others, replayed)
-    basis = np.linalg.qr(fit["jacobian"])[0]
-
-    def beside(vector: np.ndarray) -> np.ndarray:
-        return vector - basis @ (basis.T @ vector)
-
-    selection = forward_selection(beside(fit["left"]),
-                                  {c: beside(column) for c, column in blocks.items()},
-                                  rows, min_heldout_gain)
-    added = [step.added for step in selection[1:]]
-    if not added:
-        return [], fit, selection
-    union = world + added
-    jacobian = np.concatenate([fit["jacobian"]] + [blocks[c] for c in added], axis=1)
-    return added, gauss_newton(replayer, measured, offsets, fit, union, jacobian, steps), selection
 
 
 def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,

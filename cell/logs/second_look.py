@@ -1,0 +1,164 @@
+"""The second look of the log diagnosis (:mod:`cell.logs.diagnosis`): once a first fit
+stands, the causes it hid. A cause may show only beside another (a binding's tearing under
+stiffer muscles, a gradient under a stronger seam): every other cause is screened again in the
+fitted world, selected on what the fit leaves, fitted with the first causes, and kept on the
+first fit's terms, held out as well.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cell.diagnosis.engine.determined import determined
+from cell.logs.causes import CAUSES
+from cell.logs.fit import Rows, Step, forward_selection, rmse_n, scored_step, solve
+from cell.logs.replays import Replayer
+from cell.logs.search import (
+    Fit,
+    bounded,
+    fixed,
+    gauss_newton,
+    heldout_replays,
+    replayed_fit,
+    signatures,
+)
+
+
+def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
+                          world: list[str], left: np.ndarray, lab: dict[str, np.ndarray],
+                          offsets: dict[str, np.ndarray], min_gain: float, steps: int
+                          ) -> tuple[Fit, np.ndarray, list[str], list[Step]]:
+    """:func:`second_look` on a confirmed fit of ``world``'s causes (``left``: its held-out
+    residual; ``lab``: each cause's signature in the lab's world): the fit, its held-out
+    residual, its causes and the steps of those the second look adds, kept only where its
+    replays lower the error of the logs fitted and of each log left out by ``min_gain`` (a
+    share) against ``fit``'s; else ``fit``, saying what was tried (``second_look``)."""
+    replayer.round = "second look"
+    selected, moved, selection = second_look(replayer, measured, rows, fit, world, lab,
+                                             offsets, min_gain, steps)
+    if not selected:
+        return fit, left, world, []
+    confirmed = rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"])
+    moved_left = (heldout_replays(replayer, measured, rows, moved, world + selected, offsets,
+                                  fit, left, min_gain) if confirmed else None)
+    kept = moved_left is not None and rmse_n(moved_left) <= (1.0 - min_gain) * rmse_n(left)
+    tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
+             rmse_n(fit["left"]), **determined(
+                 "heldout_rmse_N", math.nan if moved_left is None else rmse_n(moved_left),
+                 "not replayed: the logs fitted do not confirm the causes"),
+             "without_heldout_rmse_N": rmse_n(left), "shown_by": moved["shown_by"],
+             "kept": kept}
+    if not kept:
+        return {**fit, "second_look": tried}, left, world, []
+    return ({**moved, "confirmed": True, "second_look": tried}, moved_left, world + selected,
+            selection[1:])
+
+
+def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
+                world: list[str], lab: dict[str, np.ndarray], offsets: dict[str, np.ndarray],
+                min_heldout_gain: float, steps: int) -> tuple[list[str], Fit, list[Step]]:
+    """The causes a first fit hid: each of ``lab``'s causes (its signature in the lab's world)
+    not in ``world`` screened again in the fitted world, with the fitted causes giving back
+    its share (:func:`given_back`; its signature there, one replay each way), the forward
+    selection on what
+    the fit leaves (of both, the part the fitted causes' signatures cannot take), and
+    Gauss-Newton on ``world`` with those it adds. A cause may show only beside another (a
+    binding's tearing under stiffer muscles, a gradient under a stronger seam). Where the
+    selection adds none, the replays themselves are read (:func:`shown_by_replay`): the
+    screening's, and one for each cause's joint step (:func:`joint_worlds`). Returns the
+    causes selected, the best replayed fit with them (``fit`` where none was selected or none
+    beat it; ``shown_by`` says which read found them: "signatures" or "replay") and the
+    selection's steps."""
+    others = [c for c in lab if c not in world]
+    shares = {c: np.linalg.lstsq(fit["jacobian"], lab[c], rcond=None)[0][:, 0] for c in others}
+    worlds = given_back(fit, world, others, shares)
+    replayed = replayer.batches(worlds)
+    # The replays' changes hold the fitted causes' share given back: added to the slopes,
+    # each is the cause's own signature at the fit.
+    blocks = {c: column + fit["jacobian"] @ shares[c][:, None] for c, column in signatures(
+        fit["left"], fit["simulated"], others, replayed).items()}
+    basis = np.linalg.qr(fit["jacobian"])[0]
+
+    def beside(vector: np.ndarray) -> np.ndarray:
+        return vector - basis @ (basis.T @ vector)
+
+    beside_blocks = {c: beside(column) for c, column in blocks.items()}
+    selection = forward_selection(beside(fit["left"]), beside_blocks, rows, min_heldout_gain)
+    added = [step.added for step in selection[1:]]
+    start = fit
+    if not added:
+        joint = joint_worlds(measured, fit, world, blocks, offsets, min_heldout_gain)
+        shown = shown_by_replay(measured, fit, worlds + joint,
+                                replayed + replayer.batches(joint), offsets, min_heldout_gain)
+        if shown is None or shown[0] not in blocks:
+            return [], fit, selection
+        cause, start = shown
+        added = [cause]
+        selection = [*selection, scored_step(beside(fit["left"]),
+                                             {cause: beside_blocks[cause]}, cause, rows)]
+    union = world + added
+    jacobian = np.concatenate([fit["jacobian"]] + [blocks[c] for c in added], axis=1)
+    moved = gauss_newton(replayer, measured, offsets, {**start, "jacobian": jacobian}, union,
+                         jacobian, steps)
+    return added, {**moved, "shown_by": "replay" if start is not fit else "signatures"}, selection
+
+
+def given_back(fit: Fit, world: list[str], others: list[str],
+               shares: dict[str, np.ndarray]) -> list[dict[str, float]]:
+    """The worlds that screen each of ``others`` at its screening step each way beside
+    ``fit``, with ``world``'s causes moved back by the step times its ``shares`` (the part of
+    its signature in the lab's world that theirs take, least squares). The first fit let the
+    causes it holds take the share of a cause it lacks (muscles a little stiffer for bindings
+    a little stiffer): added alone at the fit, the cause counts its share twice and shows
+    little; with the share given back, its replay is one the logs can tell apart."""
+    current = np.array([fit["magnitudes"][c] for c in world])
+    worlds = []
+    for cause in others:
+        for probe in CAUSES[cause].probes(False):
+            moved = bounded(world, current - shares[cause] * probe)
+            worlds.append({**dict(zip(world, moved.tolist(), strict=True)), cause: probe})
+    return worlds
+
+
+def shown_by_replay(measured: np.ndarray, fit: Fit, worlds: list[dict[str, float]],
+                    replayed: list[np.ndarray | None], offsets: dict[str, np.ndarray],
+                    min_gain: float) -> tuple[str, Fit] | None:
+    """The cause of the second look's screening replay (one of ``worlds``: ``fit``'s
+    magnitudes and one cause more) that fits the logs closest, and that replay's fit, where
+    it lowers ``fit``'s error by ``min_gain`` (a share); else None. A binding's change beside
+    a strong change of the muscles moves a few tears and the force after them: the replay at
+    the screening step shows it, a signature taken as a slope over both steps can blur it,
+    and the fitted causes' signatures beside it can take its linear part."""
+    best: tuple[str, Fit] | None = None
+    for at, vector in zip(worlds, replayed, strict=True):
+        if vector is None:
+            continue
+        trial = replayed_fit(measured, vector, at, offsets)
+        if best is None or rmse_n(trial["left"]) < rmse_n(best[1]["left"]):
+            best = (next(c for c in at if c not in fit["magnitudes"]), trial)
+    if best is None or rmse_n(best[1]["left"]) > (1.0 - min_gain) * rmse_n(fit["left"]):
+        return None
+    return best
+
+
+def joint_worlds(measured: np.ndarray, fit: Fit, world: list[str], blocks: dict[str, np.ndarray],
+                 offsets: dict[str, np.ndarray], min_gain: float) -> list[dict[str, float]]:
+    """For each cause of ``blocks``, the world that one Gauss-Newton step from ``fit`` gives
+    ``world``'s causes and it together (its signature beside theirs), where that step's linear
+    fit lowers ``fit``'s error by ``min_gain`` (a share). A binding's change beside a strong
+    change of the muscles is partly taken by the muscles' magnitude in the first fit: added
+    alone at the fit, it shows little; the joint step gives back what it takes."""
+    residual = measured - fit["simulated"]
+    current = np.array([fit["magnitudes"][c] for c in world])
+    worlds = []
+    for cause, column in blocks.items():
+        both = [*world, cause]
+        fitted, left = solve(residual, {"world": np.concatenate([fit["jacobian"], column], 1),
+                                        **offsets}, None, fixed(offsets))
+        if rmse_n(left) > (1.0 - min_gain) * rmse_n(fit["left"]):
+            continue
+        target = bounded(both, np.append(current, 0.0) + fitted["world"])
+        worlds.append(dict(zip(both, target.tolist(), strict=True)))
+    return worlds

@@ -1,0 +1,120 @@
+"""The second look of the log diagnosis (cell.logs.second_look): where the selection on
+signatures sees no cause beside the first fit's, the replays themselves are read, at the
+screening step and at each cause's joint step with the causes fitted already."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+import pytest
+
+import cell.logs.diagnosis as logdiagnosis
+import cell.logs.second_look as look
+from cell.logs.causes import CAUSES
+from cell.logs.diagnosis import diagnose_logs
+from cell.logs.fit import logged_vector, rmse_n
+from cell.logs.outcome import EVIDENCE_ROWS
+from cell.logs.search import replayed_fit
+from tests.logs.test_heldout import BATCH, PARAMS, TRUE_MAGNITUDE, HidingWorld, LinearWorld
+
+MEASURED, ROWS = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
+
+
+class SharingWorld(LinearWorld):
+    """A world where a lower tearing threshold acts mostly like stiffer muscles (its pattern
+    is the stiffness' twice over, and a little of its own): a fit of the stiffness alone takes
+    the threshold's share and overshoots; the logs measured with both changed."""
+
+    truth: ClassVar[dict[str, float]] = {"tissue_stiffness": TRUE_MAGNITUDE,
+                                         "tearing_threshold": TRUE_MAGNITUDE}
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        own, shared = self.patterns["tearing_threshold"][log], self.patterns[
+            "tissue_stiffness"][log]
+        threshold = world.get("tearing_threshold", 0.0)
+        return (world.get("tissue_stiffness", 0.0) + 2.0 * threshold) * shared + 0.3 * (
+            threshold * own)
+
+
+def _stiffness_fit(world: LinearWorld) -> dict:
+    """The first fit's: the stiffness alone, where it explains the logs best, with its
+    exact signature."""
+    shared = np.concatenate(world.patterns["tissue_stiffness"])
+    at = {"tissue_stiffness": TRUE_MAGNITUDE * 3.0}
+    (replayed,) = world.batches([at])
+    return {**replayed_fit(MEASURED, replayed, at, {}), "jacobian": shared[:, None]}
+
+
+def test_a_joint_step_gives_back_what_the_first_cause_took() -> None:
+    world = SharingWorld(BATCH, 1)
+    fit = _stiffness_fit(world)
+    own = np.concatenate([0.3 * p for p in world.patterns["tearing_threshold"]])
+    block = own + 2.0 * np.concatenate(world.patterns["tissue_stiffness"])
+    (step,) = look.joint_worlds(MEASURED, fit, ["tissue_stiffness"],
+                                {"tearing_threshold": block[:, None]}, {}, 0.08)
+    assert step == pytest.approx(SharingWorld.truth, rel=0.05)
+
+
+def test_no_joint_step_where_the_cause_would_not_earn_its_place() -> None:
+    world = SharingWorld(BATCH, 1)
+    fit = _stiffness_fit(world)
+    unrelated = np.random.default_rng(1).normal(size=(MEASURED.size, 1))
+    assert look.joint_worlds(MEASURED, fit, ["tissue_stiffness"],
+                             {"tearing_threshold": unrelated}, {}, 0.08) == []
+
+
+def test_the_replay_that_fits_closest_names_its_cause_where_it_earns_the_gain() -> None:
+    world = SharingWorld(BATCH, 1)
+    fit = _stiffness_fit(world)
+    worlds = [{**fit["magnitudes"], "tearing_threshold": 0.4}, dict(SharingWorld.truth)]
+    cause, shown = look.shown_by_replay(MEASURED, fit, worlds, world.batches(worlds), {}, 0.08)
+    assert cause == "tearing_threshold"
+    assert shown["magnitudes"] == SharingWorld.truth
+    assert rmse_n(shown["left"]) < 0.1 * rmse_n(fit["left"])
+    # A replay that does not beat the fit by the share asked names nothing.
+    assert look.shown_by_replay(MEASURED, fit, worlds[:1], world.batches(worlds[:1]), {},
+                                0.99) is None
+
+
+def test_a_cause_the_signatures_miss_is_found_in_the_replays(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # The selections on signatures see the stiffness alone, then nothing beside it (as where
+    # a binding's tears blur the slope): the joint step's replay still shows the threshold.
+    monkeypatch.setattr(logdiagnosis, "Replayer", SharingWorld)
+    selection = look.forward_selection
+    monkeypatch.setattr(logdiagnosis, "forward_selection", lambda *args, **kwargs: [
+        step for step in selection(*args, **kwargs) if step.added != "tearing_threshold"])
+    monkeypatch.setattr(look, "forward_selection",
+                        lambda *args, **kwargs: selection(*args, **kwargs)[:1])
+    result = diagnose_logs(BATCH, PARAMS).to_json()
+    assert sorted(result["causes"]) == sorted(SharingWorld.truth)
+    tried = result["extended"]["second_look"]
+    assert tried["kept"] and tried["shown_by"] == "replay"
+    for cause, truth in SharingWorld.truth.items():
+        assert result["extended"]["params"][cause]["magnitude"] == pytest.approx(truth,
+                                                                                 rel=0.05)
+
+
+def test_the_signatures_find_a_hidden_cause_first(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(logdiagnosis, "Replayer", HidingWorld)
+    tried = diagnose_logs(BATCH, PARAMS).to_json()["extended"]["second_look"]
+    assert tried["kept"] and tried["shown_by"] == "signatures"
+
+
+def test_the_fitted_causes_give_back_the_share_a_screened_cause_takes_from_them() -> None:
+    world = SharingWorld(BATCH, 1)
+    fit = _stiffness_fit(world)
+    lab_threshold = np.concatenate([2.0 * s + 0.3 * o for s, o in zip(
+        world.patterns["tissue_stiffness"], world.patterns["tearing_threshold"], strict=True)])
+    share = np.linalg.lstsq(fit["jacobian"], lab_threshold[:, None], rcond=None)[0][:, 0]
+    up, down = look.given_back(fit, ["tissue_stiffness"], ["tearing_threshold"],
+                               {"tearing_threshold": share})
+    # The stiffness' pattern is the threshold's twice over: each step of the threshold gives
+    # twice its size back (within the stiffness' bounds, the fit at the upper one), and the
+    # step up lands near the world the logs were measured in.
+    assert up["tearing_threshold"] == 0.4 and down["tearing_threshold"] == -0.4
+    assert up["tissue_stiffness"] == pytest.approx(1.5 - 2.0 * 0.4, abs=0.05)
+    assert down["tissue_stiffness"] == CAUSES["tissue_stiffness"].bounds[1] == 1.5
+    near, far = world.batches([up, down])
+    assert rmse_n(MEASURED - near) < 0.5 * rmse_n(fit["left"]) < rmse_n(MEASURED - far)
