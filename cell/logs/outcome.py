@@ -4,10 +4,11 @@ releases happened (the largest drop of the gripper's, the fixture's and the knif
 each compared with a replay's in units of its own noise.
 
 A count's noise is binomial over the bindings at the logged share, never below
-:data:`COUNT_FLOOR`; an event's time is known to :data:`EVENT_STEPS` control steps, and a
-miss (one side has no release where the other has) costs :data:`EVENT_CAP` noise widths at
-most, so that one odd drop does not outweigh every force sample. The diagnosis weighs these
-standardised misfits beside the force residual (:func:`evidence_weight`).
+:data:`COUNT_FLOOR`; an event's time is known to :data:`EVENT_STEPS` control steps, each
+side's release is matched with the other side's nearest drop of a comparable size, and a
+miss (one side has no such drop where the other has a release) costs :data:`EVENT_CAP`
+noise widths at most, so that one odd drop does not outweigh every force sample. The
+diagnosis weighs these standardised misfits beside the force residual (:func:`evidence_weight`).
 
 Example:
     >>> EVIDENCE_ROWS
@@ -34,17 +35,54 @@ EVENT_STEPS = 3
 EVENT_CAP = 3.0
 #: A drop is a release event where it is at least this share of the channel's peak force.
 EVENT_SHARE = 0.25
+#: A drop matches a release on the other side where it is at least this share of the
+#: release's size (a share of each side's own peak): a drop's size varies from one run to
+#: the next as much as the meat's ringing, and the event's share is a cut-off, not a size.
+MATCH_SHARE = 0.5
 
 
-def release_time_s(channel: Channel, lag: int) -> float | None:
-    """When ``channel``'s force magnitude fell most over ``lag`` samples (the start of the
-    drop), s; None where that drop is under :data:`EVENT_SHARE` of its peak."""
+def relative_drops(channel: Channel, lag: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each sample's time, s, and how far ``channel``'s force magnitude falls over the
+    ``lag`` samples from it, as a share of its peak (none where it has no force)."""
     magnitude = np.linalg.norm(channel.force_n, axis=1)
     if magnitude.size <= lag or not magnitude.max() > 0.0:
-        return None
-    drops = magnitude[:-lag] - magnitude[lag:]
-    i = int(np.argmax(drops))
-    return float(channel.time_s[i]) if drops[i] >= EVENT_SHARE * magnitude.max() else None
+        return np.empty(0), np.empty(0)
+    return channel.time_s[:-lag], (magnitude[:-lag] - magnitude[lag:]) / magnitude.max()
+
+
+def _matched_s(event: tuple[float, float], other: tuple[np.ndarray, np.ndarray]
+               ) -> float | None:
+    """The time nearest ``event`` (time, s, and its drop's share) of the ``other`` side's
+    drops at least :data:`MATCH_SHARE` of its size; None where it has none."""
+    time_s, drops = other
+    near = time_s[drops >= MATCH_SHARE * event[1]]
+    return float(near[np.argmin(np.abs(near - event[0]))]) if near.size else None
+
+
+def event_misfit(logged: Channel, simulated: Channel, step_s: float) -> float:
+    """The replay's release on one channel against the log's, in noise widths (time, replay
+    minus log): each side's release (its largest drop, at least :data:`EVENT_SHARE` of its
+    peak) against the other side's nearest drop of a comparable size (:func:`_matched_s`),
+    the larger of the two misfits, within :data:`EVENT_CAP`; a release with no comparable
+    drop on the other side costs the cap, none on either side nothing. Two drops of about the
+    same size decide which is largest by chance, in the log as in any replay (the edge
+    through one binding or the next): the release is where the other side drops alike, not
+    where its own largest drop happens to be."""
+    lag = EVENT_STEPS
+    sides = relative_drops(logged, lag), relative_drops(simulated, lag)
+    worst = 0.0
+    for k, (time_s, drops) in enumerate(sides):
+        if not drops.size or drops.max() < EVENT_SHARE:
+            continue
+        i = int(np.argmax(drops))
+        matched = _matched_s((float(time_s[i]), float(drops[i])), sides[1 - k])
+        if matched is None or step_s <= 0.0:
+            return EVENT_CAP
+        ours, theirs = (matched, time_s[i]) if k == 0 else (time_s[i], matched)
+        misfit = float(np.clip((ours - theirs) / (EVENT_STEPS * step_s), -EVENT_CAP,
+                               EVENT_CAP))
+        worst = misfit if abs(misfit) > abs(worst) else worst
+    return worst
 
 
 def control_step_s(log: SeparationLog) -> float:
@@ -68,22 +106,10 @@ def count_misfits(logged: dict[str, int], replayed: dict[str, int]) -> np.ndarra
 
 
 def event_misfits(log: SeparationLog, simulated: dict[str, Channel]) -> np.ndarray:
-    """Each of :data:`EVENT_CHANNELS`: the replay's release time minus the log's in noise
-    widths (:data:`EVENT_STEPS` control steps), within :data:`EVENT_CAP`; a release on one side
-    only costs the cap, none on either nothing."""
+    """Each of :data:`EVENT_CHANNELS`: :func:`event_misfit` of the replay against ``log``."""
     step = control_step_s(log)
-    lag = EVENT_STEPS
-    out = np.zeros(len(EVENT_CHANNELS))
-    for k, name in enumerate(EVENT_CHANNELS):
-        ours, theirs = (release_time_s(simulated[name], lag),
-                        release_time_s(log.channels[name], lag))
-        if ours is None and theirs is None:
-            continue
-        if ours is None or theirs is None or step <= 0.0:
-            out[k] = EVENT_CAP
-            continue
-        out[k] = float(np.clip((ours - theirs) / (EVENT_STEPS * step), -EVENT_CAP, EVENT_CAP))
-    return out
+    return np.array([event_misfit(log.channels[name], simulated[name], step)
+                     for name in EVENT_CHANNELS])
 
 
 def evidence_misfits(log: SeparationLog, simulated: dict[str, Channel],

@@ -19,6 +19,7 @@ from cell.logs.outcome import (
     EVIDENCE_ROWS,
     count_entries,
     count_misfits,
+    event_misfit,
     event_misfits,
     evidence_weight,
 )
@@ -59,6 +60,32 @@ def test_a_release_a_step_late_is_within_timing_noise_and_one_much_later_costs_t
     assert np.all(np.abs(step_late) < 0.5)
     assert np.allclose(much_later, EVENT_CAP) and np.allclose(never, EVENT_CAP)
     assert len(step_late) == len(EVENT_CHANNELS)
+
+
+def _stepped(channel: Channel, levels: list[tuple[float, float]]) -> Channel:
+    """``channel`` whose force magnitude is 10 N, then each level (N) from its time (s) on."""
+    magnitude = np.full(channel.time_s.size, 10.0)
+    for at_s, level in levels:
+        magnitude[channel.time_s >= at_s] = level
+    return replace(channel, force_n=np.outer(magnitude, [0.0, 0.0, 1.0]))
+
+
+def test_two_drops_alike_match_whichever_side_found_the_other_one_largest() -> None:
+    knife = wave_log(101).channels["knife"]  # a sample every 10 ms
+    # The edge through one binding at 0.3 s and the next at 0.7 s, back to 10 N between:
+    # the log's larger drop is the first, the replay's the second, by a few percent.
+    logged = _stepped(knife, [(0.3, 4.5), (0.5, 10.0), (0.7, 4.8)])
+    replayed = _stepped(knife, [(0.3, 5.0), (0.5, 10.0), (0.7, 4.4)])
+    assert event_misfit(logged, replayed, 0.01) == 0.0
+    # A release the replay has nowhere near the log's size still costs the cap.
+    assert event_misfit(logged, _stepped(knife, [(0.3, 9.0)]), 0.01) == EVENT_CAP
+
+
+def test_a_release_at_the_event_cut_off_in_one_run_only_is_matched_in_the_other() -> None:
+    knife = wave_log(101).channels["knife"]
+    logged = _stepped(knife, [(0.4, 7.4)])  # a drop of 26 % of the peak: an event
+    replayed = _stepped(knife, [(0.41, 7.6)])  # 24 %: none of its own, one step late
+    assert abs(event_misfit(logged, replayed, 0.01)) < 0.5
 
 
 def test_a_count_misfit_is_what_the_selection_sees_when_the_forces_agree() -> None:
