@@ -59,10 +59,9 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
 def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
                 world: list[str], lab: dict[str, np.ndarray], offsets: dict[str, np.ndarray],
                 min_heldout_gain: float, steps: int) -> tuple[list[str], Fit, list[Step]]:
-    """The causes a first fit hid: each of ``lab``'s causes (its signature in the lab's world)
-    not in ``world`` screened again in the fitted world, with the fitted causes giving back
-    its share (:func:`given_back`; its signature there, one replay each way), the forward
-    selection on what
+    """The causes a first fit hid: each of ``lab``'s causes (``lab``: their signatures in the
+    lab's world) not in ``world`` screened again in the fitted world, the fitted causes giving
+    back its share (:func:`given_back`; one replay each way), the forward selection on what
     the fit leaves (of both, the part the fitted causes' signatures cannot take), and
     Gauss-Newton on ``world`` with those it adds. A cause may show only beside another (a
     binding's tearing under stiffer muscles, a gradient under a stronger seam). Where the
@@ -125,8 +124,8 @@ def given_back(fit: Fit, world: list[str], others: list[str],
 def shown_by_replay(measured: np.ndarray, fit: Fit, worlds: list[dict[str, float]],
                     replayed: list[np.ndarray | None], offsets: dict[str, np.ndarray],
                     min_gain: float) -> tuple[str, Fit] | None:
-    """The cause of the second look's screening replay (one of ``worlds``: ``fit``'s
-    magnitudes and one cause more) that fits the logs closest, and that replay's fit, where
+    """The cause of the second look's replay (one of ``worlds``: ``fit``'s causes, moved or
+    not, and one cause more) that fits the logs closest, and that replay's fit, where
     it lowers ``fit``'s error by ``min_gain`` (a share); else None. A binding's change beside
     a strong change of the muscles moves a few tears and the force after them: the replay at
     the screening step shows it, a signature taken as a slope over both steps can blur it,
