@@ -21,6 +21,7 @@ from cell.logs.search import (
     fixed,
     gauss_newton,
     heldout_replays,
+    pruned,
     replayed_fit,
     signatures,
 )
@@ -34,26 +35,35 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     residual; ``lab``: each cause's signature in the lab's world): the fit, its held-out
     residual, its causes and the steps of those the second look adds, kept only where its
     replays lower the error of the logs fitted and of each log left out by ``min_gain`` (a
-    share) against ``fit``'s; else ``fit``, saying what was tried (``second_look``)."""
+    share) against ``fit``'s; else ``fit``, saying what was tried (``second_look``). Before
+    the logs left out are replayed, every cause of the larger world must earn its place again
+    (:func:`~cell.logs.search.pruned`): the second look may add a small cause beside the one
+    it finds, or find the one a first cause stood in for."""
     replayer.round = "second look"
     selected, moved, selection = second_look(replayer, measured, rows, fit, world, lab,
                                              offsets, min_gain, steps)
     if not selected:
         return fit, left, world, []
+    shown_by, union = moved["shown_by"], world + selected
     confirmed = rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"])
-    moved_left = (heldout_replays(replayer, measured, rows, moved, world + selected, offsets,
-                                  fit, left, min_gain) if confirmed else None)
+    if confirmed:
+        moved, union = pruned(replayer, measured, offsets, moved, union, min_gain, steps)
+        confirmed = any(c not in world for c in union) and (
+            rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"]))
+    moved_left = (heldout_replays(replayer, measured, rows, moved, union, offsets, fit, left,
+                                  min_gain) if confirmed else None)
     kept = moved_left is not None and rmse_n(moved_left) <= (1.0 - min_gain) * rmse_n(left)
     tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
              rmse_n(fit["left"]), **determined(
                  "heldout_rmse_N", math.nan if moved_left is None else rmse_n(moved_left),
                  "not replayed: the logs fitted do not confirm the causes"),
-             "without_heldout_rmse_N": rmse_n(left), "shown_by": moved["shown_by"],
-             "kept": kept}
+             "without_heldout_rmse_N": rmse_n(left), "shown_by": shown_by, "kept": kept}
     if not kept:
         return {**fit, "second_look": tried}, left, world, []
-    return ({**moved, "confirmed": True, "second_look": tried}, moved_left, world + selected,
-            selection[1:])
+    gone = fit.get("pruned", []) + moved.get("pruned", [])
+    return ({**moved, "confirmed": True, "second_look": tried, **({"pruned": gone} if gone
+                                                                    else {})},
+            moved_left, union, [step for step in selection[1:] if step.added in union])
 
 
 def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,

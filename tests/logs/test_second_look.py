@@ -118,3 +118,35 @@ def test_the_fitted_causes_give_back_the_share_a_screened_cause_takes_from_them(
     assert down["tissue_stiffness"] == CAUSES["tissue_stiffness"].bounds[1] == 1.5
     near, far = world.batches([up, down])
     assert rmse_n(MEASURED - near) < 0.5 * rmse_n(fit["left"]) < rmse_n(MEASURED - far)
+
+
+class StandInWorld(LinearWorld):
+    """A world where a lower tearing threshold acts much like stiffer muscles (its pattern
+    the stiffness' and a part of its own), and the logs were measured with the muscles
+    stiffer alone."""
+
+    truth: ClassVar[dict[str, float]] = {"tissue_stiffness": TRUE_MAGNITUDE}
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        shared = self.patterns["tissue_stiffness"][log]
+        own = self.patterns["tearing_threshold"][log]
+        threshold = world.get("tearing_threshold", 0.0)
+        return world.get("tissue_stiffness", 0.0) * shared + threshold * (shared + 0.5 * own)
+
+
+def test_a_first_cause_that_stood_in_for_the_one_the_second_look_finds_goes(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # The first selection took the threshold, which explains most of the logs: the second
+    # look finds the stiffness, and the threshold, no longer needed beside it, goes.
+    monkeypatch.setattr(logdiagnosis, "Replayer", StandInWorld)
+    selection = look.forward_selection
+    monkeypatch.setattr(logdiagnosis, "forward_selection",
+                        lambda residual, blocks, *args, **kwargs: selection(
+                            residual, {name: block for name, block in blocks.items()
+                                       if name != "tissue_stiffness"}, *args, **kwargs))
+    result = diagnose_logs(BATCH, PARAMS).to_json()
+    assert result["causes"] == ["tissue_stiffness"]
+    assert result["extended"]["second_look"]["kept"]
+    assert [gone["cause"] for gone in result["extended"]["pruned"]] == ["tearing_threshold"]
+    fitted = result["extended"]["params"]["tissue_stiffness"]["magnitude"]
+    assert fitted == pytest.approx(TRUE_MAGNITUDE, rel=0.05)
