@@ -217,10 +217,9 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             world, left = [], without
             fit = {**start, "confirmed": False, **({"dropped": dropped} if dropped else {})}
         elif world:
-            lab = {c: blocks[c] for c in names if c in blocks}
             fit, left, kept, second = confirmed_second_look(
-                replayer, measured, rows, fit, world, left, lab, offsets,
-                params.min_heldout_gain, params.newton_steps)
+                replayer, measured, rows, fit, world, left, [c for c in names if c in blocks],
+                offsets, params.min_heldout_gain, params.newton_steps)
             chosen = [c for c in chosen if c in kept or c not in CAUSES]
             chosen += [c for c in kept if c not in chosen]
             world = kept

@@ -12,7 +12,6 @@ import math
 import numpy as np
 
 from cell.diagnosis.engine.determined import determined
-from cell.logs.causes import CAUSES
 from cell.logs.fit import Rows, Step, forward_selection, rmse_n, scored_step, solve
 from cell.logs.replays import Replayer
 from cell.logs.search import (
@@ -23,16 +22,17 @@ from cell.logs.search import (
     heldout_replays,
     pruned,
     replayed_fit,
+    screening_worlds,
     signatures,
 )
 
 
 def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
-                          world: list[str], left: np.ndarray, lab: dict[str, np.ndarray],
+                          world: list[str], left: np.ndarray, names: list[str],
                           offsets: dict[str, np.ndarray], min_gain: float, steps: int
                           ) -> tuple[Fit, np.ndarray, list[str], list[Step]]:
     """:func:`second_look` on a confirmed fit of ``world``'s causes (``left``: its held-out
-    residual; ``lab``: each cause's signature in the lab's world): the fit, its held-out
+    residual; ``names``: the causes screened): the fit, its held-out
     residual, its causes and the steps of those the second look adds, kept only where its
     replays lower the error of the logs fitted and of each log left out by ``min_gain`` (a
     share) against ``fit``'s; else ``fit``, saying what was tried (``second_look``). Before
@@ -40,7 +40,7 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     (:func:`~cell.logs.search.pruned`): the second look may add a small cause beside the one
     it finds, or find the one a first cause stood in for."""
     replayer.round = "second look"
-    selected, moved, selection = second_look(replayer, measured, rows, fit, world, lab,
+    selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
                                              offsets, min_gain, steps)
     if not selected:
         return fit, left, world, []
@@ -67,11 +67,11 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
 
 
 def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
-                world: list[str], lab: dict[str, np.ndarray], offsets: dict[str, np.ndarray],
+                world: list[str], names: list[str], offsets: dict[str, np.ndarray],
                 min_heldout_gain: float, steps: int) -> tuple[list[str], Fit, list[Step]]:
-    """The causes a first fit hid: each of ``lab``'s causes (``lab``: their signatures in the
-    lab's world) not in ``world`` screened again in the fitted world, the fitted causes giving
-    back its share (:func:`given_back`; one replay each way), the forward selection on what
+    """The causes a first fit hid: each of ``names`` not in ``world`` screened again in the
+    fitted world, the fitted causes giving back its share (:func:`given_back`; one replay
+    each way), the forward selection on what
     the fit leaves (of both, the part the fitted causes' signatures cannot take), and
     Gauss-Newton on ``world`` with those it adds. A cause may show only beside another (a
     binding's tearing under stiffer muscles, a gradient under a stronger seam). Where the
@@ -80,14 +80,14 @@ def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     causes selected, the best replayed fit with them (``fit`` where none was selected or none
     beat it; ``shown_by`` says which read found them: "signatures" or "replay") and the
     selection's steps."""
-    others = [c for c in lab if c not in world]
-    shares = {c: np.linalg.lstsq(fit["jacobian"], lab[c], rcond=None)[0][:, 0] for c in others}
-    worlds = given_back(fit, world, others, shares)
+    others = [c for c in names if c not in world]
+    worlds, back = given_back(replayer, fit, world, others)
     replayed = replayer.batches(worlds)
-    # The replays' changes hold the fitted causes' share given back: added to the slopes,
-    # each is the cause's own signature at the fit.
-    blocks = {c: column + fit["jacobian"] @ shares[c][:, None] for c, column in signatures(
-        fit["left"], fit["simulated"], others, replayed).items()}
+    # Each replay with what the fitted causes gave back put back on, by their signatures: the
+    # cause's own step at the fit.
+    stepped = [None if vector is None else vector + fit["jacobian"] @ moved
+               for vector, moved in zip(replayed, back, strict=True)]
+    blocks = signatures(fit["left"], fit["simulated"], others, stepped)
     basis = np.linalg.qr(fit["jacobian"])[0]
 
     def beside(vector: np.ndarray) -> np.ndarray:
@@ -114,21 +114,27 @@ def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     return added, {**moved, "shown_by": "replay" if start is not fit else "signatures"}, selection
 
 
-def given_back(fit: Fit, world: list[str], others: list[str],
-               shares: dict[str, np.ndarray]) -> list[dict[str, float]]:
+def given_back(replayer: Replayer, fit: Fit, world: list[str], others: list[str]
+               ) -> tuple[list[dict[str, float]], list[np.ndarray]]:
     """The worlds that screen each of ``others`` at its screening step each way beside
-    ``fit``, with ``world``'s causes moved back by the step times its ``shares`` (the part of
-    its signature in the lab's world that theirs take, least squares). The first fit let the
-    causes it holds take the share of a cause it lacks (muscles a little stiffer for bindings
-    a little stiffer): added alone at the fit, the cause counts its share twice and shows
-    little; with the share given back, its replay is one the logs can tell apart."""
+    ``fit``, with ``world``'s causes moved back by what that step did in the lab's world
+    (its screening replay there, replayed already, taken by their signatures at the fit,
+    least squares), and how far each world moved them back. The first fit let the causes it
+    holds take the share of a cause it lacks (muscles stiffer for fibres turned along the
+    pull): added alone at the fit, the cause counts its share twice and shows little; with
+    the share given back, its replay is one the logs can tell apart. Each step gives back
+    its own share: a fibre turned either way stiffens alike."""
+    steps = screening_worlds(others, {})
+    base, *lab = replayer.batches([{}, *steps])
     current = np.array([fit["magnitudes"][c] for c in world])
-    worlds = []
-    for cause in others:
-        for probe in CAUSES[cause].probes(False):
-            moved = bounded(world, current - shares[cause] * probe)
-            worlds.append({**dict(zip(world, moved.tolist(), strict=True)), cause: probe})
-    return worlds
+    worlds, back = [], []
+    for at, vector in zip(steps, lab, strict=True):
+        share = (np.zeros(len(world)) if vector is None or base is None else
+                 np.linalg.lstsq(fit["jacobian"], vector - base, rcond=None)[0])
+        moved = bounded(world, current - share)
+        worlds.append({**dict(zip(world, moved.tolist(), strict=True)), **at})
+        back.append(current - moved)
+    return worlds, back
 
 
 def shown_by_replay(measured: np.ndarray, fit: Fit, worlds: list[dict[str, float]],

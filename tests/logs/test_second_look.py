@@ -102,22 +102,40 @@ def test_the_signatures_find_a_hidden_cause_first(monkeypatch: pytest.MonkeyPatc
     assert tried["kept"] and tried["shown_by"] == "signatures"
 
 
-def test_the_fitted_causes_give_back_the_share_a_screened_cause_takes_from_them() -> None:
+def test_the_fitted_causes_give_back_what_a_screened_cause_s_step_did_in_the_lab_s_world(
+        ) -> None:
     world = SharingWorld(BATCH, 1)
     fit = _stiffness_fit(world)
-    lab_threshold = np.concatenate([2.0 * s + 0.3 * o for s, o in zip(
-        world.patterns["tissue_stiffness"], world.patterns["tearing_threshold"], strict=True)])
-    share = np.linalg.lstsq(fit["jacobian"], lab_threshold[:, None], rcond=None)[0][:, 0]
-    up, down = look.given_back(fit, ["tissue_stiffness"], ["tearing_threshold"],
-                               {"tearing_threshold": share})
+    (up, down), back = look.given_back(world, fit, ["tissue_stiffness"], ["tearing_threshold"])
     # The stiffness' pattern is the threshold's twice over: each step of the threshold gives
     # twice its size back (within the stiffness' bounds, the fit at the upper one), and the
     # step up lands near the world the logs were measured in.
     assert up["tearing_threshold"] == 0.4 and down["tearing_threshold"] == -0.4
     assert up["tissue_stiffness"] == pytest.approx(1.5 - 2.0 * 0.4, abs=0.05)
     assert down["tissue_stiffness"] == CAUSES["tissue_stiffness"].bounds[1] == 1.5
+    assert back[0] == pytest.approx([0.8], abs=0.05) and back[1] == pytest.approx([0.0])
     near, far = world.batches([up, down])
     assert rmse_n(MEASURED - near) < 0.5 * rmse_n(fit["left"]) < rmse_n(MEASURED - far)
+
+
+class EvenWorld(LinearWorld):
+    """A world where fibres turned either way stiffen the muscles alike (the stiffness'
+    pattern times the angle squared), measured with the muscles stiffer alone."""
+
+    truth: ClassVar[dict[str, float]] = {"tissue_stiffness": TRUE_MAGNITUDE}
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        stiffer = world.get("tissue_stiffness", 0.0) + world.get("fibre_direction", 0.0) ** 2
+        return stiffer * self.patterns["tissue_stiffness"][log]
+
+
+def test_a_cause_even_in_its_magnitude_gives_back_alike_both_ways() -> None:
+    world = EvenWorld(BATCH, 1)
+    fit = _stiffness_fit(world)
+    (up, down), _ = look.given_back(world, fit, ["tissue_stiffness"], ["fibre_direction"])
+    turned = 0.6 ** 2
+    assert up["tissue_stiffness"] == pytest.approx(1.5 - turned)
+    assert down["tissue_stiffness"] == pytest.approx(1.5 - turned)
 
 
 class StandInWorld(LinearWorld):
