@@ -14,8 +14,10 @@ out, in the world fitted on the others: unless those lower the held-out error by
 asked, the world's causes are not named (a change that fits the logs it was fitted to but no
 log left out). A confirmed fit gets a second look: the other causes screened again in the
 fitted world, where a cause the first hid may show, and kept on the same terms
-(:mod:`cell.logs.second_look`). Replays run side by side on every core, or on a Ray cluster
-(:mod:`cell.logs.replays`).
+(:mod:`cell.logs.second_look`). The causes that stand are named only where the world they
+make beats the lab's by that gain in the median of nudged replays as well (a separation is
+close to chaotic: :mod:`cell.logs.spread`). Replays run side by side on every core, or on a
+Ray cluster (:mod:`cell.logs.replays`).
 """
 
 from __future__ import annotations
@@ -62,6 +64,7 @@ from cell.logs.search import (
     signatures,
 )
 from cell.logs.second_look import confirmed_second_look
+from cell.logs.spread import spread_checked
 
 
 @dataclass(frozen=True)
@@ -223,6 +226,11 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             chosen = [c for c in chosen if c in kept or c not in CAUSES]
             chosen += [c for c in kept if c not in chosen]
             world = kept
+    if world:
+        fit, world, left = spread_checked(replayer, measured, rows, fit, world, left,
+                                          [c for c in names if c in blocks], offsets, start,
+                                          without, params.min_heldout_gain)
+        chosen = [c for c in chosen if c in world or c not in CAUSES]
     steps_json = _steps_json(steps, second)
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
@@ -234,7 +242,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                            **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
                 "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
                 "evidence_weight_N": replayer.weight,
-                **{key: fit[key] for key in ("dropped", "second_look", "pruned") if key in fit}}
+                **{key: fit[key] for key in ("dropped", "second_look", "pruned", "spread")
+                   if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
         _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
