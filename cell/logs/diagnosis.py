@@ -226,11 +226,11 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             chosen = [c for c in chosen if c in kept or c not in CAUSES]
             chosen += [c for c in kept if c not in chosen]
             world = kept
-    if world:
-        fit, world, left = spread_checked(replayer, measured, rows, fit, world, left,
-                                          [c for c in names if c in blocks], offsets, start,
-                                          without, params.min_heldout_gain)
-        chosen = [c for c in chosen if c in world or c not in CAUSES]
+        if world:
+            fit, world, left = spread_checked(replayer, measured, rows, fit, world, left,
+                                              [c for c in names if c in blocks], offsets,
+                                              start, without, params.min_heldout_gain)
+            chosen = [c for c in chosen if c in world or c not in CAUSES]
     steps_json = _steps_json(steps, second)
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
