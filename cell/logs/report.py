@@ -152,14 +152,32 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) ->
                      f"differ most in the {place}: a log where that differs tells them apart "
                      "(docs/logs.md, \"Causes told apart\")")
     for gone in data["extended"].get("pruned", []):
+        read = " (the median of nudged replays)" if gone.get("by") == "spread" else ""
         lines.append(f"- {gone['cause']} left out of the fit: the replays fit "
-                     f"{gone['rmse_N']:.3f} N without it, {gone['with_rmse_N']:.3f} N with it "
-                     "(a cause named must lower the replayed error by the gain asked)")
+                     f"{gone['rmse_N']:.3f} N without it, {gone['with_rmse_N']:.3f} N with "
+                     f"it{read} (a cause named must lower the replayed error by the gain "
+                     "asked)")
+    lines += _spread_lines(data["extended"])
     t = data["timing"]
     lines += ["", f"{t['replays']} replays, {t['replay_wall_s']:.0f} s; the fits "
               f"{t['fit_s']:.1f} s.", ""]
     lines += [f"![Logged, baseline and extended channels]({p.name})" for p in figures]
     return "\n".join(lines) + "\n"
+
+
+def _spread_lines(extended: dict[str, Any]) -> list[str]:
+    """What the replays' spread said (docs/logs.md): the medians of the nudged replays of the
+    world fitted and of the lab's, and the causes it dropped."""
+    spread = extended.get("spread")
+    if spread is None:
+        return []
+    dropped = extended.get("dropped", {}).get("causes", []) if not spread["kept"] else []
+    verdict = (f"{', '.join(dropped)} not named: no closer than the lab's world" if dropped
+               else f"{', '.join(spread['kept'])} hold")
+    return [f"- Replays nudged by {spread['jitter']:.0%} in every cause "
+            f"({spread['replays_each']} a world, the median): the world fitted "
+            f"{spread['median_rmse_N']:.3f} N, the lab's {spread['lab_median_rmse_N']:.3f} N; "
+            f"{verdict}"]
 
 
 def _short(value: Any) -> str:

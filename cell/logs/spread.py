@@ -113,6 +113,7 @@ def spread_checked(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fi
     rest = {**replayed_fit(measured, replayed, at, offsets), "confirmed": True,
             "jacobian": fit["jacobian"][:, [world.index(c) for c in kept]], "spread": report,
             "pruned": [*fit.get("pruned", []), {"cause": gone, **CAUSES[gone].to_json(
-                fit["magnitudes"][gone]), "by": "spread"}]}
+                fit["magnitudes"][gone]), "rmse_N": report["without_median_rmse_N"][gone],
+                "with_rmse_N": report["median_rmse_N"], "by": "spread"}]}
     return rest, kept, heldout_replays(replayer, measured, rows, rest, kept, offsets, start,
                                        without_left, min_gain)

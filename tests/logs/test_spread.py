@@ -14,6 +14,7 @@ import cell.logs.diagnosis as logdiagnosis
 from cell.logs.diagnosis import diagnose_logs
 from cell.logs.fit import logged_vector
 from cell.logs.outcome import EVIDENCE_ROWS
+from cell.logs.report import _markdown
 from cell.logs.search import replayed_fit
 from cell.logs.spread import JITTER, JITTERS, held_against_spread, nudges, spread_checked
 from tests.logs.test_heldout import BATCH, CAUSES, PARAMS, TRUE_MAGNITUDE, LinearWorld
@@ -106,3 +107,11 @@ def test_the_diagnosis_names_no_cause_its_nudged_replays_do_not_carry(
     spread = result["extended"]["spread"]
     assert spread["median_rmse_N"] > 0.92 * spread["lab_median_rmse_N"]
     assert result["gain"] == 0.0
+
+
+def test_the_report_says_what_the_nudged_replays_dropped(monkeypatch: pytest.MonkeyPatch
+                                                         ) -> None:
+    monkeypatch.setattr(logdiagnosis, "Replayer", NudgedChaosWorld)
+    text = _markdown(diagnose_logs(BATCH, PARAMS), [], BATCH.scenarios[0])
+    assert "Replays nudged by 1% in every cause (5 a world, the median)" in text
+    assert "tearing_threshold not named: no closer than the lab's world" in text
