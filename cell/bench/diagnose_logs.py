@@ -223,6 +223,8 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "causes": list(data["causes"]), "correct": sorted(data["causes"]) == sorted(expected),
             "fitted": data["extended"]["params"],
             "second_look": data["extended"].get("second_look"),
+            "spread": data["extended"].get("spread"),
+            "dropped": data["extended"].get("dropped"),
             "magnitude_error": {c: (None if math.isinf(e) else e) for c, e in errors.items()},
             "magnitude_within": bool(expected) and all(e <= tolerance
                                                        for e in errors.values()),
