@@ -21,7 +21,7 @@ import numpy as np
 from cell.logs.causes import CAUSES, magnitudes_json
 from cell.logs.fit import Rows, rmse_n
 from cell.logs.replays import Replayer
-from cell.logs.search import Fit, heldout_replays, replayed_fit
+from cell.logs.search import Fit, bounded, heldout_replays, replayed_fit
 
 #: Each screened cause's nudge (a factor's logarithm, or an angle in rad): far inside the
 #: 25 % the diagnosis resolves, far above what a replay reproduces exactly.
@@ -39,8 +39,11 @@ def nudges(names: list[str], count: int = JITTERS) -> list[dict[str, float]]:
 
 
 def nudged(world: dict[str, float], nudge: dict[str, float]) -> dict[str, float]:
-    """``world``'s magnitudes with ``nudge`` added (a cause of either alone kept)."""
-    return {c: world.get(c, 0.0) + nudge.get(c, 0.0) for c in {**world, **nudge}}
+    """``world``'s magnitudes with ``nudge`` added (a cause of either alone kept), within
+    each cause's bounds (:func:`~cell.logs.search.bounded`)."""
+    names = list({**world, **nudge})
+    moved = bounded(names, np.array([world.get(c, 0.0) + nudge.get(c, 0.0) for c in names]))
+    return dict(zip(names, moved.tolist(), strict=True))
 
 
 def spread_errors(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],

@@ -11,12 +11,20 @@ import numpy as np
 import pytest
 
 import cell.logs.diagnosis as logdiagnosis
+from cell.logs.causes import CAUSES as CAUSE_TABLE
 from cell.logs.diagnosis import diagnose_logs
 from cell.logs.fit import logged_vector
 from cell.logs.outcome import EVIDENCE_ROWS
 from cell.logs.report import _markdown
 from cell.logs.search import replayed_fit
-from cell.logs.spread import JITTER, JITTERS, held_against_spread, nudges, spread_checked
+from cell.logs.spread import (
+    JITTER,
+    JITTERS,
+    held_against_spread,
+    nudged,
+    nudges,
+    spread_checked,
+)
 from tests.logs.test_heldout import BATCH, CAUSES, PARAMS, TRUE_MAGNITUDE, LinearWorld
 
 MEASURED, ROWS = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
@@ -115,3 +123,10 @@ def test_the_report_says_what_the_nudged_replays_dropped(monkeypatch: pytest.Mon
     text = _markdown(diagnose_logs(BATCH, PARAMS), [], BATCH.scenarios[0])
     assert "Replays nudged by 1% in every cause (5 a world, the median)" in text
     assert "tearing_threshold not named: no closer than the lab's world" in text
+
+
+def test_a_nudge_keeps_a_cause_within_its_bounds() -> None:
+    high = CAUSE_TABLE["tissue_stiffness"].bounds[1]
+    at = nudged({"tissue_stiffness": high},
+                {"tissue_stiffness": JITTER, "blade_friction": -JITTER})
+    assert at == {"tissue_stiffness": high, "blade_friction": -JITTER}
