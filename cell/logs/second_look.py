@@ -71,7 +71,7 @@ def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
                 min_heldout_gain: float, steps: int) -> tuple[list[str], Fit, list[Step]]:
     """The causes a first fit hid: each of ``names`` not in ``world`` screened again in the
     fitted world, the fitted causes giving back its share (:func:`given_back`; one replay
-    each way), the forward selection on what
+    at each of its probes, near and far), the forward selection on what
     the fit leaves (of both, the part the fitted causes' signatures cannot take), and
     Gauss-Newton on ``world`` with those it adds. A cause may show only beside another (a
     binding's tearing under stiffer muscles, a gradient under a stronger seam). Where the
@@ -87,7 +87,7 @@ def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     # cause's own step at the fit.
     stepped = [None if vector is None else vector + fit["jacobian"] @ moved
                for vector, moved in zip(replayed, back, strict=True)]
-    blocks = signatures(fit["left"], fit["simulated"], others, stepped)
+    blocks = signatures(fit["left"], fit["simulated"], others, stepped, wide=True)
     basis = np.linalg.qr(fit["jacobian"])[0]
 
     def beside(vector: np.ndarray) -> np.ndarray:
@@ -116,7 +116,8 @@ def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
 
 def given_back(replayer: Replayer, fit: Fit, world: list[str], others: list[str]
                ) -> tuple[list[dict[str, float]], list[np.ndarray]]:
-    """The worlds that screen each of ``others`` at its screening step each way beside
+    """The worlds that screen each of ``others`` at each of its probes, near and far
+    (:func:`~cell.logs.search.screening_worlds`, wide: a big change shows only far) beside
     ``fit``, with ``world``'s causes moved back by what that step did in the lab's world
     (its screening replay there, replayed already, taken by their signatures at the fit,
     least squares), and how far each world moved them back. The first fit let the causes it
@@ -124,7 +125,7 @@ def given_back(replayer: Replayer, fit: Fit, world: list[str], others: list[str]
     pull): added alone at the fit, the cause counts its share twice and shows little; with
     the share given back, its replay is one the logs can tell apart. Each step gives back
     its own share: a fibre turned either way stiffens alike."""
-    steps = screening_worlds(others, {})
+    steps = screening_worlds(others, {}, wide=True)
     base, *lab = replayer.batches([{}, *steps])
     current = np.array([fit["magnitudes"][c] for c in world])
     worlds, back = [], []

@@ -96,6 +96,36 @@ def test_a_cause_the_signatures_miss_is_found_in_the_replays(
                                                                                  rel=0.05)
 
 
+class FarWorld(LinearWorld):
+    """A world whose tearing threshold changes nothing within its screening step (the
+    bindings far from tearing until it moves by half) and its pattern beyond, measured with
+    it far moved beside stiffer muscles."""
+
+    truth: ClassVar[dict[str, float]] = {"tissue_stiffness": TRUE_MAGNITUDE,
+                                         "tearing_threshold": 0.8}
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        threshold = world.get("tearing_threshold", 0.0)
+        beyond = np.sign(threshold) * max(abs(threshold) - 0.5, 0.0)
+        return (world.get("tissue_stiffness", 0.0) * self.patterns["tissue_stiffness"][log]
+                + beyond * self.patterns["tearing_threshold"][log])
+
+
+def test_the_second_look_screens_a_cause_far_as_well_as_near(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # The first selection sees the stiffness alone; the threshold shows at the second look
+    # only in its far probes.
+    monkeypatch.setattr(logdiagnosis, "Replayer", FarWorld)
+    selection = look.forward_selection
+    monkeypatch.setattr(logdiagnosis, "forward_selection", lambda *args, **kwargs: [
+        step for step in selection(*args, **kwargs) if step.added != "tearing_threshold"])
+    result = diagnose_logs(BATCH, PARAMS).to_json()
+    assert sorted(result["causes"]) == sorted(FarWorld.truth)
+    assert result["extended"]["second_look"]["kept"]
+    fitted = result["extended"]["params"]["tearing_threshold"]["magnitude"]
+    assert fitted == pytest.approx(0.8, rel=0.05)
+
+
 def test_the_signatures_find_a_hidden_cause_first(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(logdiagnosis, "Replayer", HidingWorld)
     tried = diagnose_logs(BATCH, PARAMS).to_json()["extended"]["second_look"]
@@ -106,7 +136,8 @@ def test_the_fitted_causes_give_back_what_a_screened_cause_s_step_did_in_the_lab
         ) -> None:
     world = SharingWorld(BATCH, 1)
     fit = _stiffness_fit(world)
-    (up, down), back = look.given_back(world, fit, ["tissue_stiffness"], ["tearing_threshold"])
+    (up, down, *far), back = look.given_back(world, fit, ["tissue_stiffness"],
+                                             ["tearing_threshold"])
     # The stiffness' pattern is the threshold's twice over: each step of the threshold gives
     # twice its size back (within the stiffness' bounds, the fit at the upper one), and the
     # step up lands near the world the logs were measured in.
@@ -114,6 +145,9 @@ def test_the_fitted_causes_give_back_what_a_screened_cause_s_step_did_in_the_lab
     assert up["tissue_stiffness"] == pytest.approx(1.5 - 2.0 * 0.4, abs=0.05)
     assert down["tissue_stiffness"] == CAUSES["tissue_stiffness"].bounds[1] == 1.5
     assert back[0] == pytest.approx([0.8], abs=0.05) and back[1] == pytest.approx([0.0])
+    # And at the far probes, 90 % of each bound, so that a big change is screened near its size.
+    assert [w["tearing_threshold"] for w in far] == list(
+        CAUSES["tearing_threshold"].probes(True)[2:])
     near, far = world.batches([up, down])
     assert rmse_n(MEASURED - near) < 0.5 * rmse_n(fit["left"]) < rmse_n(MEASURED - far)
 
@@ -132,7 +166,7 @@ class EvenWorld(LinearWorld):
 def test_a_cause_even_in_its_magnitude_gives_back_alike_both_ways() -> None:
     world = EvenWorld(BATCH, 1)
     fit = _stiffness_fit(world)
-    (up, down), _ = look.given_back(world, fit, ["tissue_stiffness"], ["fibre_direction"])
+    (up, down, *_), _ = look.given_back(world, fit, ["tissue_stiffness"], ["fibre_direction"])
     turned = 0.6 ** 2
     assert up["tissue_stiffness"] == pytest.approx(1.5 - turned)
     assert down["tissue_stiffness"] == pytest.approx(1.5 - turned)
