@@ -77,14 +77,20 @@ def test_the_replay_that_fits_closest_names_its_cause_where_it_earns_the_gain() 
                                 0.99) is None
 
 
+def _first_selection_without_the_threshold(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The diagnosis's first selection as it is, less the tearing threshold."""
+    selection = look.forward_selection
+    monkeypatch.setattr(logdiagnosis, "forward_selection", lambda *args, **kwargs: [
+        step for step in selection(*args, **kwargs) if step.added != "tearing_threshold"])
+
+
 def test_a_cause_the_signatures_miss_is_found_in_the_replays(
         monkeypatch: pytest.MonkeyPatch) -> None:
     # The selections on signatures see the stiffness alone, then nothing beside it (as where
     # a binding's tears blur the slope): the joint step's replay still shows the threshold.
     monkeypatch.setattr(logdiagnosis, "Replayer", SharingWorld)
     selection = look.forward_selection
-    monkeypatch.setattr(logdiagnosis, "forward_selection", lambda *args, **kwargs: [
-        step for step in selection(*args, **kwargs) if step.added != "tearing_threshold"])
+    _first_selection_without_the_threshold(monkeypatch)
     monkeypatch.setattr(look, "forward_selection",
                         lambda *args, **kwargs: selection(*args, **kwargs)[:1])
     result = diagnose_logs(BATCH, PARAMS).to_json()
@@ -116,9 +122,7 @@ def test_the_second_look_screens_a_cause_far_as_well_as_near(
     # The first selection sees the stiffness alone; the threshold shows at the second look
     # only in its far probes.
     monkeypatch.setattr(logdiagnosis, "Replayer", FarWorld)
-    selection = look.forward_selection
-    monkeypatch.setattr(logdiagnosis, "forward_selection", lambda *args, **kwargs: [
-        step for step in selection(*args, **kwargs) if step.added != "tearing_threshold"])
+    _first_selection_without_the_threshold(monkeypatch)
     result = diagnose_logs(BATCH, PARAMS).to_json()
     assert sorted(result["causes"]) == sorted(FarWorld.truth)
     assert result["extended"]["second_look"]["kept"]
