@@ -51,6 +51,7 @@ from cell.logs.replays import Progress, Replayer, ReplayPool
 from cell.logs.search import (
     OFFSET,
     Fit,
+    dropped,
     fixed,
     from_probes,
     gauss_newton,
@@ -214,11 +215,9 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             # Only the offsets stand when the world's causes do not lower the error of the logs
             # they were fitted to, or do but not of each log left out (the change does not
             # carry from one separation to the next): then they are named as dropped.
-            dropped = ({"causes": world, "params": magnitudes_json(fit["magnitudes"]),
-                        "heldout_rmse_N": rmse_n(left),
-                        "without_N": rmse_n(without)} if fit["confirmed"] else None)
+            gone = dropped(world, fit, left, without) if fit["confirmed"] else None
             world, left = [], without
-            fit = {**start, "confirmed": False, **({"dropped": dropped} if dropped else {})}
+            fit = {**start, "confirmed": False, **({"dropped": gone} if gone else {})}
         elif world:
             fit, left, kept, second = confirmed_second_look(
                 replayer, measured, rows, fit, world, left, [c for c in names if c in blocks],

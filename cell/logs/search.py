@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from cell.logs.causes import CAUSES, SENSOR_OFFSET
+from cell.logs.causes import CAUSES, SENSOR_OFFSET, magnitudes_json
 from cell.logs.fit import Rows, broyden, rmse_n, signature, solve
 from cell.logs.replays import Replayer
 
@@ -130,6 +130,15 @@ def replayed_fit(measured: np.ndarray, simulated: np.ndarray, magnitudes: dict[s
     """The fit of a replayed world: its sensors' offsets and what is left."""
     fitted, left = solve(measured - simulated, offsets, None, fixed(offsets))
     return {"magnitudes": magnitudes, "simulated": simulated, "left": left, "offsets": fitted}
+
+
+def dropped(world: list[str], fit: Fit, left: np.ndarray, without_left: np.ndarray
+            ) -> dict[str, Any]:
+    """The report of ``world``'s causes, fitted at ``fit``, not named: them, their
+    magnitudes, and the held-out error with them (``left``) and without (``without_left``),
+    N."""
+    return {"causes": world, "params": magnitudes_json(fit["magnitudes"]),
+            "heldout_rmse_N": rmse_n(left), "without_N": rmse_n(without_left)}
 
 
 def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],

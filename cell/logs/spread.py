@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from cell.logs.causes import CAUSES, magnitudes_json
+from cell.logs.causes import CAUSES
 from cell.logs.fit import Rows, rmse_n
 from cell.logs.replays import Replayer
-from cell.logs.search import Fit, bounded, heldout_replays, replayed_fit
+from cell.logs.search import Fit, bounded, dropped, heldout_replays, replayed_fit
 
 #: Each screened cause's nudge (a factor's logarithm, or an angle in rad): far inside the
 #: 25 % the diagnosis resolves, far above what a replay reproduces exactly.
@@ -104,10 +104,8 @@ def spread_checked(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fi
     if kept == world:
         return {**fit, "spread": report}, world, left
     if not kept:
-        dropped = {"causes": world, "params": magnitudes_json(fit["magnitudes"]),
-                   "heldout_rmse_N": rmse_n(left), "without_N": rmse_n(without_left)}
-        return ({**start, "confirmed": False, "dropped": dropped, "spread": report}, [],
-                without_left)
+        return ({**start, "confirmed": False, "dropped": dropped(world, fit, left, without_left),
+                 "spread": report}, [], without_left)
     at = {c: fit["magnitudes"][c] for c in kept}
     (replayed,) = replayer.batches([at])
     if replayed is None:
