@@ -241,7 +241,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                            **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
                 "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
                 "evidence_weight_N": replayer.weight,
-                **{key: fit[key] for key in ("dropped", "second_look", "pruned", "spread")
+                **{key: fit[key] for key in ("dropped", "second_look", "pruned", "spread",
+                                                 "replay_scatter")
                    if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,

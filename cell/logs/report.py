@@ -166,15 +166,22 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) ->
 
 
 def _spread_lines(extended: dict[str, Any]) -> list[str]:
-    """What the replays' spread said (docs/logs.md): the medians of the nudged replays of the
-    world fitted and of the lab's, and the causes it dropped."""
+    """What the replays' spread said (docs/logs.md): how far the fitted world's replays
+    scatter (before the second look), the medians of the nudged replays of the world fitted
+    and of the lab's, and the causes it dropped."""
+    scatter, lines = extended.get("replay_scatter"), []
+    if scatter is not None:
+        lines.append(f"- The fitted world's replays: {scatter['median_rmse_N']:.3f} N from the "
+                     f"logs (median), {scatter['scatter_N']:.3f} N from each other; "
+                     + ("a second look tried" if "second_look" in extended
+                        else "nothing left for a second look"))
     spread = extended.get("spread")
     if spread is None:
-        return []
+        return lines
     dropped = extended.get("dropped", {}).get("causes", []) if not spread["kept"] else []
     verdict = (f"{', '.join(dropped)} not named: no closer than the lab's world" if dropped
                else f"{', '.join(spread['kept'])} hold")
-    return [f"- Replays nudged by {spread['jitter']:.0%} in every cause "
+    return [*lines, f"- Replays nudged by {spread['jitter']:.0%} in every cause "
             f"({spread['replays_each']} a world, the median): the world fitted "
             f"{spread['median_rmse_N']:.3f} N, the lab's {spread['lab_median_rmse_N']:.3f} N; "
             f"{verdict}"]

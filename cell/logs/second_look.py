@@ -25,6 +25,7 @@ from cell.logs.search import (
     screening_worlds,
     signatures,
 )
+from cell.logs.spread import replay_scatter
 
 
 def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
@@ -40,6 +41,13 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     (:func:`~cell.logs.search.pruned`): the second look may add a small cause beside the one
     it finds, or find the one a first cause stood in for."""
     replayer.round = "second look"
+    magnitudes = {c: fit["magnitudes"][c] for c in world}
+    scatter = replay_scatter(replayer, measured, offsets, magnitudes, names)
+    if (1.0 - min_gain) * scatter["median_rmse_N"] <= scatter["scatter_N"]:
+        # Nothing is left to find: no cause can lower the error by the gain asked where the
+        # fit is as close as the true world's own replays would be.
+        return {**fit, "replay_scatter": scatter}, left, world, []
+    fit = {**fit, "replay_scatter": scatter}
     selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
                                              offsets, min_gain, steps)
     if not selected:
@@ -61,8 +69,8 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     if not kept:
         return {**fit, "second_look": tried}, left, world, []
     gone = fit.get("pruned", []) + moved.get("pruned", [])
-    return ({**moved, "confirmed": True, "second_look": tried, **({"pruned": gone} if gone
-                                                                    else {})},
+    return ({**moved, "confirmed": True, "second_look": tried, "replay_scatter": scatter,
+             **({"pruned": gone} if gone else {})},
             moved_left, union, [step for step in selection[1:] if step.added in union])
 
 

@@ -14,6 +14,7 @@ also beat the world without it on those terms.
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -46,20 +47,40 @@ def nudged(world: dict[str, float], nudge: dict[str, float]) -> dict[str, float]
     return dict(zip(names, moved.tolist(), strict=True))
 
 
+def nudged_replays(replayer: Replayer, worlds: list[dict[str, float]], names: list[str]
+                   ) -> list[list[np.ndarray]]:
+    """Each of ``worlds``' own replay and its nudged ones (:func:`nudges` of ``names``), less
+    those that blew up."""
+    shifts = nudges(names)
+    replayed = replayer.batches([nudged(w, s) for w in worlds for s in shifts])
+    return [[v for v in replayed[k * len(shifts):(k + 1) * len(shifts)] if v is not None]
+            for k in range(len(worlds))]
+
+
 def spread_errors(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
                   worlds: list[dict[str, float]], names: list[str]) -> list[float]:
     """The median RMSE (N) of each of ``worlds`` over its own replay and its nudged ones
-    (:func:`nudges` of ``names``), the sensors' offsets fitted on each; a replay that blew
-    up does not count (every one of a world blowing up: inf)."""
-    shifts = nudges(names)
-    replayed = replayer.batches([nudged(w, s) for w in worlds for s in shifts])
+    (:func:`nudged_replays`), the sensors' offsets fitted on each; a replay that blew up does
+    not count (every one of a world blowing up: inf)."""
     out = []
-    for k, world in enumerate(worlds):
-        errors = [rmse_n(replayed_fit(measured, vector, world, offsets)["left"])
-                  for vector in replayed[k * len(shifts):(k + 1) * len(shifts)]
-                  if vector is not None]
+    for world, vectors in zip(worlds, nudged_replays(replayer, worlds, names), strict=True):
+        errors = [rmse_n(replayed_fit(measured, v, world, offsets)["left"]) for v in vectors]
         out.append(float(np.median(errors)) if errors else float("inf"))
     return out
+
+
+def replay_scatter(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+                   magnitudes: dict[str, float], names: list[str]) -> dict[str, float]:
+    """How close the world of ``magnitudes`` comes to the logs against how far its own
+    replays scatter: the median RMSE of its replays (:func:`spread_errors`) and the median
+    distance between two of them (RMS, N; 0 where fewer than two stayed finite). Were the
+    world the logs' own, a log would be one more such draw, as far from a replay as two
+    replays are from each other: an error no larger is all the replays can explain."""
+    (vectors,) = nudged_replays(replayer, [magnitudes], names)
+    errors = [rmse_n(replayed_fit(measured, v, magnitudes, offsets)["left"]) for v in vectors]
+    distances = [rmse_n(a - b) for a, b in itertools.combinations(vectors, 2)]
+    return {"median_rmse_N": float(np.median(errors)) if errors else float("inf"),
+            "scatter_N": float(np.median(distances)) if distances else 0.0}
 
 
 def held_against_spread(replayer: Replayer, measured: np.ndarray,

@@ -4,6 +4,7 @@ screening step and at each cause's joint step with the causes fitted already."""
 
 from __future__ import annotations
 
+import zlib
 from typing import ClassVar
 
 import numpy as np
@@ -15,7 +16,9 @@ from cell.logs.causes import CAUSES
 from cell.logs.diagnosis import diagnose_logs
 from cell.logs.fit import logged_vector, rmse_n
 from cell.logs.outcome import EVIDENCE_ROWS
+from cell.logs.report import _spread_lines
 from cell.logs.search import replayed_fit
+from cell.logs.spread import JITTERS
 from tests.logs.test_heldout import BATCH, PARAMS, TRUE_MAGNITUDE, HidingWorld, LinearWorld
 
 MEASURED, ROWS = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)
@@ -206,3 +209,52 @@ def test_a_first_cause_that_stood_in_for_the_one_the_second_look_finds_goes(
     assert [gone["cause"] for gone in result["extended"]["pruned"]] == ["tearing_threshold"]
     fitted = result["extended"]["params"]["tissue_stiffness"]["magnitude"]
     assert fitted == pytest.approx(TRUE_MAGNITUDE, rel=0.05)
+
+
+class ScatteringWorld(HidingWorld):
+    """:class:`HidingWorld` whose every replay carries a chaotic term (drawn from the world
+    and the log) larger than what the hidden threshold leaves beside the stiffness."""
+
+    chaos: ClassVar[float] = 1.0
+
+    def run(self, jobs: list[tuple[int, dict[str, float]]]) -> list[np.ndarray]:
+        out = super().run(jobs)
+        for vector, (log, world) in zip(out, jobs, strict=True):
+            seed = zlib.crc32(repr((log, sorted(world.items()))).encode())
+            vector += self.chaos * np.random.default_rng(seed).normal(size=vector.size) * (
+                np.arange(vector.size) < vector.size - EVIDENCE_ROWS)
+        return out
+
+
+def _second_look_on_the_stiffness(world: HidingWorld) -> tuple[dict, list[str], int]:
+    """The second look on a fit of the stiffness alone, at its truth: the fit returned, its
+    causes, and the replays it asked for."""
+    at = {"tissue_stiffness": TRUE_MAGNITUDE}
+    (replayed,) = world.batches([at])
+    fit = {**replayed_fit(MEASURED, replayed, at, {}),
+           "jacobian": np.concatenate(world.patterns["tissue_stiffness"])[:, None]}
+    before = world.count
+    out, _, kept, _ = look.confirmed_second_look(world, MEASURED, ROWS, fit, list(at),
+                                                 fit["left"], list(PARAMS.causes), {}, 0.08,
+                                                 2)
+    return out, kept, world.count - before
+
+
+def test_a_fit_as_close_to_the_logs_as_its_replays_to_each_other_gets_no_second_look() -> None:
+    out, kept, replays = _second_look_on_the_stiffness(ScatteringWorld(BATCH, 1))
+    assert kept == ["tissue_stiffness"] and "second_look" not in out
+    scatter = out["replay_scatter"]
+    assert (1.0 - 0.08) * scatter["median_rmse_N"] <= scatter["scatter_N"]
+    assert replays == (JITTERS + 1) * len(BATCH.logs)
+
+
+def test_a_fit_farther_from_the_logs_than_its_replays_scatter_gets_its_second_look() -> None:
+    out, kept, _ = _second_look_on_the_stiffness(HidingWorld(BATCH, 1))
+    assert kept == ["tissue_stiffness", "tearing_threshold"]
+    assert out["replay_scatter"]["scatter_N"] < out["replay_scatter"]["median_rmse_N"]
+
+
+def test_the_report_says_why_no_second_look_was_made() -> None:
+    lines = _spread_lines({"replay_scatter": {"median_rmse_N": 0.3, "scatter_N": 0.29}})
+    assert lines == ["- The fitted world's replays: 0.300 N from the logs (median), 0.290 N "
+                     "from each other; nothing left for a second look"]
