@@ -33,6 +33,7 @@ from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
 from cell.diagnosis.engine.outcome import force_noise_n
 from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
+from cell.logs.chaos import chaos_scales
 from cell.logs.evidence import Indistinguishable, LogEvidence, indistinguishable, log_evidence
 from cell.logs.fit import (
     FORCE_CHANNELS,
@@ -65,7 +66,7 @@ from cell.logs.search import (
     signatures,
 )
 from cell.logs.second_look import confirmed_second_look
-from cell.logs.spread import spread_checked
+from cell.logs.spread import nudged, nudges, spread_checked
 
 
 @dataclass(frozen=True)
@@ -194,9 +195,11 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     jobs = len(batch.logs) * (sum(len(CAUSES[c].probes(True)) for c in names) + 1)
     with Replayer(batch, min(workers, jobs), cluster) as replayer:
         replayer.progress = progress
-        base, blocks, locators = _screen(replayer, measured, rows, names)
+        measured, base, blocks, locators = _screen(replayer, measured, rows, names)
+        scale = np.concatenate(replayer.scales)
         residual = measured - base
-        blocks.update({OFFSET + ch: rows.resting_offset(residual, ch) for ch in FORCE_CHANNELS})
+        blocks.update({OFFSET + ch: rows.resting_offset(residual / scale, ch) * scale[:, None]
+                       for ch in FORCE_CHANNELS})
         steps = forward_selection(residual, blocks, rows, params.min_heldout_gain,
                                   frozenset(OFFSET + ch for ch in FORCE_CHANNELS))
         chosen = [step.added for step in steps[1:]]
@@ -234,7 +237,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
     heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
-    offset_fit = {c.removeprefix(OFFSET): _offset_n(offsets[c], rows, fit["offsets"][c])
+    offset_fit = {c.removeprefix(OFFSET): _offset_n(offsets[c] / scale[:, None], rows,
+                                                    fit["offsets"][c])
                   for c in offsets}
     extended = {"model": "the logs' scenarios with the causes' changes",
                 "params": {**magnitudes_json(fit["magnitudes"]),
@@ -246,9 +250,10 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                    if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
-        _candidates(residual, blocks, rows, chosen), extended, heldout_rmse,
+        _candidates(residual, blocks, rows, chosen, scale), extended, heldout_rmse,
         log_evidence(residual, blocks, rows, chosen, left),
-        steps_json, {"baseline": base, "extended": fit["simulated"], "measured": measured},
+        steps_json, {"baseline": base / scale, "extended": fit["simulated"] / scale,
+                     "measured": measured / scale},
         _timing(replayer, started, cpu_started), _noise_n(batch),
         indistinguishable(residual, blocks, rows, chosen,
                           [c for c in world if c in blocks], params.min_heldout_gain))
@@ -309,29 +314,36 @@ def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str,
 
 
 def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str]
-            ) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, float]]:
-    """The baseline's simulated vector, each cause's signature (:func:`signatures`) and
-    outcome locator (:func:`outcome_locators`), from one batch replay in the lab's world, one
-    at each of every cause's probes, near and far (:func:`screening_worlds`, ``wide``), and
-    one at the locator of each cause the counts point to (:func:`located_sides`).
-    The misfits beyond the forces are weighed by the baseline's force residual
-    (:func:`~cell.logs.outcome.evidence_weight`), from here on in every replay."""
-    base, *screened = replayer.batches([{}, *screening_worlds(names, {}, wide=True)])
+            ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], dict[str, float]]:
+    """The logged vector weighed, the baseline's simulated vector, each cause's signature
+    (:func:`signatures`) and outcome locator (:func:`outcome_locators`), from the lab's world
+    replayed as it is and nudged (:func:`~cell.logs.spread.nudges`), one batch replay at each
+    of every cause's probes, near and far (:func:`screening_worlds`, ``wide``), and one at the
+    locator of each cause the counts point to (:func:`located_sides`). From here on, in every
+    replay, each force sample is weighed by the lab's nudged replays' spread
+    (:func:`~cell.logs.chaos.chaos_scales`) and the misfits beyond the forces by the
+    baseline's weighed force residual (:func:`~cell.logs.outcome.evidence_weight`)."""
+    worlds = [{}, *screening_worlds(names, {}, wide=True)]
+    lab = [nudged({}, shift) for shift in nudges(names)]
+    base, *_ = replayed = replayer.batches([*lab, *worlds[1:]])
     if base is None:
         from cell.errors import DivergenceError
 
         raise DivergenceError(0.0, "a replay of the lab's own world blew up")
-    force = measured - base
+    logs = replayer.batch.logs
+    scale = chaos_scales(logs, rows, [v for v in replayed[:len(lab)] if v is not None],
+                         _noise_n(replayer.batch))
+    replayer.scales = [scale[rows.log == i] for i in range(len(logs))]
+    measured = measured * scale
+    force = measured - base * scale
     force[~rows.force] = 0.0
     replayer.weight = evidence_weight(rmse_n(force[rows.force]),
                                       decorrelation_rows(force, rows))
-    scale = np.where(rows.force, 1.0, replayer.weight)
-    base = base * scale
-    screened = [None if vector is None else vector * scale for vector in screened]
+    base, *screened = replayer.batches(worlds)
     counts = count_entries(~rows.force)
     located = located_sides(replayer, base, names, screened, counts)
     blocks = signatures(measured - base, base, names, screened, wide=True, located=located)
-    return base, blocks, outcome_locators(base, names, screened, counts)
+    return measured, base, blocks, outcome_locators(base, names, screened, counts)
 
 
 def _offset_n(column: np.ndarray, rows: Rows, scale: np.ndarray) -> list[float]:
@@ -342,8 +354,9 @@ def _offset_n(column: np.ndarray, rows: Rows, scale: np.ndarray) -> list[float]:
 
 
 def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
-                chosen: list[str]) -> list[dict[str, Any]]:
-    """Every block screened, alone: its linearised magnitude and held-out RMSE."""
+                chosen: list[str], scale: np.ndarray) -> list[dict[str, Any]]:
+    """Every block screened, alone: its linearised magnitude and held-out RMSE (an offset's
+    in N: its column less the weighing ``scale``)."""
     out = []
     for name, columns in blocks.items():
         alone = {name: columns}
@@ -354,7 +367,8 @@ def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
                                  "selected": name in chosen, "linearised": True}
         if name.startswith(OFFSET):
             entry["params"] = {"channel": name.removeprefix(OFFSET),
-                               "offset_N": _offset_n(columns, rows, fitted[name])}
+                               "offset_N": _offset_n(columns / scale[:, None], rows,
+                                                     fitted[name])}
         else:
             entry["params"] = magnitudes_json({name: float(fitted[name][0])})[name]
         out.append(entry)

@@ -100,7 +100,8 @@ class Replayer:
     """Replays a batch's logs in changed worlds, side by side on ``workers`` processes (one:
     in this process) or, given ``cluster``, on that pool's Ray cluster; counting them, their
     wall time and their CPU time (the workers'). Each log's misfits beyond the forces come
-    times :attr:`weight` (:func:`~cell.logs.outcome.evidence_weight`).
+    times :attr:`weight` (:func:`~cell.logs.outcome.evidence_weight`), and each entry times its
+    log's :attr:`scales` (:mod:`cell.logs.chaos`).
 
     Example:
         >>> Replayer(LogBatch((), ()), 1).count
@@ -114,6 +115,9 @@ class Replayer:
         self.count, self.wall_s, self.cpu_s = 0, 0.0, 0.0
         #: The weight of the misfits beyond the forces (N a noise width).
         self.weight = 1.0
+        #: Each log's factor on its vector's entries (:func:`~cell.logs.chaos.chaos_scales`),
+        #: or None (1).
+        self.scales: list[np.ndarray] | None = None
         #: Where the replays done and planned show (a progress bar), or None.
         self.progress: Progress | None = None
         #: The round the replays are of (the progress bar's description).
@@ -158,7 +162,7 @@ class Replayer:
                 self._replayed()
             vectors = self._counted(results, started)
         self._done.update(zip(new, vectors, strict=True))
-        return [None if self._done[key] is None else self.weighed(self._done[key])
+        return [None if self._done[key] is None else self.weighed(self._done[key], key[0])
                 for key in keys]
 
     def _planned(self, jobs: int) -> None:
@@ -196,10 +200,10 @@ class Replayer:
         self.cpu_s += sum(cpu for _, cpu in results)
         return [vector for vector, _ in results]
 
-    def weighed(self, vector: np.ndarray) -> np.ndarray:
-        """One log's replayed vector with its misfits beyond the forces times
-        :attr:`weight`."""
-        out = vector.copy()
+    def weighed(self, vector: np.ndarray, log: int) -> np.ndarray:
+        """Log ``log``'s replayed vector times its :attr:`scales`, its misfits beyond the
+        forces times :attr:`weight`."""
+        out = vector.copy() if self.scales is None else vector * self.scales[log]
         out[-EVIDENCE_ROWS:] *= self.weight
         return out
 

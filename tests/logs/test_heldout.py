@@ -48,6 +48,7 @@ class LinearWorld:
         self.folders = [str(log.folder) for log in batch.logs]
         self.count, self.wall_s, self.cpu_s, self.in_process = 0, 0.0, 0.0, True
         self.weight, self.progress, self.round = 1.0, None, ""
+        self.batch, self.scales = batch, None
         measured = [logged_vector([log], EVIDENCE_ROWS)[0] for log in batch.logs]
         forces = [np.arange(m.size) < m.size - EVIDENCE_ROWS for m in measured]
         pairs = list(zip(measured, forces, strict=True))
@@ -71,7 +72,9 @@ class LinearWorld:
 
     def run(self, jobs: list[tuple[int, dict[str, float]]]) -> list[np.ndarray]:
         self.count += len(jobs)
-        return [self.base[i] + self.effect(world, i) for i, world in jobs]
+        return [(self.base[i] + self.effect(world, i)) * (1.0 if self.scales is None
+                                                          else self.scales[i])
+                for i, world in jobs]
 
     def batches(self, worlds: list[dict[str, float]]) -> list[np.ndarray]:
         return [np.concatenate(self.run([(i, w) for i in range(len(self.folders))]))
