@@ -224,6 +224,7 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "fitted": data["extended"]["params"],
             "second_look": data["extended"].get("second_look"),
             "spread": data["extended"].get("spread"),
+            "replay_scatter": data["extended"].get("replay_scatter"),
             "dropped": data["extended"].get("dropped"),
             "magnitude_error": {c: (None if math.isinf(e) else e) for c, e in errors.items()},
             "magnitude_within": bool(expected) and all(e <= tolerance

@@ -49,18 +49,24 @@ def chaos_variance(logs: Sequence[SeparationLog], rows: Rows, replays: Sequence[
     return out
 
 
+def noise_variance(logs: Sequence[SeparationLog], rows: Rows, noise_n: float) -> np.ndarray:
+    """(n,) the variance of the sensor's noise ``noise_n`` (N, a sample's) averaged over the
+    compared window, at each force entry of the batch vector, N²; 0 beyond the forces."""
+    out = np.zeros(rows.log.size)
+    for i, log in enumerate(logs):
+        out[(rows.log == i) & rows.force] = noise_n ** 2 / samples_averaged(
+            COMPARED_WINDOW_S, control_step_s(log))
+    return out
+
+
 def chaos_scales(logs: Sequence[SeparationLog], rows: Rows, replays: Sequence[np.ndarray],
                  noise_n: float) -> np.ndarray:
     """(n,) the factor on each entry of the batch vector: the square root of its weight, the
-    inverse of the sensor's noise ``noise_n`` (N, a sample's) averaged over the compared
-    window plus the replays' spread there (:func:`chaos_variance`), scaled so that the
-    weights average 1 over the force entries; 1 beyond the forces (their own noise is in
-    their units: :mod:`cell.logs.outcome`)."""
-    floor = np.zeros(rows.log.size)
-    for i, log in enumerate(logs):
-        floor[rows.log == i] = noise_n ** 2 / samples_averaged(COMPARED_WINDOW_S,
-                                                              control_step_s(log))
-    variance = chaos_variance(logs, rows, replays) + floor
+    inverse of the sensor's noise averaged over the compared window (:func:`noise_variance`)
+    plus the replays' spread there (:func:`chaos_variance`), scaled so that the weights
+    average 1 over the force entries; 1 beyond the forces (their own noise is in their
+    units: :mod:`cell.logs.outcome`)."""
+    variance = chaos_variance(logs, rows, replays) + noise_variance(logs, rows, noise_n)
     force = rows.force & (variance > 0.0)
     weight = np.ones(rows.log.size)
     if force.any():

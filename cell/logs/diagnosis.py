@@ -33,7 +33,7 @@ from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
 from cell.diagnosis.engine.outcome import force_noise_n
 from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
-from cell.logs.chaos import chaos_scales
+from cell.logs.chaos import chaos_scales, noise_variance
 from cell.logs.evidence import Indistinguishable, LogEvidence, indistinguishable, log_evidence
 from cell.logs.fit import (
     FORCE_CHANNELS,
@@ -330,10 +330,10 @@ def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[st
         from cell.errors import DivergenceError
 
         raise DivergenceError(0.0, "a replay of the lab's own world blew up")
-    logs = replayer.batch.logs
-    scale = chaos_scales(logs, rows, [v for v in replayed[:len(lab)] if v is not None],
-                         _noise_n(replayer.batch))
+    logs, noise_n = replayer.batch.logs, _noise_n(replayer.batch)
+    scale = chaos_scales(logs, rows, [v for v in replayed[:len(lab)] if v is not None], noise_n)
     replayer.scales = [scale[rows.log == i] for i in range(len(logs))]
+    replayer.noise_rmse_n = rmse_n(scale * np.sqrt(noise_variance(logs, rows, noise_n)))
     measured = measured * scale
     force = measured - base * scale
     force[~rows.force] = 0.0

@@ -118,6 +118,9 @@ class Replayer:
         #: Each log's factor on its vector's entries (:func:`~cell.logs.chaos.chaos_scales`),
         #: or None (1).
         self.scales: list[np.ndarray] | None = None
+        #: The logs' sensor noise as a share of a batch's error (weighted RMS, N): what no
+        #: replay can take away (:func:`~cell.logs.chaos.noise_variance`).
+        self.noise_rmse_n = 0.0
         #: Where the replays done and planned show (a progress bar), or None.
         self.progress: Progress | None = None
         #: The round the replays are of (the progress bar's description).

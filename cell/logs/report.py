@@ -172,7 +172,8 @@ def _spread_lines(extended: dict[str, Any]) -> list[str]:
     scatter, lines = extended.get("replay_scatter"), []
     if scatter is not None:
         lines.append(f"- The fitted world's replays: {scatter['median_rmse_N']:.3f} N from the "
-                     f"logs (median), {scatter['scatter_N']:.3f} N from each other; "
+                     f"logs (median), {scatter['scatter_N']:.3f} N from each other, the "
+                     f"sensors' noise {scatter['noise_N']:.3f} N; "
                      + ("a second look tried" if "second_look" in extended
                         else "nothing left for a second look"))
     spread = extended.get("spread")

@@ -43,7 +43,7 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     replayer.round = "second look"
     magnitudes = {c: fit["magnitudes"][c] for c in world}
     scatter = replay_scatter(replayer, measured, offsets, magnitudes, names)
-    if (1.0 - min_gain) * scatter["median_rmse_N"] <= scatter["scatter_N"]:
+    if (1.0 - min_gain) * scatter["median_rmse_N"] <= scatter["floor_N"]:
         # Nothing is left to find: no cause can lower the error by the gain asked where the
         # fit is as close as the true world's own replays would be.
         return {**fit, "replay_scatter": scatter}, left, world, []

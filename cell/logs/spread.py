@@ -15,6 +15,7 @@ also beat the world without it on those terms.
 from __future__ import annotations
 
 import itertools
+import math
 from typing import Any
 
 import numpy as np
@@ -72,15 +73,20 @@ def spread_errors(replayer: Replayer, measured: np.ndarray, offsets: dict[str, n
 def replay_scatter(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
                    magnitudes: dict[str, float], names: list[str]) -> dict[str, float]:
     """How close the world of ``magnitudes`` comes to the logs against how far its own
-    replays scatter: the median RMSE of its replays (:func:`spread_errors`) and the median
-    distance between two of them (RMS, N; 0 where fewer than two stayed finite). Were the
-    world the logs' own, a log would be one more such draw, as far from a replay as two
-    replays are from each other: an error no larger is all the replays can explain."""
+    replays scatter: the median RMSE of its replays (:func:`spread_errors`), the median
+    distance between two of them (RMS, N; 0 where fewer than two stayed finite), the logs'
+    sensor noise in the same terms (:attr:`~cell.logs.replays.Replayer.noise_rmse_n`) and
+    the floor of both (``floor_N``, their root sum of squares). Were the world the logs' own,
+    a log would be one more such draw with the sensor's noise on it, as far from a replay as
+    two replays are from each other and that noise further: an error no larger than the
+    floor is all the replays can explain."""
     (vectors,) = nudged_replays(replayer, [magnitudes], names)
     errors = [rmse_n(replayed_fit(measured, v, magnitudes, offsets)["left"]) for v in vectors]
     distances = [rmse_n(a - b) for a, b in itertools.combinations(vectors, 2)]
+    scatter = float(np.median(distances)) if distances else 0.0
     return {"median_rmse_N": float(np.median(errors)) if errors else float("inf"),
-            "scatter_N": float(np.median(distances)) if distances else 0.0}
+            "scatter_N": scatter, "noise_N": replayer.noise_rmse_n,
+            "floor_N": math.hypot(scatter, replayer.noise_rmse_n)}
 
 
 def held_against_spread(replayer: Replayer, measured: np.ndarray,

@@ -48,7 +48,7 @@ class LinearWorld:
         self.folders = [str(log.folder) for log in batch.logs]
         self.count, self.wall_s, self.cpu_s, self.in_process = 0, 0.0, 0.0, True
         self.weight, self.progress, self.round = 1.0, None, ""
-        self.batch, self.scales = batch, None
+        self.batch, self.scales, self.noise_rmse_n = batch, None, 0.0
         measured = [logged_vector([log], EVIDENCE_ROWS)[0] for log in batch.logs]
         forces = [np.arange(m.size) < m.size - EVIDENCE_ROWS for m in measured]
         pairs = list(zip(measured, forces, strict=True))

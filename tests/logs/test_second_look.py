@@ -244,17 +244,27 @@ def test_a_fit_as_close_to_the_logs_as_its_replays_to_each_other_gets_no_second_
     out, kept, replays = _second_look_on_the_stiffness(ScatteringWorld(BATCH, 1))
     assert kept == ["tissue_stiffness"] and "second_look" not in out
     scatter = out["replay_scatter"]
-    assert (1.0 - 0.08) * scatter["median_rmse_N"] <= scatter["scatter_N"]
+    assert (1.0 - 0.08) * scatter["median_rmse_N"] <= scatter["floor_N"]
     assert replays == (JITTERS + 1) * len(BATCH.logs)
 
 
 def test_a_fit_farther_from_the_logs_than_its_replays_scatter_gets_its_second_look() -> None:
     out, kept, _ = _second_look_on_the_stiffness(HidingWorld(BATCH, 1))
     assert kept == ["tissue_stiffness", "tearing_threshold"]
-    assert out["replay_scatter"]["scatter_N"] < out["replay_scatter"]["median_rmse_N"]
+    assert out["replay_scatter"]["floor_N"] < out["replay_scatter"]["median_rmse_N"]
 
 
 def test_the_report_says_why_no_second_look_was_made() -> None:
-    lines = _spread_lines({"replay_scatter": {"median_rmse_N": 0.3, "scatter_N": 0.29}})
-    assert lines == ["- The fitted world's replays: 0.300 N from the logs (median), 0.290 N "
-                     "from each other; nothing left for a second look"]
+    lines = _spread_lines({"replay_scatter": {"median_rmse_N": 0.3, "scatter_N": 0.25,
+                                              "noise_N": 0.12, "floor_N": 0.277}})
+    assert lines == ["- The fitted world's replays: 0.300 N from the logs (median), 0.250 N "
+                     "from each other, the sensors' noise 0.120 N; nothing left for a second "
+                     "look"]
+
+
+def test_a_fit_as_close_to_the_logs_as_their_sensors_noise_gets_no_second_look() -> None:
+    world = HidingWorld(BATCH, 1)
+    world.noise_rmse_n = 10.0
+    out, kept, _ = _second_look_on_the_stiffness(world)
+    assert kept == ["tissue_stiffness"] and "second_look" not in out
+    assert out["replay_scatter"]["floor_N"] == pytest.approx(10.0, rel=0.01)
