@@ -3,8 +3,9 @@ wrong about them, why, and the world that gets it right, in the contract of the 
 sets (baseline, causes, candidates with evidence, extended, held-out error, gain), held out
 by leave-one-log-out.
 
-A replay is an episode, so the search is kept to about a hundred of them: one replay of every
-log in the lab's world (the baseline), two per log and cause with the cause's screening
+A replay is an episode, so the search is kept to about a hundred of them: five replays of
+every log in the lab's world (the baseline, and four nudged, whose spread weighs each sample:
+:mod:`cell.logs.chaos`), two per log and cause with the cause's screening
 magnitude one way and the other (its linearised signature: the change of every channel at
 every sample), a greedy forward selection on those signatures (:mod:`cell.logs.fit`: a
 sensor's offset is a constant on its channel, in closed form), Gauss-Newton steps on the
