@@ -69,6 +69,9 @@ from cell.logs.search import (
 from cell.logs.second_look import confirmed_second_look
 from cell.logs.spread import nudged, nudges, spread_checked
 
+#: What a fit says beyond its magnitudes, carried into ``extended``.
+EXTENDED_KEYS = ("dropped", "second_look", "pruned", "spread", "replay_scatter")
+
 
 @dataclass(frozen=True)
 class LogDiagnosisParams:
@@ -199,8 +202,6 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         measured, base, blocks, locators = _screen(replayer, measured, rows, names)
         scale = np.concatenate(replayer.scales)
         residual = measured - base
-        blocks.update({OFFSET + ch: rows.resting_offset(residual / scale, ch) * scale[:, None]
-                       for ch in FORCE_CHANNELS})
         steps = forward_selection(residual, blocks, rows, params.min_heldout_gain,
                                   frozenset(OFFSET + ch for ch in FORCE_CHANNELS))
         chosen = [step.added for step in steps[1:]]
@@ -246,9 +247,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                            **({SENSOR_OFFSET: offset_fit} if offset_fit else {})},
                 "rmse_N": rmse_n(fit["left"]), "confirmed": fit["confirmed"],
                 "evidence_weight_N": replayer.weight,
-                **{key: fit[key] for key in ("dropped", "second_look", "pruned", "spread",
-                                                 "replay_scatter")
-                   if key in fit}}
+                **{key: fit[key] for key in EXTENDED_KEYS if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
         _candidates(residual, blocks, rows, chosen, scale), extended, heldout_rmse,
@@ -317,7 +316,9 @@ def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str,
 def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str]
             ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], dict[str, float]]:
     """The logged vector weighed, the baseline's simulated vector, each cause's signature
-    (:func:`signatures`) and outcome locator (:func:`outcome_locators`), from the lab's world
+    (:func:`signatures`) and each sensor's offset at rest
+    (:meth:`~cell.logs.fit.Rows.resting_offset`, weighed as the samples are) as blocks, each
+    cause's outcome locator (:func:`outcome_locators`), from the lab's world
     replayed as it is and nudged (:func:`~cell.logs.spread.nudges`), one batch replay at each
     of every cause's probes, near and far (:func:`screening_worlds`, ``wide``), and one at the
     locator of each cause the counts point to (:func:`located_sides`). From here on, in every
@@ -344,6 +345,8 @@ def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[st
     counts = count_entries(~rows.force)
     located = located_sides(replayer, base, names, screened, counts)
     blocks = signatures(measured - base, base, names, screened, wide=True, located=located)
+    blocks.update({OFFSET + ch: rows.resting_offset((measured - base) / scale, ch)
+                   * scale[:, None] for ch in FORCE_CHANNELS})
     return measured, base, blocks, outcome_locators(base, names, screened, counts)
 
 
