@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from cell.logs.fit import COMPARED_WINDOW_S, FORCE_CHANNELS, Rows, averaged
+from cell.logs.fit import COMPARED_WINDOW_S, FORCE_CHANNELS, Rows, compared
 from cell.logs.outcome import control_step_s
 from cell.measure.logs import SeparationLog
 
@@ -43,9 +43,7 @@ def chaos_variance(logs: Sequence[SeparationLog], rows: Rows, replays: Sequence[
     for i, log in enumerate(logs):
         for c, name in enumerate(FORCE_CHANNELS):
             at = (rows.log == i) & (rows.channel == c)
-            channel = log.channels[name]
-            out[at] = averaged(channel.time_s, spread[at].reshape(-1, 3),
-                               log.sensors.get(f"{name}_tare_s", np.inf)).ravel()
+            out[at] = compared(log, name, spread[at].reshape(-1, 3)).ravel()
     return out
 
 

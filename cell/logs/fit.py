@@ -108,7 +108,7 @@ def averaged(time_s: np.ndarray, force_n: np.ndarray, split_s: float = np.inf,
     return out
 
 
-def _compared(log: SeparationLog, channel: str, force_n: np.ndarray) -> np.ndarray:
+def compared(log: SeparationLog, channel: str, force_n: np.ndarray) -> np.ndarray:
     """``force_n`` of ``channel`` at the log's times as the diagnosis compares it
     (:func:`averaged`, split at the sensor's tare)."""
     return averaged(log.channels[channel].time_s, force_n,
@@ -126,7 +126,7 @@ def logged_vector(logs: Sequence[SeparationLog], evidence: int = 0
         first_cut = log.cut_windows_s[0][0] if log.cut_windows_s else np.inf
         for c, name in enumerate(FORCE_CHANNELS):
             force = log.channels[name].force_n
-            parts.append(_compared(log, name, force).ravel())
+            parts.append(compared(log, name, force).ravel())
             log_index.append(np.full(force.size, i))
             channel_index.append(np.full(force.size, c))
             axis_index.append(np.tile([0, 1, 2], len(force)))
@@ -163,7 +163,7 @@ def retared(log: SeparationLog, channel: str, simulated_n: np.ndarray) -> np.nda
     if not after.any():
         return simulated_n
     out = simulated_n.copy()
-    logged = _compared(log, channel, log.channels[channel].force_n)
+    logged = compared(log, channel, log.channels[channel].force_n)
     out[after] += (logged[after] - simulated_n[after]).mean(axis=0)
     return out
 
@@ -176,7 +176,7 @@ def simulated_vector(log: SeparationLog, simulated: dict[str, Channel]) -> np.nd
         t, ours = log.channels[name].time_s, simulated[name]
         at_log = np.stack([np.interp(t, ours.time_s, ours.force_n[:, k]) for k in range(3)],
                           axis=1)
-        parts.append(retared(log, name, _compared(log, name, at_log)).ravel())
+        parts.append(retared(log, name, compared(log, name, at_log)).ravel())
     return np.concatenate(parts)
 
 

@@ -63,11 +63,16 @@ def spread_errors(replayer: Replayer, measured: np.ndarray, offsets: dict[str, n
     """The median RMSE (N) of each of ``worlds`` over its own replay and its nudged ones
     (:func:`nudged_replays`), the sensors' offsets fitted on each; a replay that blew up does
     not count (every one of a world blowing up: inf)."""
-    out = []
-    for world, vectors in zip(worlds, nudged_replays(replayer, worlds, names), strict=True):
-        errors = [rmse_n(replayed_fit(measured, v, world, offsets)["left"]) for v in vectors]
-        out.append(float(np.median(errors)) if errors else float("inf"))
-    return out
+    return [_median_error(measured, offsets, world, vectors) for world, vectors
+            in zip(worlds, nudged_replays(replayer, worlds, names), strict=True)]
+
+
+def _median_error(measured: np.ndarray, offsets: dict[str, np.ndarray],
+                  world: dict[str, float], vectors: list[np.ndarray]) -> float:
+    """The median RMSE (N) of ``world``'s replays ``vectors``, the sensors' offsets fitted on
+    each (inf where there are none)."""
+    errors = [rmse_n(replayed_fit(measured, v, world, offsets)["left"]) for v in vectors]
+    return float(np.median(errors)) if errors else float("inf")
 
 
 def replay_scatter(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
@@ -81,10 +86,9 @@ def replay_scatter(replayer: Replayer, measured: np.ndarray, offsets: dict[str, 
     two replays are from each other and that noise further: an error no larger than the
     floor is all the replays can explain."""
     (vectors,) = nudged_replays(replayer, [magnitudes], names)
-    errors = [rmse_n(replayed_fit(measured, v, magnitudes, offsets)["left"]) for v in vectors]
     distances = [rmse_n(a - b) for a, b in itertools.combinations(vectors, 2)]
     scatter = float(np.median(distances)) if distances else 0.0
-    return {"median_rmse_N": float(np.median(errors)) if errors else float("inf"),
+    return {"median_rmse_N": _median_error(measured, offsets, magnitudes, vectors),
             "scatter_N": scatter, "noise_N": replayer.noise_rmse_n,
             "floor_N": math.hypot(scatter, replayer.noise_rmse_n)}
 
