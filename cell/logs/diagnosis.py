@@ -194,12 +194,12 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     names = [c for c in applicable(batch.scenarios[0])
              if params.causes is None or c in params.causes]
-    workers = params.workers or default_workers()
+    workers, noise_n = params.workers or default_workers(), _noise_n(batch)
     started, cpu_started = time.perf_counter(), time.process_time()
     jobs = len(batch.logs) * (sum(len(CAUSES[c].probes(True)) for c in names) + 1)
     with Replayer(batch, min(workers, jobs), cluster) as replayer:
         replayer.progress = progress
-        measured, base, blocks, locators = _screen(replayer, measured, rows, names)
+        measured, base, blocks, locators = _screen(replayer, measured, rows, names, noise_n)
         scale = np.concatenate(replayer.scales)
         residual = measured - base
         steps = forward_selection(residual, blocks, rows, params.min_heldout_gain,
@@ -239,8 +239,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
     heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
-    offset_fit = {c.removeprefix(OFFSET): _offset_n(offsets[c] / scale[:, None], rows,
-                                                    fit["offsets"][c])
+    offset_fit = {c.removeprefix(OFFSET): _offset_n(offsets[c], rows, fit["offsets"][c], scale)
                   for c in offsets}
     extended = {"model": "the logs' scenarios with the causes' changes",
                 "params": {**magnitudes_json(fit["magnitudes"]),
@@ -254,7 +253,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         log_evidence(residual, blocks, rows, chosen, left),
         steps_json, {"baseline": base / scale, "extended": fit["simulated"] / scale,
                      "measured": measured / scale},
-        _timing(replayer, started, cpu_started), _noise_n(batch),
+        _timing(replayer, started, cpu_started), noise_n,
         indistinguishable(residual, blocks, rows, chosen,
                           [c for c in world if c in blocks], params.min_heldout_gain))
 
@@ -313,18 +312,18 @@ def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str,
             "fit_cpu_s": cpu}
 
 
-def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str]
+def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str],
+            noise_n: float
             ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], dict[str, float]]:
-    """The logged vector weighed, the baseline's simulated vector, each cause's signature
-    (:func:`signatures`) and each sensor's offset at rest
-    (:meth:`~cell.logs.fit.Rows.resting_offset`, weighed as the samples are) as blocks, each
-    cause's outcome locator (:func:`outcome_locators`), from the lab's world
-    replayed as it is and nudged (:func:`~cell.logs.spread.nudges`), one batch replay at each
-    of every cause's probes, near and far (:func:`screening_worlds`, ``wide``), and one at the
-    locator of each cause the counts point to (:func:`located_sides`). From here on, in every
-    replay, each force sample is weighed by the lab's nudged replays' spread
-    (:func:`~cell.logs.chaos.chaos_scales`) and the misfits beyond the forces by the
-    baseline's weighed force residual (:func:`~cell.logs.outcome.evidence_weight`)."""
+    """The logged vector weighed, the baseline's replay, the blocks (each cause's signature,
+    :func:`signatures`, and each sensor's offset at rest, weighed) and each cause's outcome
+    locator (:func:`outcome_locators`), from the lab's world as it is and nudged
+    (:func:`~cell.logs.spread.nudges`), a batch replay at each cause's probes, near and far
+    (:func:`screening_worlds`), and one at each locator the counts point to
+    (:func:`located_sides`). From here on every replay's force samples are weighed by the
+    nudged replays' spread and the logs' noise ``noise_n`` (N; :mod:`cell.logs.chaos`), its
+    misfits beyond them by the weighed force residual
+    (:func:`~cell.logs.outcome.evidence_weight`)."""
     worlds = [{}, *screening_worlds(names, {}, wide=True)]
     lab = [nudged({}, shift) for shift in nudges(names)]
     base, *_ = replayed = replayer.batches([*lab, *worlds[1:]])
@@ -332,7 +331,7 @@ def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[st
         from cell.errors import DivergenceError
 
         raise DivergenceError(0.0, "a replay of the lab's own world blew up")
-    logs, noise_n = replayer.batch.logs, _noise_n(replayer.batch)
+    logs = replayer.batch.logs
     scale = chaos_scales(logs, rows, [v for v in replayed[:len(lab)] if v is not None], noise_n)
     replayer.scales = [scale[rows.log == i] for i in range(len(logs))]
     replayer.noise_rmse_n = rmse_n(scale * np.sqrt(noise_variance(logs, rows, noise_n)))
@@ -350,17 +349,20 @@ def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[st
     return measured, base, blocks, outcome_locators(base, names, screened, counts)
 
 
-def _offset_n(column: np.ndarray, rows: Rows, scale: np.ndarray) -> list[float]:
-    """The offset (N, each component) that an offset's column times ``scale`` adds."""
+def _offset_n(column: np.ndarray, rows: Rows, coefficient: np.ndarray,
+              weighing: np.ndarray) -> list[float]:
+    """The offset (N, each component) that an offset's column times ``coefficient`` adds,
+    the column weighed as the samples are (``weighing``: each entry's factor)."""
     first = [int(np.flatnonzero((column[:, 0] != 0) & (rows.axis == k))[0])
              if ((column[:, 0] != 0) & (rows.axis == k)).any() else None for k in range(3)]
-    return [0.0 if i is None else float(column[i, 0] * scale[0]) for i in first]
+    return [0.0 if i is None else float(column[i, 0] * coefficient[0] / weighing[i])
+            for i in first]
 
 
 def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
                 chosen: list[str], scale: np.ndarray) -> list[dict[str, Any]]:
     """Every block screened, alone: its linearised magnitude and held-out RMSE (an offset's
-    in N: its column less the weighing ``scale``)."""
+    in N: :func:`_offset_n` with the weighing ``scale``)."""
     out = []
     for name, columns in blocks.items():
         alone = {name: columns}
@@ -371,8 +373,7 @@ def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
                                  "selected": name in chosen, "linearised": True}
         if name.startswith(OFFSET):
             entry["params"] = {"channel": name.removeprefix(OFFSET),
-                               "offset_N": _offset_n(columns / scale[:, None], rows,
-                                                     fitted[name])}
+                               "offset_N": _offset_n(columns, rows, fitted[name], scale)}
         else:
             entry["params"] = magnitudes_json({name: float(fitted[name][0])})[name]
         out.append(entry)

@@ -43,11 +43,11 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     replayer.round = "second look"
     magnitudes = {c: fit["magnitudes"][c] for c in world}
     scatter = replay_scatter(replayer, measured, offsets, magnitudes, names)
+    fit = {**fit, "replay_scatter": scatter}
     if (1.0 - min_gain) * scatter["median_rmse_N"] <= scatter["floor_N"]:
         # Nothing is left to find: no cause can lower the error by the gain asked where the
         # fit is as close as the true world's own replays would be.
-        return {**fit, "replay_scatter": scatter}, left, world, []
-    fit = {**fit, "replay_scatter": scatter}
+        return fit, left, world, []
     selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
                                              offsets, min_gain, steps)
     if not selected:

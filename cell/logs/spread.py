@@ -78,7 +78,7 @@ def _median_error(measured: np.ndarray, offsets: dict[str, np.ndarray],
 def replay_scatter(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
                    magnitudes: dict[str, float], names: list[str]) -> dict[str, float]:
     """How close the world of ``magnitudes`` comes to the logs against how far its own
-    replays scatter: the median RMSE of its replays (:func:`spread_errors`), the median
+    replays scatter: the median RMSE of its replays (as :func:`spread_errors`), the median
     distance between two of them (RMS, N; 0 where fewer than two stayed finite), the logs'
     sensor noise in the same terms (:attr:`~cell.logs.replays.Replayer.noise_rmse_n`) and
     the floor of both (``floor_N``, their root sum of squares). Were the world the logs' own,
