@@ -238,7 +238,8 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "replays": timing["replays"], "seconds": timing["total_s"],
             "cpu_seconds": timing["replay_cpu_s"] + timing["fit_cpu_s"],
             "split": {"replay_wall_s": timing["replay_wall_s"], "fit_wall_s": timing["fit_s"],
-                      "replay_cpu_s": timing["replay_cpu_s"], "fit_cpu_s": timing["fit_cpu_s"]},
+                      "replay_cpu_s": timing["replay_cpu_s"], "fit_cpu_s": timing["fit_cpu_s"],
+                      "replays_by_round": timing["replays_by_round"]},
             "simulation_seconds": truth.wall_s}
 
 

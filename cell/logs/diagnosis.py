@@ -303,13 +303,13 @@ def _located(replayer: Replayer, measured: np.ndarray, start: Fit, world: list[s
 
 
 def _timing(replayer: Replayer, started: float, cpu_started: float) -> dict[str, float]:
-    """Where the time went: the replays' and the rest's (the fits', in this process), wall
-    and CPU, s."""
+    """Where the time went: the replays (by round) and the rest (the fits, in this process),
+    wall and CPU, s."""
     wall = time.perf_counter() - started
     cpu = time.process_time() - cpu_started - (replayer.cpu_s if replayer.in_process else 0.0)
-    return {"replays": replayer.count, "replay_wall_s": replayer.wall_s,
-            "fit_s": wall - replayer.wall_s, "total_s": wall, "replay_cpu_s": replayer.cpu_s,
-            "fit_cpu_s": cpu}
+    return {"replays": replayer.count, "replays_by_round": replayer.by_round,
+            "replay_wall_s": replayer.wall_s, "fit_s": wall - replayer.wall_s, "total_s": wall,
+            "replay_cpu_s": replayer.cpu_s, "fit_cpu_s": cpu}
 
 
 def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[str],

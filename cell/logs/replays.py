@@ -113,6 +113,8 @@ class Replayer:
         self.batch = batch
         self.folders = [str(log.folder) for log in batch.logs]
         self.count, self.wall_s, self.cpu_s = 0, 0.0, 0.0
+        #: The replays done by round (:attr:`round`): where a diagnosis's time went.
+        self.by_round: dict[str, int] = {}
         #: The weight of the misfits beyond the forces (N a noise width).
         self.weight = 1.0
         #: Each log's factor on its vector's entries (:func:`~cell.logs.chaos.chaos_scales`),
@@ -199,6 +201,7 @@ class Replayer:
         """The vectors of ``results``, counted with their wall time since ``started`` and their
         CPU time."""
         self.count += len(results)
+        self.by_round[self.round] = self.by_round.get(self.round, 0) + len(results)
         self.wall_s += time.perf_counter() - started
         self.cpu_s += sum(cpu for _, cpu in results)
         return [vector for vector, _ in results]

@@ -159,7 +159,8 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) ->
                      "asked)")
     lines += _spread_lines(data["extended"])
     t = data["timing"]
-    lines += ["", f"{t['replays']} replays, {t['replay_wall_s']:.0f} s; the fits "
+    rounds = ", ".join(f"{count} {name}" for name, count in t["replays_by_round"].items())
+    lines += ["", f"{t['replays']} replays ({rounds}), {t['replay_wall_s']:.0f} s; the fits "
               f"{t['fit_s']:.1f} s.", ""]
     lines += [f"![Logged, baseline and extended channels]({p.name})" for p in figures]
     return "\n".join(lines) + "\n"

@@ -217,27 +217,29 @@ def from_probes(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.
 def pruned(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
            fit: Fit, world: list[str], min_gain: float, steps: int) -> tuple[Fit, list[str]]:
     """``fit`` and ``world`` less each cause that does not earn its place in the replays
-    (backward elimination): of two or more causes, the one whose removal (the others kept
-    where fitted) leaves the replayed error least is taken out, the others fitted again
-    without it (:func:`gauss_newton`), and it goes where that fit's error is within
-    ``min_gain`` of ``fit``'s; then again, one at a time. What went is listed under the fit's
-    ``pruned``. The selection is linearised at the lab's world, where a cause beside the one
-    the logs show can take a share of its effect, and a replayed fit can then end where the
-    two make up for each other (a fibre turned short of the truth beside a muscle a little
-    stiffer); the bar is the one every cause meets to be named."""
-    gone = []
+    (backward elimination): of two or more causes, each is taken out in turn (first the one
+    whose removal, the others kept where fitted, leaves the replayed error least), the others
+    fitted again without it (:func:`gauss_newton`), and the first whose refit's error is
+    within ``min_gain`` of ``fit``'s goes; then again, one at a time. What went is listed
+    under the fit's ``pruned``. The selection is linearised at the lab's world, where a cause
+    beside the one the logs show can take a share of its effect, and a replayed fit can then
+    end where the two make up for each other (a fibre turned short of the truth beside a
+    muscle a little stiffer); the bar is the one every cause meets to be named. Taken out
+    without a refit, a cause that makes up for another fitted short looks needed most, so
+    every cause is tried, not only the cheapest to take out."""
+    gone, replayer.round = [], "pruning"
     while len(world) > 1 and "jacobian" in fit:
         worlds = [{c: m for c, m in fit["magnitudes"].items() if c != cause} for cause in world]
-        trials = [(k, replayed_fit(measured, replayed, at, offsets)) for k, (at, replayed)
-                  in enumerate(zip(worlds, replayer.batches(worlds), strict=True))
-                  if replayed is not None]
-        if not trials:
-            break
-        k, trial = min(trials, key=lambda item: rmse_n(item[1]["left"]))
-        rest, jacobian = world[:k] + world[k + 1:], np.delete(fit["jacobian"], k, axis=1)
-        refit = gauss_newton(replayer, measured, offsets, {**trial, "jacobian": jacobian}, rest,
-                             jacobian, steps)
-        if (1.0 - min_gain) * rmse_n(refit["left"]) > rmse_n(fit["left"]):
+        trials = sorted(((k, replayed_fit(measured, replayed, at, offsets)) for k, (at, replayed)
+                         in enumerate(zip(worlds, replayer.batches(worlds), strict=True))
+                         if replayed is not None), key=lambda item: rmse_n(item[1]["left"]))
+        for k, trial in trials:
+            rest, jacobian = world[:k] + world[k + 1:], np.delete(fit["jacobian"], k, axis=1)
+            refit = gauss_newton(replayer, measured, offsets, {**trial, "jacobian": jacobian},
+                                 rest, jacobian, steps)
+            if (1.0 - min_gain) * rmse_n(refit["left"]) <= rmse_n(fit["left"]):
+                break
+        else:
             break
         gone.append({"cause": world[k], **CAUSES[world[k]].to_json(fit["magnitudes"][world[k]]),
                      "rmse_N": rmse_n(refit["left"]), "with_rmse_N": rmse_n(fit["left"])})

@@ -60,8 +60,9 @@ def test_the_report_writes_a_registered_causes_change_into_the_extended_scenario
     diagnosis = LogDiagnosis(
         ["log-1", "log-2"], [1.0, 1.0], [TOY.name], [],
         {"params": magnitudes_json({TOY.name: math.log(3.0)})},
-        {"baseline": 2.0, "extended": 1.0}, [], [], {}, {"replays": 9, "replay_wall_s": 1.0,
-                                                         "fit_s": 0.1, "total_s": 1.1})
+        {"baseline": 2.0, "extended": 1.0}, [], [], {},
+        {"replays": 9, "replays_by_round": {"screening": 9}, "replay_wall_s": 1.0, "fit_s": 0.1,
+         "total_s": 1.1})
     write_log_diagnosis(tmp_path / "out", batch, diagnosis, plots=False)
     extended = load_scenario(tmp_path / "out" / SCENARIO)
     assert extended.aponeurosis.damping_n_s_m == pytest.approx(

@@ -197,7 +197,8 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
                      "rmse_N": 0.52, "with_rmse_N": 0.5}]},
         {"baseline": 2.0, "extended": 1.0}, evidence, [],
         {"baseline": measured + 1.0, "extended": measured + 0.1, "measured": measured},
-        {"replays": 9, "replay_wall_s": 1.0, "fit_s": 0.1, "total_s": 1.1},
+        {"replays": 9, "replays_by_round": {"screening": 9}, "replay_wall_s": 1.0,
+         "fit_s": 0.1, "total_s": 1.1},
         indistinguishable=[Indistinguishable("binding_strength", "tearing_threshold", 1.0, 1.05,
                                              "gripper")])
     written = write_log_diagnosis(tmp_path / "out", batch, diagnosis, plots=True)

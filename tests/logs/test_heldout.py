@@ -47,7 +47,7 @@ class LinearWorld:
         rng = np.random.default_rng(0)
         self.folders = [str(log.folder) for log in batch.logs]
         self.count, self.wall_s, self.cpu_s, self.in_process = 0, 0.0, 0.0, True
-        self.weight, self.progress, self.round = 1.0, None, ""
+        self.weight, self.progress, self.round, self.by_round = 1.0, None, "", {}
         self.batch, self.scales, self.noise_rmse_n = batch, None, 0.0
         measured = [logged_vector([log], EVIDENCE_ROWS)[0] for log in batch.logs]
         forces = [np.arange(m.size) < m.size - EVIDENCE_ROWS for m in measured]
@@ -72,6 +72,7 @@ class LinearWorld:
 
     def run(self, jobs: list[tuple[int, dict[str, float]]]) -> list[np.ndarray]:
         self.count += len(jobs)
+        self.by_round[self.round] = self.by_round.get(self.round, 0) + len(jobs)
         return [(self.base[i] + self.effect(world, i)) * (1.0 if self.scales is None
                                                           else self.scales[i])
                 for i, world in jobs]
@@ -305,6 +306,36 @@ def test_causes_that_make_up_for_each_other_are_fitted_again_without_the_one_not
     kept, causes = pruned(world, measured, {}, fit, list(at), PARAMS.min_heldout_gain, 2)
     assert causes == ["tearing_threshold"]
     assert kept["magnitudes"]["tearing_threshold"] == pytest.approx(TRUE_MAGNITUDE, rel=0.02)
+
+
+class StandInWorld(LinearWorld):
+    """A world measured with two causes where a third, the bindings' gradient, stands in for
+    most of the stiffness: its pattern is a share of the stiffness' and a little of its own."""
+
+    truth: ClassVar[dict[str, float]] = {"tearing_threshold": TRUE_MAGNITUDE,
+                                         "tissue_stiffness": TRUE_MAGNITUDE}
+
+    def __init__(self, batch: LogBatch, workers: int, cluster: object = None) -> None:
+        rng = np.random.default_rng(1)
+        super().__init__(batch, workers, cluster)
+        self.patterns["binding_gradient"] = [
+            0.8 * stiffness + 0.2 * rng.normal(size=stiffness.size) * (stiffness != 0)
+            for stiffness in self.patterns["tissue_stiffness"]]
+
+
+def test_a_cause_standing_in_for_another_goes_though_it_looks_needed_most() -> None:
+    world = StandInWorld(BATCH, 1)
+    at = {"tearing_threshold": TRUE_MAGNITUDE, "tissue_stiffness": 0.2, "binding_gradient": 0.375}
+    measured, fit = _fitted_at(world, at)
+    # Taken out without a fit, the stiffness costs least: the gradient makes up for it.
+    without = [rmse_n(measured - world.batches([{c: m for c, m in at.items() if c != gone}])[0])
+               for gone in at]
+    assert int(np.argmin(without)) == list(at).index("tissue_stiffness")
+    kept, causes = pruned(world, measured, {}, fit, list(at), PARAMS.min_heldout_gain, 2)
+    assert causes == ["tearing_threshold", "tissue_stiffness"]
+    assert [gone["cause"] for gone in kept["pruned"]] == ["binding_gradient"]
+    for cause in causes:
+        assert kept["magnitudes"][cause] == pytest.approx(TRUE_MAGNITUDE, rel=0.02)
 
 
 def test_causes_the_replays_need_are_all_kept() -> None:

@@ -138,6 +138,8 @@ def test_imported_cell_logs_are_diagnosed_as_the_originals(tmp_path: Path) -> No
         assert main(["diagnose-logs", *logs, "--out", str(tmp_path / out), *common]) == 0
     first, second = (json.loads((tmp_path / out / "diagnosis.json").read_text())
                      for out in "ab")
+    rounds = first["timing"]["replays_by_round"]  # where the replays went, every one
+    assert next(iter(rounds)) == "screening" and sum(rounds.values()) == first["timing"]["replays"]
     for result in (first, second):
         del result["logs"], result["timing"]
     assert _numbers(first) == pytest.approx(_numbers(second), rel=1e-9, abs=1e-12, nan_ok=True)

@@ -110,7 +110,8 @@ def test_a_log_magnitude_past_any_factor_and_an_unpredicted_score_are_null(
           "linearised": True, "params": unbounded}],
         {"params": {}, "rmse_N": 1.0}, {"baseline": 2.0, "extended": 2.0}, {}, [],
         {"baseline": measured + 1.0, "extended": measured + 1.0, "measured": measured},
-        {"replays": 9, "replay_wall_s": 1.0, "fit_s": 0.1, "total_s": 1.1})
+        {"replays": 9, "replays_by_round": {"screening": 9}, "replay_wall_s": 1.0,
+         "fit_s": 0.1, "total_s": 1.1})
     write_log_diagnosis(tmp_path / "out", batch, diagnosis, plots=False)
     (candidate,) = json.loads((tmp_path / "out" / "diagnosis.json").read_text())["candidates"]
     assert candidate["params"] == {"magnitude": 1e3, "factor": None,
