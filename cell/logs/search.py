@@ -142,10 +142,12 @@ def dropped(world: list[str], fit: Fit, left: np.ndarray, without_left: np.ndarr
 
 
 def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
-                 start: Fit, world: list[str], jacobian: np.ndarray, steps: int) -> Fit:
+                 start: Fit, world: list[str], jacobian: np.ndarray, steps: int,
+                 stretched: bool = True) -> Fit:
     """Gauss-Newton on ``world``'s magnitudes from ``start`` (a cause it lacks at 0), with
-    ``jacobian``'s columns as their signatures there, each step replayed, then
-    :func:`stretch`: the best replayed fit, ``start`` itself where none beats it."""
+    ``jacobian``'s columns as their signatures there, each step replayed, then (where
+    ``stretched``) :func:`stretch`: the best replayed fit, ``start`` itself where none beats
+    it."""
     best = start
     magnitudes = np.array([start["magnitudes"].get(c, 0.0) for c in world])
     simulated = start["simulated"]
@@ -162,7 +164,9 @@ def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
         trial = replayed_fit(measured, simulated, at, offsets)
         if rmse_n(trial["left"]) < rmse_n(best["left"]):
             best = {**trial, "jacobian": jacobian}
-    return stretch(replayer, measured, offsets, world, best) if best is not start else start
+    if best is start or not stretched:
+        return best
+    return stretch(replayer, measured, offsets, world, best)
 
 
 def mirrored(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
@@ -219,8 +223,9 @@ def pruned(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarr
     """``fit`` and ``world`` less each cause that does not earn its place in the replays
     (backward elimination): of two or more causes, each is taken out in turn (first the one
     whose removal, the others kept where fitted, leaves the replayed error least), the others
-    fitted again without it (:func:`gauss_newton`), and the first whose refit's error is
-    within ``min_gain`` of ``fit``'s goes; then again, one at a time. What went is listed
+    fitted again without it (:func:`gauss_newton`'s steps; its :func:`stretch` only once one
+    goes), and the first whose refit's error is within ``min_gain`` of ``fit``'s goes; then
+    again, one at a time. What went is listed
     under the fit's ``pruned``. The selection is linearised at the lab's world, where a cause
     beside the one the logs show can take a share of its effect, and a replayed fit can then
     end where the two make up for each other (a fibre turned short of the truth beside a
@@ -236,11 +241,12 @@ def pruned(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarr
         for k, trial in trials:
             rest, jacobian = world[:k] + world[k + 1:], np.delete(fit["jacobian"], k, axis=1)
             refit = gauss_newton(replayer, measured, offsets, {**trial, "jacobian": jacobian},
-                                 rest, jacobian, steps)
+                                 rest, jacobian, steps, stretched=False)
             if (1.0 - min_gain) * rmse_n(refit["left"]) <= rmse_n(fit["left"]):
                 break
         else:
             break
+        refit = stretch(replayer, measured, offsets, rest, refit)
         gone.append({"cause": world[k], **CAUSES[world[k]].to_json(fit["magnitudes"][world[k]]),
                      "rmse_N": rmse_n(refit["left"]), "with_rmse_N": rmse_n(fit["left"])})
         fit, world = refit, rest
