@@ -225,13 +225,13 @@ def pruned(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarr
     whose removal, the others kept where fitted, leaves the replayed error least), the others
     fitted again without it (:func:`gauss_newton`'s steps; its :func:`stretch` only once one
     goes), and the first whose refit's error is within ``min_gain`` of ``fit``'s goes; then
-    again, one at a time. What went is listed
-    under the fit's ``pruned``. The selection is linearised at the lab's world, where a cause
-    beside the one the logs show can take a share of its effect, and a replayed fit can then
-    end where the two make up for each other (a fibre turned short of the truth beside a
-    muscle a little stiffer); the bar is the one every cause meets to be named. Taken out
-    without a refit, a cause that makes up for another fitted short looks needed most, so
-    every cause is tried, not only the cheapest to take out."""
+    again, one at a time. What went is listed under the fit's ``pruned``. The selection is
+    linearised at the lab's world, where a cause beside the one the logs show can take a
+    share of its effect, and a replayed fit can then end where the two make up for each other
+    (a fibre turned short of the truth beside a muscle a little stiffer); the bar is the one
+    every cause meets to be named. Taken out without a refit, a cause that makes up for
+    another fitted short looks needed most, so every cause is tried, not only the cheapest
+    to take out."""
     gone, replayer.round = [], "pruning"
     while len(world) > 1 and "jacobian" in fit:
         worlds = [{c: m for c, m in fit["magnitudes"].items() if c != cause} for cause in world]
