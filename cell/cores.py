@@ -27,8 +27,11 @@ def usable_cores() -> int:
     return os.cpu_count() or 1
 
 
-def default_workers() -> int:
-    """``MUSCLECELL_WORKERS`` where set, else :func:`usable_cores`.
+def default_workers(at_once: int = 1) -> int:
+    """``MUSCLECELL_WORKERS`` where set, else the more of :func:`usable_cores` and
+    ``at_once``: the tasks each step of the work waits for together (a batch's logs, replayed
+    in one world). Processes beyond the cores share them, and such a step then ends when its
+    CPU is spent, not a round of replays later.
 
     Raises:
         InputError: the variable is set to anything but a whole number >= 1.
@@ -42,7 +45,7 @@ def default_workers() -> int:
     """
     text = os.environ.get(WORKERS_VARIABLE, "").strip()
     if not text:
-        return usable_cores()
+        return max(usable_cores(), at_once)
     if not text.isdigit() or int(text) < 1:
         raise InputError(None, WORKERS_VARIABLE,
                          f"must be a whole number >= 1, got {text!r}")

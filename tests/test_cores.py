@@ -25,3 +25,12 @@ def test_a_value_that_is_no_count_is_named(monkeypatch: pytest.MonkeyPatch, text
     monkeypatch.setenv(WORKERS_VARIABLE, text)
     with pytest.raises(InputError, match=f"{WORKERS_VARIABLE}: must be a whole number"):
         default_workers()
+
+
+def test_work_whose_steps_wait_on_several_tasks_runs_one_worker_each(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(WORKERS_VARIABLE, raising=False)
+    assert default_workers(usable_cores() + 2) == usable_cores() + 2
+    assert default_workers(1) == usable_cores()
+    monkeypatch.setenv(WORKERS_VARIABLE, "1")
+    assert default_workers(3) == 1

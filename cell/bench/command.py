@@ -307,7 +307,7 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
                                          workers=workers, progress=_progress(args),
                                          by_specimen=args.by_specimen)
     elif args.logs:
-        report = _log_bench(args, kind, count, workers)
+        report = _log_bench(args, kind, count)
     elif args.planes is not None:
         from cell.bench import planesets
 
@@ -339,19 +339,20 @@ def _diagnose(args: argparse.Namespace, json_path: Path, scenario: Path | None) 
     return 0
 
 
-def _log_bench(args: argparse.Namespace, kind: str, count: int, workers: int
-               ) -> dict[str, Any]:
-    """The log batches' bench, its replays here (``workers`` processes) or, with
+def _log_bench(args: argparse.Namespace, kind: str, count: int) -> dict[str, Any]:
+    """The log batches' bench, its replays here (``--workers`` processes) or, with
     ``--address``, on that Ray cluster (joined once, before the first batch is drawn)."""
     from contextlib import nullcontext
 
     from cell.bench import diagnose_logs
     from cell.scale.command import log_cluster
+    from cell.synthetic.logs import LOG_COUNT
 
     if args.scenario_keys:
         kind = "key-pairs" if kind == "pairs" else "keys"
     cluster = None if args.address is None else log_cluster(args.workers, args.address)
-    asked = workers if cluster is None else args.workers  # a cluster's: None, all of it
+    # A cluster's: None, all of it; here at least one a log (cell.cores.default_workers).
+    asked = args.workers if cluster is not None else args.workers or default_workers(LOG_COUNT)
     params = (diagnose_logs.LogBenchParams.quick(asked) if args.quick
               else diagnose_logs.LogBenchParams(workers=asked))
     with cluster or nullcontext() as pool:

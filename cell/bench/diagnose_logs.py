@@ -90,8 +90,8 @@ class LogBenchParams:
     Attributes:
         base: the scenario the batches are drawn on.
         end_s: every episode (and so every log) cut short here, s (None: whole).
-        workers: replays side by side (None: one per core; on a cluster, as many as it
-            takes).
+        workers: replays side by side (None: one per core, at least one a log; on a cluster,
+            as many as it takes).
 
     Example:
         >>> LogBenchParams.quick(workers=2).end_s
@@ -198,7 +198,7 @@ def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
     measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     less = [{k: v for k, v in changes.items() if k != c} for c in changes] if len(changes) > 1 \
         else []
-    with Replayer(batch, workers or default_workers(), cluster) as replayer:
+    with Replayer(batch, workers or default_workers(len(batch.logs)), cluster) as replayer:
         vectors = ([lab] if lab is not None else []) + replayer.batches(
             [{}] * (lab is None) + [dict(changes), *less])
     errors = [math.inf if v is None else rmse_n((measured - v)[rows.force]) for v in vectors]

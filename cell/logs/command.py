@@ -48,8 +48,8 @@ def add_log_diagnosis(commands: argparse._SubParsersAction) -> argparse.Argument
     add_out(parser, "write diagnosis.json, extended-material.toml, extended-scenario.toml "
             "and report.md (with plots) into this folder", required=True, folder=True)
     parser.add_argument("--workers", type=int, help="replays side by side (default: one "
-                        "per core, or MUSCLECELL_WORKERS; with --address, the whole "
-                        "cluster)")
+                        "per core and at least one per log, or MUSCLECELL_WORKERS; with "
+                        "--address, the whole cluster)")
     parser.add_argument("--causes", nargs="+", metavar="CAUSE",
                         help="screen only these world causes (default: every one that "
                         "applies)")

@@ -78,8 +78,8 @@ class LogDiagnosisParams:
     """How the batch diagnosis searches.
 
     Attributes:
-        workers: replays side by side on this machine (None: one per core); on a cluster
-            (:func:`diagnose_logs`'s ``cluster``), its pool says how many.
+        workers: replays side by side on this machine (None: one per core, at least one a
+            log); on a cluster (:func:`diagnose_logs`'s ``cluster``), its pool says how many.
         min_heldout_gain: the share by which a cause must lower the held-out RMSE (linearised
             in the selection; replayed to confirm the world causes, on the logs fitted and
             on each log left out).
@@ -194,7 +194,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     names = [c for c in applicable(batch.scenarios[0])
              if params.causes is None or c in params.causes]
-    workers, noise_n = params.workers or default_workers(), _noise_n(batch)
+    workers, noise_n = params.workers or default_workers(len(batch.logs)), _noise_n(batch)
     started, cpu_started = time.perf_counter(), time.process_time()
     jobs = len(batch.logs) * (sum(len(CAUSES[c].probes(True)) for c in names) + 1)
     with Replayer(batch, min(workers, jobs), cluster) as replayer:

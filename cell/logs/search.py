@@ -148,25 +148,46 @@ def gauss_newton(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
     ``jacobian``'s columns as their signatures there, each step replayed, then (where
     ``stretched``) :func:`stretch`: the best replayed fit, ``start`` itself where none beats
     it."""
-    best = start
-    magnitudes = np.array([start["magnitudes"].get(c, 0.0) for c in world])
-    simulated = start["simulated"]
-    for _ in range(steps + 1):
-        fitted, _ = solve(measured - simulated, {"world": jacobian, **offsets}, None,
-                          fixed(offsets))
-        target = bounded(world, magnitudes + fitted["world"])
-        at = dict(zip(world, target.tolist(), strict=True))
-        (replayed,) = replayer.batches([at])
-        if replayed is None:
-            break
-        jacobian = broyden(jacobian, target - magnitudes, replayed - simulated)
-        magnitudes, simulated = target, replayed
-        trial = replayed_fit(measured, simulated, at, offsets)
-        if rmse_n(trial["left"]) < rmse_n(best["left"]):
-            best = {**trial, "jacobian": jacobian}
+    (best,) = newton_side_by_side(replayer, measured, offsets, [(start, world, jacobian)],
+                                  steps)
     if best is start or not stretched:
         return best
     return stretch(replayer, measured, offsets, world, best)
+
+
+def newton_side_by_side(replayer: Replayer, measured: np.ndarray,
+                        offsets: dict[str, np.ndarray],
+                        starts: list[tuple[Fit, list[str], np.ndarray]], steps: int
+                        ) -> list[Fit]:
+    """:func:`gauss_newton`'s steps (no line search) on each of ``starts`` (a start, its
+    causes, their signatures there), the worlds of each step replayed side by side in one
+    batch: the best replayed fit of each, its start where none beats it. A step waits for
+    the slowest of its replays, so fits that do not wait on each other share the wait."""
+    best = [start for start, _, _ in starts]
+    magnitudes = [np.array([start["magnitudes"].get(c, 0.0) for c in world])
+                  for start, world, _ in starts]
+    simulated = [start["simulated"] for start, _, _ in starts]
+    jacobians = [jacobian for _, _, jacobian in starts]
+    going = list(range(len(starts)))
+    for _ in range(steps + 1):
+        targets = {}
+        for k in going:
+            fitted, _ = solve(measured - simulated[k], {"world": jacobians[k], **offsets},
+                              None, fixed(offsets))
+            targets[k] = bounded(starts[k][1], magnitudes[k] + fitted["world"])
+        worlds = [dict(zip(starts[k][1], targets[k].tolist(), strict=True)) for k in going]
+        replayed = replayer.batches(worlds)
+        for k, at, vector in zip(list(going), worlds, replayed, strict=True):
+            if vector is None:
+                going.remove(k)
+                continue
+            jacobians[k] = broyden(jacobians[k], targets[k] - magnitudes[k],
+                                   vector - simulated[k])
+            magnitudes[k], simulated[k] = targets[k], vector
+            trial = replayed_fit(measured, vector, at, offsets)
+            if rmse_n(trial["left"]) < rmse_n(best[k]["left"]):
+                best[k] = {**trial, "jacobian": jacobians[k]}
+    return best
 
 
 def mirrored(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
@@ -221,31 +242,34 @@ def from_probes(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.
 def pruned(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
            fit: Fit, world: list[str], min_gain: float, steps: int) -> tuple[Fit, list[str]]:
     """``fit`` and ``world`` less each cause that does not earn its place in the replays
-    (backward elimination): of two or more causes, each is taken out in turn (first the one
-    whose removal, the others kept where fitted, leaves the replayed error least), the others
-    fitted again without it (:func:`gauss_newton`'s steps; its :func:`stretch` only once one
-    goes), and the first whose refit's error is within ``min_gain`` of ``fit``'s goes; then
-    again, one at a time. What went is listed under the fit's ``pruned``. The selection is
-    linearised at the lab's world, where a cause beside the one the logs show can take a
-    share of its effect, and a replayed fit can then end where the two make up for each other
-    (a fibre turned short of the truth beside a muscle a little stiffer); the bar is the one
-    every cause meets to be named. Taken out without a refit, a cause that makes up for
-    another fitted short looks needed most, so every cause is tried, not only the cheapest
-    to take out."""
+    (backward elimination): of two or more causes, each is taken out in turn, the others
+    fitted again without it from where ``fit`` holds them (:func:`newton_side_by_side`), and
+    of those whose refit's error comes within ``min_gain`` of ``fit``'s, the one whose refit
+    is closest goes (:func:`stretch` then runs on it); then again, one at a time. What went
+    is listed under the fit's ``pruned``. The selection is linearised at the lab's world,
+    where a cause beside the one the logs show can take a share of its effect, and a replayed
+    fit can then end where the two make up for each other (a fibre turned short of the truth
+    beside a muscle a little stiffer); the bar is the one every cause meets to be named.
+    Taken out without a refit, a cause that makes up for another fitted short looks needed
+    most, and where either of two causes could go (stiffer bindings and a higher tearing
+    threshold both carry more load), the world that fits closer without the other stays."""
     gone, replayer.round = [], "pruning"
     while len(world) > 1 and "jacobian" in fit:
         worlds = [{c: m for c, m in fit["magnitudes"].items() if c != cause} for cause in world]
-        trials = sorted(((k, replayed_fit(measured, replayed, at, offsets)) for k, (at, replayed)
-                         in enumerate(zip(worlds, replayer.batches(worlds), strict=True))
-                         if replayed is not None), key=lambda item: rmse_n(item[1]["left"]))
-        for k, trial in trials:
-            rest, jacobian = world[:k] + world[k + 1:], np.delete(fit["jacobian"], k, axis=1)
-            refit = gauss_newton(replayer, measured, offsets, {**trial, "jacobian": jacobian},
-                                 rest, jacobian, steps, stretched=False)
-            if (1.0 - min_gain) * rmse_n(refit["left"]) <= rmse_n(fit["left"]):
-                break
-        else:
+        starts = [(k, replayed_fit(measured, replayed, at, offsets)) for k, (at, replayed)
+                  in enumerate(zip(worlds, replayer.batches(worlds), strict=True))
+                  if replayed is not None]
+        trials = [({**trial, "jacobian": np.delete(fit["jacobian"], k, axis=1)},
+                   world[:k] + world[k + 1:], np.delete(fit["jacobian"], k, axis=1))
+                  for k, trial in starts]
+        refits = newton_side_by_side(replayer, measured, offsets, trials, steps)
+        going = [(rmse_n(refit["left"]), k, refit) for (k, _), refit
+                 in zip(starts, refits, strict=True)
+                 if (1.0 - min_gain) * rmse_n(refit["left"]) <= rmse_n(fit["left"])]
+        if not going:
             break
+        _, k, refit = min(going, key=lambda item: item[0])
+        rest = world[:k] + world[k + 1:]
         refit = stretch(replayer, measured, offsets, rest, refit)
         gone.append({"cause": world[k], **CAUSES[world[k]].to_json(fit["magnitudes"][world[k]]),
                      "rmse_N": rmse_n(refit["left"]), "with_rmse_N": rmse_n(fit["left"])})

@@ -37,9 +37,10 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     residual, its causes and the steps of those the second look adds, kept only where its
     replays lower the error of the logs fitted and of each log left out by ``min_gain`` (a
     share) against ``fit``'s; else ``fit``, saying what was tried (``second_look``). Before
-    the logs left out are replayed, every cause of the larger world must earn its place again
-    (:func:`~cell.logs.search.pruned`): the second look may add a small cause beside the one
-    it finds, or find the one a first cause stood in for."""
+    the logs left out are replayed, the causes added must beat the first fit's refitted
+    without them (:func:`earn_their_place`), then every cause of the larger world must earn
+    its place again (:func:`~cell.logs.search.pruned`): the second look may add a small cause
+    beside the one it finds, or find the one a first cause stood in for."""
     replayer.round = "second look"
     magnitudes = {c: fit["magnitudes"][c] for c in world}
     scatter = replay_scatter(replayer, measured, offsets, magnitudes, names)
@@ -53,7 +54,8 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     if not selected:
         return fit, left, world, []
     shown_by, union = moved["shown_by"], world + selected
-    confirmed = rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"])
+    confirmed = rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"]) and (
+        earn_their_place(replayer, measured, offsets, moved, world, union, min_gain, steps))
     if confirmed:
         moved, union = pruned(replayer, measured, offsets, moved, union, min_gain, steps)
         confirmed = any(c not in world for c in union) and (
@@ -72,6 +74,28 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     return ({**moved, "confirmed": True, "second_look": tried, "replay_scatter": scatter,
              **({"pruned": gone} if gone else {})},
             moved_left, union, [step for step in selection[1:] if step.added in union])
+
+
+def earn_their_place(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
+                     moved: Fit, world: list[str], union: list[str], min_gain: float,
+                     steps: int) -> bool:
+    """Whether the causes the second look adds to ``world`` (``union``: both, fitted at
+    ``moved``) earn their place: ``world``'s causes alone, from where ``moved`` holds them,
+    refitted by Gauss-Newton's steps (:func:`~cell.logs.search.gauss_newton`, no line
+    search), stay more than ``min_gain`` (a share) above ``moved``'s error. A first fit can
+    stop short of its causes' best, and a cause added beside them then only takes up the
+    rest: one refit tells, before the backward elimination refits the world without each of
+    its causes in turn."""
+    replayer.round = "pruning"
+    at = {c: moved["magnitudes"][c] for c in world}
+    (replayed,) = replayer.batches([at])
+    if replayed is None:
+        return True
+    jacobian = moved["jacobian"][:, [union.index(c) for c in world]]
+    refit = gauss_newton(replayer, measured, offsets,
+                         {**replayed_fit(measured, replayed, at, offsets), "jacobian": jacobian},
+                         world, jacobian, steps, stretched=False)
+    return (1.0 - min_gain) * rmse_n(refit["left"]) > rmse_n(moved["left"])
 
 
 def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,

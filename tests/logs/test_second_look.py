@@ -268,3 +268,48 @@ def test_a_fit_as_close_to_the_logs_as_their_sensors_noise_gets_no_second_look()
     out, kept, _ = _second_look_on_the_stiffness(world)
     assert kept == ["tissue_stiffness"] and "second_look" not in out
     assert out["replay_scatter"]["floor_N"] == pytest.approx(10.0, rel=0.01)
+
+
+class ShortWorld(LinearWorld):
+    """A world where a lower tearing threshold acts half like stiffer muscles, and the logs
+    were measured with the muscles stiffer alone."""
+
+    truth: ClassVar[dict[str, float]] = {"tissue_stiffness": TRUE_MAGNITUDE}
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        shared = self.patterns["tissue_stiffness"][log]
+        own = self.patterns["tearing_threshold"][log]
+        threshold = world.get("tearing_threshold", 0.0)
+        return world.get("tissue_stiffness", 0.0) * shared + threshold * 0.5 * (shared + own)
+
+
+def _fit_at(world: LinearWorld, at: dict[str, float], *columns: np.ndarray) -> dict:
+    """The replayed fit of ``world`` at ``at``, with ``columns`` as its causes' signatures."""
+    (replayed,) = world.batches([at])
+    return {**replayed_fit(MEASURED, replayed, at, {}), "jacobian": np.stack(columns, axis=1)}
+
+
+def test_a_cause_that_only_takes_up_what_a_first_fit_left_short_does_not_earn_its_place(
+        ) -> None:
+    # The muscles held at 60 % of their change, the threshold making up part of the rest: the
+    # muscles refitted alone reach the logs, so the threshold is not needed.
+    world = ShortWorld(BATCH, 1)
+    union = ["tissue_stiffness", "tearing_threshold"]
+    shared = np.concatenate(world.patterns["tissue_stiffness"])
+    own = np.concatenate(world.patterns["tearing_threshold"])
+    moved = _fit_at(world, {"tissue_stiffness": 0.6 * TRUE_MAGNITUDE,
+                            "tearing_threshold": 0.8 * TRUE_MAGNITUDE},
+                    shared, 0.5 * (shared + own))
+    before = world.count
+    assert not look.earn_their_place(world, MEASURED, {}, moved, union[:1], union, 0.08, 2)
+    # The world less the threshold, then Gauss-Newton's steps, each a replay of every log.
+    assert world.count - before == (1 + 2 + 1) * len(BATCH.logs)
+
+
+def test_a_cause_the_logs_hold_earns_its_place_beside_the_first_fit() -> None:
+    world = SharingWorld(BATCH, 1)
+    union = ["tissue_stiffness", "tearing_threshold"]
+    shared = np.concatenate(world.patterns["tissue_stiffness"])
+    own = np.concatenate(world.patterns["tearing_threshold"])
+    moved = _fit_at(world, dict(SharingWorld.truth), shared, 2.0 * shared + 0.3 * own)
+    assert look.earn_their_place(world, MEASURED, {}, moved, union[:1], union, 0.08, 2)
