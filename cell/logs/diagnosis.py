@@ -13,12 +13,13 @@ causes selected, each confirmed by replaying the batch (Broyden's update keeps t
 signatures true to the replays), a line search along the fit, and one replay per log left
 out, in the world fitted on the others: unless those lower the held-out error by the gain
 asked, the world's causes are not named (a change that fits the logs it was fitted to but no
-log left out). A confirmed fit gets a second look: the other causes screened again in the
-fitted world, where a cause the first hid may show, and kept on the same terms
-(:mod:`cell.logs.second_look`). The causes that stand are named only where the world they
-make beats the lab's by that gain in the median of nudged replays as well (a separation is
-close to chaotic: :mod:`cell.logs.spread`). Replays run side by side on every core, or on a
-Ray cluster (:mod:`cell.logs.replays`).
+log left out), save where each log they bring closer is the only one asking for them (then
+the nudged replays below judge them). A confirmed fit gets a second look: the other causes
+screened again in the fitted world, where a cause the first hid may show, and kept on the same
+terms (:mod:`cell.logs.second_look`). The causes that stand are named only where the world
+they make beats the lab's by that gain in the median of nudged replays as well (a separation
+is close to chaotic: :mod:`cell.logs.spread`). Replays run side by side on every core, or on
+a Ray cluster (:mod:`cell.logs.replays`).
 """
 
 from __future__ import annotations
@@ -35,7 +36,14 @@ from cell.diagnosis.engine.outcome import force_noise_n
 from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES, SENSOR_OFFSET, applicable, magnitudes_json
 from cell.logs.chaos import chaos_scales, noise_variance
-from cell.logs.evidence import Indistinguishable, LogEvidence, indistinguishable, log_evidence
+from cell.logs.evidence import (
+    Indistinguishable,
+    LogEvidence,
+    candidates,
+    indistinguishable,
+    log_evidence,
+    offset_n,
+)
 from cell.logs.fit import (
     FORCE_CHANNELS,
     Rows,
@@ -46,7 +54,6 @@ from cell.logs.fit import (
     heldout,
     logged_vector,
     rmse_n,
-    solve,
 )
 from cell.logs.outcome import EVIDENCE_ROWS, count_entries, evidence_weight
 from cell.logs.replays import Progress, Replayer, ReplayPool
@@ -64,13 +71,15 @@ from cell.logs.search import (
     pruned,
     replayed_fit,
     screening_worlds,
+    shown_by_one_log,
     signatures,
 )
 from cell.logs.second_look import confirmed_second_look
 from cell.logs.spread import nudged, nudges, spread_checked
 
 #: What a fit says beyond its magnitudes, carried into ``extended``.
-EXTENDED_KEYS = ("dropped", "second_look", "pruned", "spread", "replay_scatter")
+EXTENDED_KEYS = ("dropped", "second_look", "pruned", "spread", "replay_scatter",
+                 "shown_by_one_log")
 
 
 @dataclass(frozen=True)
@@ -215,8 +224,9 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         left = (heldout_replays(replayer, measured, rows, fit, world, offsets, start, without,
                                 params.min_heldout_gain) if fit["confirmed"] else without)
         second: list[Step] = []
-        if world and (not fit["confirmed"] or rmse_n(left)
-                      > (1.0 - params.min_heldout_gain) * rmse_n(without)):
+        fit, unpredicted = _judged_held_out(rows, fit, start, left, without,
+                                            params.min_heldout_gain)
+        if world and (not fit["confirmed"] or unpredicted):
             # Only the offsets stand when the world's causes do not lower the error of the logs
             # they were fitted to, or do but not of each log left out (the change does not
             # carry from one separation to the next): then they are named as dropped.
@@ -239,7 +249,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
     causes = world + ([SENSOR_OFFSET] if offsets else [])
     baseline = [rmse_n(residual[rows.log == i]) for i in range(len(batch.logs))]
     heldout_rmse = {"baseline": rmse_n(residual), "extended": rmse_n(left)}
-    offset_fit = {c.removeprefix(OFFSET): _offset_n(offsets[c], rows, fit["offsets"][c], scale)
+    offset_fit = {c.removeprefix(OFFSET): offset_n(offsets[c], rows, fit["offsets"][c], scale)
                   for c in offsets}
     extended = {"model": "the logs' scenarios with the causes' changes",
                 "params": {**magnitudes_json(fit["magnitudes"]),
@@ -249,7 +259,7 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                 **{key: fit[key] for key in EXTENDED_KEYS if key in fit}}
     return LogDiagnosis(
         [log.name for log in batch.logs], baseline, causes,
-        _candidates(residual, blocks, rows, chosen, scale), extended, heldout_rmse,
+        candidates(residual, blocks, rows, chosen, scale), extended, heldout_rmse,
         log_evidence(residual, blocks, rows, chosen, left),
         steps_json, {"baseline": base / scale, "extended": fit["simulated"] / scale,
                      "measured": measured / scale},
@@ -281,6 +291,20 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
                         params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
             <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}, world
+
+
+def _judged_held_out(rows: Rows, fit: Fit, start: Fit, left: np.ndarray,
+                     without: np.ndarray, min_gain: float) -> tuple[Fit, bool]:
+    """``fit``, and whether the logs left out reject its causes: confirmed on the logs fitted,
+    they do not lower the held-out error (``left``) by ``min_gain`` (a share) against the
+    lab's world (``without``), unless each log they bring closer is the only one that asks
+    for them (:func:`~cell.logs.search.shown_by_one_log`, then said in the fit: the replays'
+    spread judges them)."""
+    if not fit["confirmed"] or rmse_n(left) <= (1.0 - min_gain) * rmse_n(without):
+        return fit, False
+    if shown_by_one_log(rows, fit, start, min_gain):
+        return {**fit, "shown_by_one_log": True}, False
+    return fit, True
 
 
 def _located(replayer: Replayer, measured: np.ndarray, start: Fit, world: list[str],
@@ -347,37 +371,6 @@ def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[st
     blocks.update({OFFSET + ch: rows.resting_offset((measured - base) / scale, ch)
                    * scale[:, None] for ch in FORCE_CHANNELS})
     return measured, base, blocks, outcome_locators(base, names, screened, counts)
-
-
-def _offset_n(column: np.ndarray, rows: Rows, coefficient: np.ndarray,
-              weighing: np.ndarray) -> list[float]:
-    """The offset (N, each component) that an offset's column times ``coefficient`` adds,
-    the column weighed as the samples are (``weighing``: each entry's factor)."""
-    first = [int(np.flatnonzero((column[:, 0] != 0) & (rows.axis == k))[0])
-             if ((column[:, 0] != 0) & (rows.axis == k)).any() else None for k in range(3)]
-    return [0.0 if i is None else float(column[i, 0] * coefficient[0] / weighing[i])
-            for i in first]
-
-
-def _candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
-                chosen: list[str], scale: np.ndarray) -> list[dict[str, Any]]:
-    """Every block screened, alone: its linearised magnitude and held-out RMSE (an offset's
-    in N: :func:`_offset_n` with the weighing ``scale``)."""
-    out = []
-    for name, columns in blocks.items():
-        alone = {name: columns}
-        fitted, _ = solve(residual, alone, None, fixed(alone))
-        entry: dict[str, Any] = {"cause": name.split(":")[0],
-                                 "heldout_rmse_N": rmse_n(heldout(residual, alone, rows,
-                                                                  fixed(alone))),
-                                 "selected": name in chosen, "linearised": True}
-        if name.startswith(OFFSET):
-            entry["params"] = {"channel": name.removeprefix(OFFSET),
-                               "offset_N": _offset_n(columns, rows, fitted[name], scale)}
-        else:
-            entry["params"] = magnitudes_json({name: float(fitted[name][0])})[name]
-        out.append(entry)
-    return out
 
 
 def _steps_json(first: list[Step], second: list[Step]) -> list[dict[str, Any]]:

@@ -17,6 +17,7 @@ import numpy as np
 
 from cell.diagnosis.engine.determined import NOT_PREDICTED, determined
 from cell.diagnosis.engine.outcome import Evidence
+from cell.logs.causes import magnitudes_json
 from cell.logs.fit import FORCE_CHANNELS, Rows, heldout, rmse_n, solve
 from cell.logs.search import OFFSET, fixed
 
@@ -134,3 +135,34 @@ def _differs_most(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Row
     spread = [rmse_n(difference[rows.channel == k]) if np.any(rows.channel == k) else 0.0
               for k in range(len(places))]
     return places[int(np.argmax(spread))]
+
+
+def offset_n(column: np.ndarray, rows: Rows, coefficient: np.ndarray,
+              weighing: np.ndarray) -> list[float]:
+    """The offset (N, each component) that an offset's column times ``coefficient`` adds,
+    the column weighed as the samples are (``weighing``: each entry's factor)."""
+    first = [int(np.flatnonzero((column[:, 0] != 0) & (rows.axis == k))[0])
+             if ((column[:, 0] != 0) & (rows.axis == k)).any() else None for k in range(3)]
+    return [0.0 if i is None else float(column[i, 0] * coefficient[0] / weighing[i])
+            for i in first]
+
+
+def candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
+                chosen: list[str], scale: np.ndarray) -> list[dict[str, Any]]:
+    """Every block screened, alone: its linearised magnitude and held-out RMSE (an offset's
+    in N: :func:`offset_n` with the weighing ``scale``)."""
+    out = []
+    for name, columns in blocks.items():
+        alone = {name: columns}
+        fitted, _ = solve(residual, alone, None, fixed(alone))
+        entry: dict[str, Any] = {"cause": name.split(":")[0],
+                                 "heldout_rmse_N": rmse_n(heldout(residual, alone, rows,
+                                                                  fixed(alone))),
+                                 "selected": name in chosen, "linearised": True}
+        if name.startswith(OFFSET):
+            entry["params"] = {"channel": name.removeprefix(OFFSET),
+                               "offset_N": offset_n(columns, rows, fitted[name], scale)}
+        else:
+            entry["params"] = magnitudes_json({name: float(fitted[name][0])})[name]
+        out.append(entry)
+    return out
