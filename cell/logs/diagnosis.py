@@ -13,8 +13,7 @@ causes selected, each confirmed by replaying the batch (Broyden's update keeps t
 signatures true to the replays), a line search along the fit, and one replay per log left
 out, in the world fitted on the others: unless those lower the held-out error by the gain
 asked, the world's causes are not named (a change that fits the logs it was fitted to but no
-log left out), save where each log they bring closer is the only one asking for them (then
-the nudged replays below judge them). A confirmed fit gets a second look: the other causes
+log left out). A confirmed fit gets a second look: the other causes
 screened again in the fitted world, where a cause the first hid may show, and kept on the same
 terms (:mod:`cell.logs.second_look`). The causes that stand are named only where the world
 they make beats the lab's by that gain in the median of nudged replays as well (a separation
@@ -71,15 +70,13 @@ from cell.logs.search import (
     pruned,
     replayed_fit,
     screening_worlds,
-    shown_by_one_log,
     signatures,
 )
 from cell.logs.second_look import confirmed_second_look
 from cell.logs.spread import nudged, nudges, spread_checked
 
 #: What a fit says beyond its magnitudes, carried into ``extended``.
-EXTENDED_KEYS = ("dropped", "second_look", "pruned", "spread", "replay_scatter",
-                 "shown_by_one_log")
+EXTENDED_KEYS = ("dropped", "second_look", "pruned", "spread", "replay_scatter")
 
 
 @dataclass(frozen=True)
@@ -224,9 +221,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         left = (heldout_replays(replayer, measured, rows, fit, world, offsets, start, without,
                                 params.min_heldout_gain) if fit["confirmed"] else without)
         second: list[Step] = []
-        fit, unpredicted = _judged_held_out(rows, fit, start, left, without,
-                                            params.min_heldout_gain)
-        if world and (not fit["confirmed"] or unpredicted):
+        if world and (not fit["confirmed"] or rmse_n(left)
+                      > (1.0 - params.min_heldout_gain) * rmse_n(without)):
             # Only the offsets stand when the world's causes do not lower the error of the logs
             # they were fitted to, or do but not of each log left out (the change does not
             # carry from one separation to the next): then they are named as dropped.
@@ -291,20 +287,6 @@ def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,
                         params.newton_steps)
     return {**fit, "confirmed": fit is not start and rmse_n(fit["left"])
             <= (1.0 - params.min_heldout_gain) * rmse_n(start["left"])}, world
-
-
-def _judged_held_out(rows: Rows, fit: Fit, start: Fit, left: np.ndarray,
-                     without: np.ndarray, min_gain: float) -> tuple[Fit, bool]:
-    """``fit``, and whether the logs left out reject its causes: confirmed on the logs fitted,
-    they do not lower the held-out error (``left``) by ``min_gain`` (a share) against the
-    lab's world (``without``), unless each log they bring closer is the only one that asks
-    for them (:func:`~cell.logs.search.shown_by_one_log`, then said in the fit: the replays'
-    spread judges them)."""
-    if not fit["confirmed"] or rmse_n(left) <= (1.0 - min_gain) * rmse_n(without):
-        return fit, False
-    if shown_by_one_log(rows, fit, start, min_gain):
-        return {**fit, "shown_by_one_log": True}, False
-    return fit, True
 
 
 def _located(replayer: Replayer, measured: np.ndarray, start: Fit, world: list[str],

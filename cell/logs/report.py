@@ -157,10 +157,6 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) ->
                      f"{gone['rmse_N']:.3f} N without it, {gone['with_rmse_N']:.3f} N with "
                      f"it{read} (a cause named must lower the replayed error by the gain "
                      "asked)")
-    if data["extended"].get("shown_by_one_log"):
-        lines.append("- No log left out predicts the change: each log it brings closer is the "
-                     "only one that asks for it (one log's bindings tore, the others' held "
-                     "either way); the replays' spread judged it")
     lines += _spread_lines(data["extended"])
     t = data["timing"]
     rounds = ", ".join(f"{count} {name}" for name, count in t["replays_by_round"].items())

@@ -348,18 +348,3 @@ def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: F
         correction = sum((offsets[c] @ fitted[c] for c in offsets), np.zeros(measured.size))
         left[mine] = measured[mine] - simulated - correction[mine]
     return left
-
-
-def shown_by_one_log(rows: Rows, fit: Fit, without: Fit, min_gain: float) -> bool:
-    """Whether each log that ``fit`` brings ``min_gain`` (a share) closer than ``without`` is
-    one whose others it does not bring that close (there is at least one): the logs left out
-    (:func:`heldout_replays`) cannot judge such a change, since no log that shows it is
-    predicted from another that shows it (a tearing threshold raised where one log's
-    bindings tore and the others' held either way). The replays' spread then judges it
-    (:mod:`cell.logs.spread`): a change that only lines up one log's chaotic tears does not
-    hold in nudged replays."""
-    def closer(logs: np.ndarray) -> bool:
-        return rmse_n(fit["left"][logs]) <= (1.0 - min_gain) * rmse_n(without["left"][logs])
-
-    shown = [i for i in np.unique(rows.log) if closer(rows.log == i)]
-    return bool(shown) and not any(closer(rows.log != i) for i in shown)

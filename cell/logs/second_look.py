@@ -23,7 +23,6 @@ from cell.logs.search import (
     pruned,
     replayed_fit,
     screening_worlds,
-    shown_by_one_log,
     signatures,
 )
 from cell.logs.spread import replay_scatter
@@ -63,22 +62,17 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
             rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"]))
     moved_left = (heldout_replays(replayer, measured, rows, moved, union, offsets, fit, left,
                                   min_gain) if confirmed else None)
-    one_log = moved_left is not None and rmse_n(moved_left) > (1.0 - min_gain) * rmse_n(
-        left) and shown_by_one_log(rows, moved, fit, min_gain)
-    kept = moved_left is not None and (one_log or rmse_n(moved_left)
-                                       <= (1.0 - min_gain) * rmse_n(left))
+    kept = moved_left is not None and rmse_n(moved_left) <= (1.0 - min_gain) * rmse_n(left)
     tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
              rmse_n(fit["left"]), **determined(
                  "heldout_rmse_N", math.nan if moved_left is None else rmse_n(moved_left),
                  "not replayed: the logs fitted do not confirm the causes"),
-             "without_heldout_rmse_N": rmse_n(left), "shown_by": shown_by, "kept": kept,
-             "shown_by_one_log": one_log}
+             "without_heldout_rmse_N": rmse_n(left), "shown_by": shown_by, "kept": kept}
     if not kept:
         return {**fit, "second_look": tried}, left, world, []
     gone = fit.get("pruned", []) + moved.get("pruned", [])
     return ({**moved, "confirmed": True, "second_look": tried, "replay_scatter": scatter,
-             **({"pruned": gone} if gone else {}),
-             **({"shown_by_one_log": True} if one_log else {})},
+             **({"pruned": gone} if gone else {})},
             moved_left, union, [step for step in selection[1:] if step.added in union])
 
 

@@ -14,16 +14,9 @@ import pytest
 import cell.logs.diagnosis as logdiagnosis
 from cell.logs.batch import LogBatch
 from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
-from cell.logs.fit import logged_vector, rmse_n, scored_step
+from cell.logs.fit import logged_vector, rmse_n
 from cell.logs.outcome import EVIDENCE_ROWS
-from cell.logs.search import (
-    from_probes,
-    heldout_replays,
-    mirrored,
-    pruned,
-    replayed_fit,
-    shown_by_one_log,
-)
+from cell.logs.search import from_probes, heldout_replays, mirrored, pruned, replayed_fit
 from cell.measure.logs import Channel, SeparationLog
 from cell.sim.scenario import Scenario
 
@@ -146,37 +139,6 @@ def test_a_log_left_out_keeps_the_lab_s_world_where_the_others_do_not_ask_for_th
     assert np.array_equal(left[first], lab["left"][first])
     assert rmse_n(fit["left"][first]) < 0.1 * rmse_n(lab["left"][first])
     assert world.count == 3 + 2
-
-
-def test_a_change_that_one_log_alone_shows_is_judged_by_the_replays_spread(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    # Selected (as where its screening replays move every log), it is predicted by no log
-    # left out; its nudged replays fit the first log as well as its own.
-    monkeypatch.setattr(logdiagnosis, "Replayer", OneLogWorld)
-    selection = logdiagnosis.forward_selection
-
-    def with_the_threshold(residual: np.ndarray, blocks: dict, rows: Any, *args: Any
-                           ) -> list:
-        steps = selection(residual, blocks, rows, *args)
-        chosen = {"tearing_threshold": blocks["tearing_threshold"]}
-        return [*steps, scored_step(residual, chosen, "tearing_threshold", rows)]
-
-    monkeypatch.setattr(logdiagnosis, "forward_selection", with_the_threshold)
-    result = diagnose_logs(BATCH, PARAMS).to_json()
-    assert result["causes"] == ["tearing_threshold"]
-    assert result["extended"]["shown_by_one_log"]
-    assert result["extended"]["spread"]["kept"] == ["tearing_threshold"]
-    fitted = result["extended"]["params"]["tearing_threshold"]["magnitude"]
-    assert fitted == pytest.approx(TRUE_MAGNITUDE, rel=0.05)
-
-
-@pytest.mark.parametrize(("closer", "shown"), [((0,), True), ((0, 1), False), ((), False)])
-def test_only_a_change_each_of_whose_logs_is_alone_in_asking_for_it_is_shown_by_one_log(
-        closer: tuple[int, ...], shown: bool) -> None:
-    measured, rows = logged_vector(BATCH.logs, EVIDENCE_ROWS)
-    lab = {"left": np.ones(measured.size)}
-    fit = {"left": np.where(np.isin(rows.log, closer), 0.5, 1.0)}
-    assert shown_by_one_log(rows, fit, lab, PARAMS.min_heldout_gain) is shown
 
 
 class FlatteningWorld(LinearWorld):

@@ -12,7 +12,6 @@ import pytest
 
 import cell.logs.diagnosis as logdiagnosis
 import cell.logs.second_look as look
-from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES
 from cell.logs.diagnosis import diagnose_logs
 from cell.logs.fit import logged_vector, rmse_n
@@ -314,23 +313,3 @@ def test_a_cause_the_logs_hold_earns_its_place_beside_the_first_fit() -> None:
     own = np.concatenate(world.patterns["tearing_threshold"])
     moved = _fit_at(world, dict(SharingWorld.truth), shared, 2.0 * shared + 0.3 * own)
     assert look.earn_their_place(world, MEASURED, {}, moved, union[:1], union, 0.08, 2)
-
-
-class OneLogHidingWorld(HidingWorld):
-    """:class:`HidingWorld` whose threshold shows in the first log alone (the others'
-    bindings far from tearing either way)."""
-
-    def __init__(self, batch: LogBatch, workers: int, cluster: object = None) -> None:
-        super().__init__(batch, workers, cluster)
-        for pattern in self.patterns["tearing_threshold"][1:]:
-            pattern[:] = 0.0
-
-
-def test_a_cause_the_second_look_finds_in_one_log_alone_is_kept_for_the_spread_to_judge(
-        ) -> None:
-    out, kept, _ = _second_look_on_the_stiffness(OneLogHidingWorld(BATCH, 1))
-    assert kept == ["tissue_stiffness", "tearing_threshold"]
-    tried = out["second_look"]
-    # No log left out predicts it: the held-out error stays where it was.
-    assert tried["heldout_rmse_N"] > (1.0 - 0.08) * tried["without_heldout_rmse_N"]
-    assert tried["shown_by_one_log"] and tried["kept"] and out["shown_by_one_log"]
