@@ -13,12 +13,12 @@ causes selected, each confirmed by replaying the batch (Broyden's update keeps t
 signatures true to the replays), a line search along the fit, and one replay per log left
 out, in the world fitted on the others: unless those lower the held-out error by the gain
 asked, the world's causes are not named (a change that fits the logs it was fitted to but no
-log left out). A confirmed fit gets a second look: the other causes
-screened again in the fitted world, where a cause the first hid may show, and kept on the same
-terms (:mod:`cell.logs.second_look`). The causes that stand are named only where the world
-they make beats the lab's by that gain in the median of nudged replays as well (a separation
-is close to chaotic: :mod:`cell.logs.spread`). Replays run side by side on every core, or on
-a Ray cluster (:mod:`cell.logs.replays`).
+log left out). A confirmed fit gets a second look: the other causes screened again in the
+fitted world, where a cause the first hid may show, and kept on the same terms
+(:mod:`cell.logs.second_look`). The causes that stand are named only where the world they
+make beats the lab's by that gain in the median of nudged replays as well (a separation is
+close to chaotic: :mod:`cell.logs.spread`). Replays run side by side on every core, or on a
+Ray cluster (:mod:`cell.logs.replays`).
 """
 
 from __future__ import annotations

@@ -138,7 +138,7 @@ def _differs_most(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Row
 
 
 def offset_n(column: np.ndarray, rows: Rows, coefficient: np.ndarray,
-              weighing: np.ndarray) -> list[float]:
+             weighing: np.ndarray) -> list[float]:
     """The offset (N, each component) that an offset's column times ``coefficient`` adds,
     the column weighed as the samples are (``weighing``: each entry's factor)."""
     first = [int(np.flatnonzero((column[:, 0] != 0) & (rows.axis == k))[0])
@@ -148,7 +148,7 @@ def offset_n(column: np.ndarray, rows: Rows, coefficient: np.ndarray,
 
 
 def candidates(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
-                chosen: list[str], scale: np.ndarray) -> list[dict[str, Any]]:
+               chosen: list[str], scale: np.ndarray) -> list[dict[str, Any]]:
     """Every block screened, alone: its linearised magnitude and held-out RMSE (an offset's
     in N: :func:`offset_n` with the weighing ``scale``)."""
     out = []
