@@ -259,8 +259,8 @@ def pruned(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarr
         starts = [(k, replayed_fit(measured, replayed, at, offsets)) for k, (at, replayed)
                   in enumerate(zip(worlds, replayer.batches(worlds), strict=True))
                   if replayed is not None]
-        trials = [({**trial, "jacobian": np.delete(fit["jacobian"], k, axis=1)},
-                   world[:k] + world[k + 1:], np.delete(fit["jacobian"], k, axis=1))
+        rests = {k: np.delete(fit["jacobian"], k, axis=1) for k, _ in starts}
+        trials = [({**trial, "jacobian": rests[k]}, world[:k] + world[k + 1:], rests[k])
                   for k, trial in starts]
         refits = newton_side_by_side(replayer, measured, offsets, trials, steps)
         going = [(rmse_n(refit["left"]), k, refit) for (k, _), refit
