@@ -322,7 +322,9 @@ def summary(rows: Sequence[dict[str, Any]], kind: str) -> dict[str, Any]:
     time_entries, time_targets = time_summary([r["seconds"] for r in rows],
                                               TARGET_SECONDS_MEDIAN, TARGET_SECONDS_PER_BATCH)
     cpu = [r["cpu_seconds"] for r in rows]
-    split = {key: statistics.median(r["split"][key] for r in rows) for key in rows[0]["split"]}
+    split = {key: statistics.median(r["split"][key] for r in rows)
+             for key in rows[0]["split"] if key != "replays_by_round"}
+    rounds = dict.fromkeys(name for r in rows for name in r["split"]["replays_by_round"])
     entries: dict[str, Any] = {
         **{name.replace("per_set", "per_batch"): entry for name, entry in time_entries.items()},
         "cpu_seconds_per_batch_median": {"value": statistics.median(cpu), "unit": "s"},
@@ -330,6 +332,9 @@ def summary(rows: Sequence[dict[str, Any]], kind: str) -> dict[str, Any]:
         **{f"{key}_median": {"value": value, "unit": "s"} for key, value in split.items()},
         "replays_per_batch_median": {"value": statistics.median(r["replays"] for r in rows),
                                      "unit": "replays"},
+        **{f"replays_{name.replace(' ', '_')}_median": {
+            "value": statistics.median(r["split"]["replays_by_round"].get(name, 0) for r in rows),
+            "unit": "replays"} for name in rounds},
         "simulation_seconds_per_batch_median": {
             "value": statistics.median(r["simulation_seconds"] for r in rows), "unit": "s"},
         "correct": {"value": correct, "unit": "fraction",

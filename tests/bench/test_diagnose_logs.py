@@ -30,7 +30,7 @@ from cell.synthetic.logs import world_changes
 
 
 def _row(truth: tuple[str, ...], named: tuple[str, ...], gain: float, seconds: float,
-         within: bool = True) -> dict:
+         within: bool = True, rounds: dict[str, int] | None = None) -> dict:
     return {"truth": {"causes": list(truth)}, "causes": list(named),
             "correct": sorted(truth) == sorted(named), "magnitude_within": within,
             "visible": dict.fromkeys(truth, True),
@@ -38,7 +38,8 @@ def _row(truth: tuple[str, ...], named: tuple[str, ...], gain: float, seconds: f
             "gain": gain, "seconds": seconds, "cpu_seconds": seconds / 2, "replays": 39,
             "simulation_seconds": 60.0,
             "split": {"replay_wall_s": seconds - 2.0, "fit_wall_s": 2.0,
-                      "replay_cpu_s": seconds / 2 - 1.0, "fit_cpu_s": 1.0}}
+                      "replay_cpu_s": seconds / 2 - 1.0, "fit_cpu_s": 1.0,
+                "replays_by_round": rounds or {"screening": 30, "fit": 9}}}
 
 
 def test_the_single_batches_cycle_through_the_log_table_and_none() -> None:
@@ -90,6 +91,17 @@ def test_the_summary_counts_rates_medians_and_the_confusion() -> None:
     assert not targets["none_named_without_cause"]["pass"]
     assert report["confusion"]["none"] == {"none": 1, "sensor_offset": 1}
     assert "| tissue_stiffness |" in report["markdown"]
+
+
+def test_the_replays_of_each_round_have_their_median_over_the_batches() -> None:
+    rows = [_row(("binding_strength",), ("binding_strength",), 0.8, 100.0),
+            _row((), (), 0.0, 90.0, rounds={"screening": 40, "second look": 12}),
+            _row((), (), 0.0, 80.0, rounds={"screening": 50, "second look": 20, "fit": 3})]
+    entries = summary(rows, "single")["entries"]
+    assert entries["replays_screening_median"] == {"value": 40, "unit": "replays"}
+    assert entries["replays_fit_median"]["value"] == 3
+    assert entries["replays_second_look_median"]["value"] == 12
+    assert all(isinstance(entry["value"], int | float) for entry in entries.values())
 
 
 def test_a_change_the_logs_do_not_show_is_counted_apart() -> None:
