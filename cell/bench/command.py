@@ -358,7 +358,7 @@ def _log_bench(args: argparse.Namespace, kind: str, count: int) -> dict[str, Any
     with cluster or nullcontext() as pool:
         return diagnose_logs.run_log_diagnose_bench(
             diagnose_logs.bench_seeds(count, kind, args.first_seed), kind, params,
-            progress=_progress(args), cluster=pool)
+            progress=_progress(args), cluster=pool, replay_bar=not args.quiet)
 
 
 _SUITES: dict[str, Callable[[argparse.Namespace, Path, Path | None], int]] = {

@@ -51,11 +51,12 @@ from cell.bench.diagnose import (
 )
 from cell.cores import default_workers
 from cell.logs.causes import SENSOR_OFFSET, table_causes
+from cell.progress import progress_bar
 from cell.sim.examples import SCENARIOS
 
 if TYPE_CHECKING:
     from cell.logs.batch import LogBatch
-    from cell.logs.replays import ReplayPool
+    from cell.logs.replays import Progress, ReplayPool
 
 Kind = Literal["single", "pairs", "keys", "key-pairs"]
 KINDS: tuple[Kind, ...] = ("single", "pairs", "keys", "key-pairs")
@@ -244,9 +245,11 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
 
 
 def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
-            cluster: ReplayPool | None = None) -> dict[str, Any]:
+            cluster: ReplayPool | None = None, progress: Progress | None = None
+            ) -> dict[str, Any]:
     """Draw, write, read and diagnose the batch of ``seed`` (its replays on ``cluster``, an
-    entered :class:`cell.scale.pool.RunPool`, where given): its row of the bench."""
+    entered :class:`cell.scale.pool.RunPool`, where given; the diagnosis's replays shown on
+    ``progress``): its row of the bench."""
     from cell.bench.keyworlds import write_key_change_batch
     from cell.logs.batch import read_log_batch
     from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
@@ -257,7 +260,7 @@ def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
     truth = write(folder, seed, params.base, expected, end_s=params.end_s)
     batch = read_log_batch([folder / f"log-{k}" for k in range(1, LOG_COUNT + 1)])
     search = LogDiagnosisParams(workers=params.workers)
-    diagnosis = diagnose_logs(batch, search, cluster)
+    diagnosis = diagnose_logs(batch, search, cluster, progress)
     seen = visibility(batch, world_changes(expected, truth.magnitudes), params.workers,
                       search.min_heldout_gain, cluster, diagnosis.simulated["baseline"])
     return _batch_row(seed, expected, truth, diagnosis.to_json(), MAGNITUDE_TOLERANCE[kind],
@@ -267,9 +270,12 @@ def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
 def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
                            params: LogBenchParams | None = None,
                            progress: Callable[[str], None] | None = None,
-                           cluster: ReplayPool | None = None) -> dict[str, Any]:
+                           cluster: ReplayPool | None = None,
+                           replay_bar: bool = False) -> dict[str, Any]:
     """Draw, write, read and diagnose one hidden-effect log batch of ``kind`` per seed
-    (module docstring); the replays on ``cluster`` where given (:func:`run_one`).
+    (module docstring); the replays on ``cluster`` where given (:func:`run_one`). Each
+    batch's line goes to ``progress``; ``replay_bar``: its replays, done of planned, and the
+    round on a bar on standard error while it runs.
 
     Raises:
         MeasurementError: no seed, or an unknown kind.
@@ -279,7 +285,9 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
     rows = []
     with tempfile.TemporaryDirectory(prefix="bench-log-diagnose-") as scratch:
         for seed in seeds:
-            row = run_one(Path(scratch) / f"batch-{seed}", seed, kind, params, cluster)
+            with progress_bar("replay", quiet=not replay_bar, total=0) as bar:
+                row = run_one(Path(scratch) / f"batch-{seed}", seed, kind, params, cluster,
+                              bar)
             rows.append(row)
             if progress is not None:
                 split = row["split"]

@@ -3,6 +3,7 @@ scores a fitted magnitude, its summary, the requests it refuses, and (slow) a qu
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -12,7 +13,6 @@ from cell.bench.diagnose_logs import (
     BASE_SCENARIO,
     FIRST_SEED,
     TUNING_SEEDS,
-    LogBenchParams,
     bench_seeds,
     hidden,
     log_pairs,
@@ -156,8 +156,14 @@ def test_the_command_refuses_bad_flags(tmp_path: Path, flags: list[str], named: 
 
 
 @pytest.mark.slow
-def test_a_quick_bench_diagnoses_a_batch_and_splits_its_time() -> None:
-    report = run_log_diagnose_bench(bench_seeds(1), "single", LogBenchParams.quick(workers=2))
+def test_a_quick_bench_diagnoses_a_batch_shows_its_replays_and_splits_its_time(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "bench.json"
+    assert main(["bench", "diagnose", "--logs", "--quick", "--seeds", "1", "--workers", "2",
+                 "--out", str(out)]) == 0
+    shown = capsys.readouterr().err
+    assert "screening" in shown and "replay" in shown and f"seed {bench_seeds(1)[0]}:" in shown
+    report = json.loads(out.read_text())
     (batch,) = report["batches"]
     assert batch["truth"]["causes"] == ["binding_strength"] and report["quick"]
     assert batch["replays"] >= 3 * (1 + 2)
