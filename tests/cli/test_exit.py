@@ -74,6 +74,22 @@ renderer.render()
 assert EGL.eglGetCurrentContext()
 """
 
+#: Two OpenMP runtimes in one process, each with its threads alive at exit: coacd's own
+#: libgomp, loaded first by a CAD part's decomposition, then torch's (the suite does both in one
+#: session; a library's copy of a runtime is torn down beside the other's).
+TWO_OPENMPS = """
+import coacd
+import trimesh
+
+mesh = trimesh.creation.icosphere(subdivisions=2)
+coacd.set_log_level("error")
+coacd.run_coacd(coacd.Mesh(mesh.vertices, mesh.faces), threshold=0.05, seed=1)
+
+import torch
+
+torch.ones(256, 256) @ torch.ones(256, 256)
+"""
+
 #: Rendering and recording, then a local Ray started and stopped (its gRPC threads outlive
 #: ray.shutdown).
 WITH_RAY = RENDER_AND_RECORD + """
@@ -109,6 +125,12 @@ def test_a_renderer_left_current_beside_two_llvms_exits_cleanly() -> None:
     if os.environ.get("MUJOCO_GL", "egl") != "egl":
         pytest.skip("the EGL display's teardown at exit is the case checked")
     _exits_cleanly(RENDERER_LEFT_CURRENT)
+
+
+def test_two_openmp_runtimes_exit_cleanly() -> None:
+    pytest.importorskip("torch")
+    pytest.importorskip("coacd")
+    _exits_cleanly(TWO_OPENMPS)
 
 
 @pytest.mark.slow
