@@ -178,35 +178,41 @@ def magnitude_error(cause: str, truth: Mapping[str, Any], offset_channel: str,
 
 
 def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
-               min_gain: float, cluster: ReplayPool | None = None,
-               lab: np.ndarray | None = None) -> dict[str, Any]:
+               min_gain: float, cluster: ReplayPool | None = None) -> dict[str, Any]:
     """Which of the hidden world ``changes`` (cause -> magnitude, as
     :func:`~cell.logs.causes.changed_world` takes them) the batch shows at all: the batch is
     replayed in the lab's world, in the true one and, of two or more changes, in the true one
-    less each. A change whose removal leaves the force RMSE within ``min_gain`` of the true
-    world's (for one change alone: the lab's world within that share of the true one) is not
-    in these logs, and a diagnosis that asks a cause to lower the error by that share cannot
-    name it (a tearing threshold raised where nothing tore either way). The replays run as the
-    diagnosis's do (``workers``, ``cluster``); ``lab``, the batch's vector in the lab's world
-    where a diagnosis replayed it already, is not replayed again. Returns ``visible`` (cause ->
-    bool) and the force RMSE of the lab's and the true world, N."""
+    less each, every world also nudged as the diagnosis's spread check nudges it
+    (:func:`~cell.logs.spread.nudged_replays`), and judged by the median force RMSE of its
+    replays: one replay is one draw of the tears' chaos, and the true world's own can land
+    far nearer the logs, or farther, than its nudged ones. A change whose removal leaves
+    that median within ``min_gain`` of the true world's (for one change alone: the lab's
+    world within that share of the true one) is not in these logs, and a diagnosis that asks
+    a cause to lower the error by that share cannot name it (a tearing threshold raised where
+    nothing tore either way). The replays run as the diagnosis's do (``workers``,
+    ``cluster``). Returns ``visible`` (cause -> bool), the medians of the lab's and the true
+    world, N, and the replays it took."""
+    from cell.logs.causes import applicable
     from cell.logs.fit import logged_vector, rmse_n
     from cell.logs.outcome import EVIDENCE_ROWS
     from cell.logs.replays import Replayer
+    from cell.logs.spread import nudged_replays
 
     if not changes:
-        return {"visible": {}, "lab_rmse_N": None, "truth_rmse_N": None}
+        return {"visible": {}, "lab_rmse_N": None, "truth_rmse_N": None, "replays": 0}
     measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
     less = [{k: v for k, v in changes.items() if k != c} for c in changes] if len(changes) > 1 \
         else []
+    worlds = [{}, dict(changes), *less]
     with Replayer(batch, workers or default_workers(len(batch.logs)), cluster) as replayer:
-        vectors = ([lab] if lab is not None else []) + replayer.batches(
-            [{}] * (lab is None) + [dict(changes), *less])
-    errors = [math.inf if v is None else rmse_n((measured - v)[rows.force]) for v in vectors]
+        replayed = nudged_replays(replayer, worlds, list(applicable(batch.scenarios[0])))
+        replays = replayer.count
+    errors = [float(np.median([rmse_n((measured - v)[rows.force]) for v in vectors]))
+              if vectors else math.inf for vectors in replayed]
     without = errors[2:] if less else errors[:1]
     return {"visible": {c: errors[1] <= (1.0 - min_gain) * error
                         for c, error in zip(changes, without, strict=True)},
-            "lab_rmse_N": errors[0], "truth_rmse_N": errors[1]}
+            "lab_rmse_N": errors[0], "truth_rmse_N": errors[1], "replays": replays}
 
 
 def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str, Any],
@@ -231,7 +237,7 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "magnitude_within": bool(expected) and all(e <= tolerance
                                                        for e in errors.values()),
             "visible": seen["visible"], "lab_rmse_N": seen["lab_rmse_N"],
-            "truth_rmse_N": seen["truth_rmse_N"],
+            "truth_rmse_N": seen["truth_rmse_N"], "visibility_replays": seen["replays"],
             "correct_where_visible": shown <= named <= set(expected),
             "gain": float(data["gain"]),
             "heldout_rmse_N": {"baseline": data["baseline"]["heldout_rmse_N"],
@@ -262,7 +268,7 @@ def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
     search = LogDiagnosisParams(workers=params.workers)
     diagnosis = diagnose_logs(batch, search, cluster, progress)
     seen = visibility(batch, world_changes(expected, truth.magnitudes), params.workers,
-                      search.min_heldout_gain, cluster, diagnosis.simulated["baseline"])
+                      search.min_heldout_gain, cluster)
     return _batch_row(seed, expected, truth, diagnosis.to_json(), MAGNITUDE_TOLERANCE[kind],
                       seen)
 

@@ -7,6 +7,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cell.bench.diagnose_logs import (
@@ -26,6 +27,11 @@ from cell.bench.keyworlds import write_key_change_batch
 from cell.cli import main
 from cell.errors import MeasurementError
 from cell.logs.batch import read_log_batch
+from cell.logs.causes import applicable
+from cell.logs.fit import logged_vector, rmse_n
+from cell.logs.outcome import EVIDENCE_ROWS
+from cell.logs.replays import Replayer
+from cell.logs.spread import JITTERS, nudged_replays
 from cell.synthetic.logs import world_changes
 
 
@@ -122,6 +128,22 @@ def test_a_change_before_anything_happens_is_not_in_the_logs(tmp_path: Path) -> 
     seen = visibility(batch, world_changes(truth.causes, truth.magnitudes), 1, 0.08)
     assert seen["visible"] == {"tearing_threshold": False}
     assert seen["truth_rmse_N"] == pytest.approx(seen["lab_rmse_N"])
+
+
+def test_visibility_judges_each_world_by_its_nudged_replays(tmp_path: Path) -> None:
+    # One replay is one draw of the tears' chaos: each world is replayed as the spread check
+    # nudges it, and its median error is what counts.
+    truth = write_key_change_batch(tmp_path / "batch", seed=5, base=BASE_SCENARIO,
+                                   causes=("tissue_stiffness",), logs=2, end_s=0.3)
+    batch = read_log_batch([tmp_path / "batch" / "log-1", tmp_path / "batch" / "log-2"])
+    seen = visibility(batch, world_changes(truth.causes, truth.magnitudes), 1, 0.08)
+    measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
+    with Replayer(batch, 1) as replayer:
+        (lab,) = nudged_replays(replayer, [{}], list(applicable(batch.scenarios[0])))
+    errors = [rmse_n((measured - vector)[rows.force]) for vector in lab]
+    assert len(set(errors)) > 1
+    assert seen["lab_rmse_N"] == pytest.approx(float(np.median(errors)))
+    assert seen["replays"] == 2 * (JITTERS + 1) * len(batch.logs)
 
 
 def test_pairs_have_no_magnitude_or_gain_targets() -> None:
