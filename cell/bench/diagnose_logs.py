@@ -17,8 +17,8 @@ Per batch: whether the causes named are exactly the hidden ones; each hidden cau
 magnitude against the truth (:func:`magnitude_error`); the held-out gain; the diagnosis's wall
 and CPU seconds split into the replays' and the fits' (the replays run in worker processes:
 their CPU is the workers'); the seconds of the episodes that made the batch; and which hidden
-changes its logs show at all (:func:`visibility`), with the exact rate where they do beside the
-exact rate (the target).
+changes its logs show at all (:func:`~cell.bench.visibility.visibility`), with the exact rate
+where they do beside the exact rate (the target).
 
 Targets: exact on >= 80 % of single batches and >= 60 % of pairs, the fitted
 magnitude within 20 % of the truth in >= 75 % of the single batches with a cause, none named in
@@ -39,8 +39,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-import numpy as np
-
 from cell.bench.diagnose import (
     cause_label,
     check_request,
@@ -49,13 +47,11 @@ from cell.bench.diagnose import (
     fraction,
     time_summary,
 )
-from cell.cores import default_workers
 from cell.logs.causes import SENSOR_OFFSET, table_causes
 from cell.progress import progress_bar
 from cell.sim.examples import SCENARIOS
 
 if TYPE_CHECKING:
-    from cell.logs.batch import LogBatch
     from cell.logs.replays import Progress, ReplayPool
 
 Kind = Literal["single", "pairs", "keys", "key-pairs"]
@@ -177,48 +173,10 @@ def magnitude_error(cause: str, truth: Mapping[str, Any], offset_channel: str,
     return abs(value - truth[cause]) / max(abs(truth[cause]), 1e-12)
 
 
-def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
-               min_gain: float, cluster: ReplayPool | None = None) -> dict[str, Any]:
-    """Which of the hidden world ``changes`` (cause -> magnitude, as
-    :func:`~cell.logs.causes.changed_world` takes them) the batch shows at all: the batch is
-    replayed in the lab's world, in the true one and, of two or more changes, in the true one
-    less each, every world also nudged as the diagnosis's spread check nudges it
-    (:func:`~cell.logs.spread.nudged_replays`), and judged by the median force RMSE of its
-    replays: one replay is one draw of the tears' chaos, and the true world's own can land
-    far nearer the logs, or farther, than its nudged ones. A change whose removal leaves
-    that median within ``min_gain`` of the true world's (for one change alone: the lab's
-    world within that share of the true one) is not in these logs, and a diagnosis that asks
-    a cause to lower the error by that share cannot name it (a tearing threshold raised where
-    nothing tore either way). The replays run as the diagnosis's do (``workers``,
-    ``cluster``). Returns ``visible`` (cause -> bool), the medians of the lab's and the true
-    world, N, and the replays it took."""
-    from cell.logs.causes import applicable
-    from cell.logs.fit import logged_vector, rmse_n
-    from cell.logs.outcome import EVIDENCE_ROWS
-    from cell.logs.replays import Replayer
-    from cell.logs.spread import nudged_replays
-
-    if not changes:
-        return {"visible": {}, "lab_rmse_N": None, "truth_rmse_N": None, "replays": 0}
-    measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
-    less = [{k: v for k, v in changes.items() if k != c} for c in changes] if len(changes) > 1 \
-        else []
-    worlds = [{}, dict(changes), *less]
-    with Replayer(batch, workers or default_workers(len(batch.logs)), cluster) as replayer:
-        replayed = nudged_replays(replayer, worlds, list(applicable(batch.scenarios[0])))
-        replays = replayer.count
-    errors = [float(np.median([rmse_n((measured - v)[rows.force]) for v in vectors]))
-              if vectors else math.inf for vectors in replayed]
-    without = errors[2:] if less else errors[:1]
-    return {"visible": {c: errors[1] <= (1.0 - min_gain) * error
-                        for c, error in zip(changes, without, strict=True)},
-            "lab_rmse_N": errors[0], "truth_rmse_N": errors[1], "replays": replays}
-
-
 def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str, Any],
                tolerance: float, seen: dict[str, Any]) -> dict[str, Any]:
     """One batch's JSON row from its truth, its ``diagnosis.json`` contract and what of the
-    truth its logs show (:func:`visibility`)."""
+    truth its logs show (:func:`~cell.bench.visibility.visibility`)."""
     timing = data["timing"]
     shown = {c for c in expected if seen["visible"].get(c, True)}
     named = set(data["causes"])
@@ -237,7 +195,8 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "magnitude_within": bool(expected) and all(e <= tolerance
                                                        for e in errors.values()),
             "visible": seen["visible"], "lab_rmse_N": seen["lab_rmse_N"],
-            "truth_rmse_N": seen["truth_rmse_N"], "visibility_replays": seen["replays"],
+            "truth_rmse_N": seen["truth_rmse_N"], "visible_p": seen["p_value"],
+            "visibility_replays": seen["replays"],
             "correct_where_visible": shown <= named <= set(expected),
             "gain": float(data["gain"]),
             "heldout_rmse_N": {"baseline": data["baseline"]["heldout_rmse_N"],
@@ -257,6 +216,7 @@ def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
     entered :class:`cell.scale.pool.RunPool`, where given; the diagnosis's replays shown on
     ``progress``): its row of the bench."""
     from cell.bench.keyworlds import write_key_change_batch
+    from cell.bench.visibility import visibility
     from cell.logs.batch import read_log_batch
     from cell.logs.diagnosis import LogDiagnosisParams, diagnose_logs
     from cell.synthetic.logs import LOG_COUNT, world_changes, write_hidden_log_batch

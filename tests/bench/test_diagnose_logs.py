@@ -21,9 +21,9 @@ from cell.bench.diagnose_logs import (
     magnitude_error,
     run_log_diagnose_bench,
     summary,
-    visibility,
 )
 from cell.bench.keyworlds import write_key_change_batch
+from cell.bench.visibility import shown, visibility
 from cell.cli import main
 from cell.errors import MeasurementError
 from cell.logs.batch import read_log_batch
@@ -144,6 +144,18 @@ def test_visibility_judges_each_world_by_its_nudged_replays(tmp_path: Path) -> N
     assert len(set(errors)) > 1
     assert seen["lab_rmse_N"] == pytest.approx(float(np.median(errors)))
     assert seen["replays"] == 2 * (JITTERS + 1) * len(batch.logs)
+
+
+def test_a_median_lower_by_chance_does_not_show_a_change() -> None:
+    # The key-edit batch of seed 72226 (binding stiffness times 1.26): the true world's median
+    # 23 % under the lab's, its five draws inside the lab's scatter (the lab's own the nearest).
+    truth, lab = [0.380, 0.345, 0.323, 0.327, 0.329], [0.279, 0.425, 0.427, 0.444, 0.339]
+    seen, p = shown(truth, lab, 0.08)
+    assert not seen and p > 0.1
+    assert shown([0.20, 0.21, 0.22, 0.25, 0.30], lab, 0.08) == (True, pytest.approx(0.0079,
+                                                                               abs=1e-4))
+    assert shown([0.41, 0.42, 0.43, 0.44, 0.45], lab, 0.08)[0] is False
+    assert shown([], lab, 0.08) == (False, 1.0)
 
 
 def test_pairs_have_no_magnitude_or_gain_targets() -> None:

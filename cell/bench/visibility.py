@@ -1,0 +1,100 @@
+"""Whether a hidden change shows in its logs at all (the log bench's ``visible``,
+docs/logs.md): a change the logs do not show is no diagnosis's miss.
+
+A separation is close to chaotic (:mod:`cell.logs.spread`): one replay is one draw of which
+binding tears when, so each world is judged by its replays nudged as the diagnosis's spread
+check nudges them, and a change shows where its world's replays come nearer the logs than
+those of the world without it, by the share the diagnosis asks a cause to earn and beyond
+their scatter.
+
+Example:
+    >>> shown([0.30, 0.31, 0.32, 0.33, 0.34], [0.40, 0.41, 0.42, 0.43, 0.44], 0.08)[0]
+    True
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cell.cores import default_workers
+
+if TYPE_CHECKING:
+    from cell.logs.batch import LogBatch
+    from cell.logs.replays import ReplayPool
+
+#: The p-value below which a hidden change's replays beat the world without it beyond their
+#: scatter (:func:`shown`).
+VISIBLE_P = 0.05
+
+
+def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
+               min_gain: float, cluster: ReplayPool | None = None) -> dict[str, Any]:
+    """Which of the hidden world ``changes`` (cause -> magnitude, as
+    :func:`~cell.logs.causes.changed_world` takes them) the batch shows at all: the batch is
+    replayed in the lab's world, in the true one and, of two or more changes, in the true one
+    less each, every world also nudged as the diagnosis's spread check nudges it
+    (:func:`~cell.logs.spread.nudged_replays`), and judged by the median force RMSE of its
+    replays: one replay is one draw of the tears' chaos, and the true world's own can land
+    far nearer the logs, or farther, than its nudged ones. A change whose removal leaves
+    that median within ``min_gain`` of the true world's (for one change alone: the lab's
+    world within that share of the true one) is not in these logs, and a diagnosis that asks
+    a cause to lower the error by that share cannot name it (a tearing threshold raised where
+    nothing tore either way). The replays run as the diagnosis's do (``workers``,
+    ``cluster``). A change shows where :func:`shown` says so. Returns ``visible`` (cause ->
+    bool) with each test's ``p_value``, the medians of the lab's and the true world, N, and
+    the replays it took."""
+    from cell.logs.causes import applicable
+    from cell.logs.fit import logged_vector, rmse_n
+    from cell.logs.outcome import EVIDENCE_ROWS
+    from cell.logs.replays import Replayer
+    from cell.logs.spread import nudged_replays
+
+    if not changes:
+        return {"visible": {}, "lab_rmse_N": None, "truth_rmse_N": None, "p_value": {},
+                "replays": 0}
+    measured, rows = logged_vector(batch.logs, EVIDENCE_ROWS)
+    less = [{k: v for k, v in changes.items() if k != c} for c in changes] if len(changes) > 1 \
+        else []
+    worlds = [{}, dict(changes), *less]
+    with Replayer(batch, workers or default_workers(len(batch.logs)), cluster) as replayer:
+        replayed = nudged_replays(replayer, worlds, list(applicable(batch.scenarios[0])))
+        replays = replayer.count
+    errors = [[rmse_n((measured - v)[rows.force]) for v in vectors] for vectors in replayed]
+    without = errors[2:] if less else errors[:1]
+    verdicts = {c: shown(errors[1], error, min_gain)
+                for c, error in zip(changes, without, strict=True)}
+    return {"visible": {c: bool(seen) for c, (seen, _) in verdicts.items()},
+            "p_value": {c: p for c, (_, p) in verdicts.items()},
+            "lab_rmse_N": _median(errors[0]), "truth_rmse_N": _median(errors[1]),
+            "replays": replays}
+
+
+def shown(truth: Sequence[float], without: Sequence[float], min_gain: float
+          ) -> tuple[bool, float]:
+    """Whether a change shows in its logs: the force RMSEs (N) of the true world's nudged
+    replays ``truth`` against those of the world without the change ``without``, their
+    median ``min_gain`` (a share) lower and the lower beyond the replays' scatter (a
+    one-sided Mann-Whitney test at :data:`VISIBLE_P`: five draws a world, a median lower by
+    chance is no evidence). With the test's p-value (1 where either world has no replay).
+
+    Example:
+        >>> shown([0.30, 0.31, 0.32, 0.33, 0.34], [0.40, 0.41, 0.42, 0.43, 0.44], 0.08)
+        (True, 0.004)
+        >>> shown([0.38, 0.35, 0.32, 0.33, 0.33], [0.28, 0.43, 0.43, 0.44, 0.34], 0.08)[0]
+        False
+    """
+    from scipy.stats import mannwhitneyu
+
+    if not truth or not without:
+        return False, 1.0
+    p = float(mannwhitneyu(truth, without, alternative="less").pvalue)
+    return bool(_median(truth) <= (1.0 - min_gain) * _median(without) and p < VISIBLE_P), p
+
+
+def _median(errors: Sequence[float]) -> float:
+    """The median of ``errors`` (inf where there are none: every replay blew up)."""
+    return float(np.median(errors)) if errors else math.inf
