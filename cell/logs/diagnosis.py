@@ -218,8 +218,10 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
                                 locators)
         chosen = [c for c in chosen if c in world or c not in CAUSES]
         without = heldout(residual, offsets, rows, fixed(offsets))
+        screened = [c for c in names if c in blocks]
         left = (heldout_replays(replayer, measured, rows, fit, world, offsets, start, without,
-                                params.min_heldout_gain) if fit["confirmed"] else without)
+                                params.min_heldout_gain, screened)
+                if fit["confirmed"] else without)
         second: list[Step] = []
         if world and (not fit["confirmed"] or rmse_n(left)
                       > (1.0 - params.min_heldout_gain) * rmse_n(without)):
@@ -231,14 +233,14 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
             fit = {**start, "confirmed": False, **({"dropped": gone} if gone else {})}
         elif world:
             fit, left, kept, second = confirmed_second_look(
-                replayer, measured, rows, fit, world, left, [c for c in names if c in blocks],
+                replayer, measured, rows, fit, world, left, screened,
                 offsets, params.min_heldout_gain, params.newton_steps)
             chosen = [c for c in chosen if c in kept or c not in CAUSES]
             chosen += [c for c in kept if c not in chosen]
             world = kept
         if world:
             fit, world, left = spread_checked(replayer, measured, rows, fit, world, left,
-                                              [c for c in names if c in blocks], offsets,
+                                              screened, offsets,
                                               start, without, params.min_heldout_gain)
             chosen = [c for c in chosen if c in world or c not in CAUSES]
     steps_json = _steps_json(steps, second)

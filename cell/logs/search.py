@@ -319,16 +319,25 @@ def _line_search(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
 
 def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
                     world: list[str], offsets: dict[str, np.ndarray], without: Fit,
-                    without_left: np.ndarray, min_heldout_gain: float) -> np.ndarray:
+                    without_left: np.ndarray, min_heldout_gain: float,
+                    names: list[str] | None = None) -> np.ndarray:
     """Each log's residual in the world of ``world``'s causes fitted on the other logs (a
     Gauss-Newton step from the batch's fit on their rows), replayed; or, where the batch's
     fit does not beat ``without`` (the world without those causes) on the other logs by
     ``min_heldout_gain``, the log's residual in that world held out (``without_left``). A
     change that only the log left out asks for (one tear the replay happens to miss) is
-    where the others leave it, not where the step from a fit that log made keeps it."""
+    where the others leave it, not where the step from a fit that log made keeps it.
+
+    Given ``names``, each fold's world is also replayed nudged in them as the spread check
+    nudges (:func:`~cell.logs.spread.nudges`), and the log's residual is that of the replay
+    whose error is the median: one replay is one draw of the tears' chaos (a fold a
+    ten-thousandth of a radian from the batch's fit can replay its log ten times farther)."""
+    from cell.logs.spread import nudged, nudges  # spread builds on this module
+
     replayer.round = "held out"
     residual = measured - fit["simulated"]
     left = without_left.copy()
+    shifts = nudges(names) if names else [{}]
     jobs, fits = [], []
     for i in range(len(replayer.folders)):
         others = rows.log != i
@@ -339,12 +348,17 @@ def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: F
                           fixed(offsets))
         moved = bounded(world, np.array([fit["magnitudes"][c] for c in world])
                         + fitted["world"])
-        jobs.append((i, dict(zip(world, moved.tolist(), strict=True))))
-        fits.append(fitted)
+        at = dict(zip(world, moved.tolist(), strict=True))
+        jobs += [(i, nudged(at, shift)) for shift in shifts]
+        fits.append((i, fitted))
     replayed = replayer.run(jobs) if jobs else []
-    for (i, _), vector, fitted in zip(jobs, replayed, fits, strict=True):
+    for k, (i, fitted) in enumerate(fits):
         mine = rows.log == i
-        simulated = fit["simulated"][mine] if vector is None else vector
         correction = sum((offsets[c] @ fitted[c] for c in offsets), np.zeros(measured.size))
-        left[mine] = measured[mine] - simulated - correction[mine]
+        draws = [measured[mine] - vector - correction[mine]
+                 for vector in replayed[k * len(shifts):(k + 1) * len(shifts)]
+                 if vector is not None] or [measured[mine] - fit["simulated"][mine]
+                                            - correction[mine]]
+        errors = [rmse_n(draw) for draw in draws]
+        left[mine] = draws[int(np.argsort(errors)[len(errors) // 2])]
     return left

@@ -61,7 +61,7 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
         confirmed = any(c not in world for c in union) and (
             rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"]))
     moved_left = (heldout_replays(replayer, measured, rows, moved, union, offsets, fit, left,
-                                  min_gain) if confirmed else None)
+                                  min_gain, names) if confirmed else None)
     kept = moved_left is not None and rmse_n(moved_left) <= (1.0 - min_gain) * rmse_n(left)
     tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
              rmse_n(fit["left"]), **determined(

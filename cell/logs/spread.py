@@ -148,4 +148,4 @@ def spread_checked(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fi
                 fit["magnitudes"][gone]), "rmse_N": report["without_median_rmse_N"][gone],
                 "with_rmse_N": report["median_rmse_N"], "by": "spread"}]}
     return rest, kept, heldout_replays(replayer, measured, rows, rest, kept, offsets, start,
-                                       without_left, min_gain)
+                                       without_left, min_gain, names)
