@@ -3,7 +3,7 @@ sample compared weighed by how well a replay can predict it.
 
 Before the first tear a replay follows its log to the sensor's noise; after a tear, which
 binding went and when turns on a hair, and the force for seconds after with it. Replayed with
-every cause nudged by 1 % (:func:`~cell.logs.spread.nudges`), the lab's world shows where:
+every cause nudged by 1 % (:func:`~cell.logs.nudges.nudges`), the lab's world shows where:
 the spread of those replays at each sample is the part of the error no world can take away
 there. Each compared sample's error is weighed by the inverse of its variance, the log's
 sensor noise averaged over the compared window plus that spread, so that the deterministic

@@ -54,6 +54,7 @@ from cell.logs.fit import (
     logged_vector,
     rmse_n,
 )
+from cell.logs.nudges import nudged, nudges
 from cell.logs.outcome import EVIDENCE_ROWS, count_entries, evidence_weight
 from cell.logs.replays import Progress, Replayer, ReplayPool
 from cell.logs.search import (
@@ -73,7 +74,7 @@ from cell.logs.search import (
     signatures,
 )
 from cell.logs.second_look import confirmed_second_look
-from cell.logs.spread import nudged, nudges, spread_checked
+from cell.logs.spread import spread_checked
 
 #: What a fit says beyond its magnitudes, carried into ``extended``.
 EXTENDED_KEYS = ("dropped", "second_look", "pruned", "spread", "replay_scatter")
@@ -326,7 +327,7 @@ def _screen(replayer: Replayer, measured: np.ndarray, rows: Rows, names: list[st
     """The logged vector weighed, the baseline's replay, the blocks (each cause's signature,
     :func:`signatures`, and each sensor's offset at rest, weighed) and each cause's outcome
     locator (:func:`outcome_locators`), from the lab's world as it is and nudged
-    (:func:`~cell.logs.spread.nudges`), a batch replay at each cause's probes, near and far
+    (:func:`~cell.logs.nudges.nudges`), a batch replay at each cause's probes, near and far
     (:func:`screening_worlds`), and one at each locator the counts point to
     (:func:`located_sides`). From here on every replay's force samples are weighed by the
     nudged replays' spread and the logs' noise ``noise_n`` (N; :mod:`cell.logs.chaos`), its

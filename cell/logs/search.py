@@ -16,8 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from cell.logs.causes import CAUSES, SENSOR_OFFSET, magnitudes_json
+from cell.logs.causes import CAUSES, SENSOR_OFFSET, bounded, magnitudes_json
 from cell.logs.fit import Rows, broyden, rmse_n, signature, solve
+from cell.logs.nudges import nudged, nudges
 from cell.logs.replays import Replayer
 
 #: The line search's factor on the fitted magnitudes (:func:`stretch`) and its most replays
@@ -30,14 +31,6 @@ OFFSET = SENSOR_OFFSET + ":"
 COUNT_EVIDENCE = 3.84
 
 Fit = dict[str, Any]
-
-
-def bounded(world: list[str], magnitudes: np.ndarray) -> np.ndarray:
-    """``magnitudes`` of ``world``'s causes within each cause's bounds
-    (:attr:`~cell.logs.causes.cause.LogCause.bounds`: beyond them the cell is another cell,
-    and its physics may not hold)."""
-    low, high = np.array([CAUSES[c].bounds for c in world], dtype=float).reshape(-1, 2).T
-    return np.clip(magnitudes, low, high)
 
 
 def fixed(blocks: dict[str, np.ndarray]) -> frozenset[str]:
@@ -329,11 +322,9 @@ def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: F
     where the others leave it, not where the step from a fit that log made keeps it.
 
     Given ``names``, each fold's world is also replayed nudged in them as the spread check
-    nudges (:func:`~cell.logs.spread.nudges`), and the log's residual is that of the replay
+    nudges (:func:`~cell.logs.nudges.nudges`), and the log's residual is that of the replay
     whose error is the median: one replay is one draw of the tears' chaos (a fold a
     ten-thousandth of a radian from the batch's fit can replay its log ten times farther)."""
-    from cell.logs.spread import nudged, nudges  # spread builds on this module
-
     replayer.round = "held out"
     residual = measured - fit["simulated"]
     left = without_left.copy()

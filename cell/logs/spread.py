@@ -6,10 +6,10 @@ with it the force after the tear. Nudged by 1 % in every cause, the lab's own wo
 unchanged batch 0.25 to 0.72 N away from its logs; a fit that searches a hundred replays
 finds one whose tears happen to line up (a blade friction 4 % lower halved that error, and
 its nudged replays were no closer than the lab's). So before a world's causes are named, the
-named world and the lab's are each replayed nudged (:data:`JITTERS` times, every cause
-screened by :data:`JITTER` one way or the other, the same nudges for both) and compared by the
-median of their errors, on the bar every cause meets; with two causes or more, each must
-also beat the world without it on those terms.
+named world and the lab's are each replayed nudged (:data:`~cell.logs.nudges.JITTERS`
+times, every cause screened by :data:`~cell.logs.nudges.JITTER` one way or the other, the
+same nudges for both) and compared by the median of their errors, on the bar every cause
+meets; with two causes or more, each must also beat the world without it on those terms.
 """
 
 from __future__ import annotations
@@ -22,36 +22,15 @@ import numpy as np
 
 from cell.logs.causes import CAUSES
 from cell.logs.fit import Rows, rmse_n
+from cell.logs.nudges import JITTER, JITTERS, nudged, nudges
 from cell.logs.replays import Replayer
-from cell.logs.search import Fit, bounded, dropped, heldout_replays, replayed_fit
-
-#: Each screened cause's nudge (a factor's logarithm, or an angle in rad): far inside the
-#: 25 % the diagnosis resolves, far above what a replay reproduces exactly.
-JITTER = 0.01
-#: Nudged replays of a world, besides its own.
-JITTERS = 4
-
-
-def nudges(names: list[str], count: int = JITTERS) -> list[dict[str, float]]:
-    """``count`` nudges of ``names`` (each cause :data:`JITTER` one way or the other, drawn
-    once for all: the same seed, the same nudges), after the world's own (no nudge)."""
-    signs = [np.random.default_rng([k, len(names)]).choice([-1.0, 1.0], len(names))
-             for k in range(count)]
-    return [{}] + [dict(zip(names, (JITTER * s).tolist(), strict=True)) for s in signs]
-
-
-def nudged(world: dict[str, float], nudge: dict[str, float]) -> dict[str, float]:
-    """``world``'s magnitudes with ``nudge`` added (a cause of either alone kept), within
-    each cause's bounds (:func:`~cell.logs.search.bounded`)."""
-    names = list({**world, **nudge})
-    moved = bounded(names, np.array([world.get(c, 0.0) + nudge.get(c, 0.0) for c in names]))
-    return dict(zip(names, moved.tolist(), strict=True))
+from cell.logs.search import Fit, dropped, heldout_replays, replayed_fit
 
 
 def nudged_replays(replayer: Replayer, worlds: list[dict[str, float]], names: list[str]
                    ) -> list[list[np.ndarray]]:
-    """Each of ``worlds``' own replay and its nudged ones (:func:`nudges` of ``names``), less
-    those that blew up."""
+    """Each of ``worlds``' own replay and its nudged ones
+    (:func:`~cell.logs.nudges.nudges` of ``names``), less those that blew up."""
     shifts = nudges(names)
     replayed = replayer.batches([nudged(w, s) for w in worlds for s in shifts])
     return [[v for v in replayed[k * len(shifts):(k + 1) * len(shifts)] if v is not None]

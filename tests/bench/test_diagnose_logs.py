@@ -29,9 +29,10 @@ from cell.errors import MeasurementError
 from cell.logs.batch import read_log_batch
 from cell.logs.causes import applicable
 from cell.logs.fit import logged_vector, rmse_n
+from cell.logs.nudges import JITTERS
 from cell.logs.outcome import EVIDENCE_ROWS
 from cell.logs.replays import Replayer
-from cell.logs.spread import JITTERS, nudged_replays
+from cell.logs.spread import nudged_replays
 from cell.synthetic.logs import world_changes
 
 

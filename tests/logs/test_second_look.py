@@ -15,10 +15,10 @@ import cell.logs.second_look as look
 from cell.logs.causes import CAUSES
 from cell.logs.diagnosis import diagnose_logs
 from cell.logs.fit import logged_vector, rmse_n
+from cell.logs.nudges import JITTERS
 from cell.logs.outcome import EVIDENCE_ROWS
 from cell.logs.report import _spread_lines
 from cell.logs.search import replayed_fit
-from cell.logs.spread import JITTERS
 from tests.logs.test_heldout import BATCH, PARAMS, TRUE_MAGNITUDE, HidingWorld, LinearWorld
 
 MEASURED, ROWS = logged_vector(list(BATCH.logs), EVIDENCE_ROWS)

@@ -25,6 +25,8 @@ from dataclasses import fields, is_dataclass
 from importlib import import_module
 from typing import Any
 
+import numpy as np
+
 from cell.errors import LogError
 from cell.logs.causes.cause import MAX_MAGNITUDE, LogCause
 from cell.sim.scenario import Scenario
@@ -134,3 +136,11 @@ def _changed_fields(prefix: str, before: Any, after: Any) -> list[str]:
 def magnitudes_json(magnitudes: dict[str, float]) -> dict[str, dict[str, Any]]:
     """Each cause's magnitude as a user reads it (:meth:`LogCause.to_json`)."""
     return {name: CAUSES[name].to_json(m) for name, m in magnitudes.items()}
+
+
+def bounded(world: list[str], magnitudes: np.ndarray) -> np.ndarray:
+    """``magnitudes`` of ``world``'s causes within each cause's bounds
+    (:attr:`~cell.logs.causes.cause.LogCause.bounds`: beyond them the cell is another cell,
+    and its physics may not hold)."""
+    low, high = np.array([CAUSES[c].bounds for c in world], dtype=float).reshape(-1, 2).T
+    return np.clip(magnitudes, low, high)
