@@ -31,7 +31,6 @@ if TYPE_CHECKING:
     from cell.logs.replays import ReplayPool
 
 
-
 def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
                min_gain: float, cluster: ReplayPool | None = None) -> dict[str, Any]:
     """Which of the hidden world ``changes`` (cause -> magnitude, as
@@ -45,9 +44,8 @@ def visibility(batch: LogBatch, changes: dict[str, float], workers: int | None,
     world within that share of the true one) is not in these logs, and a diagnosis that asks
     a cause to lower the error by that share cannot name it (a tearing threshold raised where
     nothing tore either way). The replays run as the diagnosis's do (``workers``,
-    ``cluster``). A change shows where :func:`shown` says so. Returns ``visible`` (cause ->
-    bool) with each test's ``p_value``, the medians of the lab's and the true world, N, and
-    the replays it took."""
+    ``cluster``). Returns ``visible`` (cause -> bool, :func:`shown`) with each change's
+    ``p_value``, the medians of the lab's and the true world, N, and the replays it took."""
     from cell.logs.causes import applicable
     from cell.logs.fit import logged_vector, rmse_n
     from cell.logs.outcome import EVIDENCE_ROWS
