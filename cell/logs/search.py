@@ -312,8 +312,8 @@ def _line_search(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np
 
 def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
                     world: list[str], offsets: dict[str, np.ndarray], without: Fit,
-                    without_left: np.ndarray, min_heldout_gain: float,
-                    names: list[str] | None = None) -> np.ndarray:
+                    without_left: np.ndarray, min_heldout_gain: float, names: list[str]
+                    ) -> np.ndarray:
     """Each log's residual in the world of ``world``'s causes fitted on the other logs (a
     Gauss-Newton step from the batch's fit on their rows), replayed; or, where the batch's
     fit does not beat ``without`` (the world without those causes) on the other logs by
@@ -321,10 +321,11 @@ def heldout_replays(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: F
     change that only the log left out asks for (one tear the replay happens to miss) is
     where the others leave it, not where the step from a fit that log made keeps it.
 
-    Given ``names``, each fold's world is also replayed nudged in them as the spread check
-    nudges (:func:`~cell.logs.nudges.nudges`), and the log's residual is that of the replay
-    whose error is the median: one replay is one draw of the tears' chaos (a fold a
-    ten-thousandth of a radian from the batch's fit can replay its log ten times farther)."""
+    Each fold's world is also replayed nudged in ``names`` as the spread check nudges
+    (:func:`~cell.logs.nudges.nudges`; none where ``names`` is empty), and the log's residual
+    is that of the replay whose error is the median: one replay is one draw of the tears'
+    chaos (a fold a ten-thousandth of a radian from the batch's fit can replay its log ten
+    times farther)."""
     replayer.round = "held out"
     residual = measured - fit["simulated"]
     left = without_left.copy()

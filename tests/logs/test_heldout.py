@@ -132,7 +132,7 @@ def test_a_log_left_out_keeps_the_lab_s_world_where_the_others_do_not_ask_for_th
     fit = {**replayed_fit(measured, changed, world.truth, {}),
            "jacobian": np.concatenate(world.patterns["tearing_threshold"])[:, None]}
     left = heldout_replays(world, measured, rows, fit, ["tearing_threshold"], {}, lab,
-                           lab["left"], PARAMS.min_heldout_gain)
+                           lab["left"], PARAMS.min_heldout_gain, [])
     first = rows.log == 0
     # Fitted on the other two logs, the threshold is where the lab put it: the first log's
     # misfit stands; each other log, left out, is replayed in the world fitted with the first.
