@@ -11,13 +11,20 @@ depth images, ``forces/*`` and
 
 from __future__ import annotations
 
+import atexit
+import functools
+import threading
 import uuid
+import weakref
+from collections.abc import Callable
 from pathlib import Path
+from typing import Concatenate, ParamSpec, TypeVar
 
 import mujoco
 import numpy as np
 import rerun as rr
 
+from cell.errors import OutputError
 from cell.outputs import AtomicFile
 from cell.perception.pipeline import PerceivedPlan
 from cell.profiling import timed_methods
@@ -45,6 +52,24 @@ def _rgba8(rgba: np.ndarray) -> list[int]:
 
 def _entity(body_name: str) -> str:
     return "world/cell/" + body_name.replace("/", ".")
+
+
+_Args = ParamSpec("_Args")
+_Result = TypeVar("_Result")
+
+
+def _while_open(method: Callable[Concatenate[EpisodeRecorder, _Args], _Result]
+                ) -> Callable[Concatenate[EpisodeRecorder, _Args], _Result]:
+    """A recorder's method that sends to Rerun: one at a time, and refused once the recording
+    is closed or aborted (a thread still logging at exit cannot hand Rerun new data then)."""
+    @functools.wraps(method)
+    def guarded(self: EpisodeRecorder, *args: _Args.args, **kwargs: _Args.kwargs) -> _Result:
+        with self._lock:
+            if self._finished:
+                raise OutputError(self._file.path if self._file else None, None,
+                                  "the recording is closed; nothing more can be logged to it")
+            return method(self, *args, **kwargs)
+    return guarded
 
 
 @timed_methods("recording")
@@ -80,6 +105,8 @@ class EpisodeRecorder:
         self.scene = scene
         self.model = scene.model
         self.view = view
+        self._lock = threading.RLock()
+        self._finished = False
         rid = uuid.uuid5(uuid.NAMESPACE_URL, f"musclecell/{recording_id}")
         self.stream = rr.RecordingStream("musclecell", recording_id=rid)
         self._file = None if path is None else AtomicFile(Path(path))
@@ -92,6 +119,7 @@ class EpisodeRecorder:
         self._frame_times_s: list[float] = []
         self._poses: list[tuple[np.ndarray, np.ndarray]] = []
         self._scalars: dict[str, tuple[list[float], list[float]]] = {}
+        _OPEN_RECORDERS.add(self)
         self._log_static()
 
     def _geom_archetype(self, g: int) -> rr.AsComponents | None:
@@ -133,16 +161,19 @@ class EpisodeRecorder:
                 vertex_positions=mesh.points, triangle_indices=mesh.boundary,
                 albedo_factor=_rgba8(m.flex_rgba[f])), static=True)
 
+    @_while_open
     def set_time(self, time_s: float) -> None:
         """Set the ``sim_time`` timeline for what is logged next."""
         self.stream.set_time("sim_time", duration=time_s)
 
+    @_while_open
     def log_planned_path(self, path_m: np.ndarray) -> None:
         """The knife tip path the controller plans to follow."""
         self.stream.log("world/knife_path/planned",
                         rr.LineStrips3D([path_m], colors=[[0, 160, 255]], radii=0.0015),
                         static=True)
 
+    @_while_open
     def log_perception(self, plan: PerceivedPlan) -> None:
         """What the camera gave, at the current time: the cloud, the surface mesh coloured by
         mean curvature (blue: valley, red: ridge), the guideline's nodes and its spline."""
@@ -160,6 +191,7 @@ class EpisodeRecorder:
         s.log("world/perception/guideline",
               rr.LineStrips3D([path.points_m], colors=[[0, 255, 120]], radii=0.0015))
 
+    @_while_open
     def log_look(self, index: int, guideline_m: np.ndarray, opening_m: np.ndarray,
                  tip_path_m: np.ndarray) -> None:
         """Look ``index`` of the camera (0 before the cut, k after pass k), at the current
@@ -174,6 +206,7 @@ class EpisodeRecorder:
         s.log(f"{entity}/tip_path", rr.LineStrips3D([tip_path_m], colors=[[0, 160, 255]],
                                                     radii=0.001))
 
+    @_while_open
     def log_frame(self, data: mujoco.MjData, knife_tip_m: np.ndarray,
                   scalars: dict[str, float]) -> None:
         """Body poses, muscle surfaces, bindings, executed path and time series, at
@@ -226,6 +259,7 @@ class EpisodeRecorder:
                                          columns=rr.Scalars.columns(scalars=values))
         self._frame_times_s, self._poses, self._scalars = [], [], {}
 
+    @_while_open
     def log_camera(self, data: mujoco.MjData, rig: CameraRig) -> None:
         """The camera's pose, intrinsics, RGB and metric depth at ``data.time``."""
         s = self.stream
@@ -238,6 +272,7 @@ class EpisodeRecorder:
         s.log("world/camera/rgb", rr.Image(rig.rgb(data)))
         s.log("world/camera/depth", rr.DepthImage(rig.depth(data), meter=1.0))
 
+    @_while_open
     def close(self) -> Path | None:
         """Flush, hold a served live view (:meth:`LiveView.hold`), and move the recording into
         place (None: no file)."""
@@ -249,14 +284,37 @@ class EpisodeRecorder:
             except BaseException:
                 self.abort()
                 raise
-        self.stream.disconnect()
+        self._finish()
         return None if self._file is None else self._file.commit()
 
     def abort(self) -> None:
-        """Drop the partial recording (the episode failed)."""
+        """Drop the partial recording (the episode failed); a closed one stays."""
+        with self._lock:
+            if self._finished:
+                return
+            self._finish()
+            if self._file is not None:
+                self._file.discard()
+
+    def _finish(self) -> None:
+        # disconnect() sends what Rerun's threads still hold and frees it while Python can
         self.stream.disconnect()
-        if self._file is not None:
-            self._file.discard()
+        self._finished = True
+        _OPEN_RECORDERS.discard(self)
+
+
+#: Recordings neither closed nor aborted.
+_OPEN_RECORDERS: weakref.WeakSet[EpisodeRecorder] = weakref.WeakSet()
+
+
+@atexit.register  # registered after Rerun's own exit hook, so it runs before that one
+def _abort_open_recordings() -> None:
+    """At interpreter exit, abort the recordings still open. Rerun's threads free the data
+    they hold, and NumPy-backed Arrow buffers need the GIL to be freed: one freed while the
+    interpreter finalises ends the process (std::terminate). A recording never closed is an
+    unfinished episode, so no file of it stays."""
+    for recorder in list(_OPEN_RECORDERS):
+        recorder.abort()
 
 
 def open_recording(path: str | Path | None, view: LiveView | None, scene: Scene,

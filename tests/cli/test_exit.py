@@ -11,6 +11,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
@@ -90,6 +91,57 @@ import torch
 torch.ones(256, 256) @ torch.ones(256, 256)
 """
 
+#: An episode's recorder over the coarse cell, one frame logged, in a folder of its own.
+RECORDER = """
+import sys
+import tempfile
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from cell.errors import OutputError
+from cell.sim.assembly import build_scene
+from cell.sim.recording import EpisodeRecorder
+from cell.sim.scenario import Scenario
+from cell.tissue.geometry import MuscleShape
+
+scene = build_scene(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
+data = mujoco.MjData(scene.model)
+mujoco.mj_forward(scene.model, data)
+folder = Path(sys.argv[1])
+recorder = EpisodeRecorder(folder / "episode.rrd", scene, "exit-check")
+
+
+def log_frame() -> None:
+    data.time += 0.01
+    recorder.log_frame(data, knife_tip_m=np.zeros(3), scalars={"progress/released": 0.0})
+
+
+log_frame()
+"""
+
+#: A thread still logging frames when the main thread exits (Rerun's threads then free
+#: NumPy-backed buffers while the interpreter finalises, unless the recording was aborted
+#: first): the crash at exit reproduced.
+THREAD_LOGGING_AT_EXIT = RECORDER + """
+import threading
+import time
+
+
+def keep_logging() -> None:
+    try:
+        while True:
+            log_frame()
+            recorder.log_look(1, np.zeros((50, 3)), np.random.rand(2000, 3), np.zeros((50, 3)))
+    except OutputError:  # aborted at exit
+        pass
+
+
+threading.Thread(target=keep_logging, daemon=True).start()
+time.sleep(0.3)
+"""
+
 #: Rendering and recording, then a local Ray started and stopped (its gRPC threads outlive
 #: ray.shutdown).
 WITH_RAY = RENDER_AND_RECORD + """
@@ -105,11 +157,12 @@ with RunPool(Workers(1, ray=True)) as pool:
 """
 
 
-def _exits_cleanly(code: str) -> None:
+def _exits_cleanly(code: str, *args: str) -> None:
     environment = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONFAULTHANDLER": "1",
                    "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
                    "RAY_USAGE_STATS_ENABLED": "0"}
-    done = subprocess.run([sys.executable, "-X", "faulthandler", "-c", textwrap.dedent(code)],
+    done = subprocess.run([sys.executable, "-X", "faulthandler", "-c", textwrap.dedent(code),
+                           *args],
                           cwd=ROOT, env=environment, stdin=subprocess.DEVNULL,
                           capture_output=True, text=True, check=False)
     assert done.returncode == 0 and "Fatal Python error" not in done.stderr, (
@@ -131,6 +184,19 @@ def test_two_openmp_runtimes_exit_cleanly() -> None:
     pytest.importorskip("torch")
     pytest.importorskip("coacd")
     _exits_cleanly(TWO_OPENMPS)
+
+
+def test_a_recording_left_open_at_exit_is_aborted_and_leaves_no_file(tmp_path: Path) -> None:
+    _exits_cleanly(RECORDER, str(tmp_path))
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("run", [0, *(pytest.param(k, marks=pytest.mark.slow)
+                                      for k in range(1, 40))])
+def test_a_thread_logging_at_exit_is_stopped_and_the_process_exits_cleanly(
+        run: int, tmp_path: Path) -> None:
+    _exits_cleanly(THREAD_LOGGING_AT_EXIT, str(tmp_path))
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.slow

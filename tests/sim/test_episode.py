@@ -9,14 +9,19 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
 from cell.cli import main
+from cell.errors import OutputError
 from cell.perception.params import PerceptionParams
 from cell.robots.names import KNIFE_BLADE_GEOM
+from cell.sim.assembly import build_scene
 from cell.sim.episode import Episode
-from cell.sim.scenario import AponeurosisParams, SensorParams, load_scenario
+from cell.sim.recording import EpisodeRecorder
+from cell.sim.scenario import AponeurosisParams, Scenario, SensorParams, load_scenario
+from cell.tissue.geometry import MuscleShape
 from controllers.gripper import PullPlan
 from controllers.knife import CutPlan
 from controllers.steering import SteeringParams
@@ -216,3 +221,21 @@ def test_the_cut_is_scored_against_the_true_interface(full_episode: dict) -> Non
     assert damage["bindings_torn"] == full_episode["released_by_rule"]["tearing"]
     assert damage["torn_fraction"] == pytest.approx(damage["bindings_torn"] / bindings)
     assert damage["blade_volume_in_flesh_m3"] >= 0.0
+
+
+def test_a_closed_or_aborted_recording_refuses_more_frames(tmp_path: Path) -> None:
+    scene = build_scene(Scenario(tissue=MuscleShape(cell_size_m=0.05)))
+    data = mujoco.MjData(scene.model)
+    mujoco.mj_forward(scene.model, data)
+    kept = EpisodeRecorder(tmp_path / "kept.rrd", scene, "kept")
+    kept.log_frame(data, knife_tip_m=np.zeros(3), scalars={})
+    assert kept.close() == tmp_path / "kept.rrd"
+    kept.abort()  # after close: the recording stays
+    dropped = EpisodeRecorder(tmp_path / "dropped.rrd", scene, "dropped")
+    dropped.abort()
+    for recorder in (kept, dropped):
+        with pytest.raises(OutputError, match=r"\.rrd: the recording is closed"):
+            recorder.log_frame(data, knife_tip_m=np.zeros(3), scalars={})
+    with pytest.raises(OutputError):
+        kept.close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.rrd"]
