@@ -134,8 +134,8 @@ def keep_logging() -> None:
         while True:
             log_frame()
             recorder.log_look(1, np.zeros((50, 3)), np.random.rand(2000, 3), np.zeros((50, 3)))
-    except OutputError:  # aborted at exit
-        pass
+    except OutputError:  # aborted at exit: the thread ends
+        return
 
 
 threading.Thread(target=keep_logging, daemon=True).start()
