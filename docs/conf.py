@@ -100,6 +100,10 @@ autodoc_default_options = {
     "ignore-module-all": True,
 }
 autodoc_member_order = "bysource"
+# The pages' tables of contents list sections, not every class and function: each page's
+# navigation is a copy of the whole site's, and with the objects in it copying it took a third
+# of the build.
+toc_object_entries = False
 autodoc_typehints = "signature"
 # Google-style docstrings ("Args:", "Returns:", "Attributes:", "Example:"); each attribute of
 # an "Attributes:" section becomes an entry of its own that ``:attr:`` references can reach

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The test suite: the linter, the docs site built with warnings as errors (a broken reference
 # or docstring fails here), then the fast tests, the docs pages' snippets among them
-# (`scripts/test.sh -m slow` runs the long physics ones and the snippets marked slow).
+# (`scripts/test.sh -m slow` runs the long ones instead, the snippets marked slow among them).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/setup.sh
@@ -9,13 +9,13 @@ ruff check .
 site="$(mktemp -d)"
 scratch="$(mktemp -d)"
 trap 'rm -rf "$site" "$scratch"' EXIT
-# While the docs build on one core, an episode on the other compiles the tissue's numba
-# kernels into numba's cache, which the test processes then load instead of each compiling
-# them at its first episode.
+# While the docs build (on every core), an episode compiles the tissue's numba kernels into
+# numba's cache, which the test processes then load instead of each compiling them at its
+# first episode.
 python -m cell.cli run scenarios/quick.toml --out "$scratch/warm.json" --quiet \
   > "$scratch/warm.log" 2>&1 &
 warm=$!
-sphinx-build -W --keep-going -q -b html docs "$site"
+sphinx-build -j auto -W --keep-going -q -b html docs "$site"
 wait "$warm" || echo "test.sh: the warm-up episode failed, the tests compile the kernels" \
   "themselves: $(tail -n 1 "$scratch/warm.log")" >&2
 # tests/test_docs.py checks this build's API reference instead of building the site again.

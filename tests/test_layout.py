@@ -114,4 +114,7 @@ def test_the_distribution_lists_every_package() -> None:
     on_disk = {".".join(p.parent.relative_to(PROJECT_ROOT).parts)
                for top in ("cell", "controllers", "envs")
                for p in (PROJECT_ROOT / top).rglob("__init__.py")}
-    assert on_disk | {"cell.assets", "cell.scenarios"} == listed
+    data = {".".join(("cell", *p.parent.relative_to(PROJECT_ROOT).parts))
+            for top in ("assets", "scenarios") for p in (PROJECT_ROOT / top).rglob("*")
+            if p.is_file() and "__pycache__" not in p.parts}
+    assert on_disk | data == listed

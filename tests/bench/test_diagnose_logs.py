@@ -122,6 +122,7 @@ def test_a_change_the_logs_do_not_show_is_counted_apart() -> None:
     assert not report["targets"]["correct"]["pass"]
 
 
+@pytest.mark.slow  # a bench batch of episodes and replays
 def test_a_change_before_anything_happens_is_not_in_the_logs(tmp_path: Path) -> None:
     truth = write_key_change_batch(tmp_path / "batch", seed=3, base=BASE_SCENARIO,
                                    causes=("tearing_threshold",), logs=2, end_s=0.04)
@@ -131,6 +132,7 @@ def test_a_change_before_anything_happens_is_not_in_the_logs(tmp_path: Path) -> 
     assert seen["truth_rmse_N"] == pytest.approx(seen["lab_rmse_N"])
 
 
+@pytest.mark.slow  # replays of the bench's worlds
 def test_visibility_judges_each_world_by_its_nudged_replays(tmp_path: Path) -> None:
     # One replay is one draw of the tears' chaos: each world is replayed as the spread check
     # nudges it, and its median error is what counts.

@@ -56,6 +56,7 @@ def write_sets(parent: Path) -> None:
     (mixed / "tests.csv").write_text("\n".join(lines) + "\n")
 
 
+@pytest.mark.slow  # three diagnoses twice; the default run's batch: tests/cli/test_bad_input.py
 def test_a_batch_of_every_kind_of_set_matches_one_set_diagnose_and_fails_on_a_broken_set(
         tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     sets, out = tmp_path / "sets", tmp_path / "out"

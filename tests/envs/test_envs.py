@@ -18,9 +18,12 @@ from envs.observation import Reading
 from envs.policies import HoldThenPullAway, TableSkimmingKnife
 from envs.reward import reward_terms
 
+#: Pull shares the separation env's code: its whole episodes run with ``-m slow``.
+SLOW_PULL = pytest.param(PullEnv, marks=pytest.mark.slow, id="PullEnv")
+
 
 # Cut's check: tests/envs/test_randomization.py (with its drawn worlds).
-@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, PullEnv])
+@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, SLOW_PULL])
 def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
     env = env_class(time_limit_s=1.0)
     check_env(env, skip_render_check=True)
@@ -73,6 +76,7 @@ def test_knife_offsets_go_to_the_place_an_action_wants_at_the_speed_limit() -> N
     assert np.abs(np.array(depths) - 0.5 * limits.knife_max_depth_m).max() < 0.004
 
 
+@pytest.mark.slow  # a whole episode
 def test_a_pull_timed_by_the_plans_clock_tears_ahead_of_a_slow_knife() -> None:
     slow = {"knife_pace": 0.6}
     _, _, clock = _run(PullEnv(randomize=False, options=slow), "scripted")
@@ -138,6 +142,7 @@ def test_bad_option_values_are_refused_with_the_key() -> None:
         apply_options(Scenario(), {"knife_pace": 1.5})
 
 
+@pytest.mark.slow  # a whole episode
 def test_a_pull_must_take_the_shank_clear() -> None:
     # Pull's knife cuts down to the table: the bindings it releases are not the task.
     _, truncated, still = _run(PullEnv(randomize=False), lambda _obs: np.zeros(3, np.float32))
@@ -207,13 +212,14 @@ def _run(env: MuscleSeparationEnv, policy: str | Callable[[np.ndarray], np.ndarr
     return terminated, truncated, info
 
 
-@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, PullEnv])
+@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, SLOW_PULL])
 def test_scripted_policy_separates_the_muscles(env_class: type[MuscleSeparationEnv]) -> None:
     terminated, _, info = _run(env_class(randomize=False), "scripted")
     assert terminated and info["success"] and not info["diverged"]
     assert info["torn_fraction"] <= envs.TaskParams().max_torn_fraction
 
 
+@pytest.mark.slow  # a whole episode
 def test_cut_needs_the_knife_down_to_the_lowest_bindings() -> None:
     # The plan's 15 mm above the table leaves the lowest bindings to the pull, which tears
     # them: too many for Cut-v1. A knife that skims the table cuts them.

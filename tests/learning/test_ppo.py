@@ -80,6 +80,7 @@ def test_a_resume_continues_the_steps_with_the_next_seeds(run: Path, tmp_path: P
     assert len(steps) > before and steps == sorted(steps) and steps[-1] <= 48
 
 
+@pytest.mark.slow  # episodes of every policy
 def test_the_evaluation_table_has_every_column_for_every_policy(run: Path, tmp_path: Path
                                                                 ) -> None:
     assert main(["evaluate", str(run / "policy.json"), ENV_ID, "--episodes", "2",
@@ -144,6 +145,7 @@ def test_the_best_constant_is_searched_on_one_axis_then_on_two(run: Path, tmp_pa
         score["success_rate"], score["mean_return"]))
 
 
+@pytest.mark.slow  # a training run
 def test_a_warm_start_clones_the_demonstrator_before_ppo(run: Path, tmp_path: Path) -> None:
     out = tmp_path / "warm"
     hyper = {**HYPER, "log_std_init": -3.0, "learn_log_std": False}
@@ -210,6 +212,7 @@ def test_the_anchor_fits_ppo_to_the_demonstrator_on_the_rollout_after_the_update
     assert error() < 0.2 * before
 
 
+@pytest.mark.slow  # episodes in two processes
 def test_worker_processes_play_the_episodes_as_this_process_does() -> None:
     tasks = [EpisodeTask(ENV_ID, json.dumps(ENV_KWARGS), PolicySpec("random"), seed)
              for seed in (100000, 100001)]

@@ -68,6 +68,7 @@ def test_v2_adds_the_knife_force_low_passed_to_v1_s_observation_and_plays_v1_s_r
                                        atol=1e-6)
 
 
+@pytest.mark.slow  # episodes; Cut's check runs by default (test_randomization.py)
 def test_check_env_passes_on_v2() -> None:
     from gymnasium.utils.env_checker import check_env
 

@@ -115,6 +115,7 @@ def _numbers(value: object) -> list[float]:
     return [float(value)] if isinstance(value, int | float) else []
 
 
+@pytest.mark.slow  # two log diagnoses
 def test_imported_cell_logs_are_diagnosed_as_the_originals(tmp_path: Path) -> None:
     originals, imported = [], []
     for seed in (0, 1):

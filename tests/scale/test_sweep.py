@@ -203,6 +203,7 @@ def test_a_policy_sweep_refuses_an_unknown_env_keyword(tmp_path: Path) -> None:
     assert (error.value.file, error.value.field) == (str(path), "variables")
 
 
+@pytest.mark.slow  # diagnoses twice
 def test_a_batch_diagnoses_every_set_records_a_broken_one_and_resumes(tmp_path: Path) -> None:
     from cell.diagnosis.engine.settings import DiagnosisParams
     from cell.scale.batch import diagnose_batch

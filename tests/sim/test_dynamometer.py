@@ -163,6 +163,7 @@ def test_the_gripper_reads_the_pull_of_the_grasped_shank() -> None:
     assert np.linalg.norm(reading + grasp) < 0.1 * np.linalg.norm(grasp)
 
 
+@pytest.mark.slow  # a whole episode
 def test_the_contact_loads_read_at_once_equal_mujocos_per_contact_forces() -> None:
     # In the cut: the blade, the table and the fixture touch many flex vertices.
     sim = contact_state(_coarse()).sim

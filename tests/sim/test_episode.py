@@ -105,6 +105,7 @@ def test_camera_arm_holds_its_pose_while_the_others_work(full_episode: dict) -> 
     assert full_episode["held_arm_drift_m"]["camera"] < 0.002
 
 
+@pytest.mark.slow  # a whole episode
 def test_cut_over_half_the_interface_releases_only_that_half_by_knife() -> None:
     # The knife rule (a scenario option), on the generator's interface: the coarse test
     # mesh's facets are too rough for the perceived interface to keep the blade off the
@@ -125,6 +126,7 @@ def test_cut_over_half_the_interface_releases_only_that_half_by_knife() -> None:
     assert summary["held_arm_drift_m"]["gripper"] < 0.002
 
 
+@pytest.mark.slow  # a whole episode
 def test_pulling_with_the_knife_away_releases_by_tearing_only() -> None:
     scenario = coarse(cut=CutPlan(enabled=False), pull=PullPlan(speed_m_s=0.04))
     summary = Episode(scenario).run()["result"]
@@ -133,6 +135,7 @@ def test_pulling_with_the_knife_away_releases_by_tearing_only() -> None:
     assert summary["held_arm_drift_m"]["knife"] < 0.002
 
 
+@pytest.mark.slow  # a whole episode
 def test_tearing_off_keeps_the_uncut_bindings() -> None:
     scenario = coarse(cut=CutPlan(enabled=False),
                       aponeurosis=AponeurosisParams(release_rules=("knife",)), end_s=6.0)
@@ -140,6 +143,7 @@ def test_tearing_off_keeps_the_uncut_bindings() -> None:
     assert summary["released_fraction"] == 0.0
 
 
+@pytest.mark.slow  # two episodes; the default run's check: tests/envs/test_envs.py
 def test_same_seed_gives_the_same_summary_twice() -> None:
     scenario = coarse(end_s=5.0, seed=7)
     first = Episode(scenario).run()["result"]
@@ -174,6 +178,7 @@ def test_tracking_errors_are_measured_during_the_cut_only(full_episode: dict) ->
     assert np.isfinite(full_episode["knife_force_peak_n"])
 
 
+@pytest.mark.slow  # a whole episode
 def test_force_rule_alone_cuts_with_the_hooked_bindings() -> None:
     # No edge resistance (the curve's share at the edge none): hooked bindings resist the
     # blade until they are cut, and the F/T sensor reads them.

@@ -38,6 +38,7 @@ def _listening(port: int) -> bool:
         return probe.connect_ex(("127.0.0.1", port)) == 0
 
 
+@pytest.mark.slow  # an episode in a viewer
 def test_view_without_a_display_serves_the_web_viewer_and_stops(tmp_path: Path) -> None:
     (tmp_path / "short.toml").write_text(SHORT)
     grpc, web = _free_port(), _free_port()

@@ -29,7 +29,10 @@ def default() -> Scenario:
     return load_scenario(DEFAULT_SCENARIO)
 
 
-@pytest.mark.parametrize("seed", SEEDS)
+# Three shapes in the default run, all ten with ``-m slow``: a shape's build and look take
+# seconds.
+@pytest.mark.parametrize("seed", [pytest.param(seed, marks=() if seed < 9003 else pytest.mark.slow)
+                                  for seed in SEEDS])
 def test_a_documented_shape_builds_is_seen_and_planned(default: Scenario, seed: int) -> None:
     # Nothing but the shape changes: the derived values and the implicit step follow it.
     scenario = replace(default, tissue=documented_shape(seed, default.tissue))

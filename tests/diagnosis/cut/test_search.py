@@ -84,7 +84,13 @@ def test_a_set_with_no_hidden_effect_names_none() -> None:
     assert diagnose_cuts(BLOCK, BLADE, cut_set(PLAIN, seed=3), PARAMS).causes == ()
 
 
-@pytest.mark.parametrize("cause", sorted(HIDDEN))
+#: The causes whose diagnosis takes longest (each seconds): run with ``-m slow``.
+SLOW_CAUSES = {"edge_loading", "layered_toughness"}
+
+
+@pytest.mark.parametrize("cause", [
+    pytest.param(cause, marks=pytest.mark.slow if cause in SLOW_CAUSES else ())
+    for cause in sorted(HIDDEN)])
 def test_a_hidden_cause_is_named_with_its_parameters(cause: str) -> None:
     truth, offset = HIDDEN[cause]
     result = diagnose_cuts(BLOCK, BLADE, cut_set(truth, offset), PARAMS)

@@ -54,6 +54,7 @@ def ramps_without_holds(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return folder
 
 
+@pytest.mark.slow  # a whole diagnosis; the default run's check: tests/diagnosis/engine/test_fuzz.py
 def test_a_diagnosis_completes_and_reports_an_interval_the_tests_do_not_bound(
         ramps_without_holds: Path, tmp_path: Path) -> None:
     pytest.importorskip("matplotlib")

@@ -88,6 +88,7 @@ def test_extended_material_loads_into_the_default_scenario(diagnosed: tuple[dict
     assert load_scenario(scenario_path).material == material
 
 
+@pytest.mark.slow  # a whole episode
 def test_episode_runs_on_the_extended_material(diagnosed: tuple[dict, Path]) -> None:
     material = replace(load_material(diagnosed[1]), fibre_direction=(1.0, 0.0, 0.0))
     result = Episode(coarse(material=material)).run()["result"]

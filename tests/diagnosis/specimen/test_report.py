@@ -13,6 +13,7 @@ from cell.measure.specimens import load_measurement_set
 from cell.synthetic.specimen import write_hidden_effect_set
 
 
+@pytest.mark.slow  # a whole diagnosis
 def test_report_shows_the_figures_the_cause_and_the_gain(tmp_path: Path) -> None:
     image = pytest.importorskip("matplotlib.image")
     write_hidden_effect_set(tmp_path / "set", 3, "force_offset")
