@@ -197,7 +197,8 @@ def _musclecell(argv: list[str], cwd: Path) -> subprocess.Popen:
 
 
 @pytest.mark.parametrize(("number", "code", "recorded_bytes"), [
-    (signal.SIGINT, 130, 0), (signal.SIGTERM, 143, 200_000),
+    (signal.SIGINT, 130, 0),
+    pytest.param(signal.SIGTERM, 143, 200_000, marks=pytest.mark.slow),
     pytest.param(signal.SIGTERM, 143, 0, marks=pytest.mark.slow),
     pytest.param(signal.SIGINT, 130, 200_000, marks=pytest.mark.slow)])
 def test_a_stopped_recording_leaves_no_temporary_file(place: Path, number: int, code: int,

@@ -153,7 +153,8 @@ def test_a_generated_set_reads_back_and_holds_no_truth(tmp_path: Path) -> None:
                        atol=3 * truth.noise_n / np.sqrt(in_air.sum()) + 0.05)
 
 
-@pytest.mark.parametrize("causes", [("slicing",), ()], ids=["slicing", "none"])
+@pytest.mark.parametrize("causes", [
+    pytest.param(("slicing",), id="slicing"), pytest.param((), id="none", marks=pytest.mark.slow)])
 def test_a_generated_sawing_and_press_cut_tell_whether_slicing_acts(
         tmp_path: Path, causes: tuple[str, ...]) -> None:
     # One press and one sawing cut of the same generated material (the full simulation, on

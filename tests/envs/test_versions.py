@@ -86,7 +86,10 @@ def test_the_env_version_means_what_it_meant(env_id: str) -> None:
         f"{env_id}: its seeded rollout's rewards {BUMP}")
 
 
-@pytest.mark.parametrize("old_id", sorted(envs.DEPRECATED_IDS))
+# One old id in the default run, every one with ``-m slow``: each makes two envs.
+@pytest.mark.parametrize("old_id", [
+    pytest.param(old_id, marks=() if k == 0 else pytest.mark.slow)
+    for k, old_id in enumerate(sorted(envs.DEPRECATED_IDS))])
 def test_an_old_id_warns_and_makes_its_new_env(old_id: str) -> None:
     with pytest.warns(FutureWarning, match=f"use {envs.DEPRECATED_IDS[old_id]}"):
         old = gym.make(old_id, time_limit_s=0.2)
