@@ -5,7 +5,6 @@ they were; a stopped command (Ctrl-C, SIGTERM) leaves no temporary file and resu
 
 from __future__ import annotations
 
-import hashlib
 import os
 import signal
 import subprocess
@@ -21,6 +20,7 @@ from cell.errors import LearningError, OutputError
 from cell.outputs import Output, check_outputs
 from tests.interactive import CTRL_C_RAISES
 from tests.paths import DEFAULT_SCENARIO, EXAMPLE_SET, PROJECT_ROOT
+from tests.refusals import refused, snapshot
 
 #: A short run on coarse tissue: seconds, with a recording.
 SHORT = ('[scenario]\nname = "short"\nend_s = 1.5\n[tissue]\ncell_size_m = 0.05\n'
@@ -30,13 +30,6 @@ SHORT = ('[scenario]\nname = "short"\nend_s = 1.5\n[tissue]\ncell_size_m = 0.05\
 DIVERGING = ('[scenario]\nname = "diverging"\nend_s = 0.3\n[tissue]\ncell_size_m = 0.05\n'
              "[perception]\nenabled = false\n[aponeurosis]\nstiffness_n_m = 1e15\n"
              "[simulation]\nmax_tissue_speed_m_s = 1e300\n")
-
-
-def listing(folder: Path) -> dict[str, str]:
-    """Every file and folder under ``folder`` (hidden ones too), with a hash of each file."""
-    return {str(p.relative_to(folder)): (hashlib.sha256(p.read_bytes()).hexdigest()
-                                         if p.is_file() else "dir")
-            for p in sorted(folder.rglob("*"))}
 
 
 @pytest.fixture
@@ -50,19 +43,6 @@ def place(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     (work / "plain.txt").write_text("a file\n")
     monkeypatch.chdir(work)
     return work
-
-
-def refused(argv: list[str], place: Path, capsys: pytest.CaptureFixture, *named: str) -> str:
-    """Run the command; check exit 2, each of ``named`` in its message, no traceback and the
-    working folder (which holds the outputs) unchanged. Returns the message."""
-    before = listing(place)
-    assert main(argv) == 2
-    message = capsys.readouterr().err
-    assert "Traceback" not in message
-    for name in named:
-        assert name in message, message
-    assert listing(place) == before
-    return message
 
 
 @pytest.mark.parametrize(("argv", "named"), [
@@ -93,34 +73,30 @@ def refused(argv: list[str], place: Path, capsys: pytest.CaptureFixture, *named:
       "--out", "results", "--address", "nonsense"], ["--address", "nonsense"]),
 ])
 def test_a_bad_output_is_refused_before_any_work(argv: list[str], named: list[str],
-                                                 place: Path,
-                                                 capsys: pytest.CaptureFixture) -> None:
-    refused(argv, place, capsys, *named)
+                                                 place: Path) -> None:
+    refused(place, *argv, words=tuple(named))
 
 
-def test_an_unreachable_cluster_fails_within_seconds(place: Path,
-                                                      capsys: pytest.CaptureFixture) -> None:
+def test_an_unreachable_cluster_fails_within_seconds(place: Path) -> None:
     pytest.importorskip("ray")
     sweep = PROJECT_ROOT / "scenarios" / "sweeps" / "binding_strength.toml"
     started = time.perf_counter()
-    refused(["sweep", str(sweep), "--out", "results", "--address", "127.0.0.1:1"], place,
-            capsys, "--address", "cannot reach")
+    refused(place, "sweep", str(sweep), "--out", "results", "--address", "127.0.0.1:1",
+            words=("--address", "cannot reach"))
     assert time.perf_counter() - started < 30.0
 
 
-def test_bench_finds_its_default_scenario_from_any_folder(place: Path,
-                                                          capsys: pytest.CaptureFixture) -> None:
+def test_bench_finds_its_default_scenario_from_any_folder(place: Path) -> None:
     assert BENCH_SCENARIO.samefile(DEFAULT_SCENARIO)
     # Refused on its output, after the scenario was found: no work done.
-    message = refused(["bench", "perception", "--out", "taken"], place, capsys, "--out")
+    message = refused(place, "bench", "perception", "--out", "taken", words=("--out",))
     assert "--scenario" not in message
 
 
-def test_a_policy_path_that_is_not_policy_zip_is_named(place: Path,
-                                                       capsys: pytest.CaptureFixture) -> None:
+def test_a_policy_path_that_is_not_policy_zip_is_named(place: Path) -> None:
     pytest.importorskip("stable_baselines3")
     (place / "junk.zip").write_text("not a zip")
-    refused(["evaluate", "junk.zip", "musclecell/Cut-v3"], place, capsys, "junk.zip")
+    refused(place, "evaluate", "junk.zip", "musclecell/Cut-v3", words=("junk.zip",))
 
 
 def test_a_corrupt_policy_zip_is_a_named_error(tmp_path: Path) -> None:
@@ -167,12 +143,12 @@ def test_render_writes_a_picture_of_the_asked_size(place: Path) -> None:
 def test_a_diverged_run_exits_3_and_writes_no_mujoco_log(place: Path,
                                                          capsys: pytest.CaptureFixture) -> None:
     (place / "diverging.toml").write_text(DIVERGING)
-    before = listing(place)
+    before = snapshot(place)
     assert main(["run", "diverging.toml", "--rerun", "new/d.rrd", "--out", "new/s.json",
                  "--quiet"]) == 3
     message = capsys.readouterr().err
     assert "diverged" in message and "Traceback" not in message
-    assert listing(place) == before  # no MUJOCO_LOG.TXT, no recording, no folder new/
+    assert snapshot(place) == before  # no MUJOCO_LOG.TXT, no recording, no folder new/
 
 
 def _stop_when(process: subprocess.Popen, ready: callable, number: int,
