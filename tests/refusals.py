@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import io
-import os
 import traceback
 from pathlib import Path
 
@@ -26,22 +25,18 @@ def snapshot(folder: Path) -> dict[str, str]:
 def run_command(cwd: Path, *args: str) -> tuple[int, str]:
     """``musclecell ARGS`` run in ``cwd`` by this process, as the console script runs it:
     its exit code and what it wrote to stderr, an uncaught exception as its traceback with
-    exit code 1, as Python prints it. In this process rather than a new one: the command's
-    imports are already loaded, which made each refusal a few seconds shorter."""
+    exit code 1, as Python prints it. In this process rather than a new one, whose imports
+    would take longer than most refusals."""
     stderr = io.StringIO()
-    here = Path.cwd()
-    os.chdir(cwd)
-    try:
-        with contextlib.redirect_stderr(stderr), contextlib.redirect_stdout(io.StringIO()):
-            try:
-                code = main(list(args))
-            except SystemExit as exit_:  # argparse's refusals
-                code = exit_.code if isinstance(exit_.code, int) else 1 if exit_.code else 0
-            except Exception:
-                traceback.print_exc()
-                code = 1
-    finally:
-        os.chdir(here)
+    with (contextlib.chdir(cwd), contextlib.redirect_stderr(stderr),
+          contextlib.redirect_stdout(io.StringIO())):
+        try:
+            code = main(list(args))
+        except SystemExit as exit_:  # argparse's refusals
+            code = exit_.code if isinstance(exit_.code, int) else 1 if exit_.code else 0
+        except Exception:
+            traceback.print_exc()
+            code = 1
     return code, stderr.getvalue()
 
 
