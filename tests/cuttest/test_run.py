@@ -16,6 +16,7 @@ from cell.measure.specimens import load_measurement_set
 from cell.synthetic.cut import describe, write_hidden_cut_set
 from cell.tissue.cutmodel import CuttingParams
 from cell.tissue.material import default_meat
+from tests.marks import slow_but
 
 BLADE = Blade(0.12, 0.0015, (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), 20.0)
 CUTTING = CuttingParams(toughness_j_m2=600.0, face_friction=0.5, indentation_depth_m=0.002)
@@ -153,8 +154,8 @@ def test_a_generated_set_reads_back_and_holds_no_truth(tmp_path: Path) -> None:
                        atol=3 * truth.noise_n / np.sqrt(in_air.sum()) + 0.05)
 
 
-@pytest.mark.parametrize("causes", [
-    pytest.param(("slicing",), id="slicing"), pytest.param((), id="none", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("causes", slow_but({("slicing",)}, [("slicing",), ()],
+                                             ids=lambda causes: "+".join(causes) or "none"))
 def test_a_generated_sawing_and_press_cut_tell_whether_slicing_acts(
         tmp_path: Path, causes: tuple[str, ...]) -> None:
     # One press and one sawing cut of the same generated material (the full simulation, on

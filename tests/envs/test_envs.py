@@ -17,13 +17,15 @@ from envs import CutEnv, MuscleSeparationEnv, PullEnv, RewardParams, apply_optio
 from envs.observation import Reading
 from envs.policies import HoldThenPullAway, TableSkimmingKnife
 from envs.reward import reward_terms
+from tests.marks import slow_but
 
 #: Pull shares the separation env's code: its whole episodes run with ``-m slow``.
-SLOW_PULL = pytest.param(PullEnv, marks=pytest.mark.slow, id="PullEnv")
+SEPARATION_NOT_PULL = slow_but({MuscleSeparationEnv}, [MuscleSeparationEnv, PullEnv],
+                               ids=lambda env_class: env_class.__name__)
 
 
 # Cut's check: tests/envs/test_randomization.py (with its drawn worlds).
-@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, SLOW_PULL])
+@pytest.mark.parametrize("env_class", SEPARATION_NOT_PULL)
 def test_check_env_passes(env_class: type[MuscleSeparationEnv]) -> None:
     env = env_class(time_limit_s=1.0)
     check_env(env, skip_render_check=True)
@@ -212,7 +214,7 @@ def _run(env: MuscleSeparationEnv, policy: str | Callable[[np.ndarray], np.ndarr
     return terminated, truncated, info
 
 
-@pytest.mark.parametrize("env_class", [MuscleSeparationEnv, SLOW_PULL])
+@pytest.mark.parametrize("env_class", SEPARATION_NOT_PULL)
 def test_scripted_policy_separates_the_muscles(env_class: type[MuscleSeparationEnv]) -> None:
     terminated, _, info = _run(env_class(randomize=False), "scripted")
     assert terminated and info["success"] and not info["diverged"]

@@ -29,6 +29,7 @@ import pytest
 import envs
 from cell.errors import InputError, RandomizationError
 from envs.randomization import load_randomization
+from tests.marks import slow_but
 
 PINNED = Path(__file__).with_name("env_fingerprints.json")
 ROLLOUT_SEED = 7
@@ -87,9 +88,8 @@ def test_the_env_version_means_what_it_meant(env_id: str) -> None:
 
 
 # One old id in the default run, every one with ``-m slow``: each makes two envs.
-@pytest.mark.parametrize("old_id", [
-    pytest.param(old_id, marks=() if k == 0 else pytest.mark.slow)
-    for k, old_id in enumerate(sorted(envs.DEPRECATED_IDS))])
+@pytest.mark.parametrize("old_id", slow_but(sorted(envs.DEPRECATED_IDS)[:1],
+                                             sorted(envs.DEPRECATED_IDS)))
 def test_an_old_id_warns_and_makes_its_new_env(old_id: str) -> None:
     with pytest.warns(FutureWarning, match=f"use {envs.DEPRECATED_IDS[old_id]}"):
         old = gym.make(old_id, time_limit_s=0.2)

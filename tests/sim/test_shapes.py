@@ -19,6 +19,7 @@ from cell.sim.assembly import build_scene
 from cell.sim.episode import Episode
 from cell.sim.scenario import Scenario, load_scenario
 from cell.tissue.geometry import MuscleShape
+from tests.marks import slow_but
 from tests.paths import DEFAULT_SCENARIO
 
 SEEDS = range(9000, 9010)
@@ -31,8 +32,7 @@ def default() -> Scenario:
 
 # Three shapes in the default run, all ten with ``-m slow``: a shape's build and look take
 # seconds.
-@pytest.mark.parametrize("seed", [pytest.param(seed, marks=() if seed < 9003 else pytest.mark.slow)
-                                  for seed in SEEDS])
+@pytest.mark.parametrize("seed", slow_but(SEEDS[:3], SEEDS))
 def test_a_documented_shape_builds_is_seen_and_planned(default: Scenario, seed: int) -> None:
     # Nothing but the shape changes: the derived values and the implicit step follow it.
     scenario = replace(default, tissue=documented_shape(seed, default.tissue))

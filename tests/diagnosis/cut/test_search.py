@@ -19,6 +19,7 @@ from cell.measure.cuts import CutTest
 from cell.measure.specimens import MeasurementSet, load_measurement_set
 from cell.tissue.materialfile import load_material, material_to_toml
 from tests.cutsets import BLADE, BLOCK, PLAIN, cut_set, mixed_set, press, saw
+from tests.marks import slow_but
 
 PARAMS = DiagnosisParams(workers=1)
 
@@ -88,9 +89,7 @@ def test_a_set_with_no_hidden_effect_names_none() -> None:
 SLOW_CAUSES = {"edge_loading", "layered_toughness"}
 
 
-@pytest.mark.parametrize("cause", [
-    pytest.param(cause, marks=pytest.mark.slow if cause in SLOW_CAUSES else ())
-    for cause in sorted(HIDDEN)])
+@pytest.mark.parametrize("cause", slow_but(HIDDEN.keys() - SLOW_CAUSES, sorted(HIDDEN)))
 def test_a_hidden_cause_is_named_with_its_parameters(cause: str) -> None:
     truth, offset = HIDDEN[cause]
     result = diagnose_cuts(BLOCK, BLADE, cut_set(truth, offset), PARAMS)
