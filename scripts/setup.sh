@@ -35,22 +35,25 @@ if [ ! -x .venv/bin/python ]; then
   echo "setup: creating .venv"
   python3 -m venv .venv
 fi
+# pip writes the commands it installs with the python it ran as: the real path, not a link to
+# .venv (the docs' snippets run in a folder of links), or they break when the link goes.
+venv_python="$(cd .venv && pwd -P)/bin/python"
 stamp=".venv/.musclecell-$(sha256sum pyproject.toml | cut -c1-16)"
 if [ ! -f "$stamp" ]; then
   echo "setup: installing musclecell and its dependencies into .venv"
-  .venv/bin/python -m pip install -q --upgrade pip
+  "$venv_python" -m pip install -q --upgrade pip
   # torch first, for the learn extra: left to stable-baselines3's requirement, pip would
   # take the newest CUDA build from PyPI (several GB). The documented route is PyTorch's CPU
   # index (README). Where pip's configured indexes or find-links already offer the CPU wheel
   # (an offline mirror, as on the project's machines), it comes from there: the pin's "+cpu"
   # local version matches CPU builds only, so it never pulls a CUDA build, and where no such
   # wheel is offered it fails at once and the CPU index serves.
-  if ! .venv/bin/python -c "import torch" >/dev/null 2>&1; then
+  if ! "$venv_python" -c "import torch" >/dev/null 2>&1; then
     echo "setup: installing torch (CPU)"
-    .venv/bin/python -m pip install -q "torch==2.13.0+cpu" 2>/dev/null \
-      || .venv/bin/python -m pip install -q torch --index-url https://download.pytorch.org/whl/cpu
+    "$venv_python" -m pip install -q "torch==2.13.0+cpu" 2>/dev/null \
+      || "$venv_python" -m pip install -q torch --index-url https://download.pytorch.org/whl/cpu
   fi
-  .venv/bin/python -m pip install -q -e '.[test,learn,scale,dm,mesh,cad,docs,ros]'
+  "$venv_python" -m pip install -q -e '.[test,learn,scale,dm,mesh,cad,docs,ros]'
   rm -f .venv/.musclecell-*
   touch "$stamp"
 fi
