@@ -35,6 +35,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
@@ -146,28 +147,73 @@ def closest_on_triangles(
     points: np.ndarray, corners: np.ndarray, candidates: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Closest point to each of ``points`` (N, 3) on its ``candidates`` (N, K) triangles,
-    whose ``corners`` are (T, 3, 3); returns the points (N, 3) and the triangle ids (N,)."""
-    a, b, c = (corners[candidates, i] for i in range(3))  # (N, K, 3) each
-    p = points[:, None, :]
-    normal = np.cross(b - a, c - a)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    projected = p - np.sum((p - a) * normal, axis=-1, keepdims=True) * normal
-    # Inside the triangle where the projection is on the inner side of all three edges.
-    inside = np.ones(candidates.shape, dtype=bool)
-    for start, end in ((a, b), (b, c), (c, a)):
-        inside &= np.sum(np.cross(end - start, projected - start) * normal, axis=-1) >= 0.0
-    edge_points = []
-    for start, end in ((a, b), (b, c), (c, a)):
-        edge = end - start
-        t = np.clip(np.sum((p - start) * edge, axis=-1) / np.sum(edge * edge, axis=-1), 0, 1)
-        edge_points.append(start + t[..., None] * edge)
-    edge_points = np.stack(edge_points)  # (3, N, K, 3)
-    nearest_edge = np.argmin(np.linalg.norm(edge_points - p, axis=-1), axis=0)
-    on_edge = np.take_along_axis(edge_points, nearest_edge[None, ..., None], axis=0)[0]
-    best = np.where(inside[..., None], projected, on_edge)
-    pick = np.argmin(np.linalg.norm(best - p, axis=-1), axis=1)
-    rows = np.arange(len(points))
-    return best[rows, pick], candidates[rows, pick]
+    whose ``corners`` are (T, 3, 3); returns the points (N, 3) and the triangle ids (N,), the
+    first candidate of a row where two lie as close."""
+    points = np.ascontiguousarray(points, dtype=float)
+    closest = np.empty((len(points), 3))
+    triangle = np.empty(len(points), dtype=np.int64)
+    _closest_on_triangles(points, np.ascontiguousarray(corners, dtype=float),
+                          np.ascontiguousarray(candidates, dtype=np.int64), closest, triangle)
+    return closest, triangle
+
+
+@njit(cache=True)
+def _closest_on_triangles(points: np.ndarray, corners: np.ndarray, candidates: np.ndarray,
+                          closest: np.ndarray, triangle: np.ndarray) -> None:
+    """Compiled, in scalars: the cut's score asks it every control step and the registration
+    for every point of the cloud; numpy's temporaries cost more than the arithmetic."""
+    best = np.empty(3)
+    for n in range(points.shape[0]):
+        best_distance = np.inf
+        for k in range(candidates.shape[1]):
+            t = candidates[n, k]
+            distance = _closest_on_triangle(points[n], corners[t], best)
+            if distance < best_distance or k == 0:
+                best_distance = distance
+                closest[n] = best
+                triangle[n] = t
+
+
+@njit(cache=True)
+def _closest_on_triangle(p: np.ndarray, corners: np.ndarray, out: np.ndarray) -> float:
+    """The closest point to ``p`` on the triangle of ``corners`` (3, 3), into ``out``, and its
+    distance: the projection on the triangle's plane where that lies inside, else the nearest
+    of its edges' closest points."""
+    a, b, c = corners[0], corners[1], corners[2]
+    n0, n1, n2 = _cross(b[0] - a[0], b[1] - a[1], b[2] - a[2], c[0] - a[0], c[1] - a[1],
+                        c[2] - a[2])
+    length = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    n0, n1, n2 = n0 / length, n1 / length, n2 / length
+    height = (p[0] - a[0]) * n0 + (p[1] - a[1]) * n1 + (p[2] - a[2]) * n2
+    q0, q1, q2 = p[0] - height * n0, p[1] - height * n1, p[2] - height * n2
+    inside = True
+    for e in range(3):
+        s, f = corners[e], corners[(e + 1) % 3]
+        s0, s1, s2 = _cross(f[0] - s[0], f[1] - s[1], f[2] - s[2], q0 - s[0], q1 - s[1],
+                            q2 - s[2])
+        inside &= s0 * n0 + s1 * n1 + s2 * n2 >= 0.0
+    if inside:
+        out[0], out[1], out[2] = q0, q1, q2
+        return np.sqrt((q0 - p[0]) ** 2 + (q1 - p[1]) ** 2 + (q2 - p[2]) ** 2)
+    nearest = np.inf
+    for e in range(3):
+        s, f = corners[e], corners[(e + 1) % 3]
+        d0, d1, d2 = f[0] - s[0], f[1] - s[1], f[2] - s[2]
+        along = (((p[0] - s[0]) * d0 + (p[1] - s[1]) * d1 + (p[2] - s[2]) * d2)
+                 / (d0 * d0 + d1 * d1 + d2 * d2))
+        along = min(max(along, 0.0), 1.0)
+        e0, e1, e2 = s[0] + along * d0, s[1] + along * d1, s[2] + along * d2
+        distance = np.sqrt((e0 - p[0]) ** 2 + (e1 - p[1]) ** 2 + (e2 - p[2]) ** 2)
+        if distance < nearest:
+            nearest = distance
+            out[0], out[1], out[2] = e0, e1, e2
+    return np.sqrt((out[0] - p[0]) ** 2 + (out[1] - p[1]) ** 2 + (out[2] - p[2]) ** 2)
+
+
+@njit(cache=True)
+def _cross(u0: float, u1: float, u2: float, v0: float, v1: float, v2: float
+           ) -> tuple[float, float, float]:
+    return u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
 
 
 def fit_generic_model(

@@ -76,6 +76,9 @@ class SeamLoad:
         return self.edge_n + self.faces_n
 
 
+#: Where along the engaged edge the depth samples lie, as shares of its length from the bottom.
+_DEPTH_FRACTIONS = (np.arange(DEPTH_SAMPLES) + 0.5) / DEPTH_SAMPLES
+
 _NO_LOAD = SeamLoad(np.zeros(3), np.zeros(3), np.zeros(3), 0.0, 0.0, 0.0)
 
 
@@ -161,7 +164,7 @@ class SeamCut:
         grade = (1.0 if not self._gradient else
                  math.exp(self._gradient * (float(centre[0]) - self._mid) / self._length))
         if uncut > 0.0:
-            heights = bottom + (np.arange(DEPTH_SAMPLES) + 0.5) / DEPTH_SAMPLES * uncut
+            heights = bottom + _DEPTH_FRACTIONS * uncut
             weighted = engaged * float(self.params.depth_factor(self._top[at_edge] - heights)
                                        .mean())
             resistance = self.params.toughness_j_m2 * weighted * grade
@@ -185,8 +188,10 @@ class SeamCut:
         if last is None or heading == 0.0 or (x_m - last) * heading <= 0.0:
             return
         far = self._edges[1:] if heading > 0 else self._edges[:-1]
-        passed = (far > min(last, x_m)) & (far <= max(last, x_m))
-        np.minimum(self._floor, np.where(passed, tip_z_m, np.inf), out=self._floor)
+        # The bins whose far end lies in (last, x], found in the sorted ends.
+        first, end = np.searchsorted(far, (min(last, x_m), max(last, x_m)), side="right")
+        passed = self._floor[first:end]
+        np.minimum(passed, tip_z_m, out=passed)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 from cell.errors import PerceptionError
 from cell.perception.registration import (
     AffineFit,
+    closest_on_triangles,
     fit_generic_model,
     model_surface,
     predict_interface,
@@ -108,3 +109,19 @@ def test_interface_of_the_unmoved_model_is_its_own(model: TwoMuscleMesh) -> None
 def test_too_small_a_cloud_is_refused(model: TwoMuscleMesh) -> None:
     with pytest.raises(PerceptionError, match="12"):
         fit_generic_model(np.zeros((5, 3)), model)
+
+
+def test_the_closest_point_on_a_triangle_is_its_projection_inside_else_on_an_edge() -> None:
+    corners = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],   # z = 0
+                        [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]])  # z = 1
+    points = np.array([[0.2, 0.2, 0.3],    # over the first's inside: its projection
+                       [0.2, 0.2, 0.7],    # nearer the second
+                       [1.0, 1.0, 0.0],    # past the first's long edge: its middle
+                       [-1.0, -2.0, 0.1],  # past its corner: the corner
+                       [0.2, 0.2, 0.5]])   # as near both: the first candidate
+    both = np.tile([0, 1], (len(points), 1))
+    closest, triangle = closest_on_triangles(points, corners, both)
+    np.testing.assert_allclose(closest, [[0.2, 0.2, 0.0], [0.2, 0.2, 1.0], [0.5, 0.5, 0.0],
+                                         [0.0, 0.0, 0.0], [0.2, 0.2, 0.0]], atol=1e-15)
+    assert triangle.tolist() == [0, 1, 0, 0, 0]
+    assert closest_on_triangles(points[-1:], corners, both[-1:, ::-1])[1].tolist() == [1]
