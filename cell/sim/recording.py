@@ -3,10 +3,10 @@
 Layout: ``world/cell/<body>`` holds each robot and tool body (static shapes, a transform per
 frame), ``world/tissue/<muscle>`` the muscle surfaces (static triangles, vertex positions per
 frame), ``world/aponeurosis`` the bindings, ``world/knife_path/*`` the planned and executed
-tip paths, ``world/perception/*`` what the camera gave (``look_<k>/*``: each look's guideline,
-the seen opening and the next pass's tip path), ``world/camera`` the camera with its RGB and
-depth images, ``forces/*`` and
-``progress/*`` time series. Time is the ``sim_time`` timeline, in s.
+tip paths and the tip, ``world/perception/*`` what the camera gave (``look_<k>/*``: each
+look's guideline, the seen opening and the next pass's tip path), ``world/camera`` the camera
+with its RGB and depth images, ``forces/*`` and ``progress/*`` time series. Time is the
+``sim_time`` timeline, in s.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import threading
 import uuid
 import weakref
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Concatenate, ParamSpec, TypeVar
 
@@ -34,8 +35,9 @@ from cell.sim.liveview import LiveView
 
 _RELEASE_COLOURS = {"knife": [255, 200, 0], "tearing": [255, 60, 200],
                     "force": [60, 200, 255]}
-#: Frames of body poses and time series held before they are sent as columns (one
-#: ``send_columns`` per entity instead of one ``log`` per entity and frame).
+#: Frames held before they are sent as columns (one ``send_columns`` per entity instead of
+#: one ``log`` per entity and frame: building each frame's archetypes cost more than the
+#: data); the executed tip path is brought up to date as often.
 FRAMES_PER_BATCH = 64
 #: Mean curvature (1/m) shown at full colour in the perception mesh.
 _CURVATURE_SCALE_1_M = 30.0
@@ -52,6 +54,27 @@ def _rgba8(rgba: np.ndarray) -> list[int]:
 
 def _entity(body_name: str) -> str:
     return "world/cell/" + body_name.replace("/", ".")
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """One frame of an episode held until its batch is sent (m, world frame)."""
+
+    time_s: float
+    translations: np.ndarray
+    quaternions: np.ndarray
+    tissue: dict[str, np.ndarray]
+    bound: np.ndarray
+    released: np.ndarray
+    released_colours: np.ndarray
+    tip: np.ndarray
+
+
+def _partitioned(archetype: type, field: str, rows: list[np.ndarray]
+                 ) -> rr.ComponentColumnList:
+    """One ``field`` column of ``archetype`` holding ``rows`` (one array a frame)."""
+    return archetype.columns(**{field: np.concatenate(rows)}).partition(
+        [len(row) for row in rows])
 
 
 _Args = ParamSpec("_Args")
@@ -103,7 +126,7 @@ class EpisodeRecorder:
     def __init__(self, path: str | Path | None, scene: Scene, recording_id: str,
                  view: LiveView | None = None) -> None:
         self.scene = scene
-        self.model = scene.model
+        self.model = m = scene.model
         self.view = view
         self._lock = threading.RLock()
         self._finished = False
@@ -115,9 +138,11 @@ class EpisodeRecorder:
         tissue = set(scene.round_bodies.tolist()) | set(scene.shank_bodies.tolist())
         self._bodies = [b for b in range(1, self.model.nbody)
                         if b not in tissue and self.model.body_geomnum[b] > 0]
+        self._tissue = {muscle: slice(m.flex_vertadr[f], m.flex_vertadr[f] + m.flex_vertnum[f])
+                        for muscle in ("round", "shank")
+                        for f in [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, muscle)]}
         self._executed: list[np.ndarray] = []
-        self._frame_times_s: list[float] = []
-        self._poses: list[tuple[np.ndarray, np.ndarray]] = []
+        self._frames: list[_Frame] = []
         self._scalars: dict[str, tuple[list[float], list[float]]] = {}
         _OPEN_RECORDERS.add(self)
         self._log_static()
@@ -209,55 +234,65 @@ class EpisodeRecorder:
     @_while_open
     def log_frame(self, data: mujoco.MjData, knife_tip_m: np.ndarray,
                   scalars: dict[str, float]) -> None:
-        """Body poses, muscle surfaces, bindings, executed path and time series, at
-        ``data.time``."""
-        m, s, scene = self.model, self.stream, self.scene
+        """Body poses, muscle surfaces, bindings, the knife's tip and time series, at
+        ``data.time``: held, then sent as columns every :data:`FRAMES_PER_BATCH` frames, with
+        the executed tip path so far."""
         time_s = float(data.time)
         self.set_time(time_s)
-        self._frame_times_s.append(time_s)
-        self._poses.append((data.xpos[self._bodies].copy(), _xyzw(data.xquat[self._bodies])))
-        for muscle in ("round", "shank"):
-            f = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, muscle)
-            start = m.flex_vertadr[f]
-            verts = data.flexvert_xpos[start:start + m.flex_vertnum[f]]
-            s.log(f"world/tissue/{muscle}", rr.Mesh3D.from_fields(vertex_positions=verts))
-        apo = scene.aponeurosis
+        apo = self.scene.aponeurosis
         a, b = apo.endpoints(data)
         bound = apo.bound
-        s.log("world/aponeurosis/bound", rr.LineStrips3D(
-            np.stack([a[bound], b[bound]], axis=1), colors=[[255, 255, 255]], radii=0.0008))
-        released = ~bound
-        colours = [_RELEASE_COLOURS[str(apo.released_by[i])] for i in np.flatnonzero(released)]
-        s.log("world/aponeurosis/released", rr.Points3D(
-            0.5 * (a[released] + b[released]), colors=colours if colours else None,
-            radii=0.0015))
+        released = np.flatnonzero(~bound)
+        self._frames.append(_Frame(
+            time_s, data.xpos[self._bodies].copy(), _xyzw(data.xquat[self._bodies]),
+            {muscle: data.flexvert_xpos[rows].copy() for muscle, rows in self._tissue.items()},
+            np.stack([a[bound], b[bound]], axis=1),
+            0.5 * (a[released] + b[released]),
+            np.array([_RELEASE_COLOURS[str(apo.released_by[i])] for i in released],
+                     dtype=np.uint8).reshape(-1, 3),
+            np.array(knife_tip_m, float)))
         self._executed.append(np.array(knife_tip_m, float))
-        s.log("world/knife_path/executed", rr.LineStrips3D(
-            [np.array(self._executed)], colors=[[255, 80, 0]], radii=0.001))
         for name, value in scalars.items():
             times, values = self._scalars.setdefault(name, ([], []))
             times.append(time_s)
             values.append(float(value))
-        if len(self._frame_times_s) >= FRAMES_PER_BATCH:
+        if len(self._frames) >= FRAMES_PER_BATCH:
             self._send_batch()
 
     def _send_batch(self) -> None:
-        """Send the held body poses and time series as columns on ``sim_time``."""
-        if self._frame_times_s:
-            times = rr.TimeColumn("sim_time", duration=self._frame_times_s)
-            translations = np.stack([t for t, _ in self._poses], axis=1)
-            quaternions = np.stack([q for _, q in self._poses], axis=1)
+        """Send the held frames and time series as columns on ``sim_time``, and the executed
+        tip path so far at the current time."""
+        frames, send = self._frames, self.stream.send_columns
+        if frames:
+            times = [rr.TimeColumn("sim_time", duration=[f.time_s for f in frames])]
+            translations = np.stack([f.translations for f in frames], axis=1)
+            quaternions = np.stack([f.quaternions for f in frames], axis=1)
             for i, b in enumerate(self._bodies):
-                self.stream.send_columns(_entity(self.model.body(b).name), indexes=[times],
-                                         columns=rr.Transform3D.columns(
-                                             translation=translations[i],
-                                             quaternion=quaternions[i]))
+                send(_entity(self.model.body(b).name), indexes=times,
+                     columns=rr.Transform3D.columns(translation=translations[i],
+                                                    quaternion=quaternions[i]))
+            for muscle in self._tissue:
+                send(f"world/tissue/{muscle}", indexes=times, columns=_partitioned(
+                    rr.Mesh3D, "vertex_positions", [f.tissue[muscle] for f in frames]))
+            every = len(frames)
+            send("world/aponeurosis/bound", indexes=times, columns=[
+                *_partitioned(rr.LineStrips3D, "strips", [f.bound for f in frames]),
+                *rr.LineStrips3D.columns(colors=[[255, 255, 255]] * every,
+                                         radii=[0.0008] * every)])
+            send("world/aponeurosis/released", indexes=times, columns=[
+                *_partitioned(rr.Points3D, "positions", [f.released for f in frames]),
+                *_partitioned(rr.Points3D, "colors", [f.released_colours for f in frames]),
+                *rr.Points3D.columns(radii=[0.0015] * every)])
+            send("world/knife_path/tip", indexes=times, columns=rr.Points3D.columns(
+                positions=np.stack([f.tip for f in frames]), colors=[[255, 80, 0]] * every,
+                radii=[0.003] * every))
+            self.stream.log("world/knife_path/executed", rr.LineStrips3D(
+                [np.array(self._executed)], colors=[[255, 80, 0]], radii=0.001))
         for name, (times_s, values) in self._scalars.items():
             if times_s:
                 column = rr.TimeColumn("sim_time", duration=times_s)
-                self.stream.send_columns(name, indexes=[column],
-                                         columns=rr.Scalars.columns(scalars=values))
-        self._frame_times_s, self._poses, self._scalars = [], [], {}
+                send(name, indexes=[column], columns=rr.Scalars.columns(scalars=values))
+        self._frames, self._scalars = [], {}
 
     @_while_open
     def log_camera(self, data: mujoco.MjData, rig: CameraRig) -> None:
