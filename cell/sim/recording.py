@@ -37,7 +37,7 @@ _RELEASE_COLOURS = {"knife": [255, 200, 0], "tearing": [255, 60, 200],
                     "force": [60, 200, 255]}
 #: Frames held before they are sent as columns (one ``send_columns`` per entity instead of
 #: one ``log`` per entity and frame: building each frame's archetypes cost more than the
-#: data); the executed tip path is brought up to date as often.
+#: data); the executed tip path is brought up to date as often. A live view gets each frame.
 FRAMES_PER_BATCH = 64
 #: Mean curvature (1/m) shown at full colour in the perception mesh.
 _CURVATURE_SCALE_1_M = 30.0
@@ -143,6 +143,8 @@ class EpisodeRecorder:
                         for f in [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_FLEX, muscle)]}
         self._executed: list[np.ndarray] = []
         self._frames: list[_Frame] = []
+        # A live view is sent each frame as it comes, so that it stays live.
+        self._frames_per_batch = 1 if view is not None else FRAMES_PER_BATCH
         self._scalars: dict[str, tuple[list[float], list[float]]] = {}
         _OPEN_RECORDERS.add(self)
         self._log_static()
@@ -235,8 +237,8 @@ class EpisodeRecorder:
     def log_frame(self, data: mujoco.MjData, knife_tip_m: np.ndarray,
                   scalars: dict[str, float]) -> None:
         """Body poses, muscle surfaces, bindings, the knife's tip and time series, at
-        ``data.time``: held, then sent as columns every :data:`FRAMES_PER_BATCH` frames, with
-        the executed tip path so far."""
+        ``data.time``: held, then sent as columns every :data:`FRAMES_PER_BATCH` frames (each
+        frame to a live view), with the executed tip path so far."""
         time_s = float(data.time)
         self.set_time(time_s)
         apo = self.scene.aponeurosis
@@ -256,7 +258,7 @@ class EpisodeRecorder:
             times, values = self._scalars.setdefault(name, ([], []))
             times.append(time_s)
             values.append(float(value))
-        if len(self._frames) >= FRAMES_PER_BATCH:
+        if len(self._frames) >= self._frames_per_batch:
             self._send_batch()
 
     def _send_batch(self) -> None:
