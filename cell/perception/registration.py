@@ -196,6 +196,7 @@ def _closest_on_triangle(p: np.ndarray, corners: np.ndarray, out: np.ndarray) ->
         out[0], out[1], out[2] = q0, q1, q2
         return np.sqrt((q0 - p[0]) ** 2 + (q1 - p[1]) ** 2 + (q2 - p[2]) ** 2)
     nearest = np.inf
+    out[:] = np.nan  # stays so where the corners coincide (no edge has a length)
     for e in range(3):
         s, f = corners[e], corners[(e + 1) % 3]
         d0, d1, d2 = f[0] - s[0], f[1] - s[1], f[2] - s[2]
@@ -207,7 +208,7 @@ def _closest_on_triangle(p: np.ndarray, corners: np.ndarray, out: np.ndarray) ->
         if distance < nearest:
             nearest = distance
             out[0], out[1], out[2] = e0, e1, e2
-    return np.sqrt((out[0] - p[0]) ** 2 + (out[1] - p[1]) ** 2 + (out[2] - p[2]) ** 2)
+    return nearest
 
 
 @njit(cache=True)
