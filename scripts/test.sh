@@ -18,6 +18,9 @@ warm=$!
 sphinx-build -j auto -W --keep-going -q -b html docs "$site"
 wait "$warm" || echo "test.sh: the warm-up episode failed, the tests compile the kernels" \
   "themselves: $(tail -n 1 "$scratch/warm.log")" >&2
+# The project's modules compiled once: where PYTHONDONTWRITEBYTECODE is set, every process the
+# tests start (the snippets' commands, the pools' workers) would compile them again.
+python -m compileall -q -j 0 cell envs controllers tests
 # tests/test_docs.py checks this build's API reference instead of building the site again.
 export MUSCLECELL_DOCS_SITE="$site"
 # A crash in a process's native teardown prints its Python stack (tests/workerexit.py fails
