@@ -245,6 +245,7 @@ class EpisodeRecorder:
         a, b = apo.endpoints(data)
         bound = apo.bound
         released = np.flatnonzero(~bound)
+        tip = np.array(knife_tip_m, float)
         self._frames.append(_Frame(
             time_s, data.xpos[self._bodies].copy(), _xyzw(data.xquat[self._bodies]),
             {muscle: data.flexvert_xpos[rows].copy() for muscle, rows in self._tissue.items()},
@@ -252,8 +253,8 @@ class EpisodeRecorder:
             0.5 * (a[released] + b[released]),
             np.array([_RELEASE_COLOURS[str(apo.released_by[i])] for i in released],
                      dtype=np.uint8).reshape(-1, 3),
-            np.array(knife_tip_m, float)))
-        self._executed.append(np.array(knife_tip_m, float))
+            tip))
+        self._executed.append(tip)
         for name, value in scalars.items():
             times, values = self._scalars.setdefault(name, ([], []))
             times.append(time_s)
