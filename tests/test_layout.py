@@ -108,6 +108,13 @@ def test_the_diagnosis_side_does_not_load_mujoco() -> None:
     assert out.stdout.strip() == "False"
 
 
+def test_an_episode_starts_without_loading_trimesh() -> None:
+    code = "import sys, cell.cli, cell.sim.episode; print('trimesh' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=PROJECT_ROOT)
+    assert out.stdout.strip() == "False"
+
+
 def test_the_distribution_lists_every_package() -> None:
     listed = set(tomllib.loads((PROJECT_ROOT / "pyproject.toml").read_text())
                  ["tool"]["setuptools"]["packages"])

@@ -27,16 +27,19 @@ import time
 from dataclasses import dataclass
 from importlib.metadata import version
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
-import trimesh
 
 from cell.collision import ROBOTS, Collision
 from cell.errors import MeshError, NotWatertightError
 from cell.extras import optional
 from cell.io import read_bytes
 from cell.outputs import write_atomic
+
+if TYPE_CHECKING:
+    import trimesh
 
 #: coacd's concavity threshold (its ``threshold``, a fraction of the part's bounding box
 #: diagonal): 0.05 is its default, and keeps the example parts' hull volume within 10 %.
@@ -96,6 +99,8 @@ def decompose(path: str | Path, field: str, concavity: float = CONCAVITY) -> Con
         NotWatertightError: the mesh is not a closed volume.
         MissingExtraError: coacd is not installed (``pip install 'musclecell[cad]'``).
     """
+    import trimesh  # only here: its import (networkx's with it) is a tenth of the start-up
+
     start = time.perf_counter()
     content = read_bytes(path, "mesh", MeshError)
     try:

@@ -21,9 +21,9 @@ Example:
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from cell.errors import (
     MeshError,
@@ -32,6 +32,9 @@ from cell.errors import (
 )
 from cell.extras import optional
 from cell.tissue.tetmesh import TetMesh
+
+if TYPE_CHECKING:
+    import trimesh
 
 MAX_RADIUS_EDGE_RATIO = 1.6
 MIN_DIHEDRAL_DEG = 15.0

@@ -21,8 +21,9 @@ Example:
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import trimesh
 from scipy.spatial import cKDTree
 
 from cell.errors import MeshError, NoInterfaceError
@@ -31,6 +32,9 @@ from cell.tissue.geometry import MuscleShape, TwoMuscleMesh, build_two_muscles, 
 from cell.tissue.mesher import tetrahedralise
 from cell.tissue.surface import load_surfaces
 from cell.tissue.tetmesh import TetMesh
+
+if TYPE_CHECKING:
+    import trimesh
 
 _FIELD = "tissue.surface_mesh"
 #: Fewer bindings than this is no interface worth cutting (and too few to fit its surface).
@@ -85,6 +89,8 @@ def _surfaces(files: tuple[str, ...]) -> tuple[list[str], list[trimesh.Trimesh]]
 def _interface_pairs(meshes: list[TetMesh], surfaces: list[trimesh.Trimesh],
                      tolerance_m: float, sources: list[str]) -> np.ndarray:
     """(P, 2) bound vertex pairs (round index, shank index), ordered by x then z."""
+    import trimesh  # lazily: the shapes drawn without a scan do not need it
+
     optional("rtree", "mesh", f"{_FIELD} (the interface search)")
     near = []
     closest = []

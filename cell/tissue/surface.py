@@ -22,13 +22,16 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from cell.errors import MeshError, NotWatertightError, SelfIntersectionError
 from cell.extras import optional
 from cell.io import read_bytes
+
+if TYPE_CHECKING:
+    import trimesh
 
 #: Vertices this close to the table plane (m) are laid on it.
 BASE_TOLERANCE_M = 0.002
@@ -43,6 +46,8 @@ def load_surfaces(path: str | Path, field: str) -> list[trimesh.Trimesh]:
             too large) or holds no triangles.
         NotWatertightError: a body still has open edges after repair.
     """
+    import trimesh  # only here: its import is a tenth of the cell's start-up
+
     content = read_bytes(path, "mesh", MeshError)
     try:
         loaded = trimesh.load(io.BytesIO(content), file_type=Path(path).suffix.lstrip("."),
@@ -65,6 +70,8 @@ def repaired_surface(surface: trimesh.Trimesh, path: str | Path, field: str,
         NotWatertightError: open edges or an inconsistent winding remain after repair.
         SelfIntersectionError: triangles cross each other (checked with ``check``).
     """
+    import trimesh  # lazily, as in load_surfaces
+
     mesh = surface.copy()
     vertices = np.array(mesh.vertices)
     vertices[np.abs(vertices[:, 2]) <= BASE_TOLERANCE_M, 2] = 0.0

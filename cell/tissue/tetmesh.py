@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from itertools import permutations
 
 import numpy as np
-import trimesh
 
 from cell.errors import MeshError
 
@@ -231,23 +230,43 @@ def _checked(
             source, "tets", f"{(counts > 2).sum()} faces are shared by more than two tets"
         )
     surface = faces[first_of[counts == 1]] if boundary is None else np.asarray(boundary)
-    shell = trimesh.Trimesh(points, surface, process=False)
-    if not shell.is_volume:
+    watertight, consistent, enclosed = _closed_surface(points, surface)
+    if not (watertight and consistent and enclosed > 0.0):
         raise MeshError(
             source,
             "boundary",
             f"{len(surface)} triangles do not bound a closed volume (watertight "
-            f"{shell.is_watertight}, winding consistent {shell.is_winding_consistent}, "
-            f"volume {shell.volume:.3g} m^3)",
+            f"{watertight}, winding consistent {consistent}, volume {enclosed:.3g} m^3)",
         )
     total = float(volume.sum())
-    if not np.isclose(shell.volume, total, rtol=1e-9, atol=0.0):
+    if not np.isclose(enclosed, total, rtol=1e-9, atol=0.0):
         raise MeshError(
             source,
             "boundary",
-            f"encloses {shell.volume:.6g} m^3 but the tets add up to {total:.6g} m^3",
+            f"encloses {enclosed:.6g} m^3 but the tets add up to {total:.6g} m^3",
         )
     return surface, total
+
+
+def _closed_surface(points: np.ndarray, triangles: np.ndarray) -> tuple[bool, bool, float]:
+    """Whether ``triangles`` are watertight (every edge in two of them) and consistently
+    wound (each edge run once each way), and the volume they enclose, m^3 (signed: positive
+    when wound outward)."""
+    triangles = np.asarray(triangles, dtype=np.int64)
+    if triangles.ndim != 2 or triangles.shape[1] != 3 or len(triangles) == 0:
+        return False, False, 0.0
+    n = len(points)
+    directed = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    low, high = directed.min(axis=1), directed.max(axis=1)
+    _, undirected_counts = np.unique(low * n + high, return_counts=True)
+    _, directed_counts = np.unique(directed[:, 0] * n + directed[:, 1], return_counts=True)
+    watertight = bool((undirected_counts == 2).all())
+    consistent = bool((directed_counts == 1).all())
+    # About the points' centre, where the triple products lose the fewest digits.
+    corners = np.asarray(points, float)[triangles] - np.mean(points, axis=0)
+    enclosed = float(np.einsum("ij,ij->i", corners[:, 0],
+                               np.cross(corners[:, 1], corners[:, 2])).sum() / 6.0)
+    return watertight, consistent, enclosed
 
 
 @dataclass(frozen=True, eq=False)

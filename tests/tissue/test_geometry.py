@@ -204,6 +204,22 @@ def test_validate_rejects_open_surface(default: TwoMuscleMesh) -> None:
     assert err.value.field == "boundary"
 
 
+@pytest.mark.parametrize(("flipped", "says"), [
+    (slice(0, 1), "winding consistent False"),
+    (slice(None), "volume -"),
+])
+def test_validate_rejects_a_boundary_wound_inconsistently_or_inward(
+    default: TwoMuscleMesh, flipped: slice, says: str
+) -> None:
+    muscle = default.round
+    boundary = muscle.boundary.copy()
+    boundary[flipped] = boundary[flipped, ::-1]
+    with pytest.raises(MeshError) as err:
+        validate_tet_mesh(muscle.points, muscle.tets, "round", boundary=boundary)
+    assert err.value.field == "boundary"
+    assert "watertight True" in str(err.value) and says in str(err.value)
+
+
 def test_validate_rejects_tets_touching_along_an_edge_only() -> None:
     points = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [0, 0, 1], [-1, 0, 0], [0, -1, 0]], float)
     # Opposite quadrants, sharing only the edge (0, 3): every face is on the boundary, which is
