@@ -11,6 +11,7 @@ there, not the meat). A surface whose triangles cross is refused before any mesh
 through another triangle, found by trimesh's ray queries (with ``rtree``, ``mesh`` extra).
 
 Example:
+    >>> import trimesh
     >>> surface = trimesh.creation.box((0.1, 0.1, 0.1))
     >>> surface.apply_translation((0.0, 0.0, 0.05))  # doctest: +ELLIPSIS
     <trimesh.Trimesh...>

@@ -230,6 +230,12 @@ def _checked(
             source, "tets", f"{(counts > 2).sum()} faces are shared by more than two tets"
         )
     surface = faces[first_of[counts == 1]] if boundary is None else np.asarray(boundary)
+    if boundary is not None and not (
+            surface.ndim == 2 and surface.shape[1:] == (3,) and len(surface) > 0
+            and np.issubdtype(surface.dtype, np.integer)
+            and ((surface >= 0) & (surface < len(points))).all()):
+        raise MeshError(source, "boundary", f"must be a non-empty (F, 3) array of point "
+                        f"indices in [0, {len(points)}), got {surface.shape} {surface.dtype}")
     watertight, consistent, enclosed = _closed_surface(points, surface)
     if not (watertight and consistent and enclosed > 0.0):
         raise MeshError(
@@ -253,8 +259,6 @@ def _closed_surface(points: np.ndarray, triangles: np.ndarray) -> tuple[bool, bo
     wound (each edge run once each way), and the volume they enclose, m^3 (signed: positive
     when wound outward)."""
     triangles = np.asarray(triangles, dtype=np.int64)
-    if triangles.ndim != 2 or triangles.shape[1] != 3 or len(triangles) == 0:
-        return False, False, 0.0
     n = len(points)
     directed = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
     low, high = directed.min(axis=1), directed.max(axis=1)

@@ -220,6 +220,16 @@ def test_validate_rejects_a_boundary_wound_inconsistently_or_inward(
     assert "watertight True" in str(err.value) and says in str(err.value)
 
 
+@pytest.mark.parametrize("boundary", [np.array([[0, 1, 99]]), np.zeros((2, 3)),
+                                      np.zeros((0, 3), int), np.array([0, 1, 2])])
+def test_validate_names_a_malformed_boundary(
+    tet_pair: tuple[np.ndarray, np.ndarray], boundary: np.ndarray
+) -> None:
+    with pytest.raises(MeshError) as err:
+        validate_tet_mesh(*tet_pair, "pair", boundary=boundary)
+    assert (err.value.file, err.value.field) == ("pair", "boundary")
+
+
 def test_validate_rejects_tets_touching_along_an_edge_only() -> None:
     points = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [0, 0, 1], [-1, 0, 0], [0, -1, 0]], float)
     # Opposite quadrants, sharing only the edge (0, 3): every face is on the boundary, which is
