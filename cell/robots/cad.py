@@ -99,7 +99,7 @@ def decompose(path: str | Path, field: str, concavity: float = CONCAVITY) -> Con
         NotWatertightError: the mesh is not a closed volume.
         MissingExtraError: coacd is not installed (``pip install 'musclecell[cad]'``).
     """
-    import trimesh  # only here: its import (networkx's with it) is a tenth of the start-up
+    import trimesh  # only here: an episode that reads no mesh file starts without it
 
     start = time.perf_counter()
     content = read_bytes(path, "mesh", MeshError)

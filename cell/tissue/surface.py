@@ -47,7 +47,7 @@ def load_surfaces(path: str | Path, field: str) -> list[trimesh.Trimesh]:
             too large) or holds no triangles.
         NotWatertightError: a body still has open edges after repair.
     """
-    import trimesh  # only here: its import is a tenth of the cell's start-up
+    import trimesh  # only here: an episode that reads no mesh file starts without it
 
     content = read_bytes(path, "mesh", MeshError)
     try:
