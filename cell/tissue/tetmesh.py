@@ -266,10 +266,11 @@ def _closed_surface(points: np.ndarray, triangles: np.ndarray) -> tuple[bool, bo
     _, directed_counts = np.unique(directed[:, 0] * n + directed[:, 1], return_counts=True)
     watertight = bool((undirected_counts == 2).all())
     consistent = bool((directed_counts == 1).all())
-    # About the points' centre, where the triple products lose the fewest digits.
-    corners = np.asarray(points, float)[triangles] - np.mean(points, axis=0)
-    enclosed = float(np.einsum("ij,ij->i", corners[:, 0],
-                               np.cross(corners[:, 1], corners[:, 2])).sum() / 6.0)
+    # The tets each triangle makes with the points' centre (fewest digits lost there): the
+    # centre lies behind an outward-wound triangle, so their volumes add up to the enclosed.
+    with_centre = np.vstack([points, np.mean(points, axis=0)])
+    apex = np.full((len(triangles), 1), n)
+    enclosed = float(signed_volumes_m3(with_centre, np.hstack([triangles, apex])).sum())
     return watertight, consistent, enclosed
 
 
