@@ -18,7 +18,9 @@ magnitude against the truth (:func:`magnitude_error`); the held-out gain; the di
 and CPU seconds split into the replays' and the fits' (the replays run in worker processes:
 their CPU is the workers'); the seconds of the episodes that made the batch; and which hidden
 changes its logs show at all (:func:`~cell.bench.visibility.visibility`), with the exact rate
-where they do beside the exact rate (the target).
+where they do beside the exact rate (the target); and for a batch named wrong, whether its
+logs put the true world ahead of the world named (a miss of the search) or cannot tell the two
+apart (``truth_preferred``).
 
 Targets: exact on >= 80 % of single batches and >= 60 % of pairs, the fitted
 magnitude within 20 % of the truth in >= 75 % of the single batches with a cause, none named in
@@ -197,6 +199,8 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "visible": seen["visible"], "lab_rmse_N": seen["lab_rmse_N"],
             "truth_rmse_N": seen["truth_rmse_N"], "visible_p": seen["p_value"],
             "visibility_replays": seen["replays"],
+            "named_rmse_N": seen["named_rmse_N"], "truth_preferred": seen["truth_preferred"],
+            "truth_preferred_p": seen["truth_preferred_p"],
             "correct_where_visible": shown <= named <= set(expected),
             "gain": float(data["gain"]),
             "heldout_rmse_N": {"baseline": data["baseline"]["heldout_rmse_N"],
@@ -226,11 +230,31 @@ def run_one(folder: Path, seed: int, kind: Kind, params: LogBenchParams,
     truth = write(folder, seed, params.base, expected, end_s=params.end_s)
     batch = read_log_batch([folder / f"log-{k}" for k in range(1, LOG_COUNT + 1)])
     search = LogDiagnosisParams(workers=params.workers)
-    diagnosis = diagnose_logs(batch, search, cluster, progress)
-    seen = visibility(batch, world_changes(expected, truth.magnitudes), params.workers,
-                      search.min_heldout_gain, cluster)
-    return _batch_row(seed, expected, truth, diagnosis.to_json(), MAGNITUDE_TOLERANCE[kind],
-                      seen)
+    data = diagnose_logs(batch, search, cluster, progress).to_json()
+    changes = world_changes(expected, truth.magnitudes)
+    seen = visibility(batch, changes, params.workers, search.min_heldout_gain, cluster,
+                      named_world(data, changes))
+    return _batch_row(seed, expected, truth, data, MAGNITUDE_TOLERANCE[kind], seen)
+
+
+def named_world(data: dict[str, Any], changes: dict[str, float]) -> dict[str, float] | None:
+    """The world a diagnosis (its ``diagnosis.json`` contract ``data``) named, cause ->
+    magnitude as :func:`~cell.logs.causes.changed_world` takes it, where its causes are not
+    those of the true ``changes``; else None.
+
+    Example:
+        >>> data = {"causes": ["tearing_threshold"],
+        ...         "extended": {"params": {"tearing_threshold": {"magnitude": -0.5}}}}
+        >>> named_world(data, {"tearing_threshold": -0.7, "binding_stiffness": 0.4})
+        {'tearing_threshold': -0.5}
+        >>> named_world(data, {"tearing_threshold": -0.7}) is None
+        True
+    """
+    from cell.logs.causes import CAUSES
+
+    world = {c: float(data["extended"]["params"][c]["magnitude"])
+             for c in data["causes"] if c in CAUSES}
+    return None if set(world) == set(changes) else world
 
 
 def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
@@ -275,7 +299,10 @@ def run_log_diagnose_bench(seeds: Sequence[int], kind: Kind = "single",
 
 def _unseen(row: dict[str, Any]) -> str:
     hidden_away = [c for c, shown in row["visible"].items() if not shown]
-    return f", not in these logs: {', '.join(hidden_away)}" if hidden_away else ""
+    told = {True: ", the logs put the truth ahead of the world named",
+            False: ", the logs cannot tell the world named from the truth",
+            None: ""}[row.get("truth_preferred")]
+    return (f", not in these logs: {', '.join(hidden_away)}" if hidden_away else "") + told
 
 
 def _target(value: float, target: float, unit: str, at_least: bool = True) -> dict[str, Any]:
@@ -318,6 +345,9 @@ def summary(rows: Sequence[dict[str, Any]], kind: str) -> dict[str, Any]:
             "count": sum(r["correct_where_visible"] for r in rows), "of": len(rows)},
         "changes_not_in_logs": {"value": sum(not v for r in rows for v in r["visible"].values()),
                                 "unit": "changes"},
+        "misses_truth_preferred": {
+            "value": sum(r.get("truth_preferred") is True for r in rows), "unit": "batches",
+            "of": sum(not r["correct"] for r in rows)},
     }
     targets = {"correct": _target(correct, TARGET_CORRECT[kind], "fraction"),
                **{name.replace("per_set", "per_batch"): target

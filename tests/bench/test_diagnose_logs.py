@@ -122,6 +122,16 @@ def test_a_change_the_logs_do_not_show_is_counted_apart() -> None:
     assert not report["targets"]["correct"]["pass"]
 
 
+def test_the_misses_whose_logs_prefer_the_truth_are_counted_apart() -> None:
+    searched_short = {**_row(("tearing_threshold", "binding_stiffness"), ("tearing_threshold",),
+                             0.3, 100.0), "truth_preferred": True}
+    stands_in = {**_row(("tissue_stiffness", "binding_stiffness"), ("tissue_stiffness",), 0.3,
+                        100.0), "truth_preferred": False}
+    exact = _row(("binding_strength",), ("binding_strength",), 0.8, 100.0)
+    entries = summary([searched_short, stands_in, exact], "key-pairs")["entries"]
+    assert entries["misses_truth_preferred"] == {"value": 1, "unit": "batches", "of": 2}
+
+
 @pytest.mark.slow  # a bench batch of episodes and replays
 def test_a_change_before_anything_happens_is_not_in_the_logs(tmp_path: Path) -> None:
     truth = write_key_change_batch(tmp_path / "batch", seed=3, base=BASE_SCENARIO,
@@ -130,6 +140,30 @@ def test_a_change_before_anything_happens_is_not_in_the_logs(tmp_path: Path) -> 
     seen = visibility(batch, world_changes(truth.causes, truth.magnitudes), 1, 0.08)
     assert seen["visible"] == {"tearing_threshold": False}
     assert seen["truth_rmse_N"] == pytest.approx(seen["lab_rmse_N"])
+    assert seen["truth_preferred"] is None
+
+
+@pytest.mark.slow  # replays of the bench's worlds
+def test_a_world_named_in_place_of_the_truth_is_judged_by_its_replays(tmp_path: Path) -> None:
+    truth = write_key_change_batch(tmp_path / "batch", seed=5, base=BASE_SCENARIO,
+                                   causes=("tissue_stiffness",), logs=2, end_s=0.2)
+    batch = read_log_batch([tmp_path / "batch" / "log-1", tmp_path / "batch" / "log-2"])
+    changes = world_changes(truth.causes, truth.magnitudes)
+    plain = visibility(batch, changes, 1, 0.08)
+    # The truth's own world under another name fits exactly as well: not put ahead of it.
+    same = visibility(batch, changes, 1, 0.08, named={"tissue_stiffness":
+                                                      changes["tissue_stiffness"]})
+    assert same["named_rmse_N"] == pytest.approx(same["truth_rmse_N"])
+    assert same["truth_preferred"] is False
+    halfway = visibility(batch, changes, 1, 0.08, named={"tissue_stiffness":
+                                                         changes["tissue_stiffness"] / 2})
+    assert halfway["replays"] == plain["replays"] + (JITTERS + 1) * len(batch.logs)
+    assert halfway["named_rmse_N"] != pytest.approx(halfway["truth_rmse_N"])
+    # Naming nothing is the lab's world, which the replays already hold.
+    lab = visibility(batch, changes, 1, 0.08, named={})
+    assert lab["named_rmse_N"] == pytest.approx(lab["lab_rmse_N"])
+    assert lab["truth_preferred"] == lab["visible"]["tissue_stiffness"]
+    assert lab["replays"] == plain["replays"]
 
 
 @pytest.mark.slow  # replays of the bench's worlds
