@@ -193,6 +193,7 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "spread": data["extended"].get("spread"),
             "replay_scatter": data["extended"].get("replay_scatter"),
             "dropped": data["extended"].get("dropped"),
+            "indistinguishable": data.get("indistinguishable", []),
             "magnitude_error": {c: (None if math.isinf(e) else e) for c, e in errors.items()},
             "magnitude_within": bool(expected) and all(e <= tolerance
                                                        for e in errors.values()),
