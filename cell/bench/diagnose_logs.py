@@ -194,6 +194,7 @@ def _batch_row(seed: int, expected: tuple[str, ...], truth: Any, data: dict[str,
             "replay_scatter": data["extended"].get("replay_scatter"),
             "dropped": data["extended"].get("dropped"),
             "indistinguishable": data.get("indistinguishable", []),
+            "undetermined_beside": data.get("undetermined_beside", []),
             "magnitude_error": {c: (None if math.isinf(e) else e) for c, e in errors.items()},
             "magnitude_within": bool(expected) and all(e <= tolerance
                                                        for e in errors.values()),

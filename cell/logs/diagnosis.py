@@ -38,10 +38,12 @@ from cell.logs.chaos import chaos_scales, noise_variance
 from cell.logs.evidence import (
     Indistinguishable,
     LogEvidence,
+    UndeterminedBeside,
     candidates,
     indistinguishable,
     log_evidence,
     offset_n,
+    undetermined_beside,
 )
 from cell.logs.fit import (
     FORCE_CHANNELS,
@@ -124,6 +126,8 @@ class LogDiagnosis:
             :func:`~cell.diagnosis.engine.outcome.force_noise_n`), N.
         indistinguishable: the causes screened that the batch cannot tell from a named one
             (:func:`~cell.logs.evidence.indistinguishable`).
+        undetermined_beside: the causes screened that the batch can neither confirm nor rule
+            out beside the named ones (:func:`~cell.logs.evidence.undetermined_beside`).
 
     Example:
         >>> LogDiagnosis(["a", "b"], [2.0, 2.0], [], [], {}, {"baseline": 2.0, "extended": 1.5},
@@ -143,6 +147,7 @@ class LogDiagnosis:
     timing: dict[str, float]
     noise_n: float = 0.0
     indistinguishable: list[Indistinguishable] = field(default_factory=list)
+    undetermined_beside: list[UndeterminedBeside] = field(default_factory=list)
 
     @property
     def gain(self) -> float:
@@ -171,6 +176,7 @@ class LogDiagnosis:
                 "second_look": [] if tried is None else [tried],
                 "evidence": [e.to_json() for e in self.evidence],
                 "indistinguishable": [i.to_json() for i in self.indistinguishable],
+                "undetermined_beside": [u.to_json() for u in self.undetermined_beside],
                 "timing": self.timing}
 
 
@@ -263,8 +269,8 @@ def diagnose_logs(batch: LogBatch, params: LogDiagnosisParams | None = None,
         steps_json, {"baseline": base / scale, "extended": fit["simulated"] / scale,
                      "measured": measured / scale},
         _timing(replayer, started, cpu_started), noise_n,
-        indistinguishable(residual, blocks, rows, chosen,
-                          [c for c in world if c in blocks], params.min_heldout_gain))
+        indistinguishable(residual, blocks, rows, chosen, world, params.min_heldout_gain),
+        undetermined_beside(residual, blocks, rows, chosen, world, params.min_heldout_gain))
 
 
 def _first_fit(replayer: Replayer, measured: np.ndarray, start: Fit,

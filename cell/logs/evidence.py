@@ -105,11 +105,11 @@ class Indistinguishable:
 def indistinguishable(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
                       chosen: list[str], world: list[str], min_gain: float
                       ) -> list[Indistinguishable]:
-    """For each named world cause of ``world`` (among the blocks ``chosen``), every other
-    world cause screened (a block of ``blocks`` not chosen and no offset) that the batch
-    cannot tell from it (:class:`Indistinguishable`)."""
+    """For each named world cause of ``world`` with a block (among the blocks ``chosen``),
+    every other world cause screened (a block of ``blocks`` not chosen and no offset) that
+    the batch cannot tell from it (:class:`Indistinguishable`)."""
     out = []
-    for name in world:
+    for name in [c for c in world if c in blocks]:
         kept = {c: blocks[c] for c in chosen if c != name}
         named = rmse_n(heldout(residual, {**kept, name: blocks[name]}, rows, fixed(kept)))
         for other in blocks:
@@ -130,11 +130,108 @@ def _differs_most(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Row
     for cause in (name, other):
         fitted, _ = solve(residual, {cause: blocks[cause]})
         changes.append(blocks[cause] @ fitted[cause])
-    difference = changes[0] - changes[1]
+    return _loudest(changes[0] - changes[1], rows)
+
+
+def _loudest(difference: np.ndarray, rows: Rows) -> str:
+    """The channel (or ``outcome``) where ``difference`` is largest (root mean square)."""
     places = (*FORCE_CHANNELS, "outcome")
     spread = [rmse_n(difference[rows.channel == k]) if np.any(rows.channel == k) else 0.0
               for k in range(len(places))]
     return places[int(np.argmax(spread))]
+
+
+@dataclass(frozen=True)
+class UndeterminedBeside:
+    """A world cause the batch can neither confirm nor rule out beside the named ones: with
+    them refitted, its magnitude can move over ``low`` .. ``high`` while the error of the
+    logs (linearised) stays within the share a cause must earn of the named world's, a range
+    that holds a change of the cause's typical size, where with the named causes held as
+    fitted it does not: they stand in for it (a lower tearing threshold for stiffer bindings
+    beside it, both tearing more).
+
+    Attributes:
+        cause: the world cause screened and not named.
+        beside: the named world causes that stand in for it.
+        low: the smallest magnitude the logs allow it (log factor, or rad).
+        high: the largest.
+        differs_most: where its change differs most from what the named causes can mimic:
+            a force channel (``knife``, ``gripper``, ``fixture``) or ``outcome`` (the counts
+            and the release events), what a log that tells them apart must show.
+
+    Example:
+        >>> UndeterminedBeside("binding_stiffness", ("tearing_threshold",), -0.1, 0.6,
+        ...                    "gripper").to_json()["high"]["factor"]  # doctest: +ELLIPSIS
+        1.82...
+    """
+
+    cause: str
+    beside: tuple[str, ...]
+    low: float
+    high: float
+    differs_most: str
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON's ``undetermined_beside`` entry, the magnitudes as a user reads them."""
+        from cell.logs.causes import CAUSES
+
+        return {"cause": self.cause, "beside": list(self.beside),
+                "low": CAUSES[self.cause].to_json(self.low),
+                "high": CAUSES[self.cause].to_json(self.high),
+                "differs_most": self.differs_most}
+
+
+def undetermined_beside(residual: np.ndarray, blocks: dict[str, np.ndarray], rows: Rows,
+                        chosen: list[str], world: list[str], min_gain: float
+                        ) -> list[UndeterminedBeside]:
+    """Each world cause screened (a block of ``blocks`` not ``chosen``) that the batch can
+    neither confirm nor rule out beside the named ``world`` (:class:`UndeterminedBeside`):
+    on what the named blocks and the offsets leave of ``residual``, the range of its
+    magnitude whose least-squares error, the named causes refitted beside it, stays within
+    ``min_gain`` (a share) of the named world's holds no change (0) and one of its typical
+    size, and the range with the named causes held does not reach that size."""
+    from cell.logs.causes import CAUSES, bounded
+
+    named = [c for c in world if c in blocks]
+    if not named:
+        return []
+    offsets = {c: blocks[c] for c in chosen if c.startswith(OFFSET)}
+    _, left = solve(residual, {**{c: blocks[c] for c in named}, **offsets}, None,
+                    fixed(offsets))
+    room = float(left @ left) / (1.0 - min_gain) ** 2
+    out = []
+    for other, column in blocks.items():
+        if other in chosen or other not in CAUSES:
+            continue
+        cause = CAUSES[other]
+        size = (np.radians(cause.typical[0]) if cause.kind == "angle"
+                else np.log(cause.typical[0]))
+        held = _allowed(left, column, room)
+        design = np.concatenate([*(blocks[c] for c in named), column], axis=1)
+        low, high = bounded([other, other], np.array(_allowed(left, design, room)))
+        if max(abs(v) for v in held) >= size or not low <= 0.0 <= high \
+                or max(-low, high) < size:
+            continue
+        basis = np.linalg.qr(design[:, :-1])[0]
+        own = column[:, 0] - basis @ (basis.T @ column[:, 0])
+        out.append(UndeterminedBeside(other, tuple(named), float(low), float(high),
+                                      _loudest(own, rows)))
+    return out
+
+
+def _allowed(left: np.ndarray, design: np.ndarray, room: float) -> tuple[float, float]:
+    """The range of the last column's coefficient over which the least-squares error of
+    ``left`` on ``design`` (every other column refitted) stays within ``room`` (a sum of
+    squares): the profile of a linear fit, its centre the fitted coefficient."""
+    scale = np.linalg.norm(design, axis=0)
+    scale[scale == 0.0] = 1.0
+    coefficients, *_ = np.linalg.lstsq(design / scale, left, rcond=None)
+    rest = left - (design / scale) @ coefficients
+    spare = max(room - float(rest @ rest), 0.0)
+    variance = np.linalg.pinv((design / scale).T @ (design / scale))[-1, -1]
+    half = np.sqrt(spare * variance) / scale[-1]
+    centre = coefficients[-1] / scale[-1]
+    return float(centre - half), float(centre + half)
 
 
 def offset_n(column: np.ndarray, rows: Rows, coefficient: np.ndarray,

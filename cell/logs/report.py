@@ -144,13 +144,19 @@ def _markdown(diagnosis: LogDiagnosis, figures: list[Path], belief: Scenario) ->
                      f"{shown(e['heldout_rmse_without_N'], '.3f')} N without (linearised); "
                      f"improves {e['improved_fraction']:.0%} of the logs")
     for pair in data["indistinguishable"]:
-        place = ("outcome (the counts and the release times)" if pair["differs_most"] == "outcome"
-                 else f"{pair['differs_most']} force")
+        place = _place(pair["differs_most"])
         lines.append(f"- {pair['cause']} cannot be told from {pair['alternative']} on these "
                      f"logs: held-out {shown(pair['heldout_rmse_N'], '.3f')} N against "
                      f"{shown(pair['alternative_heldout_rmse_N'], '.3f')} N (linearised); they "
                      f"differ most in the {place}: a log where that differs tells them apart "
                      "(docs/logs.md, \"Causes told apart\")")
+    for open_ in data.get("undetermined_beside", []):
+        lines.append(f"- {open_['cause']} may be changed as well: beside "
+                     f"{', '.join(open_['beside'])}, refitted, these logs allow it from "
+                     f"{_size(open_['low'])} to {_size(open_['high'])} (linearised); its "
+                     f"change differs most in the {_place(open_['differs_most'])}: a log "
+                     "where that shows tells whether it is there (docs/logs.md, \"Causes "
+                     "told apart\")")
     for gone in data["extended"].get("pruned", []):
         read = " (the median of nudged replays)" if gone.get("by") == "spread" else ""
         lines.append(f"- {gone['cause']} left out of the fit: the replays fit "
@@ -187,6 +193,20 @@ def _spread_lines(extended: dict[str, Any]) -> list[str]:
             f"({spread['replays_each']} a world, the median): the world fitted "
             f"{spread['median_rmse_N']:.3f} N, the lab's {spread['lab_median_rmse_N']:.3f} N; "
             f"{verdict}"]
+
+
+def _place(differs_most: str) -> str:
+    """Where two changes differ most (a force channel, or ``outcome``), in words."""
+    return ("outcome (the counts and the release times)" if differs_most == "outcome"
+            else f"{differs_most} force")
+
+
+def _size(entry: dict[str, Any]) -> str:
+    """A cause's magnitude (:meth:`~cell.logs.causes.cause.LogCause.to_json`) in words: a
+    factor, or an angle."""
+    if entry.get("angle_deg") is not None:
+        return f"{entry['angle_deg']:+.0f} degrees"
+    return f"{_short(entry.get('factor'))} times"
 
 
 def _short(value: Any) -> str:

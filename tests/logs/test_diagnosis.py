@@ -17,7 +17,7 @@ from cell.errors import LogError
 from cell.logs.batch import LogBatch
 from cell.logs.causes import CAUSES, applicable, changed_world, magnitudes_json
 from cell.logs.diagnosis import LogDiagnosis
-from cell.logs.evidence import Indistinguishable, LogEvidence
+from cell.logs.evidence import Indistinguishable, LogEvidence, UndeterminedBeside
 from cell.logs.fit import (
     Rows,
     broyden,
@@ -200,7 +200,9 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
         {"replays": 9, "replays_by_round": {"screening": 9}, "replay_wall_s": 1.0,
          "fit_s": 0.1, "total_s": 1.1},
         indistinguishable=[Indistinguishable("binding_strength", "tearing_threshold", 1.0, 1.05,
-                                             "gripper")])
+                                             "gripper")],
+        undetermined_beside=[UndeterminedBeside("binding_stiffness", ("binding_strength",),
+                                                -0.2, 0.9, "outcome")])
     written = write_log_diagnosis(tmp_path / "out", batch, diagnosis, plots=True)
     assert {p.name for p in written} >= {"diagnosis.json", "report.md", "channels-1.png",
                                          SCENARIO, MATERIAL}
@@ -218,12 +220,16 @@ def test_the_report_and_the_extended_world_a_user_runs_next(tmp_path: Path) -> N
     assert ("- binding_strength cannot be told from tearing_threshold on these logs: held-out "
             "1.000 N against 1.050 N (linearised); they differ most in the gripper force"
             in report)
+    assert ("- binding_stiffness may be changed as well: beside binding_strength, refitted, "
+            "these logs allow it from 0.819 times to 2.46 times (linearised); its change "
+            "differs most in the outcome (the counts and the release times)" in report)
     assert ("- tissue_stiffness left out of the fit: the replays fit 0.520 N without it, "
             "0.500 N with it" in report)
     data = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
     assert {"causes", "candidates", "steps", "evidence", "gain", "noise_N", "baseline",
             "extended", "second_look", "indistinguishable"} <= set(data)
     assert data["indistinguishable"][0]["differs_most"] == "gripper"
+    assert data["undetermined_beside"][0]["beside"] == ["binding_strength"]
     assert data["evidence"][1] == {"cause": "sensor_offset", "heldout_rmse_with_N": 1.0,
                                    "heldout_rmse_without_N": 1.2, "improved_fraction": 0.5,
                                    "params": {}, "channel": "knife", "linearised": True}
