@@ -40,7 +40,9 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     the logs left out are replayed, the causes added must beat the first fit's refitted
     without them (:func:`earn_their_place`), then every cause of the larger world must earn
     its place again (:func:`~cell.logs.search.pruned`): the second look may add a small cause
-    beside the one it finds, or find the one a first cause stood in for."""
+    beside the one it finds, or find the one a first cause stood in for. Where the causes the
+    signatures select do not stand, the replays are read for another (the signatures are
+    linear, the replays are what the logs are compared with)."""
     replayer.round = "second look"
     magnitudes = {c: fit["magnitudes"][c] for c in world}
     scatter = replay_scatter(replayer, measured, offsets, magnitudes, names)
@@ -49,31 +51,59 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
         # Nothing is left to find: no cause can lower the error by the gain asked where the
         # fit is as close as the true world's own replays would be.
         return fit, left, world, []
-    selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
-                                             offsets, min_gain, steps)
-    if not selected:
+    tried: list[dict[str, object]] = []
+    excluded: list[str] = []
+    while True:
+        selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
+                                                 offsets, min_gain, steps, excluded)
+        if not selected:
+            break
+        kept, attempt = confirmed(replayer, measured, rows, fit, left, world, names, offsets,
+                                  min_gain, steps, selected, moved)
+        tried.append(attempt)
+        if kept is not None:
+            moved, moved_left, union = kept
+            gone = fit.get("pruned", []) + moved.get("pruned", [])
+            return ({**moved, "confirmed": True, "second_look": second_look_record(tried),
+                     "replay_scatter": scatter, **({"pruned": gone} if gone else {})},
+                    moved_left, union, [step for step in selection[1:] if step.added in union])
+        if attempt["shown_by"] != "signatures":
+            break
+        excluded = selected
+    if not tried:
         return fit, left, world, []
-    shown_by, union = moved["shown_by"], world + selected
-    confirmed = rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"]) and (
+    return {**fit, "second_look": second_look_record(tried)}, left, world, []
+
+
+def confirmed(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit, left: np.ndarray,
+              world: list[str], names: list[str], offsets: dict[str, np.ndarray],
+              min_gain: float, steps: int, selected: list[str], moved: Fit
+              ) -> tuple[tuple[Fit, np.ndarray, list[str]] | None, dict[str, object]]:
+    """Whether ``selected``, added to ``world`` and fitted at ``moved``, stands on the first
+    fit's terms (:func:`confirmed_second_look`): the larger world, its held-out residual and
+    its causes, or None; and what was tried."""
+    union, shown_by = world + selected, moved["shown_by"]
+    sure = rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"]) and (
         earn_their_place(replayer, measured, offsets, moved, world, union, min_gain, steps))
-    if confirmed:
+    if sure:
         moved, union = pruned(replayer, measured, offsets, moved, union, min_gain, steps)
-        confirmed = any(c not in world for c in union) and (
+        sure = any(c not in world for c in union) and (
             rmse_n(moved["left"]) <= (1.0 - min_gain) * rmse_n(fit["left"]))
     moved_left = (heldout_replays(replayer, measured, rows, moved, union, offsets, fit, left,
-                                  min_gain, names) if confirmed else None)
+                                  min_gain, names) if sure else None)
     kept = moved_left is not None and rmse_n(moved_left) <= (1.0 - min_gain) * rmse_n(left)
     tried = {"causes": selected, "rmse_N": rmse_n(moved["left"]), "without_rmse_N":
              rmse_n(fit["left"]), **determined(
                  "heldout_rmse_N", math.nan if moved_left is None else rmse_n(moved_left),
                  "not replayed: the logs fitted do not confirm the causes"),
              "without_heldout_rmse_N": rmse_n(left), "shown_by": shown_by, "kept": kept}
-    if not kept:
-        return {**fit, "second_look": tried}, left, world, []
-    gone = fit.get("pruned", []) + moved.get("pruned", [])
-    return ({**moved, "confirmed": True, "second_look": tried, "replay_scatter": scatter,
-             **({"pruned": gone} if gone else {})},
-            moved_left, union, [step for step in selection[1:] if step.added in union])
+    return ((moved, moved_left, union) if kept and moved_left is not None else None), tried
+
+
+def second_look_record(tried: list[dict[str, object]]) -> dict[str, object]:
+    """What the second look tried, as ``second_look`` gives it: the last attempt, and the
+    earlier ones (the signatures' choice that did not stand) under ``before``."""
+    return {**tried[-1], **({"before": tried[:-1]} if len(tried) > 1 else {})}
 
 
 def earn_their_place(replayer: Replayer, measured: np.ndarray, offsets: dict[str, np.ndarray],
@@ -100,19 +130,20 @@ def earn_their_place(replayer: Replayer, measured: np.ndarray, offsets: dict[str
 
 def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
                 world: list[str], names: list[str], offsets: dict[str, np.ndarray],
-                min_heldout_gain: float, steps: int) -> tuple[list[str], Fit, list[Step]]:
-    """The causes a first fit hid: each of ``names`` not in ``world`` screened again in the
-    fitted world, the fitted causes giving back its share (:func:`given_back`; one replay
-    at each of its probes, near and far), the forward selection on what
-    the fit leaves (of both, the part the fitted causes' signatures cannot take), and
-    Gauss-Newton on ``world`` with those it adds. A cause may show only beside another (a
-    binding's tearing under stiffer muscles, a gradient under a stronger seam). Where the
-    selection adds none, the replays themselves are read (:func:`shown_by_replay`): the
-    screening's, and one for each cause's joint step (:func:`joint_worlds`). Returns the
-    causes selected, the best replayed fit with them (``fit`` where none was selected or none
-    beat it; ``shown_by`` says which read found them: "signatures" or "replay") and the
-    selection's steps."""
-    others = [c for c in names if c not in world]
+                min_heldout_gain: float, steps: int, excluded: list[str] | None = None
+                ) -> tuple[list[str], Fit, list[Step]]:
+    """The causes a first fit hid: each of ``names`` not in ``world`` (nor ``excluded``)
+    screened again in the fitted world, the fitted causes giving back its share
+    (:func:`given_back`; one replay at each of its probes, near and far), the forward
+    selection on what the fit leaves (of both, the part the fitted causes' signatures cannot
+    take), and Gauss-Newton on ``world`` with those it adds. A cause may show only beside
+    another (a binding's tearing under stiffer muscles, a gradient under a stronger seam).
+    Where the selection adds none, or ``excluded`` holds the causes it chose before, the
+    replays themselves are read (:func:`shown_by_replay`): the screening's, and one for each
+    cause's joint step (:func:`joint_worlds`). Returns the causes selected, the best replayed
+    fit with them (``fit`` where none was selected or none beat it; ``shown_by`` says which
+    read found them: "signatures" or "replay") and the selection's steps."""
+    others = [c for c in names if c not in world and c not in (excluded or [])]
     worlds, back = given_back(replayer, fit, world, others)
     replayed = replayer.batches(worlds)
     # Each replay with what the fitted causes gave back put back on, by their signatures: the
@@ -126,7 +157,8 @@ def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
         return vector - basis @ (basis.T @ vector)
 
     beside_blocks = {c: beside(column) for c, column in blocks.items()}
-    selection = forward_selection(beside(fit["left"]), beside_blocks, rows, min_heldout_gain)
+    selection = (forward_selection(beside(fit["left"]), beside_blocks, rows, min_heldout_gain)
+                 if not excluded else [scored_step(beside(fit["left"]), {}, "", rows)])
     added = [step.added for step in selection[1:]]
     start = fit
     if not added:

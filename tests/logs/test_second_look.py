@@ -5,6 +5,7 @@ screening step and at each cause's joint step with the causes fitted already."""
 from __future__ import annotations
 
 import zlib
+from dataclasses import replace
 from typing import ClassVar
 
 import numpy as np
@@ -103,6 +104,38 @@ def test_a_cause_the_signatures_miss_is_found_in_the_replays(
     for cause, truth in SharingWorld.truth.items():
         assert result["extended"]["params"][cause]["magnitude"] == pytest.approx(truth,
                                                                                  rel=0.05)
+
+
+class DecoyWorld(SharingWorld):
+    """:class:`SharingWorld` where stiffer bindings add a pattern of their own (the muscles'
+    shifted along the log) that the logs do not hold."""
+
+    def effect(self, world: dict[str, float], log: int) -> np.ndarray:
+        return super().effect(world, log) + world.get("binding_stiffness", 0.0) * np.roll(
+            self.patterns["tissue_stiffness"][log], 7)
+
+
+def test_where_the_signatures_choose_a_cause_that_does_not_stand_the_replays_are_read(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # The second look's signatures pick the bindings' stiffness, which the logs do not hold:
+    # it does not stand, and the replays show the threshold the first fit hid.
+    monkeypatch.setattr(logdiagnosis, "Replayer", DecoyWorld)
+    _first_selection_without_the_threshold(monkeypatch)
+
+    def decoy(residual: np.ndarray, blocks: dict, rows: object, *args: object) -> list:
+        return [look.scored_step(residual, {}, "", rows), look.scored_step(
+            residual, {"binding_stiffness": blocks["binding_stiffness"]}, "binding_stiffness",
+            rows)]
+
+    monkeypatch.setattr(look, "forward_selection", decoy)
+    params = replace(PARAMS, causes=(*PARAMS.causes, "binding_stiffness"))
+    result = diagnose_logs(BATCH, params).to_json()
+    assert sorted(result["causes"]) == sorted(SharingWorld.truth)
+    tried = result["extended"]["second_look"]
+    assert tried["kept"] and tried["shown_by"] == "replay"
+    (before,) = tried["before"]
+    assert before["causes"] == ["binding_stiffness"] and not before["kept"]
+    assert before["shown_by"] == "signatures"
 
 
 class FarWorld(LinearWorld):
