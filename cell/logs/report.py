@@ -182,7 +182,8 @@ def _spread_lines(extended: dict[str, Any]) -> list[str]:
                      f"logs (median), {scatter['scatter_N']:.3f} N from each other, the "
                      f"sensors' noise {scatter['noise_N']:.3f} N; "
                      + ("a second look tried" if "second_look" in extended
-                        else "nothing left for a second look"))
+                        else "a second look found no cause beside the fit"
+                        if scatter.get("looked") else "nothing left for a second look"))
     spread = extended.get("spread")
     if spread is None:
         return lines

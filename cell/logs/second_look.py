@@ -46,10 +46,11 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     replayer.round = "second look"
     magnitudes = {c: fit["magnitudes"][c] for c in world}
     scatter = replay_scatter(replayer, measured, offsets, magnitudes, names)
+    # Nothing is left to find where the fit is as close as the true world's own replays
+    # would be: no cause could lower the error by the gain asked.
+    scatter["looked"] = (1.0 - min_gain) * scatter["median_rmse_N"] > scatter["floor_N"]
     fit = {**fit, "replay_scatter": scatter}
-    if (1.0 - min_gain) * scatter["median_rmse_N"] <= scatter["floor_N"]:
-        # Nothing is left to find: no cause can lower the error by the gain asked where the
-        # fit is as close as the true world's own replays would be.
+    if not scatter["looked"]:
         return fit, left, world, []
     tried: list[dict[str, object]] = []
     excluded: list[str] = []

@@ -293,6 +293,10 @@ def test_the_report_says_why_no_second_look_was_made() -> None:
     assert lines == ["- The fitted world's replays: 0.300 N from the logs (median), 0.250 N "
                      "from each other, the sensors' noise 0.120 N; nothing left for a second "
                      "look"]
+    looked = _spread_lines({"replay_scatter": {"median_rmse_N": 0.5, "scatter_N": 0.25,
+                                               "noise_N": 0.12, "floor_N": 0.277,
+                                               "looked": True}})
+    assert looked[0].endswith("; a second look found no cause beside the fit")
 
 
 def test_a_fit_as_close_to_the_logs_as_their_sensors_noise_gets_no_second_look() -> None:
