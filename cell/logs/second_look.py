@@ -53,7 +53,7 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
     if not scatter["looked"]:
         return fit, left, world, []
     tried: list[dict[str, object]] = []
-    excluded: list[str] = []
+    excluded: tuple[str, ...] = ()
     while True:
         selected, moved, selection = second_look(replayer, measured, rows, fit, world, names,
                                                  offsets, min_gain, steps, excluded)
@@ -70,7 +70,7 @@ def confirmed_second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, 
                     moved_left, union, [step for step in selection[1:] if step.added in union])
         if attempt["shown_by"] != "signatures":
             break
-        excluded = selected
+        excluded = tuple(selected)
     if not tried:
         return fit, left, world, []
     return {**fit, "second_look": second_look_record(tried)}, left, world, []
@@ -98,7 +98,7 @@ def confirmed(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit, le
                  "heldout_rmse_N", math.nan if moved_left is None else rmse_n(moved_left),
                  "not replayed: the logs fitted do not confirm the causes"),
              "without_heldout_rmse_N": rmse_n(left), "shown_by": shown_by, "kept": kept}
-    return ((moved, moved_left, union) if kept and moved_left is not None else None), tried
+    return ((moved, moved_left, union) if kept else None), tried
 
 
 def second_look_record(tried: list[dict[str, object]]) -> dict[str, object]:
@@ -131,7 +131,7 @@ def earn_their_place(replayer: Replayer, measured: np.ndarray, offsets: dict[str
 
 def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
                 world: list[str], names: list[str], offsets: dict[str, np.ndarray],
-                min_heldout_gain: float, steps: int, excluded: list[str] | None = None
+                min_heldout_gain: float, steps: int, excluded: tuple[str, ...] = ()
                 ) -> tuple[list[str], Fit, list[Step]]:
     """The causes a first fit hid: each of ``names`` not in ``world`` (nor ``excluded``)
     screened again in the fitted world, the fitted causes giving back its share
@@ -144,7 +144,7 @@ def second_look(replayer: Replayer, measured: np.ndarray, rows: Rows, fit: Fit,
     cause's joint step (:func:`joint_worlds`). Returns the causes selected, the best replayed
     fit with them (``fit`` where none was selected or none beat it; ``shown_by`` says which
     read found them: "signatures" or "replay") and the selection's steps."""
-    others = [c for c in names if c not in world and c not in (excluded or [])]
+    others = [c for c in names if c not in world and c not in excluded]
     worlds, back = given_back(replayer, fit, world, others)
     replayed = replayer.batches(worlds)
     # Each replay with what the fitted causes gave back put back on, by their signatures: the
